@@ -1,0 +1,92 @@
+//! State the app publishes for scripts: `window.strahler` on the web, tests natively.
+//!
+//! The app writes it each time something worth reporting changes; readers take a snapshot.
+//! It holds no egui types so the web binding can live outside the frame loop.
+
+use std::sync::{Arc, Mutex, PoisonError};
+
+use serde::Serialize;
+
+use crate::compute::ComputePath;
+use crate::compute::selftest::RunSummary;
+use crate::gpu::{AdapterSummary, Capabilities};
+
+/// What `window.strahler.status()` returns (serialised as camelCase JSON).
+#[derive(Clone, Debug, Default, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct Status {
+    pub version: String,
+    /// False until the app has started (the wasm may still be loading).
+    pub ready: bool,
+    /// "webgpu", "vulkan", "metal", "dx12", "gl" or "cpu".
+    pub compute: String,
+    /// The status bar's words, e.g. "GPU: WebGPU" or "CPU (this browser has no WebGPU)".
+    pub compute_path: String,
+    /// The adapter eframe draws with (a WebGL adapter on the CPU fallback).
+    pub adapter: Option<AdapterSummary>,
+    pub capabilities: Option<Capabilities>,
+    /// Name and progress of the running job, if any.
+    pub job: Option<JobStatus>,
+    /// The last finished diffusion run shown on the map.
+    pub last_run: Option<RunSummary>,
+    /// The last error shown to the user.
+    pub last_error: Option<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct JobStatus {
+    pub name: String,
+    pub progress: f32,
+    pub message: String,
+}
+
+/// Shared between the app and its automation bindings.
+#[derive(Clone, Default)]
+pub struct Automation {
+    inner: Arc<Mutex<Shared>>,
+}
+
+#[derive(Default)]
+struct Shared {
+    status: Status,
+    path: Option<ComputePath>,
+}
+
+impl Automation {
+    pub fn status(&self) -> Status {
+        let shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        Status {
+            version: crate::VERSION.to_owned(),
+            ..shared.status.clone()
+        }
+    }
+
+    /// The compute path once the app has started.
+    pub fn compute_path(&self) -> Option<ComputePath> {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .path
+            .clone()
+    }
+
+    pub(crate) fn set_compute_path(
+        &self,
+        path: &ComputePath,
+        adapter: Option<AdapterSummary>,
+        caps: Option<Capabilities>,
+    ) {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        shared.path = Some(path.clone());
+        shared.status.ready = true;
+        shared.status.compute = path.key();
+        shared.status.compute_path = path.to_string();
+        shared.status.adapter = adapter;
+        shared.status.capabilities = caps;
+    }
+
+    pub(crate) fn update(&self, edit: impl FnOnce(&mut Status)) {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        edit(&mut shared.status);
+    }
+}

@@ -1,0 +1,152 @@
+//! The central 2D map: the current terrain as shaded relief, with pan and zoom.
+//!
+//! Map coordinates are resolution-independent map units: (0, 0) is the north-west corner
+//! and (1, 1) the south-east one, whatever the raster size (the scene format uses the same
+//! units). The view keeps a centre in map units and a zoom in screen points per map unit.
+
+use egui::{
+    Color32, Pos2, Rect, Sense, Stroke, StrokeKind, TextureHandle, TextureOptions, Vec2, pos2,
+};
+
+use super::relief::shaded_relief;
+use crate::heightfield::Heightfield;
+
+/// Zoom limits relative to "the map fits the panel".
+const MIN_ZOOM: f32 = 0.25;
+const MAX_ZOOM: f32 = 64.0;
+
+/// What the pointer is over.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hover {
+    /// Map units, (0, 0) north-west.
+    pub map: Pos2,
+    /// Height under the pointer in metres, if it is over the terrain.
+    pub height: Option<f32>,
+}
+
+/// Pan/zoom state and the terrain texture.
+#[derive(Default)]
+pub struct MapView {
+    center: Option<Pos2>,
+    /// Relative zoom: 1 = the map fits the panel.
+    zoom: f32,
+    texture: Option<TextureHandle>,
+    field: Option<Heightfield>,
+}
+
+impl MapView {
+    /// Shows `field` from now on, keeping the current view.
+    pub fn set_field(&mut self, ctx: &egui::Context, field: Heightfield, cell_size: f32) {
+        let image = shaded_relief(&field, cell_size);
+        match &mut self.texture {
+            Some(texture) => texture.set(image, TextureOptions::LINEAR),
+            None => {
+                self.texture = Some(ctx.load_texture("terrain", image, TextureOptions::LINEAR));
+            }
+        }
+        self.field = Some(field);
+    }
+
+    pub fn field(&self) -> Option<&Heightfield> {
+        self.field.as_ref()
+    }
+
+    /// Back to the whole map, centred.
+    pub fn reset(&mut self) {
+        self.center = None;
+        self.zoom = 1.0;
+    }
+
+    /// Draws the map into the remaining space and handles pan (drag with any button) and
+    /// zoom (scroll or pinch, about the pointer; double-click resets).
+    pub fn show(&mut self, ui: &mut egui::Ui) -> Option<Hover> {
+        let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
+        if self.zoom <= 0.0 {
+            self.zoom = 1.0;
+        }
+        let fit = fit_scale(rect.size());
+        let center = *self.center.get_or_insert(pos2(0.5, 0.5));
+        let scale = fit * self.zoom;
+        let to_screen = |m: Pos2| rect.center() + (m - center) * scale;
+        let to_map = |s: Pos2| center + (s - rect.center()) / scale;
+
+        if response.dragged() {
+            self.center = Some(center - response.drag_delta() / scale);
+        }
+        if response.double_clicked() {
+            self.reset();
+        }
+        if let Some(pointer) = response.hover_pos() {
+            let (scroll, pinch) = ui.input(|i| (i.smooth_scroll_delta().y, i.zoom_delta()));
+            let factor = pinch * (scroll / 200.0).exp();
+            if factor != 1.0 {
+                let before = to_map(pointer);
+                self.zoom = (self.zoom * factor).clamp(MIN_ZOOM, MAX_ZOOM);
+                let new_scale = fit * self.zoom;
+                // Keep the map point under the pointer fixed.
+                self.center = Some(before - (pointer - rect.center()) / new_scale);
+            }
+        }
+
+        let painter = ui.painter_at(rect);
+        painter.rect_filled(rect, 0.0, ui.visuals().extreme_bg_color);
+        let map_rect = Rect::from_min_max(to_screen(pos2(0.0, 0.0)), to_screen(pos2(1.0, 1.0)));
+        match &self.texture {
+            Some(texture) => {
+                let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
+                painter.image(texture.id(), map_rect, uv, Color32::WHITE);
+            }
+            None => {
+                painter.text(
+                    rect.center(),
+                    egui::Align2::CENTER_CENTER,
+                    "No terrain yet",
+                    egui::FontId::proportional(16.0),
+                    ui.visuals().weak_text_color(),
+                );
+            }
+        }
+        painter.rect_stroke(
+            map_rect,
+            0.0,
+            Stroke::new(1.0, ui.visuals().widgets.noninteractive.bg_stroke.color),
+            StrokeKind::Outside,
+        );
+
+        response.hover_pos().map(|pointer| {
+            let map = to_map(pointer);
+            Hover {
+                map,
+                height: self.height_at(map),
+            }
+        })
+    }
+
+    /// Height at a map position (nearest cell), `None` outside the map or without terrain.
+    fn height_at(&self, map: Pos2) -> Option<f32> {
+        let field = self.field.as_ref()?;
+        if !(0.0..=1.0).contains(&map.x) || !(0.0..=1.0).contains(&map.y) {
+            return None;
+        }
+        let cell = |u: f32, n: usize| ((u * n as f32) as usize).min(n - 1);
+        field
+            .get(cell(map.x, field.width()), cell(map.y, field.height()))
+            .filter(|h| h.is_finite())
+    }
+}
+
+/// Screen points per map unit at zoom 1 for a panel of `size`: the map fits with a margin.
+pub fn fit_scale(size: Vec2) -> f32 {
+    size.x.min(size.y).max(1.0) * 0.95
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use egui::vec2;
+
+    #[test]
+    fn fit_uses_the_shorter_side() {
+        assert_eq!(fit_scale(vec2(800.0, 400.0)), 380.0);
+    }
+}

@@ -1,0 +1,157 @@
+//! The left panel: pipeline controls. For now the diffusion stage and the compute check;
+//! each later stage (rivers, ridges, detail, blending) adds its section here.
+
+use egui::{ComboBox, DragValue, ProgressBar, RichText};
+
+use super::StrahlerApp;
+use crate::compute::BackendChoice;
+
+/// Grid sizes offered for the fill (square, cells per side).
+pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
+
+/// The diffusion controls' values.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FillSettings {
+    pub size: usize,
+    pub sweeps: u32,
+    pub backend: BackendChoice,
+}
+
+impl Default for FillSettings {
+    fn default() -> Self {
+        Self {
+            size: 256,
+            sweeps: 3000,
+            backend: BackendChoice::Auto,
+        }
+    }
+}
+
+pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    egui::Panel::left("pipeline")
+        .resizable(true)
+        .default_size(270.0)
+        .show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| {
+                ui.add_space(6.0);
+                ui.heading("Strahler");
+                ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
+                ui.separator();
+                diffusion_section(ui, app);
+                ui.separator();
+                selftest_section(ui, app);
+            });
+        });
+}
+
+fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.label(RichText::new("Diffusion").strong()).on_hover_text(
+        "Laplace diffusion (seed paper 000, eqs. 6-7): every free cell relaxes to the mean \
+         of its four neighbours while the fixed cells (valley and summits) keep their heights.",
+    );
+    let ctx = ui.ctx().clone();
+    egui::Grid::new("fill settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("Grid size");
+            ComboBox::from_id_salt("grid size")
+                .selected_text(format!("{0} x {0}", app.settings.size))
+                .show_ui(ui, |ui| {
+                    for size in SIZES {
+                        ui.selectable_value(
+                            &mut app.settings.size,
+                            size,
+                            format!("{size} x {size}"),
+                        );
+                    }
+                });
+            ui.end_row();
+
+            ui.label("Sweeps").on_hover_text(
+                "Jacobi iterations of eq. 7 (the paper runs 5500). More sweeps spread the fixed \
+                 heights further.",
+            );
+            ui.add(
+                DragValue::new(&mut app.settings.sweeps)
+                    .range(0..=100_000)
+                    .speed(20),
+            );
+            ui.end_row();
+
+            ui.label("Compute on");
+            ComboBox::from_id_salt("backend")
+                .selected_text(app.settings.backend.label())
+                .show_ui(ui, |ui| {
+                    for choice in BackendChoice::ALL {
+                        ui.selectable_value(&mut app.settings.backend, choice, choice.label());
+                    }
+                });
+            ui.end_row();
+        });
+
+    ui.horizontal(|ui| {
+        if ui.button("Fill terrain").clicked() {
+            app.start_fill(&ctx);
+        }
+        if let Some(job) = &app.fill_job
+            && ui.button("Cancel").clicked()
+        {
+            job.cancel();
+        }
+    });
+    if let Some(job) = &app.fill_job {
+        ui.add(ProgressBar::new(job.progress()).text(job.message()));
+    }
+    if let Some((size, run)) = &app.last_run {
+        ui.label(format!(
+            "Last fill: {size} x {size} on the {} in {:.0} ms",
+            run.backend.to_uppercase(),
+            run.millis
+        ));
+        ui.label(format!(
+            "Heights {:.0} to {:.0} m; next sweep would move a cell by {:.3} m",
+            run.min, run.max, run.max_update
+        ));
+    }
+    if let Some(err) = &app.error {
+        ui.colored_label(ui.visuals().error_fg_color, err);
+    }
+}
+
+fn selftest_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.label(RichText::new("Compute check").strong())
+        .on_hover_text(
+            "Runs the same diffusion on the CPU and on the GPU and compares the results.",
+        );
+    let ctx = ui.ctx().clone();
+    ui.add_enabled_ui(app.selftest_job.is_none(), |ui| {
+        if ui.button("Compare CPU and GPU").clicked() {
+            app.start_selftest(&ctx);
+        }
+    });
+    match &app.selftest {
+        None => {}
+        Some(Err(err)) => {
+            ui.colored_label(ui.visuals().error_fg_color, format!("Check failed: {err}"));
+        }
+        Some(Ok(test)) => {
+            ui.label(format!(
+                "CPU: {:.0} ms, checksum {}",
+                test.cpu.millis, test.cpu.checksum
+            ));
+            match (&test.gpu, test.relative_diff) {
+                (Some(gpu), Some(rel)) => {
+                    ui.label(format!("GPU: {:.0} ms", gpu.millis));
+                    let verdict = if rel <= 1e-5 { "agree" } else { "DIFFER" };
+                    ui.label(format!(
+                        "CPU and GPU {verdict}: max difference {:.2e} of the height range",
+                        rel
+                    ));
+                }
+                _ => {
+                    ui.label("No GPU compute on this path: CPU only.");
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,65 @@
+//! The bottom bar: the active compute path in plain words, job progress, cursor readout.
+
+use egui::RichText;
+
+use super::StrahlerApp;
+use crate::compute::ComputePath;
+
+pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
+    egui::Panel::bottom("status").show(ui, |ui| {
+        ui.horizontal(|ui| {
+            let path = app.compute_path();
+            let label = ui.label(RichText::new(path.to_string()).strong());
+            label.on_hover_ui(|ui| compute_details(ui, path));
+            if let Some(job) = app
+                .fill_job
+                .as_ref()
+                .map(|j| (j.name(), j.progress()))
+                .or_else(|| app.selftest_job.as_ref().map(|j| (j.name(), j.progress())))
+            {
+                ui.separator();
+                ui.spinner();
+                ui.label(format!("{} {:.0}%", job.0, job.1 * 100.0));
+            }
+            ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
+                ui.label(RichText::new(format!("v{}", crate::VERSION)).weak());
+                if let Some(hover) = app.hover {
+                    ui.separator();
+                    let height = hover
+                        .height
+                        .map(|h| format!("{h:.1} m"))
+                        .unwrap_or_else(|| "-".to_owned());
+                    ui.monospace(format!(
+                        "x {:.4}  y {:.4}  {height}",
+                        hover.map.x, hover.map.y
+                    ));
+                }
+            });
+        });
+    });
+}
+
+fn compute_details(ui: &mut egui::Ui, path: &ComputePath) {
+    match path {
+        ComputePath::Gpu { context } => {
+            let a = &context.adapter;
+            let c = &context.caps;
+            ui.label(format!(
+                "Adapter: {} ({}, {})",
+                a.name, a.backend, a.device_type
+            ));
+            ui.label(format!(
+                "Largest storage buffer: {} MiB",
+                c.max_storage_bytes() >> 20
+            ));
+            ui.label(format!(
+                "Largest square field: {0} x {0}",
+                c.max_square_field()
+            ));
+        }
+        ComputePath::Cpu { reason } => {
+            ui.label(format!("Computing on the CPU because {reason}."));
+            ui.label("Everything works; large terrains take longer.");
+        }
+    }
+}

@@ -1,0 +1,162 @@
+//! Creating the device: from eframe's render state, or headless.
+
+use std::fmt;
+
+use serde::Serialize;
+use thiserror::Error;
+
+use super::caps::{Capabilities, requested_limits};
+
+/// Why the GPU path is unavailable or failed.
+#[derive(Debug, Error)]
+pub enum GpuError {
+    #[error("no GPU adapter found: {0}")]
+    NoAdapter(String),
+    #[error("the GPU adapter refused to create a device: {0}")]
+    RequestDevice(String),
+    #[error("this GPU has no compute shaders ({backend} backend)")]
+    NoCompute { backend: String },
+    #[error(
+        "a {width}x{height} field ({bytes} bytes) exceeds this GPU's storage limit of {limit} bytes"
+    )]
+    TooLarge {
+        width: usize,
+        height: usize,
+        bytes: u64,
+        limit: u64,
+    },
+    #[error("the GPU reported an error: {0}")]
+    Validation(String),
+    #[error("reading results back from the GPU failed: {0}")]
+    Readback(String),
+    #[error("the GPU device was lost: {0}")]
+    DeviceLost(String),
+}
+
+/// Adapter facts shown to the user (`strahler info`, status bar, `window.strahler.status()`).
+#[derive(Clone, Debug, Serialize)]
+pub struct AdapterSummary {
+    pub name: String,
+    /// "Vulkan", "Metal", "Dx12", "Gl" or "BrowserWebGpu".
+    pub backend: String,
+    /// "DiscreteGpu", "IntegratedGpu", "VirtualGpu", "Cpu" or "Other".
+    pub device_type: String,
+    pub driver: String,
+}
+
+impl AdapterSummary {
+    fn of(info: &wgpu::AdapterInfo) -> Self {
+        Self {
+            name: info.name.clone(),
+            backend: format!("{:?}", info.backend),
+            device_type: format!("{:?}", info.device_type),
+            driver: format!("{} {}", info.driver, info.driver_info)
+                .trim()
+                .to_owned(),
+        }
+    }
+}
+
+/// A device and queue plus what they can do. Cheap to share behind an `Arc`.
+#[derive(Clone)]
+pub struct GpuContext {
+    pub device: wgpu::Device,
+    pub queue: wgpu::Queue,
+    pub adapter: AdapterSummary,
+    pub backend: wgpu::Backend,
+    pub caps: Capabilities,
+}
+
+impl fmt::Debug for GpuContext {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("GpuContext")
+            .field("adapter", &self.adapter)
+            .field("caps", &self.caps)
+            .finish_non_exhaustive()
+    }
+}
+
+impl GpuContext {
+    /// Shares the device eframe created for drawing (see [`device_descriptor`], which the app
+    /// passes to eframe so that device carries the adapter's full limits).
+    pub fn from_render_state(state: &egui_wgpu::RenderState) -> Self {
+        let info = state.adapter.get_info();
+        Self {
+            device: state.device.clone(),
+            queue: state.queue.clone(),
+            adapter: AdapterSummary::of(&info),
+            backend: info.backend,
+            caps: Capabilities::of(&state.adapter, &state.device),
+        }
+    }
+
+    /// Creates a device without a window. Backends come from `WGPU_BACKEND` if set, else the
+    /// primary ones (Vulkan, Metal, DX12); on this project's CI that finds Mesa's lavapipe.
+    pub async fn headless() -> Result<Self, GpuError> {
+        let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        // OpenGL rarely offers compute and only adds driver noise when probed headless.
+        descriptor.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+        let instance = wgpu::Instance::new(descriptor);
+        let adapter = instance
+            .request_adapter(&wgpu::RequestAdapterOptions {
+                power_preference: wgpu::PowerPreference::HighPerformance,
+                force_fallback_adapter: false,
+                compatible_surface: None,
+                ..Default::default()
+            })
+            .await
+            .map_err(|err| GpuError::NoAdapter(err.to_string()))?;
+        let (device, queue) = adapter
+            .request_device(&device_descriptor(&adapter))
+            .await
+            .map_err(|err| GpuError::RequestDevice(err.to_string()))?;
+        // wgpu's default handler panics on an uncaptured error; stages capture theirs with
+        // error scopes, so anything left over is logged, never a crash.
+        device.on_uncaptured_error(std::sync::Arc::new(|err: wgpu::Error| {
+            log::error!("uncaptured GPU error: {err}");
+        }));
+        let info = adapter.get_info();
+        let context = Self {
+            caps: Capabilities::of(&adapter, &device),
+            device,
+            queue,
+            adapter: AdapterSummary::of(&info),
+            backend: info.backend,
+        };
+        if !context.caps.compute {
+            return Err(GpuError::NoCompute {
+                backend: context.adapter.backend,
+            });
+        }
+        Ok(context)
+    }
+
+    /// Fails with [`GpuError::NoCompute`] or [`GpuError::TooLarge`] unless a `width` x
+    /// `height` `f32` field can be processed in one binding.
+    pub fn check_field(&self, width: usize, height: usize) -> Result<(), GpuError> {
+        if !self.caps.compute {
+            return Err(GpuError::NoCompute {
+                backend: self.adapter.backend.clone(),
+            });
+        }
+        if !self.caps.fits_field(width, height) {
+            return Err(GpuError::TooLarge {
+                width,
+                height,
+                bytes: (width as u64) * (height as u64) * 4,
+                limit: self.caps.max_storage_bytes(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// The device descriptor used everywhere: the adapter's real limits (so 4096^2 fields and
+/// larger fit where the hardware allows), WebGL2's limits on the GL backend.
+pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
+    wgpu::DeviceDescriptor {
+        label: Some("strahler device"),
+        required_limits: requested_limits(adapter),
+        ..Default::default()
+    }
+}

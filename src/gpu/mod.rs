@@ -1,0 +1,18 @@
+//! The GPU layer: one [`GpuContext`] per process, created either from eframe's wgpu render
+//! state (the app shares the device egui draws with) or headlessly (command line, tests).
+//!
+//! Capabilities are decided once, at creation ([`Capabilities`]); stages ask them before they
+//! choose the GPU path. Nothing here depends on egui.
+
+mod caps;
+mod context;
+mod readback;
+
+pub use caps::Capabilities;
+pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
+pub use readback::{read_f32_buffer, wait_for_submitted_work};
+
+/// Bytes of an `n` x `n` field of `f32`.
+pub fn square_field_bytes(n: u64) -> u64 {
+    n * n * 4
+}

@@ -1,0 +1,75 @@
+//! Waiting for the GPU without blocking the browser.
+//!
+//! Natively the caller is a worker thread (or the command line), so it may `poll` the device
+//! until the callback fired. On the web `poll` does nothing: the callback runs from the
+//! browser's event loop, so these functions only ever *await* it.
+
+use futures_channel::oneshot;
+
+use super::{GpuContext, GpuError};
+
+/// Resolves when all work submitted so far has finished on the GPU.
+pub async fn wait_for_submitted_work(ctx: &GpuContext) -> Result<(), GpuError> {
+    let (tx, rx) = oneshot::channel();
+    ctx.queue.on_submitted_work_done(move || {
+        let _ = tx.send(());
+    });
+    poll_until_done(ctx)?;
+    rx.await
+        .map_err(|_| GpuError::DeviceLost("submitted work never completed".into()))
+}
+
+/// Copies `source` (a `STORAGE | COPY_SRC` buffer of `len` `f32`s) into a staging buffer,
+/// maps it and returns its contents.
+pub async fn read_f32_buffer(
+    ctx: &GpuContext,
+    source: &wgpu::Buffer,
+    len: usize,
+) -> Result<Vec<f32>, GpuError> {
+    let bytes = (len * 4) as u64;
+    let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback staging"),
+        size: bytes,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("readback"),
+        });
+    encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
+    ctx.queue.submit([encoder.finish()]);
+
+    let (tx, rx) = oneshot::channel();
+    staging.map_async(wgpu::MapMode::Read, .., move |result| {
+        let _ = tx.send(result);
+    });
+    poll_until_done(ctx)?;
+    rx.await
+        .map_err(|_| GpuError::Readback("the map callback was dropped".into()))?
+        .map_err(|err| GpuError::Readback(err.to_string()))?;
+    let values = {
+        let view = staging
+            .get_mapped_range(..)
+            .map_err(|err| GpuError::Readback(err.to_string()))?;
+        view.chunks_exact(4)
+            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+            .collect::<Vec<f32>>()
+    };
+    staging.unmap();
+    Ok(values)
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+fn poll_until_done(ctx: &GpuContext) -> Result<(), GpuError> {
+    ctx.device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map(|_| ())
+        .map_err(|err| GpuError::DeviceLost(err.to_string()))
+}
+
+#[cfg(target_arch = "wasm32")]
+fn poll_until_done(_ctx: &GpuContext) -> Result<(), GpuError> {
+    Ok(())
+}

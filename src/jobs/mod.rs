@@ -1,0 +1,265 @@
+//! Background jobs for pipeline work: progress, cancellation, and a result slot the UI polls.
+//!
+//! A job body is an `async` function of a [`JobCtx`]. It calls [`JobCtx::checkpoint`] between
+//! chunks of work; that records progress, returns [`Cancelled`] once the owner cancelled, and on
+//! the web yields to the browser's event loop so the page keeps painting.
+//!
+//! - Native: each job runs on its own worker thread (`pollster` drives the future there, so GPU
+//!   readbacks may block that thread, never the UI thread).
+//! - Web: the future runs on the main thread through `wasm_bindgen_futures::spawn_local`; it
+//!   must never block, only await. GPU readbacks await `map_async` callbacks; CPU loops yield at
+//!   each checkpoint.
+//!
+//! The UI owns a [`JobHandle`], reads [`JobHandle::progress`] every frame and takes the result
+//! with [`JobHandle::try_take`]. Dropping the handle cancels the job.
+
+mod yield_now;
+
+use std::future::Future;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::{Arc, Mutex, PoisonError};
+
+use thiserror::Error;
+
+pub use yield_now::yield_now;
+
+/// The job was cancelled by its owner (a newer edit, the user, or a dropped handle).
+#[derive(Clone, Copy, Debug, Error, PartialEq, Eq)]
+#[error("cancelled")]
+pub struct Cancelled;
+
+/// Progress and cancel flags shared between a job and its handle.
+#[derive(Debug, Default)]
+struct Control {
+    /// Progress in [0, 1] stored as `f32` bits.
+    progress: AtomicU32,
+    cancelled: AtomicBool,
+    /// What the job is doing now, in words ("sweep 300 of 1000").
+    message: Mutex<String>,
+}
+
+/// Handed to a job body: report progress, notice cancellation, yield.
+#[derive(Clone, Debug)]
+pub struct JobCtx {
+    control: Arc<Control>,
+}
+
+impl JobCtx {
+    /// A context not attached to any handle: never cancelled, progress goes nowhere.
+    /// For the command line and tests, which run stages to completion.
+    pub fn detached() -> Self {
+        Self {
+            control: Arc::default(),
+        }
+    }
+
+    /// Records `fraction` (clamped to [0, 1]) and `message`, yields to the event loop on the
+    /// web, and returns `Err(Cancelled)` if the owner cancelled the job.
+    pub async fn checkpoint(&self, fraction: f32, message: &str) -> Result<(), Cancelled> {
+        self.set_progress(fraction, message);
+        yield_now().await;
+        self.check()
+    }
+
+    /// Like [`Self::checkpoint`] without yielding: for tight loops that yield elsewhere.
+    pub fn set_progress(&self, fraction: f32, message: &str) {
+        let fraction = if fraction.is_finite() {
+            fraction.clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        self.control
+            .progress
+            .store(fraction.to_bits(), Ordering::Relaxed);
+        let mut text = self
+            .control
+            .message
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        text.clear();
+        text.push_str(message);
+    }
+
+    /// `Err(Cancelled)` once the owner cancelled.
+    pub fn check(&self) -> Result<(), Cancelled> {
+        if self.control.cancelled.load(Ordering::Relaxed) {
+            Err(Cancelled)
+        } else {
+            Ok(())
+        }
+    }
+}
+
+type Slot<T> = Arc<Mutex<Option<T>>>;
+
+/// The owner's side of a running job.
+#[derive(Debug)]
+pub struct JobHandle<T> {
+    name: String,
+    control: Arc<Control>,
+    result: Slot<T>,
+}
+
+impl<T> JobHandle<T> {
+    pub fn name(&self) -> &str {
+        &self.name
+    }
+
+    /// Last reported progress in [0, 1].
+    pub fn progress(&self) -> f32 {
+        f32::from_bits(self.control.progress.load(Ordering::Relaxed))
+    }
+
+    /// Last reported activity, in words.
+    pub fn message(&self) -> String {
+        self.control
+            .message
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+
+    /// Asks the job to stop at its next checkpoint.
+    pub fn cancel(&self) {
+        self.control.cancelled.store(true, Ordering::Relaxed);
+    }
+
+    /// The job's output once it finished; `None` while it runs (and after it was taken).
+    pub fn try_take(&self) -> Option<T> {
+        self.result
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .take()
+    }
+}
+
+impl<T> Drop for JobHandle<T> {
+    fn drop(&mut self) {
+        self.cancel();
+    }
+}
+
+/// The operating system refused a worker thread (native only).
+#[derive(Debug, Error)]
+#[error("could not start a worker thread for {name}: {source}")]
+pub struct SpawnError {
+    name: String,
+    source: std::io::Error,
+}
+
+/// Starts `body` in the background and returns its handle.
+///
+/// `on_finish` runs after the result is stored (from the worker thread natively): the app
+/// passes `egui::Context::request_repaint` so the frame loop picks the result up at once.
+pub fn spawn<T, F, Fut>(
+    name: &str,
+    body: F,
+    on_finish: impl FnOnce() + Send + 'static,
+) -> Result<JobHandle<T>, SpawnError>
+where
+    T: Send + 'static,
+    F: FnOnce(JobCtx) -> Fut + Send + 'static,
+    Fut: Future<Output = T> + 'static,
+{
+    let control = Arc::new(Control::default());
+    let result: Slot<T> = Arc::default();
+    let ctx = JobCtx {
+        control: Arc::clone(&control),
+    };
+    let slot = Arc::clone(&result);
+    // The future is built where it runs: natively inside the worker thread, so only the
+    // closure (not the future, which may hold GPU error scopes) has to be `Send`.
+    let run = move || async move {
+        let output = body(ctx).await;
+        *slot.lock().unwrap_or_else(PoisonError::into_inner) = Some(output);
+        on_finish();
+    };
+
+    #[cfg(not(target_arch = "wasm32"))]
+    std::thread::Builder::new()
+        .name(format!("job: {name}"))
+        .spawn(move || pollster::block_on(run()))
+        .map_err(|source| SpawnError {
+            name: name.to_owned(),
+            source,
+        })?;
+    #[cfg(target_arch = "wasm32")]
+    wasm_bindgen_futures::spawn_local(run());
+
+    Ok(JobHandle {
+        name: name.to_owned(),
+        control,
+        result,
+    })
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod tests {
+    use super::*;
+    use std::time::{Duration, Instant};
+
+    fn wait_for<T>(handle: &JobHandle<T>) -> T {
+        let start = Instant::now();
+        loop {
+            if let Some(out) = handle.try_take() {
+                return out;
+            }
+            assert!(
+                start.elapsed() < Duration::from_secs(30),
+                "job never finished"
+            );
+            std::thread::sleep(Duration::from_millis(1));
+        }
+    }
+
+    #[test]
+    fn runs_to_completion_and_reports_progress() {
+        let handle = spawn(
+            "count",
+            |ctx| async move {
+                let mut sum = 0u64;
+                for i in 0..100u64 {
+                    sum += i;
+                    ctx.checkpoint(i as f32 / 100.0, "counting").await?;
+                }
+                ctx.set_progress(1.0, "done");
+                Ok::<_, Cancelled>(sum)
+            },
+            || {},
+        )
+        .unwrap();
+        assert_eq!(wait_for(&handle), Ok(4950));
+        assert_eq!(handle.progress(), 1.0);
+        assert_eq!(handle.message(), "done");
+    }
+
+    #[test]
+    fn cancel_stops_at_the_next_checkpoint() {
+        let (started_tx, started_rx) = std::sync::mpsc::channel();
+        let handle = spawn(
+            "forever",
+            move |ctx| async move {
+                let _ = started_tx.send(());
+                loop {
+                    ctx.checkpoint(0.5, "spinning").await?;
+                    std::thread::sleep(Duration::from_millis(1));
+                }
+                #[allow(unreachable_code)]
+                Ok::<(), Cancelled>(())
+            },
+            || {},
+        )
+        .unwrap();
+        started_rx.recv().unwrap();
+        handle.cancel();
+        assert_eq!(wait_for(&handle), Err(Cancelled));
+    }
+
+    #[test]
+    fn on_finish_runs_after_the_result_is_stored() {
+        let (tx, rx) = std::sync::mpsc::channel();
+        let handle = spawn("answer", |_ctx| async { 42 }, move || tx.send(()).unwrap()).unwrap();
+        rx.recv_timeout(Duration::from_secs(30)).unwrap();
+        assert_eq!(handle.try_take(), Some(42));
+    }
+}

@@ -1,0 +1,30 @@
+//! Strahler: hydrology-based terrain synthesis that runs in the browser and on the desktop.
+//!
+//! The crate is one library with two front ends: the eframe app (`app`, native window and
+//! wasm page) and the native command line (`cli`). The numerical stages never depend on
+//! egui; each heavy kernel has a CPU reference implementation and a WGSL one (`shaders/`),
+//! and [`compute::Backend`] picks between them.
+//!
+//! Module map:
+//! - [`heightfield`]: the raster type every stage reads and writes.
+//! - [`gpu`]: device context (from eframe's render state or headless), capabilities, readback.
+//! - [`compute`]: the CPU/GPU backend choice and the human-readable compute path.
+//! - [`diffusion`]: Laplace relaxation with fixed cells (seed paper 000, eqs. 6-7).
+//! - [`jobs`]: background work with progress and cancellation that never blocks the UI.
+//! - [`app`]: the eframe application.
+
+pub mod app;
+pub mod compute;
+pub mod diffusion;
+pub mod gpu;
+pub mod heightfield;
+pub mod jobs;
+
+#[cfg(not(target_arch = "wasm32"))]
+pub mod cli;
+
+#[cfg(target_arch = "wasm32")]
+pub mod web;
+
+/// The version reported by `strahler info`, the status bar and `window.strahler.status()`.
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");

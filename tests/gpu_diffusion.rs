@@ -1,0 +1,139 @@
+//! The WGSL Jacobi kernel against the CPU reference, on a real wgpu device (lavapipe on CI).
+
+mod common;
+
+use std::sync::Arc;
+
+use strahler::compute::Backend;
+use strahler::diffusion::{self, Constraints, FixedMask, demo};
+use strahler::heightfield::Heightfield;
+use strahler::jobs::JobCtx;
+
+fn run(backend: &Backend, problem: &Constraints, sweeps: u32) -> Heightfield {
+    pollster::block_on(diffusion::jacobi(
+        backend,
+        problem,
+        sweeps,
+        &JobCtx::detached(),
+    ))
+    .expect("diffusion runs")
+    .field
+}
+
+fn relative_diff(a: &Heightfield, b: &Heightfield) -> f32 {
+    let (lo, hi) = a.finite_range().unwrap();
+    a.max_abs_diff(b).unwrap() / (hi - lo).max(f32::MIN_POSITIVE)
+}
+
+#[test]
+fn gpu_matches_cpu_on_the_demo_problem() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Backend::Gpu(Arc::new(gpu));
+    // 200 is not a multiple of the 16 x 16 workgroup: the edge groups must mask correctly.
+    let problem = demo::valley_and_peaks(200);
+    for sweeps in [0, 1, 7, 500] {
+        let cpu_field = run(&Backend::Cpu, &problem, sweeps);
+        let gpu_field = run(&gpu, &problem, sweeps);
+        let rel = relative_diff(&cpu_field, &gpu_field);
+        assert!(
+            rel <= 1e-5,
+            "{sweeps} sweeps: GPU differs from CPU by {rel:e}"
+        );
+    }
+}
+
+#[test]
+fn gpu_handles_thin_non_square_fields_and_keeps_fixed_cells() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Backend::Gpu(Arc::new(gpu));
+    let (w, h) = (37, 5);
+    let mut fixed = FixedMask::new(w, h);
+    let mut initial = Heightfield::filled(w, h, 0.0).unwrap();
+    for (x, y, z) in [(0, 0, 10.0), (36, 4, -4.0), (18, 2, 3.5)] {
+        fixed.fix(x, y);
+        let i = initial.index(x, y);
+        initial.data_mut()[i] = z;
+    }
+    let problem = Constraints::new(initial, fixed).unwrap();
+    let cpu_field = run(&Backend::Cpu, &problem, 301);
+    let gpu_field = run(&gpu, &problem, 301);
+    assert!(relative_diff(&cpu_field, &gpu_field) <= 1e-5);
+    assert_eq!(gpu_field.get(0, 0), Some(10.0));
+    assert_eq!(gpu_field.get(36, 4), Some(-4.0));
+    assert_eq!(gpu_field.get(18, 2), Some(3.5));
+}
+
+#[test]
+fn gpu_converges_to_the_harmonic_plane() {
+    // u = 3x - 2y + 1 has a zero discrete Laplacian; with the border fixed to it, the GPU
+    // iteration must reach it from a zero start.
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Backend::Gpu(Arc::new(gpu));
+    let (w, h) = (20, 20);
+    let plane = |x: usize, y: usize| 3.0 * x as f32 - 2.0 * y as f32 + 1.0;
+    let mut fixed = FixedMask::new(w, h);
+    let mut initial = Heightfield::filled(w, h, 0.0).unwrap();
+    for y in 0..h {
+        for x in 0..w {
+            if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
+                fixed.fix(x, y);
+                let i = initial.index(x, y);
+                initial.data_mut()[i] = plane(x, y);
+            }
+        }
+    }
+    let problem = Constraints::new(initial, fixed).unwrap();
+    let out = run(&gpu, &problem, 4000);
+    for y in 0..h {
+        for x in 0..w {
+            let err = (out.get(x, y).unwrap() - plane(x, y)).abs();
+            assert!(err < 1e-3, "({x},{y}) off by {err}");
+        }
+    }
+}
+
+#[test]
+fn cancelling_stops_a_gpu_run() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Backend::Gpu(Arc::new(gpu));
+    let problem = demo::valley_and_peaks(64);
+    let handle = strahler::jobs::spawn(
+        "cancelled",
+        move |ctx| async move { diffusion::jacobi(&gpu, &problem, 10_000_000, &ctx).await },
+        || {},
+    )
+    .unwrap();
+    handle.cancel();
+    let start = std::time::Instant::now();
+    let result = loop {
+        if let Some(r) = handle.try_take() {
+            break r;
+        }
+        assert!(start.elapsed().as_secs() < 60, "cancel was not honoured");
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    };
+    assert!(matches!(
+        result,
+        Err(diffusion::DiffusionError::Cancelled(_))
+    ));
+}
+
+#[test]
+fn too_large_a_field_is_a_clear_error() {
+    let Some(ctx) = common::gpu() else { return };
+    let limit = ctx.caps.max_storage_bytes();
+    // One row longer than the storage limit allows: must be refused before any allocation.
+    let side = ((limit / 4) as f64).sqrt() as usize + 2;
+    let err = ctx.check_field(side, side).unwrap_err();
+    assert!(err.to_string().contains("exceeds"), "{err}");
+}
+
+#[test]
+fn cpu_result_is_the_same_bits_every_time() {
+    // Same problem, same result bits: the browser self-test compares this checksum with the
+    // one the native build prints, so the CPU path must be exactly deterministic.
+    let problem = demo::valley_and_peaks(strahler::compute::selftest::SIZE);
+    let a = run(&Backend::Cpu, &problem, 50);
+    let b = run(&Backend::Cpu, &problem, 50);
+    assert_eq!(a.checksum(), b.checksum());
+}

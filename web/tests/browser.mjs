@@ -1,0 +1,139 @@
+// Browser tests of the Trunk build (dist/) in headless Chromium, driven by playwright-core.
+//
+// Runs the page twice:
+//   - "webgpu": with the WebGPU flags (SwiftShader Vulkan). status() must report WebGPU and the
+//     self-test's GPU result must match its CPU result.
+//   - "cpu": without them. eframe falls back to WebGL2, status() must report the CPU path, and
+//     the same computation must succeed on the CPU with the same bits.
+// Both runs: no page errors, terrain shown, and the CPU checksum equal to the native build's
+// (`$STRAHLER_BIN info --check --json`), i.e. same problem, same bits, in the browser and natively.
+//
+// Usage: node tests/browser.mjs [DIST_DIR]   (env: CHROMIUM, STRAHLER_BIN, TEST_OUTPUT)
+
+import { execFileSync } from 'node:child_process';
+import { createReadStream, existsSync, mkdirSync, statSync } from 'node:fs';
+import { createServer } from 'node:http';
+import { extname, join, resolve } from 'node:path';
+import { chromium } from 'playwright-core';
+
+const here = new URL('.', import.meta.url).pathname;
+const dist = resolve(process.argv[2] ?? join(here, '..', '..', 'dist'));
+const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
+const output = resolve(process.env.TEST_OUTPUT ?? join(here, '..', 'test-output'));
+mkdirSync(output, { recursive: true });
+
+const COMMON_FLAGS = [
+  '--headless=new', '--no-sandbox', '--disable-quic', '--no-first-run',
+  '--disable-background-networking', '--disable-component-update', '--disable-sync',
+];
+const WEBGPU_FLAGS = [
+  '--enable-unsafe-webgpu', '--enable-features=Vulkan', '--use-vulkan=swiftshader',
+  '--use-angle=swiftshader',
+];
+
+const MIME = {
+  '.html': 'text/html; charset=utf-8', '.js': 'text/javascript', '.wasm': 'application/wasm',
+  '.svg': 'image/svg+xml', '.png': 'image/png', '.json': 'application/json', '.css': 'text/css',
+};
+
+function serve(root) {
+  const server = createServer((req, res) => {
+    const path = decodeURIComponent(new URL(req.url, 'http://x').pathname);
+    let file = resolve(join(root, path));
+    if (!file.startsWith(root)) { res.writeHead(403).end(); return; }
+    if (existsSync(file) && statSync(file).isDirectory()) file = join(file, 'index.html');
+    if (!existsSync(file)) { res.writeHead(404).end('not found'); return; }
+    res.writeHead(200, { 'Content-Type': MIME[extname(file)] ?? 'application/octet-stream' });
+    createReadStream(file).pipe(res);
+  });
+  return new Promise((ok) => server.listen(0, '127.0.0.1', () => ok(server)));
+}
+
+let passed = 0;
+let failed = 0;
+function check(name, condition, detail = '') {
+  if (condition) { passed += 1; console.log(`  ok   ${name}`); }
+  else { failed += 1; console.log(`  FAIL ${name} ${detail}`); }
+}
+
+function nativeChecksum() {
+  const bin = process.env.STRAHLER_BIN;
+  if (!bin) return null;
+  const report = JSON.parse(execFileSync(bin, ['info', '--check', '--json'], { encoding: 'utf8' }));
+  return report.check.cpu.checksum;
+}
+
+async function runMode(url, mode, expectedChecksum) {
+  console.log(`browser (${mode}):`);
+  const browser = await chromium.launch({
+    executablePath: chromiumPath,
+    // playwright gives every launch a fresh, empty profile of its own.
+    args: [...COMMON_FLAGS, ...(mode === 'webgpu' ? WEBGPU_FLAGS : [])],
+  });
+  const pageErrors = [];
+  const consoleErrors = [];
+  try {
+    const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+    page.on('pageerror', (err) => pageErrors.push(String(err)));
+    page.on('console', (msg) => { if (msg.type() === 'error') consoleErrors.push(msg.text()); });
+    await page.goto(url);
+    await page.waitForFunction(() => window.strahler?.status().ready === true, null, { timeout: 90_000 });
+    const status = await page.evaluate(() => window.strahler.status());
+    console.log(`  status: ${status.computePath} (version ${status.version})`);
+    check('status() reports the version', typeof status.version === 'string' && status.version.length > 0);
+    if (mode === 'webgpu') {
+      check('status() reports WebGPU', status.compute === 'webgpu' && status.computePath === 'GPU: WebGPU',
+        JSON.stringify(status));
+    } else {
+      check('status() reports the CPU fallback', status.compute === 'cpu'
+        && status.computePath === 'CPU (this browser has no WebGPU)', JSON.stringify(status));
+    }
+
+    // The first fill runs by itself: terrain appears without any click.
+    await page.waitForFunction(() => window.strahler.status().lastRun !== null, null, { timeout: 90_000 });
+    const run = (await page.evaluate(() => window.strahler.status())).lastRun;
+    check('first terrain is shown', run.max - run.min > 300, JSON.stringify(run));
+    check('first terrain ran on the active path', run.backend === (mode === 'webgpu' ? 'gpu' : 'cpu'),
+      run.backend);
+
+    const test = await page.evaluate(() => window.strahler.selfTest());
+    console.log(`  selfTest: cpu ${test.cpu.millis.toFixed(0)} ms` +
+      (test.gpu ? `, gpu ${test.gpu.millis.toFixed(0)} ms, rel diff ${test.relative_diff}` : ''));
+    check('CPU computation succeeds', /^[0-9a-f]{16}$/.test(test.cpu.checksum) && test.cpu.max > 600);
+    if (mode === 'webgpu') {
+      check('GPU computation ran', test.gpu !== null);
+      check('GPU result matches CPU', test.relative_diff !== null && test.relative_diff <= 1e-5,
+        String(test.relative_diff));
+    } else {
+      check('no GPU computation on the fallback', test.gpu === null);
+    }
+    if (expectedChecksum) {
+      check('CPU result has the same bits as the native build', test.cpu.checksum === expectedChecksum,
+        `${test.cpu.checksum} != ${expectedChecksum}`);
+    }
+    await page.screenshot({ path: join(output, `${mode}.png`) });
+    check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
+    if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);
+  } catch (err) {
+    check(`page runs without exceptions`, false, String(err));
+    if (pageErrors.length > 0) console.log(`  page errors:\n    ${pageErrors.join('\n    ')}`);
+    if (consoleErrors.length > 0) console.log(`  console errors:\n    ${consoleErrors.join('\n    ')}`);
+  } finally {
+    await browser.close();
+  }
+}
+
+if (!existsSync(join(dist, 'index.html'))) {
+  console.error(`no ${join(dist, 'index.html')}: run \`trunk build --release\` first`);
+  process.exit(2);
+}
+const server = await serve(dist);
+const url = `http://127.0.0.1:${server.address().port}/`;
+try {
+  const expected = nativeChecksum();
+  for (const mode of ['webgpu', 'cpu']) await runMode(url, mode, expected);
+} finally {
+  server.close();
+}
+console.log(`browser: ${passed} passed, ${failed} failed`);
+process.exit(failed === 0 ? 0 : 1);
