@@ -137,3 +137,78 @@ fn cpu_result_is_the_same_bits_every_time() {
     let b = run(&Backend::Cpu, &problem, 50);
     assert_eq!(a.checksum(), b.checksum());
 }
+
+fn fill(backend: &Backend, problem: &Constraints) -> diffusion::Filled {
+    let method = diffusion::Method::Multigrid(diffusion::MultigridParams::default());
+    pollster::block_on(diffusion::fill(
+        backend,
+        problem,
+        method,
+        &JobCtx::detached(),
+    ))
+    .expect("multigrid runs")
+}
+
+#[test]
+fn gpu_multigrid_converges_and_matches_cpu_multigrid() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Backend::Gpu(Arc::new(gpu));
+    // Odd, non-square, not a multiple of the workgroup: every edge case of the hierarchy.
+    for (n, fraction) in [(200, 0.015), (97, 0.05)] {
+        let problem = demo::skeleton_like(n, fraction, 3);
+        let cpu = fill(&Backend::Cpu, &problem);
+        let gpu_out = fill(&gpu, &problem);
+        assert!(
+            cpu.converged && gpu_out.converged,
+            "{n}: {cpu:?} {gpu_out:?}"
+        );
+        assert_eq!(gpu_out.backend, "gpu");
+        let rel = relative_diff(&cpu.field, &gpu_out.field);
+        assert!(
+            rel <= 1e-4,
+            "{n}: GPU multigrid differs from CPU by {rel:e}"
+        );
+        // Fixed cells exact on the GPU too.
+        for (i, (&a, &b)) in gpu_out
+            .field
+            .data()
+            .iter()
+            .zip(problem.initial().data())
+            .enumerate()
+        {
+            if problem.fixed().is_fixed_index(i) {
+                assert_eq!(a, b);
+            }
+        }
+    }
+}
+
+#[test]
+fn gpu_multigrid_reaches_the_harmonic_solution_of_a_non_square_field() {
+    // With the left column at 0 and the right at 100, the exact discrete harmonic field with
+    // zero flux top and bottom is the linear ramp in x.
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Backend::Gpu(Arc::new(gpu));
+    let (w, h) = (301, 45);
+    let mut fixed = FixedMask::new(w, h);
+    let mut initial = Heightfield::filled(w, h, 50.0).unwrap();
+    for y in 0..h {
+        fixed.fix(0, y);
+        fixed.fix(w - 1, y);
+        let i = initial.index(0, y);
+        initial.data_mut()[i] = 0.0;
+        let i = initial.index(w - 1, y);
+        initial.data_mut()[i] = 100.0;
+    }
+    let problem = Constraints::new(initial, fixed).unwrap();
+    for backend in [Backend::Cpu, gpu] {
+        let out = fill(&backend, &problem);
+        for y in [0, h / 2, h - 1] {
+            for x in 0..w {
+                let exact = 100.0 * x as f32 / (w - 1) as f32;
+                let err = (out.field.get(x, y).unwrap() - exact).abs();
+                assert!(err <= 1e-2, "{}: ({x},{y}) off by {err}", backend.key());
+            }
+        }
+    }
+}

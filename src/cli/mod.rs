@@ -1,5 +1,6 @@
 //! The native command line. `strahler` with no subcommand opens the app window.
 
+mod bench;
 mod info;
 
 use std::process::ExitCode;
@@ -18,12 +19,16 @@ pub struct Cli {
 pub enum Command {
     /// Print the version, the GPU adapter found and the limits that matter.
     Info(info::InfoArgs),
+    /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
+    /// and print a table beside the paper's numbers.
+    Bench(bench::BenchArgs),
 }
 
 /// Runs a subcommand and maps its outcome to an exit code (errors go to stderr).
 pub fn run(command: Command) -> ExitCode {
     let result = match command {
         Command::Info(args) => info::run(&args),
+        Command::Bench(args) => bench::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

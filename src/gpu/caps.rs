@@ -24,7 +24,7 @@ impl Capabilities {
         let compute = downlevel
             .flags
             .contains(wgpu::DownlevelFlags::COMPUTE_SHADERS)
-            && limits.max_storage_buffers_per_shader_stage >= 4
+            && limits.max_storage_buffers_per_shader_stage >= 5
             && limits.max_compute_invocations_per_workgroup >= 256;
         Self {
             compute,

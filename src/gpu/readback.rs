@@ -26,7 +26,19 @@ pub async fn read_f32_buffer(
     source: &wgpu::Buffer,
     len: usize,
 ) -> Result<Vec<f32>, GpuError> {
-    let bytes = (len * 4) as u64;
+    let bytes = read_bytes(ctx, source, (len * 4) as u64).await?;
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect())
+}
+
+/// Copies the first `bytes` bytes of `source` (with `COPY_SRC`) back to the CPU.
+pub async fn read_bytes(
+    ctx: &GpuContext,
+    source: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<u8>, GpuError> {
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback staging"),
         size: bytes,
@@ -49,14 +61,10 @@ pub async fn read_f32_buffer(
     rx.await
         .map_err(|_| GpuError::Readback("the map callback was dropped".into()))?
         .map_err(|err| GpuError::Readback(err.to_string()))?;
-    let values = {
-        let view = staging
-            .get_mapped_range(..)
-            .map_err(|err| GpuError::Readback(err.to_string()))?;
-        view.chunks_exact(4)
-            .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-            .collect::<Vec<f32>>()
-    };
+    let values = staging
+        .get_mapped_range(..)
+        .map_err(|err| GpuError::Readback(err.to_string()))?
+        .to_vec();
     staging.unmap();
     Ok(values)
 }

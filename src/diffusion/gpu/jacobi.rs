@@ -7,14 +7,13 @@
 
 use wgpu::util::DeviceExt;
 
-use super::DiffusionError;
-use super::constraints::Constraints;
+use super::WORKGROUP;
+use crate::diffusion::{Constraints, DiffusionError};
 use crate::gpu::{GpuContext, GpuError, read_f32_buffer, wait_for_submitted_work};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
-const SHADER: &str = include_str!("../../shaders/jacobi.wgsl");
-const WORKGROUP: u32 = 16;
+const SHADER: &str = include_str!("../../../shaders/jacobi.wgsl");
 
 /// Cell updates per submission: keeps each submission well under a second on slow GPUs.
 const CELLS_PER_SUBMIT: u64 = 1 << 26;
@@ -27,7 +26,7 @@ struct Params {
     _pad: [u32; 2],
 }
 
-pub(super) async fn jacobi(
+pub(in crate::diffusion) async fn jacobi(
     gpu: &GpuContext,
     problem: &Constraints,
     sweeps: u32,

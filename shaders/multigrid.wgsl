@@ -1,0 +1,210 @@
+// Multigrid for the diffusion problem (seed paper 000, eqs. 6-7), the GPU twin of
+// `src/diffusion/multigrid/ops.rs`. Solves (A u)_i = b_i on free cells, u given on fixed cells,
+// with (A u)_i = n_i u_i - sum of the n_i in-grid 4-neighbours (zero flux at the border).
+// Neighbours are visited left, right, up, down and sums formed in the same order as on the CPU.
+//
+// Entry points (all 16 x 16 workgroups):
+//   relax             one colour of a red-black Gauss-Seidel sweep on the fine level
+//   restrict_residual coarse b = sum of the fine residual over the 2 x 2 children
+//   prolong_add       fine u += bilinear interpolation of the coarse correction (free cells)
+//   prolong_replace   fine u  = bilinear interpolation of the coarse solution (free cells)
+//   residual_max      result[0] = max over free cells of |r_i| / n_i (f32 bits, atomicMax)
+//   correction_max    result[1] = max |u| on this level (the coarse correction)
+
+struct Params {
+    fine_w: u32,
+    fine_h: u32,
+    coarse_w: u32,
+    coarse_h: u32,
+    colour: u32,
+    has_rhs: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+@group(0) @binding(0) var<uniform> p: Params;
+@group(0) @binding(1) var<storage, read> fixed_bits: array<u32>;
+@group(0) @binding(2) var<storage, read_write> u: array<f32>;
+@group(0) @binding(3) var<storage, read> b: array<f32>;
+@group(0) @binding(4) var<storage, read_write> coarse: array<f32>;
+// [0]: max |r_i| / n_i on the finest level; [1]: max |u| of the level below (the last
+// coarse-grid correction), both as f32 bits.
+@group(0) @binding(5) var<storage, read_write> result: array<atomic<u32>, 2>;
+
+fn is_fixed(i: u32) -> bool {
+    return ((fixed_bits[i >> 5u] >> (i & 31u)) & 1u) == 1u;
+}
+
+fn rhs(i: u32) -> f32 {
+    if (p.has_rhs == 1u) {
+        return b[i];
+    }
+    return 0.0;
+}
+
+// Sum and count of the in-grid neighbours of (x, y) on the fine level.
+fn neighbours(x: u32, y: u32) -> vec2<f32> {
+    let w = p.fine_w;
+    let i = y * w + x;
+    var sum = 0.0;
+    var count = 0.0;
+    if (x > 0u) {
+        sum += u[i - 1u];
+        count += 1.0;
+    }
+    if (x + 1u < w) {
+        sum += u[i + 1u];
+        count += 1.0;
+    }
+    if (y > 0u) {
+        sum += u[i - w];
+        count += 1.0;
+    }
+    if (y + 1u < p.fine_h) {
+        sum += u[i + w];
+        count += 1.0;
+    }
+    return vec2<f32>(sum, count);
+}
+
+// sum of (u_j - u_i) over the in-grid neighbours: -(A u)_i. Differences of close heights are
+// exact in floating point, so the residual keeps full precision near convergence.
+fn differences(x: u32, y: u32) -> f32 {
+    let w = p.fine_w;
+    let i = y * w + x;
+    let c = u[i];
+    var sum = 0.0;
+    if (x > 0u) {
+        sum += u[i - 1u] - c;
+    }
+    if (x + 1u < w) {
+        sum += u[i + 1u] - c;
+    }
+    if (y > 0u) {
+        sum += u[i - w] - c;
+    }
+    if (y + 1u < p.fine_h) {
+        sum += u[i + w] - c;
+    }
+    return sum;
+}
+
+fn residual_at(x: u32, y: u32) -> f32 {
+    let i = y * p.fine_w + x;
+    if (is_fixed(i)) {
+        return 0.0;
+    }
+    return rhs(i) + differences(x, y);
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn relax(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let y = gid.y;
+    if (y >= p.fine_h) {
+        return;
+    }
+    let x = 2u * gid.x + ((y + p.colour) & 1u);
+    if (x >= p.fine_w) {
+        return;
+    }
+    let i = y * p.fine_w + x;
+    if (is_fixed(i)) {
+        return;
+    }
+    let n = neighbours(x, y);
+    if (n.y > 0.0) {
+        u[i] = (rhs(i) + n.x) / n.y;
+    }
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn restrict_residual(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let cx = gid.x;
+    let cy = gid.y;
+    if (cx >= p.coarse_w || cy >= p.coarse_h) {
+        return;
+    }
+    var sum = 0.0;
+    for (var y = 2u * cy; y < min(2u * cy + 2u, p.fine_h); y += 1u) {
+        for (var x = 2u * cx; x < min(2u * cx + 2u, p.fine_w); x += 1u) {
+            sum += residual_at(x, y);
+        }
+    }
+    coarse[cy * p.coarse_w + cx] = sum;
+}
+
+// (near, far) coarse indices along one axis; the far one weighs 1/4 (clamped at the border).
+fn axis(x: u32, n: u32) -> vec2<u32> {
+    let near = min(x / 2u, n - 1u);
+    var far = near;
+    if ((x & 1u) == 0u) {
+        if (near > 0u) {
+            far = near - 1u;
+        }
+    } else {
+        far = min(near + 1u, n - 1u);
+    }
+    return vec2<u32>(near, far);
+}
+
+fn interpolate(x: u32, y: u32) -> f32 {
+    let cw = p.coarse_w;
+    let ax = axis(x, cw);
+    let ay = axis(y, p.coarse_h);
+    let near = coarse[ay.x * cw + ax.x] * 0.75 + coarse[ay.x * cw + ax.y] * 0.25;
+    let far = coarse[ay.y * cw + ax.x] * 0.75 + coarse[ay.y * cw + ax.y] * 0.25;
+    return near * 0.75 + far * 0.25;
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn prolong_add(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if (x >= p.fine_w || y >= p.fine_h) {
+        return;
+    }
+    let i = y * p.fine_w + x;
+    if (!is_fixed(i)) {
+        u[i] += interpolate(x, y);
+    }
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn prolong_replace(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if (x >= p.fine_w || y >= p.fine_h) {
+        return;
+    }
+    let i = y * p.fine_w + x;
+    if (!is_fixed(i)) {
+        u[i] = interpolate(x, y);
+    }
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn residual_max(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if (x >= p.fine_w || y >= p.fine_h) {
+        return;
+    }
+    let i = y * p.fine_w + x;
+    if (is_fixed(i)) {
+        return;
+    }
+    let n = neighbours(x, y);
+    let r = rhs(i) + differences(x, y);
+    // Non-negative floats order like their bits, so atomicMax on the bits is a float max.
+    atomicMax(&result[0], bitcast<u32>(abs(r) / n.y));
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn correction_max(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let x = gid.x;
+    let y = gid.y;
+    if (x >= p.fine_w || y >= p.fine_h) {
+        return;
+    }
+    atomicMax(&result[1], bitcast<u32>(abs(u[y * p.fine_w + x])));
+}

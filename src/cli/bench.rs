@@ -1,0 +1,146 @@
+//! `strahler bench`: the diffusion solvers timed on skeleton-like problems, beside the paper.
+//!
+//! For each size: multigrid on each available backend, and the paper's baseline of 5500
+//! Jacobi sweeps where it is affordable. The error column is the max |u - u*| over all cells
+//! relative to the fixed heights' range, against a reference solved to a 1e-9 residual.
+
+use std::fmt::Write as _;
+
+use clap::Args;
+
+use crate::compute::{Backend, ComputePath, CpuReason};
+use crate::diffusion::{self, Constraints, Method, MultigridParams, demo};
+use crate::gpu::GpuContext;
+use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
+
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Grid sides to run (square grids).
+    #[arg(long, value_delimiter = ',', default_values_t = [512usize, 1024, 2048, 4096])]
+    pub sizes: Vec<usize>,
+    /// Backends: cpu, gpu or both.
+    #[arg(long, default_value = "both")]
+    pub backend: String,
+    /// Fraction of fixed cells in the test problem (a rasterised skeleton is about 1.5%).
+    #[arg(long, default_value_t = 0.015)]
+    pub fixed: f32,
+    /// Jacobi sweeps for the paper's baseline.
+    #[arg(long, default_value_t = 5500)]
+    pub jacobi_sweeps: u32,
+    /// Largest side on which the Jacobi baseline runs on the CPU (it is slow by design).
+    #[arg(long, default_value_t = 1024)]
+    pub jacobi_max_size: usize,
+}
+
+/// The paper's Sec. VIII numbers for 5500 Jacobi sweeps, in seconds.
+fn paper(size: usize) -> &'static str {
+    match size {
+        1024 => "5500 sweeps: GTX 780 Ti 0.71 s, GT 550M 6.58 s, i5 CPU 323.5 s",
+        2048 => "5500 sweeps: GTX 780 Ti 1.73 s, GT 550M 24.0 s, i5 CPU 21 min",
+        _ => "",
+    }
+}
+
+pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let want_cpu = matches!(args.backend.as_str(), "cpu" | "both");
+    let want_gpu = matches!(args.backend.as_str(), "gpu" | "both");
+    if !want_cpu && !want_gpu {
+        return Err(format!("unknown --backend {:?}: use cpu, gpu or both", args.backend).into());
+    }
+    let path = match pollster::block_on(GpuContext::headless()) {
+        Ok(context) => ComputePath::from_context(context),
+        Err(err) => ComputePath::Cpu {
+            reason: CpuReason::NoAdapter(err.to_string()),
+        },
+    };
+    let mut backends = Vec::new();
+    if want_cpu {
+        backends.push(Backend::Cpu);
+    }
+    if want_gpu {
+        match path.gpu() {
+            Some(gpu) => backends.push(Backend::Gpu(gpu.clone())),
+            None => println!("no GPU backend: {path}"),
+        }
+    }
+    println!(
+        "diffusion benchmark: skeleton-like problems, {:.1}% fixed cells; {}",
+        args.fixed * 100.0,
+        path
+    );
+    println!(
+        "{:>6} {:>8} {:>10} {:>10} {:>8} {:>8} {:>9} {:>10} {:>10}  paper",
+        "size", "backend", "method", "ms", "cycles", "sweeps", "work", "residual", "max error"
+    );
+    for &size in &args.sizes {
+        let problem = demo::skeleton_like(size, args.fixed, 7);
+        let reference = reference(&problem)?;
+        let mut rows = Vec::new();
+        for backend in &backends {
+            let method = Method::Multigrid(MultigridParams::default());
+            rows.push(run_one(backend, &problem, method, &reference));
+            let jacobi_here = size <= args.jacobi_max_size || matches!(backend, Backend::Gpu(_));
+            if jacobi_here && args.jacobi_sweeps > 0 {
+                let method = Method::Jacobi {
+                    sweeps: args.jacobi_sweeps,
+                };
+                rows.push(run_one(backend, &problem, method, &reference));
+            }
+        }
+        for (i, row) in rows.into_iter().enumerate() {
+            let note = if i == 0 { paper(size) } else { "" };
+            match row {
+                Ok(line) => println!("{size:>6} {line}  {note}"),
+                Err(err) => println!("{size:>6} failed: {err}"),
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The problem solved far past the product's tolerance: the "exact" discrete solution.
+fn reference(problem: &Constraints) -> Result<Heightfield, diffusion::DiffusionError> {
+    let params = MultigridParams {
+        tolerance: 1e-9,
+        max_cycles: 40,
+        ..Default::default()
+    };
+    Ok(pollster::block_on(diffusion::multigrid::solve(
+        problem,
+        None,
+        &params,
+        &JobCtx::detached(),
+    ))?
+    .field)
+}
+
+fn run_one(
+    backend: &Backend,
+    problem: &Constraints,
+    method: Method,
+    reference: &Heightfield,
+) -> Result<String, diffusion::DiffusionError> {
+    let out = pollster::block_on(diffusion::fill(
+        backend,
+        problem,
+        method,
+        &JobCtx::detached(),
+    ))?;
+    let range = diffusion::fixed_height_range(problem).max(f32::MIN_POSITIVE);
+    let error = out.field.max_abs_diff(reference).unwrap_or(f32::NAN) / range;
+    let mut line = String::new();
+    let _ = write!(
+        line,
+        "{:>8} {:>10} {:>10.1} {:>8} {:>8} {:>9.1} {:>10.1e} {:>10.1e}",
+        out.backend,
+        out.method,
+        out.millis,
+        out.cycles,
+        out.sweeps,
+        out.work_sweeps,
+        out.relative_residual,
+        error
+    );
+    Ok(line)
+}

@@ -1,0 +1,361 @@
+//! The three grid operators of the multigrid solver, on one level each (CPU).
+//!
+//! The discrete operator is eq. 7 with zero flux at the border:
+//! `(A u)_i = n_i u_i - sum_{j in N(i)} u_j`, where `N(i)` are the in-grid 4-neighbours and
+//! `n_i = |N(i)|`. The solver finds `u` with `(A u)_i = b_i` on free cells and `u` given on
+//! fixed cells. Neighbours are always visited left, right, up, down, as in the WGSL kernels.
+
+use crate::diffusion::FixedMask;
+
+/// Sum of the in-grid neighbours of cell (`x`, `y`) and their count.
+#[inline(always)]
+fn neighbours(u: &[f32], w: usize, h: usize, x: usize, y: usize) -> (f32, f32) {
+    let i = y * w + x;
+    let mut sum = 0.0f32;
+    let mut count = 0.0f32;
+    if x > 0 {
+        sum += u[i - 1];
+        count += 1.0;
+    }
+    if x + 1 < w {
+        sum += u[i + 1];
+        count += 1.0;
+    }
+    if y > 0 {
+        sum += u[i - w];
+        count += 1.0;
+    }
+    if y + 1 < h {
+        sum += u[i + w];
+        count += 1.0;
+    }
+    (sum, count)
+}
+
+/// One red-black Gauss-Seidel sweep: first the cells with even `x + y`, then the odd ones;
+/// each free cell solves its own row of `A u = b`: `u_i = (b_i + sum u_j) / n_i`.
+/// Within a colour the updates are independent, so the GPU gives the same result. O(cells).
+pub fn relax_red_black(u: &mut [f32], b: Option<&[f32]>, fixed: &FixedMask, w: usize, h: usize) {
+    for colour in 0..2 {
+        for y in 0..h {
+            let first = (y + colour) & 1;
+            if y == 0 || y + 1 == h || w < 3 {
+                relax_row_general(u, b, fixed, w, h, y, first);
+                continue;
+            }
+            // Interior row: split the buffer so the row above, this row and the row below
+            // are separate slices (no index arithmetic or bounds checks on the hot path).
+            let (above, rest) = u.split_at_mut(y * w);
+            let (row, below) = rest.split_at_mut(w);
+            let up = &above[(y - 1) * w..];
+            let down = &below[..w];
+            let rhs = b.map(|b| &b[y * w..(y + 1) * w]);
+            let base = y * w;
+            let mut x = first;
+            if x == 0 {
+                relax_cell_general(row, up, down, rhs, fixed, base, 0, w);
+                x = 2;
+            }
+            while x + 1 < w {
+                if !fixed.is_fixed_index(base + x) {
+                    let r = rhs.map_or(0.0, |r| r[x]);
+                    // Same sum order as `neighbours` (left, right, up, down), n = 4.
+                    row[x] = (r + (((row[x - 1] + row[x + 1]) + up[x]) + down[x])) * 0.25;
+                }
+                x += 2;
+            }
+            if x == w - 1 {
+                relax_cell_general(row, up, down, rhs, fixed, base, x, w);
+            }
+        }
+    }
+}
+
+/// One cell of an interior row at the left or right border (3 neighbours).
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn relax_cell_general(
+    row: &mut [f32],
+    up: &[f32],
+    down: &[f32],
+    rhs: Option<&[f32]>,
+    fixed: &FixedMask,
+    base: usize,
+    x: usize,
+    w: usize,
+) {
+    if fixed.is_fixed_index(base + x) {
+        return;
+    }
+    let mut sum = 0.0f32;
+    let mut count = 0.0f32;
+    if x > 0 {
+        sum += row[x - 1];
+        count += 1.0;
+    }
+    if x + 1 < w {
+        sum += row[x + 1];
+        count += 1.0;
+    }
+    sum += up[x];
+    sum += down[x];
+    count += 2.0;
+    row[x] = (rhs.map_or(0.0, |r| r[x]) + sum) / count;
+}
+
+/// One colour of a top or bottom row (or of a grid too narrow for the fast path).
+fn relax_row_general(
+    u: &mut [f32],
+    b: Option<&[f32]>,
+    fixed: &FixedMask,
+    w: usize,
+    h: usize,
+    y: usize,
+    first: usize,
+) {
+    let mut x = first;
+    while x < w {
+        let i = y * w + x;
+        if !fixed.is_fixed_index(i) {
+            let (sum, count) = neighbours(u, w, h, x, y);
+            if count > 0.0 {
+                u[i] = (b.map_or(0.0, |b| b[i]) + sum) / count;
+            }
+        }
+        x += 2;
+    }
+}
+
+/// Residual `r_i = b_i - (A u)_i` of a free cell (0 for fixed cells).
+#[inline(always)]
+fn residual_at(
+    u: &[f32],
+    b: Option<&[f32]>,
+    fixed: &FixedMask,
+    w: usize,
+    h: usize,
+    x: usize,
+    y: usize,
+) -> f32 {
+    let i = y * w + x;
+    if fixed.is_fixed_index(i) {
+        return 0.0;
+    }
+    b.map_or(0.0, |b| b[i]) + differences(u, w, h, x, y)
+}
+
+/// `sum_j (u_j - u_i)` over the in-grid neighbours (left, right, up, down), i.e. `-(A u)_i`.
+///
+/// Formed from differences rather than as `n u_i - sum u_j`: neighbouring heights are close,
+/// so each difference is exact in floating point (Sterbenz), and the residual keeps full
+/// relative precision even when it is a millionth of the heights. This is what lets the
+/// `f32` solver (and the WGSL twin) converge to the solution's own rounding.
+#[inline(always)]
+fn differences(u: &[f32], w: usize, h: usize, x: usize, y: usize) -> f32 {
+    let i = y * w + x;
+    let c = u[i];
+    let mut sum = 0.0f32;
+    if x > 0 {
+        sum += u[i - 1] - c;
+    }
+    if x + 1 < w {
+        sum += u[i + 1] - c;
+    }
+    if y > 0 {
+        sum += u[i - w] - c;
+    }
+    if y + 1 < h {
+        sum += u[i + w] - c;
+    }
+    sum
+}
+
+/// Calls `visit(x, r_x)` for every cell of row `y` with its residual (0 on fixed cells).
+#[inline(always)]
+fn residuals_in_row(
+    u: &[f32],
+    b: Option<&[f32]>,
+    fixed: &FixedMask,
+    (w, h): (usize, usize),
+    y: usize,
+    mut visit: impl FnMut(usize, f32),
+) {
+    if y == 0 || y + 1 == h || w < 3 {
+        for x in 0..w {
+            visit(x, residual_at(u, b, fixed, w, h, x, y));
+        }
+        return;
+    }
+    let base = y * w;
+    let row = &u[base..base + w];
+    let up = &u[base - w..base];
+    let down = &u[base + w..base + 2 * w];
+    let rhs = b.map(|b| &b[base..base + w]);
+    visit(0, residual_at(u, b, fixed, w, h, 0, y));
+    for x in 1..w - 1 {
+        let r = if fixed.is_fixed_index(base + x) {
+            0.0
+        } else {
+            let c = row[x];
+            // Same operation order as `differences`.
+            rhs.map_or(0.0, |r| r[x])
+                + ((((row[x - 1] - c) + (row[x + 1] - c)) + (up[x] - c)) + (down[x] - c))
+        };
+        visit(x, r);
+    }
+    visit(w - 1, residual_at(u, b, fixed, w, h, w - 1, y));
+}
+
+/// Number of in-grid neighbours of (`x`, `y`).
+#[inline(always)]
+fn neighbour_count(w: usize, h: usize, x: usize, y: usize) -> f32 {
+    f32::from(u8::from(x > 0) + u8::from(x + 1 < w) + u8::from(y > 0) + u8::from(y + 1 < h))
+}
+
+/// The largest `|r_i| / n_i` over free cells: how far one Jacobi sweep would move a cell.
+/// This is the solver's stopping quantity (in height units). O(cells).
+pub fn max_scaled_residual(
+    u: &[f32],
+    b: Option<&[f32]>,
+    fixed: &FixedMask,
+    w: usize,
+    h: usize,
+) -> f32 {
+    let mut worst = 0.0f32;
+    for y in 0..h {
+        residuals_in_row(u, b, fixed, (w, h), y, |x, r| {
+            if r != 0.0 {
+                worst = worst.max(r.abs() / neighbour_count(w, h, x, y));
+            }
+        });
+    }
+    worst
+}
+
+/// Restricts the residual of the fine level to the right-hand side of the coarse
+/// correction equation: `b_c(I, J) = sum of r over the (up to) 2 x 2 children`.
+///
+/// The sum (not the mean) is right for the unscaled operator: with spacing `h`,
+/// `A_h ~ -h^2 Laplacian`, and `A_2h ~ -4 h^2 Laplacian`, so the coarse right-hand side is
+/// four times the children's mean. The residual is computed on the fly: no fine-size buffer.
+pub fn restrict_residual(
+    u: &[f32],
+    b: Option<&[f32]>,
+    fixed: &FixedMask,
+    (w, h): (usize, usize),
+    coarse: &mut [f32],
+    (cw, _ch): (usize, usize),
+) {
+    // Row by row over the fine grid: each coarse cell accumulates its children in the order
+    // (2y, 2x), (2y, 2x+1), (2y+1, 2x), (2y+1, 2x+1), as the WGSL kernel does.
+    coarse.fill(0.0);
+    for y in 0..h {
+        let row = &mut coarse[(y / 2) * cw..(y / 2 + 1) * cw];
+        residuals_in_row(u, b, fixed, (w, h), y, |x, r| row[x / 2] += r);
+    }
+}
+
+/// Coarse-grid coordinate and weights of a fine cell along one axis (cell-centred bilinear
+/// interpolation): fine cell `2I` lies a quarter cell before coarse cell `I`, `2I + 1` a
+/// quarter after. Returns (near, far, weight of far); clamped at the border (zero flux).
+#[inline(always)]
+fn axis(x: usize, coarse_len: usize) -> (usize, usize, f32) {
+    let near = (x / 2).min(coarse_len - 1);
+    let far = if x.is_multiple_of(2) {
+        near.saturating_sub(1)
+    } else {
+        (near + 1).min(coarse_len - 1)
+    };
+    (near, far, 0.25)
+}
+
+/// `u += P e` on free fine cells, `P` the bilinear interpolation from the coarse level
+/// (weights 9/16, 3/16, 3/16, 1/16). Fixed cells keep their values exactly.
+pub fn prolong_add(
+    u: &mut [f32],
+    fixed: &FixedMask,
+    (w, h): (usize, usize),
+    e: &[f32],
+    (cw, ch): (usize, usize),
+) {
+    prolong(u, fixed, (w, h), e, (cw, ch), |cell, value| *cell += value);
+}
+
+/// Bilinear interpolation of a coarse solution onto the free cells of the fine level
+/// (the full-multigrid initial guess); fixed cells keep their own values.
+pub fn prolong_replace(
+    u: &mut [f32],
+    fixed: &FixedMask,
+    (w, h): (usize, usize),
+    coarse: &[f32],
+    (cw, ch): (usize, usize),
+) {
+    prolong(u, fixed, (w, h), coarse, (cw, ch), |cell, value| {
+        *cell = value
+    });
+}
+
+#[inline(always)]
+fn prolong(
+    u: &mut [f32],
+    fixed: &FixedMask,
+    (w, h): (usize, usize),
+    coarse: &[f32],
+    (cw, ch): (usize, usize),
+    apply: impl Fn(&mut f32, f32),
+) {
+    for (y, row) in u.chunks_exact_mut(w).enumerate().take(h) {
+        let (yn, yf, wy) = axis(y, ch);
+        let near_row = &coarse[yn * cw..(yn + 1) * cw];
+        let far_row = &coarse[yf * cw..(yf + 1) * cw];
+        for (x, cell) in row.iter_mut().enumerate() {
+            if fixed.is_fixed_index(y * w + x) {
+                continue;
+            }
+            let (xn, xf, wx) = axis(x, cw);
+            let near = near_row[xn] * (1.0 - wx) + near_row[xf] * wx;
+            let far = far_row[xn] * (1.0 - wx) + far_row[xf] * wx;
+            apply(cell, near * (1.0 - wy) + far * wy);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn prolongation_reproduces_constants_and_linear_ramps_inside() {
+        let (cw, ch) = (5, 4);
+        let (w, h) = (10, 8);
+        let fixed = FixedMask::new(w, h);
+        let mut u = vec![0.0; w * h];
+        prolong_add(&mut u, &fixed, (w, h), &vec![2.5; cw * ch], (cw, ch));
+        assert!(u.iter().all(|&v| v == 2.5));
+        // A coarse ramp in x (value = coarse centre position) interpolates to the fine
+        // centres away from the clamped border.
+        let ramp: Vec<f32> = (0..cw * ch).map(|i| (i % cw) as f32 * 2.0 + 0.5).collect();
+        let mut v = vec![0.0; w * h];
+        prolong_replace(&mut v, &fixed, (w, h), &ramp, (cw, ch));
+        for x in 1..w - 1 {
+            assert!(
+                (v[3 * w + x] - x as f32).abs() < 1e-5,
+                "x={x}: {}",
+                v[3 * w + x]
+            );
+        }
+    }
+
+    #[test]
+    fn restriction_sums_children_and_ignores_fixed_ones() {
+        let (w, h) = (3, 3);
+        let mut fixed = FixedMask::new(w, h);
+        fixed.fix(0, 0);
+        let u = vec![0.0; 9];
+        let b = vec![1.0; 9];
+        let mut coarse = vec![0.0; 4];
+        restrict_residual(&u, Some(&b), &fixed, (w, h), &mut coarse, (2, 2));
+        // Children: (0,0) fixed, 3 free -> 3; right column 2; bottom row 2; corner 1.
+        assert_eq!(coarse, vec![3.0, 2.0, 2.0, 1.0]);
+    }
+}
