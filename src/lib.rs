@@ -9,12 +9,15 @@
 //! - [`heightfield`]: the raster type every stage reads and writes.
 //! - [`gpu`]: device context (from eframe's render state or headless), capabilities, readback.
 //! - [`compute`]: the CPU/GPU backend choice and the human-readable compute path.
-//! - [`diffusion`]: Laplace relaxation with fixed cells (seed paper 000, eqs. 6-7).
+//! - [`diffusion`]: Laplace diffusion with fixed cells (seed paper 000, eqs. 6-7): multigrid
+//!   and the paper's Jacobi baseline, on CPU and GPU.
+//! - [`dem`]: real elevation rasters in and out (GeoTIFF).
 //! - [`jobs`]: background work with progress and cancellation that never blocks the UI.
 //! - [`app`]: the eframe application.
 
 pub mod app;
 pub mod compute;
+pub mod dem;
 pub mod diffusion;
 pub mod gpu;
 pub mod heightfield;

@@ -57,7 +57,8 @@ fn first_screen_names_the_compute_path_and_shows_terrain() {
     assert_ne!(status.compute, "cpu");
     assert_eq!(status.compute_path, path);
     assert!(status.last_run.is_some());
-    harness.get_by_label_contains("Last fill: 256 x 256");
+    harness.get_by_label_contains("Last fill: 512 x 512, multigrid");
+    assert!(status.last_run.as_ref().is_some_and(|r| r.converged));
 }
 
 #[test]
@@ -81,6 +82,7 @@ fn fill_can_be_cancelled_and_the_ui_keeps_the_old_terrain() {
     let mut harness = harness();
     wait_idle(&mut harness);
     let before = harness.state().terrain().unwrap().checksum();
+    harness.state_mut().settings_mut().multigrid = false;
     harness.state_mut().settings_mut().sweeps = 5_000_000;
     harness.get_by_label("Fill terrain").click();
     harness.run_steps(3);

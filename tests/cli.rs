@@ -68,3 +68,138 @@ fn unknown_subcommands_are_refused_with_help() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("unrecognized subcommand"), "{err}");
 }
+
+/// A DEM shipped beside the repository (see `../shared/data/dems/README.md`).
+fn shared_dem(name: &str) -> std::path::PathBuf {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/dems")
+        .join(name);
+    assert!(path.exists(), "missing test DEM {}", path.display());
+    path
+}
+
+fn out_dir() -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("strahler-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn read_tif(path: &std::path::Path) -> strahler::dem::Dem {
+    let bytes = std::fs::read(path).unwrap();
+    strahler::dem::geotiff::read(&bytes, Default::default()).unwrap()
+}
+
+#[test]
+fn fill_closes_every_void_and_keeps_known_cells() {
+    let input = shared_dem("luxembourg_full.tif");
+    let dir = out_dir();
+    let (out, report) = (dir.join("filled.tif"), dir.join("report.json"));
+    for backend in ["cpu", "auto"] {
+        let result = strahler(&[
+            "fill",
+            input.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+            "--backend",
+            backend,
+            "--report",
+            report.to_str().unwrap(),
+        ]);
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        let before = read_tif(&input);
+        let after = read_tif(&out);
+        assert_eq!(before.georef, after.georef, "georeferencing kept");
+        let (lo, hi) = before.field.finite_range().unwrap();
+        for (a, b) in before.field.data().iter().zip(after.field.data()) {
+            if a.is_finite() {
+                assert_eq!(a.to_bits(), b.to_bits(), "known cells untouched");
+            } else {
+                // Maximum principle: a harmonic fill stays within the known heights.
+                assert!(b.is_finite() && *b >= lo - 1e-3 && *b <= hi + 1e-3, "{b}");
+            }
+        }
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+        assert_eq!(report["free_cells"], 3942);
+        assert_eq!(report["method"], "multigrid");
+        assert_eq!(report["converged"], true);
+        assert!(report["relative_residual"].as_f64().unwrap() <= 1e-6);
+    }
+}
+
+#[test]
+fn fill_reads_int16_lzw_with_gdal_nodata_and_runs_exact_jacobi_sweeps() {
+    let input = shared_dem("original/luxembourg_elev_int16_lzw.tif");
+    let dir = out_dir();
+    let (out, report) = (dir.join("jacobi.tif"), dir.join("jacobi.json"));
+    let result = strahler(&[
+        "fill",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--method",
+        "jacobi",
+        "--iterations",
+        "25",
+        "--backend",
+        "cpu",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(report["free_cells"], 3942, "-32768 cells are the voids");
+    assert_eq!(report["sweeps"], 25);
+    assert_eq!(report["method"], "jacobi");
+    assert!(read_tif(&out).field.data().iter().all(|v| v.is_finite()));
+}
+
+#[test]
+fn fill_explains_bad_input() {
+    let dir = out_dir();
+    let bad = dir.join("bad.tif");
+    std::fs::write(&bad, b"this is not a GeoTIFF").unwrap();
+    let out = dir.join("never.tif");
+    let result = strahler(&[
+        "fill",
+        bad.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(!result.status.success());
+    let err = String::from_utf8_lossy(&result.stderr);
+    assert!(err.contains("bad.tif") && err.contains("GeoTIFF"), "{err}");
+    assert!(!out.exists(), "no output on failure");
+
+    let input = shared_dem("olinda.tif");
+    let result = strahler(&[
+        "fill",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--method",
+        "jacobi",
+    ]);
+    assert!(!result.status.success());
+    assert!(String::from_utf8_lossy(&result.stderr).contains("--iterations"));
+
+    let result = strahler(&[
+        "fill",
+        input.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--max-cells",
+        "100",
+    ]);
+    assert!(!result.status.success());
+    assert!(String::from_utf8_lossy(&result.stderr).contains("limit of 100 cells"));
+}

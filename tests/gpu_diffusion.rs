@@ -10,10 +10,11 @@ use strahler::heightfield::Heightfield;
 use strahler::jobs::JobCtx;
 
 fn run(backend: &Backend, problem: &Constraints, sweeps: u32) -> Heightfield {
-    pollster::block_on(diffusion::jacobi(
+    let method = diffusion::Method::Jacobi { sweeps };
+    pollster::block_on(diffusion::fill(
         backend,
         problem,
-        sweeps,
+        method,
         &JobCtx::detached(),
     ))
     .expect("diffusion runs")
@@ -99,7 +100,10 @@ fn cancelling_stops_a_gpu_run() {
     let problem = demo::valley_and_peaks(64);
     let handle = strahler::jobs::spawn(
         "cancelled",
-        move |ctx| async move { diffusion::jacobi(&gpu, &problem, 10_000_000, &ctx).await },
+        move |ctx| async move {
+            let method = diffusion::Method::Jacobi { sweeps: 10_000_000 };
+            diffusion::fill(&gpu, &problem, method, &ctx).await
+        },
         || {},
     )
     .unwrap();

@@ -17,7 +17,7 @@ pub use side_panel::FillSettings;
 
 use crate::compute::selftest::{RunSummary, SelfTest};
 use crate::compute::{ComputePath, CpuReason};
-use crate::diffusion::{DiffusionError, Relaxed};
+use crate::diffusion::{DiffusionError, Filled};
 use crate::gpu::{GpuContext, device_descriptor};
 use crate::jobs::JobHandle;
 
@@ -42,7 +42,7 @@ pub struct StrahlerApp {
     automation: Automation,
     map: MapView,
     settings: FillSettings,
-    fill_job: Option<JobHandle<Result<Relaxed, DiffusionError>>>,
+    fill_job: Option<JobHandle<Result<Filled, DiffusionError>>>,
     selftest_job: Option<JobHandle<Result<SelfTest, DiffusionError>>>,
     last_run: Option<(usize, RunSummary)>,
     selftest: Option<Result<SelfTest, String>>,
@@ -118,13 +118,13 @@ impl StrahlerApp {
                 return;
             }
         };
-        let (size, sweeps) = (self.settings.size, self.settings.sweeps);
+        let (size, method) = (self.settings.size, self.settings.method());
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "diffusion",
             move |job| async move {
                 let problem = crate::diffusion::demo::valley_and_peaks(size);
-                crate::diffusion::jacobi(&backend, &problem, sweeps, &job).await
+                crate::diffusion::fill(&backend, &problem, method, &job).await
             },
             move || repaint.request_repaint(),
         );
@@ -162,11 +162,11 @@ impl StrahlerApp {
         if let Some(result) = self.fill_job.as_ref().and_then(JobHandle::try_take) {
             self.fill_job = None;
             match result {
-                Ok(relaxed) => {
-                    let size = relaxed.field.width();
-                    let summary = RunSummary::from(&relaxed);
+                Ok(filled) => {
+                    let size = filled.field.width();
+                    let summary = RunSummary::from(&filled);
                     self.map
-                        .set_field(ctx, relaxed.field, MAP_WIDTH_M / size as f32);
+                        .set_field(ctx, filled.field, MAP_WIDTH_M / size as f32);
                     self.automation
                         .update(|s| s.last_run = Some(summary.clone()));
                     self.last_run = Some((size, summary));

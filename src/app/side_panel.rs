@@ -5,6 +5,7 @@ use egui::{ComboBox, DragValue, ProgressBar, RichText};
 
 use super::StrahlerApp;
 use crate::compute::BackendChoice;
+use crate::diffusion::{Method, MultigridParams};
 
 /// Grid sizes offered for the fill (square, cells per side).
 pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
@@ -13,6 +14,11 @@ pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
 #[derive(Clone, Debug, PartialEq)]
 pub struct FillSettings {
     pub size: usize,
+    /// Multigrid (converged) or the paper's fixed count of Jacobi sweeps.
+    pub multigrid: bool,
+    /// Residual tolerance of multigrid, as a fraction of the height range.
+    pub tolerance: f32,
+    /// Sweeps of the Jacobi method.
     pub sweeps: u32,
     pub backend: BackendChoice,
 }
@@ -20,9 +26,26 @@ pub struct FillSettings {
 impl Default for FillSettings {
     fn default() -> Self {
         Self {
-            size: 256,
-            sweeps: 3000,
+            size: 512,
+            multigrid: true,
+            tolerance: MultigridParams::default().tolerance,
+            sweeps: 5500,
             backend: BackendChoice::Auto,
+        }
+    }
+}
+
+impl FillSettings {
+    pub fn method(&self) -> Method {
+        if self.multigrid {
+            Method::Multigrid(MultigridParams {
+                tolerance: self.tolerance,
+                ..Default::default()
+            })
+        } else {
+            Method::Jacobi {
+                sweeps: self.sweeps,
+            }
         }
     }
 }
@@ -104,13 +127,24 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     }
     if let Some((size, run)) = &app.last_run {
         ui.label(format!(
-            "Last fill: {size} x {size} on the {} in {:.0} ms",
+            "Last fill: {size} x {size}, {} on the {} in {:.0} ms",
+            run.method,
             run.backend.to_uppercase(),
             run.millis
         ));
+        let how = if run.method == "multigrid" {
+            format!("{} cycles", run.cycles)
+        } else {
+            format!("{} sweeps", run.sweeps)
+        };
+        let state = if run.converged {
+            "converged"
+        } else {
+            "NOT converged"
+        };
         ui.label(format!(
-            "Heights {:.0} to {:.0} m; next sweep would move a cell by {:.3} m",
-            run.min, run.max, run.max_update
+            "{how}, residual {:.1e} of the range ({state}); heights {:.0} to {:.0} m",
+            run.relative_residual, run.min, run.max
         ));
     }
     if let Some(err) = &app.error {

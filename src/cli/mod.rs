@@ -1,6 +1,7 @@
 //! The native command line. `strahler` with no subcommand opens the app window.
 
 mod bench;
+mod fill;
 mod info;
 
 use std::process::ExitCode;
@@ -19,6 +20,8 @@ pub struct Cli {
 pub enum Command {
     /// Print the version, the GPU adapter found and the limits that matter.
     Info(info::InfoArgs),
+    /// Fill the no-data cells of a DEM by harmonic (Laplace) diffusion.
+    Fill(fill::FillArgs),
     /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
     /// and print a table beside the paper's numbers.
     Bench(bench::BenchArgs),
@@ -29,6 +32,7 @@ pub fn run(command: Command) -> ExitCode {
     let result = match command {
         Command::Info(args) => info::run(&args),
         Command::Bench(args) => bench::run(&args),
+        Command::Fill(args) => fill::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

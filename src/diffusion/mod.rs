@@ -44,19 +44,6 @@ pub enum DiffusionError {
     },
 }
 
-/// The outcome of a relaxation run.
-#[derive(Clone, Debug)]
-pub struct Relaxed {
-    pub field: Heightfield,
-    pub sweeps: u32,
-    /// Largest change a further Jacobi sweep would make to a free cell (metres).
-    pub max_update: f32,
-    /// Wall time of the run in milliseconds, readback included.
-    pub millis: f64,
-    /// "cpu" or "gpu".
-    pub backend: &'static str,
-}
-
 /// How to solve.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Method {
@@ -93,8 +80,10 @@ pub struct Filled {
     pub residual: f32,
     /// `residual` over the fixed cells' height range.
     pub relative_residual: f32,
-    /// Whether the tolerance was met (always true for Jacobi, which runs a fixed count).
+    /// Whether the tolerances were met (always true for Jacobi, which runs a fixed count).
     pub converged: bool,
+    /// Estimated remaining error over the range (multigrid only).
+    pub estimated_error: Option<f32>,
     pub millis: f64,
 }
 
@@ -107,20 +96,26 @@ pub async fn fill(
 ) -> Result<Filled, DiffusionError> {
     let start = Instant::now();
     match method {
+        // Exactly `sweeps` sweeps: O(sweeps x cells), two buffers and the mask.
         Method::Jacobi { sweeps } => {
-            let relaxed = jacobi(backend, problem, sweeps, ctx).await?;
+            let field = match backend {
+                Backend::Cpu => cpu::jacobi(problem, sweeps, ctx).await?,
+                Backend::Gpu(gpu) => gpu::jacobi(gpu, problem, sweeps, ctx).await?,
+            };
+            let residual = max_update(&field, problem.fixed());
             let scale = fixed_height_range(problem).max(f32::MIN_POSITIVE);
             Ok(Filled {
                 method: method.key(),
-                backend: relaxed.backend,
+                backend: backend.key(),
                 cycles: 0,
                 sweeps,
                 work_sweeps: sweeps as f32,
-                residual: relaxed.max_update,
-                relative_residual: relaxed.max_update / scale,
+                residual,
+                relative_residual: residual / scale,
                 converged: true,
-                millis: relaxed.millis,
-                field: relaxed.field,
+                estimated_error: None,
+                millis: start.elapsed().as_secs_f64() * 1e3,
+                field,
             })
         }
         Method::Multigrid(params) => {
@@ -137,6 +132,7 @@ pub async fn fill(
                 residual: solved.residual,
                 relative_residual: solved.relative_residual,
                 converged: solved.converged,
+                estimated_error: Some(solved.estimated_error),
                 millis: start.elapsed().as_secs_f64() * 1e3,
                 field: solved.field,
             })
@@ -156,29 +152,4 @@ pub fn fixed_height_range(problem: &Constraints) -> f32 {
         }
     }
     range.map_or(0.0, |(lo, hi)| hi - lo)
-}
-
-/// Runs exactly `sweeps` Jacobi sweeps of eq. 7 on `backend`.
-///
-/// Cost: O(`sweeps` x cells) arithmetic on either backend, O(cells) memory (two buffers and
-/// a bit mask). Progress is reported to `ctx` and cancellation honoured between batches.
-pub async fn jacobi(
-    backend: &Backend,
-    problem: &Constraints,
-    sweeps: u32,
-    ctx: &JobCtx,
-) -> Result<Relaxed, DiffusionError> {
-    let start = Instant::now();
-    let field = match backend {
-        Backend::Cpu => cpu::jacobi(problem, sweeps, ctx).await?,
-        Backend::Gpu(gpu) => gpu::jacobi(gpu, problem, sweeps, ctx).await?,
-    };
-    let max_update = max_update(&field, problem.fixed());
-    Ok(Relaxed {
-        field,
-        sweeps,
-        max_update,
-        millis: start.elapsed().as_secs_f64() * 1e3,
-        backend: backend.key(),
-    })
 }

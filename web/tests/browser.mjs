@@ -93,6 +93,8 @@ async function runMode(url, mode, expectedChecksum) {
     await page.waitForFunction(() => window.strahler.status().lastRun !== null, null, { timeout: 90_000 });
     const run = (await page.evaluate(() => window.strahler.status())).lastRun;
     check('first terrain is shown', run.max - run.min > 300, JSON.stringify(run));
+    check('first terrain is a converged multigrid fill', run.method === 'multigrid' && run.converged,
+      JSON.stringify(run));
     check('first terrain ran on the active path', run.backend === (mode === 'webgpu' ? 'gpu' : 'cpu'),
       run.backend);
 
@@ -100,10 +102,14 @@ async function runMode(url, mode, expectedChecksum) {
     console.log(`  selfTest: cpu ${test.cpu.millis.toFixed(0)} ms` +
       (test.gpu ? `, gpu ${test.gpu.millis.toFixed(0)} ms, rel diff ${test.relative_diff}` : ''));
     check('CPU computation succeeds', /^[0-9a-f]{16}$/.test(test.cpu.checksum) && test.cpu.max > 600);
+    check('multigrid converges on the CPU', test.multigrid.cpu.converged === true,
+      JSON.stringify(test.multigrid.cpu));
     if (mode === 'webgpu') {
       check('GPU computation ran', test.gpu !== null);
       check('GPU result matches CPU', test.relative_diff !== null && test.relative_diff <= 1e-5,
         String(test.relative_diff));
+      check('GPU multigrid converges and matches CPU multigrid', test.multigrid.gpu?.converged === true
+        && test.multigrid.relative_diff <= 1e-4, JSON.stringify(test.multigrid));
     } else {
       check('no GPU computation on the fallback', test.gpu === null);
     }

@@ -1,0 +1,185 @@
+//! `strahler fill`: harmonic void filling of a DEM. Every NaN / no-data cell is free, every
+//! other cell is fixed, and the free cells are solved from eq. 7 (Laplace, zero flux at the
+//! map border) by multigrid, or by exactly N Jacobi sweeps (the paper's method).
+
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+
+use crate::compute::{BackendChoice, ComputePath, CpuReason};
+use crate::dem::{self, ReadLimits};
+use crate::diffusion::{self, Constraints, FixedMask, Method, MultigridParams};
+use crate::gpu::GpuContext;
+use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
+
+#[derive(Debug, Args)]
+pub struct FillArgs {
+    /// Input GeoTIFF; its no-data (NaN or GDAL_NODATA) cells are filled.
+    pub input: PathBuf,
+    /// Output GeoTIFF (float32, georeferencing kept).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// auto (GPU if it computes, else CPU), cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    pub backend: BackendChoice,
+    /// multigrid (converged) or jacobi (exactly --iterations sweeps).
+    #[arg(long, default_value = "multigrid", value_parser = ["multigrid", "jacobi"])]
+    pub method: String,
+    /// Jacobi sweeps (with --method jacobi), or the multigrid cycle limit.
+    #[arg(long)]
+    pub iterations: Option<u32>,
+    /// Multigrid residual tolerance as a fraction of the fixed heights' range.
+    #[arg(long, default_value_t = MultigridParams::default().tolerance)]
+    pub tol: f32,
+    /// Write a JSON report of the solve here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Refuse inputs with more cells than this.
+    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    pub max_cells: u64,
+}
+
+/// What `--report` writes.
+#[derive(Debug, Serialize)]
+pub struct FillReport {
+    pub input: String,
+    pub output: String,
+    pub width: usize,
+    pub height: usize,
+    pub free_cells: usize,
+    pub fixed_cells: usize,
+    pub backend: String,
+    pub method: String,
+    pub cycles: u32,
+    pub sweeps: u32,
+    pub work_sweeps: f32,
+    pub residual: f32,
+    pub relative_residual: f32,
+    pub estimated_error: Option<f32>,
+    pub converged: bool,
+    pub millis: f64,
+}
+
+pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
+    if !(args.tol.is_finite() && args.tol > 0.0) {
+        return Err(format!("--tol must be a positive number, got {}", args.tol).into());
+    }
+    let method = match (args.method.as_str(), args.iterations) {
+        ("jacobi", Some(sweeps)) => Method::Jacobi { sweeps },
+        ("jacobi", None) => return Err("--method jacobi needs --iterations N".into()),
+        (_, cycles) => Method::Multigrid(MultigridParams {
+            tolerance: args.tol,
+            max_cycles: cycles.unwrap_or(MultigridParams::default().max_cycles),
+            ..Default::default()
+        }),
+    };
+    let bytes = std::fs::read(&args.input)
+        .map_err(|e| format!("cannot read {}: {e}", args.input.display()))?;
+    let dem = dem::geotiff::read(
+        &bytes,
+        ReadLimits {
+            max_cells: args.max_cells,
+        },
+    )
+    .map_err(|e| format!("{}: {e}", args.input.display()))?;
+    let problem = void_problem(&dem.field);
+    let free = problem.width() * problem.height() - problem.fixed().count();
+
+    let backend = if free == 0 {
+        crate::compute::Backend::Cpu
+    } else {
+        let path = if args.backend == BackendChoice::Cpu {
+            ComputePath::Cpu {
+                reason: CpuReason::NoAdapter("the CPU was requested".into()),
+            }
+        } else {
+            match pollster::block_on(GpuContext::headless()) {
+                Ok(context) => ComputePath::from_context(context),
+                Err(err) => ComputePath::Cpu {
+                    reason: CpuReason::NoAdapter(err.to_string()),
+                },
+            }
+        };
+        args.backend.resolve(&path)?
+    };
+    let filled = if free == 0 {
+        None
+    } else {
+        Some(pollster::block_on(diffusion::fill(
+            &backend,
+            &problem,
+            method,
+            &JobCtx::detached(),
+        ))?)
+    };
+    let field = filled.as_ref().map_or(&dem.field, |f| &f.field);
+    let out = dem::geotiff::write(field, &dem.georef)?;
+    std::fs::write(&args.out, out)
+        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+
+    let report = FillReport {
+        input: args.input.display().to_string(),
+        output: args.out.display().to_string(),
+        width: problem.width(),
+        height: problem.height(),
+        free_cells: free,
+        fixed_cells: problem.fixed().count(),
+        backend: backend.key().to_owned(),
+        method: method.key().to_owned(),
+        cycles: filled.as_ref().map_or(0, |f| f.cycles),
+        sweeps: filled.as_ref().map_or(0, |f| f.sweeps),
+        work_sweeps: filled.as_ref().map_or(0.0, |f| f.work_sweeps),
+        residual: filled.as_ref().map_or(0.0, |f| f.residual),
+        relative_residual: filled.as_ref().map_or(0.0, |f| f.relative_residual),
+        estimated_error: filled.as_ref().and_then(|f| f.estimated_error),
+        converged: filled.as_ref().is_none_or(|f| f.converged),
+        millis: filled.as_ref().map_or(0.0, |f| f.millis),
+    };
+    println!(
+        "filled {} of {} cells ({} x {}) by {} on the {} in {:.0} ms: {} cycles, {} sweeps, residual {:.1e} of the range{}",
+        report.free_cells,
+        report.width * report.height,
+        report.width,
+        report.height,
+        report.method,
+        report.backend,
+        report.millis,
+        report.cycles,
+        report.sweeps,
+        report.relative_residual,
+        if report.converged {
+            ""
+        } else {
+            " (NOT converged)"
+        }
+    );
+    if let Some(path) = &args.report {
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}
+
+/// Finite cells fixed, NaN cells free (starting at the mean of the fixed heights).
+pub fn void_problem(field: &Heightfield) -> Constraints {
+    let (w, h) = (field.width(), field.height());
+    let mut fixed = FixedMask::new(w, h);
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for (i, v) in field.data().iter().enumerate() {
+        if v.is_finite() {
+            fixed.fix(i % w, i / w);
+            sum += f64::from(*v);
+            n += 1;
+        }
+    }
+    let mean = if n > 0 { (sum / n as f64) as f32 } else { 0.0 };
+    let initial: Vec<f32> = field
+        .data()
+        .iter()
+        .map(|v| if v.is_finite() { *v } else { mean })
+        .collect();
+    let initial = Heightfield::from_vec(w, h, initial).expect("same size as the input");
+    Constraints::new(initial, fixed).expect("fixed cells are finite by construction")
+}

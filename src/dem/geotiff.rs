@@ -1,0 +1,183 @@
+//! GeoTIFF: single-band rasters of any integer or float sample type, strips or tiles,
+//! uncompressed, LZW or Deflate (with predictors), GDAL_NODATA; written as float32 with the
+//! georeferencing carried over and NaN as no-data.
+
+use std::io::Cursor;
+
+use tiff::ColorType;
+use tiff::decoder::{Decoder, DecodingResult, Limits};
+use tiff::encoder::colortype::Gray32Float;
+use tiff::encoder::{Compression, TiffEncoder};
+use tiff::tags::Tag;
+
+use super::{Dem, DemError, GeoRef, ReadLimits};
+use crate::heightfield::Heightfield;
+
+/// Reads the first image of a GeoTIFF. Cells equal to GDAL_NODATA (and non-finite floats)
+/// become NaN. The size is checked against `limits` before the pixels are decoded.
+pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
+    let tiff_err = |e: tiff::TiffError| DemError::Tiff(e.to_string());
+    let mut decoder = Decoder::new(Cursor::new(bytes)).map_err(tiff_err)?;
+    let (width, height) = decoder.dimensions().map_err(tiff_err)?;
+    limits.check(u64::from(width), u64::from(height))?;
+    // The decoder's own buffer limit: the raster at 8 bytes a sample, nothing more.
+    let mut decoder_limits = Limits::default();
+    decoder_limits.decoding_buffer_size = (u64::from(width) * u64::from(height) * 8)
+        .try_into()
+        .unwrap_or(usize::MAX);
+    decoder = decoder.with_limits(decoder_limits);
+    match decoder.colortype().map_err(tiff_err)? {
+        ColorType::Gray(_) => {}
+        other => {
+            return Err(DemError::Unsupported(format!(
+                "{other:?}: an elevation GeoTIFF has one band of samples"
+            )));
+        }
+    }
+    let georef = GeoRef {
+        pixel_scale: decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).ok(),
+        tiepoint: decoder.get_tag_f64_vec(Tag::ModelTiepointTag).ok(),
+        transformation: decoder.get_tag_f64_vec(Tag::ModelTransformationTag).ok(),
+        geo_keys: decoder.get_tag_u16_vec(Tag::GeoKeyDirectoryTag).ok(),
+        geo_doubles: decoder.get_tag_f64_vec(Tag::GeoDoubleParamsTag).ok(),
+        geo_ascii: decoder.get_tag_ascii_string(Tag::GeoAsciiParamsTag).ok(),
+    };
+    let nodata = decoder
+        .get_tag_ascii_string(Tag::GdalNodata)
+        .ok()
+        .and_then(|s| s.trim_matches(char::from(0)).trim().parse::<f64>().ok());
+    let samples = decoder.read_image().map_err(tiff_err)?;
+    let values = to_f32(samples, nodata)?;
+    let (w, h) = (width as usize, height as usize);
+    if values.len() != w * h {
+        return Err(DemError::Tiff(format!(
+            "{} samples decoded for {w} x {h} cells",
+            values.len()
+        )));
+    }
+    let field = Heightfield::from_vec(w, h, values).map_err(|e| DemError::Tiff(e.to_string()))?;
+    Ok(Dem { field, georef })
+}
+
+/// Converts decoded samples to `f32` heights, mapping no-data and non-finite values to NaN.
+fn to_f32(samples: DecodingResult, nodata: Option<f64>) -> Result<Vec<f32>, DemError> {
+    fn map<T: Copy>(v: Vec<T>, nodata: Option<f64>, f: impl Fn(T) -> f64) -> Vec<f32> {
+        v.into_iter()
+            .map(|s| {
+                let x = f(s);
+                if !x.is_finite() || nodata.is_some_and(|n| x == n) {
+                    f32::NAN
+                } else {
+                    x as f32
+                }
+            })
+            .collect()
+    }
+    Ok(match samples {
+        DecodingResult::U8(v) => map(v, nodata, f64::from),
+        DecodingResult::U16(v) => map(v, nodata, f64::from),
+        DecodingResult::U32(v) => map(v, nodata, f64::from),
+        DecodingResult::I8(v) => map(v, nodata, f64::from),
+        DecodingResult::I16(v) => map(v, nodata, f64::from),
+        DecodingResult::I32(v) => map(v, nodata, f64::from),
+        DecodingResult::F32(v) => map(v, nodata, f64::from),
+        DecodingResult::F64(v) => map(v, nodata, |x| x),
+        DecodingResult::U64(v) => map(v, nodata, |x| x as f64),
+        DecodingResult::I64(v) => map(v, nodata, |x| x as f64),
+        DecodingResult::F16(v) => map(v, nodata, |x| f64::from(x.to_f32())),
+    })
+}
+
+/// Writes `field` as a Deflate-compressed float32 GeoTIFF with `georef`'s tags and
+/// GDAL_NODATA = nan when the field has no-data cells.
+pub fn write(field: &Heightfield, georef: &GeoRef) -> Result<Vec<u8>, DemError> {
+    let err = |e: tiff::TiffError| DemError::Write(e.to_string());
+    let mut out = Cursor::new(Vec::new());
+    let mut encoder = TiffEncoder::new(&mut out)
+        .map_err(err)?
+        .with_compression(Compression::Deflate(Default::default()));
+    let (w, h) = (field.width() as u32, field.height() as u32);
+    let mut image = encoder.new_image::<Gray32Float>(w, h).map_err(err)?;
+    {
+        let dir = image.encoder();
+        if let Some(v) = &georef.pixel_scale {
+            dir.write_tag(Tag::ModelPixelScaleTag, v.as_slice())
+                .map_err(err)?;
+        }
+        if let Some(v) = &georef.tiepoint {
+            dir.write_tag(Tag::ModelTiepointTag, v.as_slice())
+                .map_err(err)?;
+        }
+        if let Some(v) = &georef.transformation {
+            dir.write_tag(Tag::ModelTransformationTag, v.as_slice())
+                .map_err(err)?;
+        }
+        if let Some(v) = &georef.geo_keys {
+            dir.write_tag(Tag::GeoKeyDirectoryTag, v.as_slice())
+                .map_err(err)?;
+        }
+        if let Some(v) = &georef.geo_doubles {
+            dir.write_tag(Tag::GeoDoubleParamsTag, v.as_slice())
+                .map_err(err)?;
+        }
+        if let Some(v) = &georef.geo_ascii {
+            dir.write_tag(Tag::GeoAsciiParamsTag, v.as_str())
+                .map_err(err)?;
+        }
+        if field.data().iter().any(|v| v.is_nan()) {
+            dir.write_tag(Tag::GdalNodata, "nan").map_err(err)?;
+        }
+    }
+    image.write_data(field.data()).map_err(err)?;
+    Ok(out.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn float_round_trip_is_bit_exact_and_keeps_georeferencing() {
+        let data: Vec<f32> = (0..35).map(|i| (i as f32 * 1.37).sin() * 100.0).collect();
+        let mut data = data;
+        data[4] = f32::NAN;
+        let field = Heightfield::from_vec(7, 5, data).unwrap();
+        let georef = GeoRef {
+            pixel_scale: Some(vec![90.0, 90.0, 0.0]),
+            tiepoint: Some(vec![0.0, 0.0, 0.0, 500_000.0, 9_000_000.0, 0.0]),
+            geo_keys: Some(vec![1, 1, 0, 1, 3072, 0, 1, 32725]),
+            ..Default::default()
+        };
+        let bytes = write(&field, &georef).unwrap();
+        let dem = read(&bytes, ReadLimits::default()).unwrap();
+        assert_eq!(dem.georef, georef);
+        for (a, b) in dem.field.data().iter().zip(field.data()) {
+            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
+        }
+        assert_eq!(dem.void_cells(), 1);
+    }
+
+    #[test]
+    fn size_is_refused_before_decoding() {
+        let field = Heightfield::filled(64, 64, 1.0).unwrap();
+        let bytes = write(&field, &GeoRef::default()).unwrap();
+        let err = read(&bytes, ReadLimits { max_cells: 1000 }).unwrap_err();
+        assert!(
+            err.to_string().contains("exceed the limit of 1000 cells"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn garbage_and_truncation_are_errors_not_panics() {
+        assert!(read(b"not a tiff at all", ReadLimits::default()).is_err());
+        let field = Heightfield::filled(40, 30, 2.5).unwrap();
+        let bytes = write(&field, &GeoRef::default()).unwrap();
+        for cut in [8, 40, bytes.len() / 2, bytes.len() - 3] {
+            assert!(
+                read(&bytes[..cut], ReadLimits::default()).is_err(),
+                "cut at {cut}"
+            );
+        }
+    }
+}

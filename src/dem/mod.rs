@@ -1,0 +1,98 @@
+//! Real elevation rasters in and out. GeoTIFF for now; the DEM issue adds SRTM `.hgt`, ESRI
+//! ASCII grids and PNG heightmaps behind the same [`Dem`] type.
+//!
+//! Every reader checks the size from the header against [`ReadLimits`] before allocating,
+//! turns no-data into NaN, and returns a [`DemError`] that says what is wrong; no panic is
+//! reachable from a file's bytes.
+
+pub mod geotiff;
+
+use thiserror::Error;
+
+use crate::heightfield::Heightfield;
+
+/// Why a file could not be read or written.
+#[derive(Debug, Error)]
+pub enum DemError {
+    #[error(
+        "{width} x {height} cells exceed the limit of {limit} cells (raise it with --max-cells)"
+    )]
+    TooLarge { width: u64, height: u64, limit: u64 },
+    #[error("not a readable GeoTIFF: {0}")]
+    Tiff(String),
+    #[error("unsupported GeoTIFF layout: {0}")]
+    Unsupported(String),
+    #[error("the file has no cells")]
+    Empty,
+    #[error("could not write the GeoTIFF: {0}")]
+    Write(String),
+}
+
+/// Size limit checked before any allocation.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct ReadLimits {
+    /// Largest `width * height` accepted. The default, 8192^2 (256 MiB as `f32`), is what a
+    /// browser tab can hold alongside the pipeline's buffers.
+    pub max_cells: u64,
+}
+
+impl Default for ReadLimits {
+    fn default() -> Self {
+        Self {
+            max_cells: 8192 * 8192,
+        }
+    }
+}
+
+impl ReadLimits {
+    pub fn check(&self, width: u64, height: u64) -> Result<(), DemError> {
+        if width == 0 || height == 0 {
+            return Err(DemError::Empty);
+        }
+        match width.checked_mul(height) {
+            Some(cells) if cells <= self.max_cells => Ok(()),
+            _ => Err(DemError::TooLarge {
+                width,
+                height,
+                limit: self.max_cells,
+            }),
+        }
+    }
+}
+
+/// GeoTIFF georeferencing, kept verbatim so a written file lands where the read one was.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct GeoRef {
+    /// ModelPixelScale (33550): cell size in x, y, z.
+    pub pixel_scale: Option<Vec<f64>>,
+    /// ModelTiepoint (33922): raster point to model point.
+    pub tiepoint: Option<Vec<f64>>,
+    /// ModelTransformation (34264): a full affine matrix, instead of scale + tiepoint.
+    pub transformation: Option<Vec<f64>>,
+    /// GeoKeyDirectory (34735), GeoDoubleParams (34736), GeoAsciiParams (34737): the CRS.
+    pub geo_keys: Option<Vec<u16>>,
+    pub geo_doubles: Option<Vec<f64>>,
+    pub geo_ascii: Option<String>,
+}
+
+impl GeoRef {
+    /// Horizontal cell size in the CRS's units, when the file says.
+    pub fn cell_size(&self) -> Option<(f64, f64)> {
+        let s = self.pixel_scale.as_ref()?;
+        (s.len() >= 2 && s[0] > 0.0 && s[1] > 0.0).then(|| (s[0], s[1]))
+    }
+}
+
+/// An elevation raster: heights (NaN where there is no data) and where they are.
+#[derive(Clone, Debug)]
+pub struct Dem {
+    pub field: Heightfield,
+    pub georef: GeoRef,
+}
+
+impl Dem {
+    /// Number of no-data (NaN) cells.
+    pub fn void_cells(&self) -> usize {
+        self.field.data().iter().filter(|v| v.is_nan()).count()
+    }
+}
