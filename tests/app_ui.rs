@@ -91,3 +91,24 @@ fn fill_can_be_cancelled_and_the_ui_keeps_the_old_terrain() {
     wait_idle(&mut harness);
     assert_eq!(harness.state().terrain().unwrap().checksum(), before);
 }
+
+#[test]
+fn solver_switch_shows_the_matching_parameter_and_runs_jacobi() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+    harness.get_by_label("Tolerance");
+    assert!(harness.query_by_label("Sweeps").is_none());
+    harness.get_by_label("Jacobi").click();
+    harness.run_steps(2);
+    harness.get_by_label("Sweeps");
+    assert!(!harness.state().settings().multigrid);
+    harness.state_mut().settings_mut().sweeps = 40;
+    harness.get_by_label("Fill terrain").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    harness.get_by_label_contains("Jacobi on the");
+    harness.get_by_label_contains("40 sweeps");
+}

@@ -99,6 +99,11 @@ impl StrahlerApp {
         self.map.field()
     }
 
+    /// The diffusion controls.
+    pub fn settings(&self) -> &FillSettings {
+        &self.settings
+    }
+
     /// The diffusion controls (tests and automation change them like the user would).
     pub fn settings_mut(&mut self) -> &mut FillSettings {
         &mut self.settings
@@ -197,8 +202,9 @@ impl StrahlerApp {
             })
         });
         if self.busy() {
-            // Keep the progress bar moving; results also trigger a repaint when they land.
-            ctx.request_repaint_after(std::time::Duration::from_millis(50));
+            // Keep the progress bar moving (10 Hz is enough, and leaves the CPU path its time);
+            // results also trigger a repaint when they land.
+            ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
     }
 }

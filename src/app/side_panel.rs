@@ -90,15 +90,36 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 });
             ui.end_row();
 
-            ui.label("Sweeps").on_hover_text(
-                "Jacobi iterations of eq. 7 (the paper runs 5500). More sweeps spread the fixed \
-                 heights further.",
+            ui.label("Solver").on_hover_text(
+                "Multigrid solves eq. 7 to convergence in a few cycles. Jacobi runs the paper's \
+                 fixed number of sweeps (5500), far from converged on large grids.",
             );
-            ui.add(
-                DragValue::new(&mut app.settings.sweeps)
-                    .range(0..=100_000)
-                    .speed(20),
-            );
+            ui.horizontal(|ui| {
+                ui.selectable_value(&mut app.settings.multigrid, true, "multigrid");
+                ui.selectable_value(&mut app.settings.multigrid, false, "Jacobi");
+            });
+            ui.end_row();
+
+            if app.settings.multigrid {
+                ui.label("Tolerance").on_hover_text(
+                    "Stop when one more Jacobi sweep would move no cell by more than this \
+                     fraction of the height range (and the estimated error is small too).",
+                );
+                ui.add(
+                    DragValue::new(&mut app.settings.tolerance)
+                        .range(1e-8..=1e-2)
+                        .speed(1e-7)
+                        .custom_formatter(|v, _| format!("{v:.0e}")),
+                );
+            } else {
+                ui.label("Sweeps")
+                    .on_hover_text("Jacobi iterations of eq. 7 (the paper runs 5500).");
+                ui.add(
+                    DragValue::new(&mut app.settings.sweeps)
+                        .range(0..=100_000)
+                        .speed(20),
+                );
+            }
             ui.end_row();
 
             ui.label("Compute on");
@@ -128,7 +149,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     if let Some((size, run)) = &app.last_run {
         ui.label(format!(
             "Last fill: {size} x {size}, {} on the {} in {:.0} ms",
-            run.method,
+            if run.method == "jacobi" { "Jacobi" } else { run.method },
             run.backend.to_uppercase(),
             run.millis
         ));

@@ -28,7 +28,7 @@ pub struct BenchArgs {
     /// Jacobi sweeps for the paper's baseline.
     #[arg(long, default_value_t = 5500)]
     pub jacobi_sweeps: u32,
-    /// Largest side on which the Jacobi baseline runs on the CPU (it is slow by design).
+    /// Largest side on which the Jacobi baseline runs (it is slow by design).
     #[arg(long, default_value_t = 1024)]
     pub jacobi_max_size: usize,
 }
@@ -80,8 +80,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         for backend in &backends {
             let method = Method::Multigrid(MultigridParams::default());
             rows.push(run_one(backend, &problem, method, &reference));
-            let jacobi_here = size <= args.jacobi_max_size || matches!(backend, Backend::Gpu(_));
-            if jacobi_here && args.jacobi_sweeps > 0 {
+            if size <= args.jacobi_max_size && args.jacobi_sweeps > 0 {
                 let method = Method::Jacobi {
                     sweeps: args.jacobi_sweeps,
                 };
