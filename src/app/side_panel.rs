@@ -149,7 +149,11 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     if let Some((size, run)) = &app.last_run {
         ui.label(format!(
             "Last fill: {size} x {size}, {} on the {} in {:.0} ms",
-            if run.method == "jacobi" { "Jacobi" } else { run.method },
+            if run.method == "jacobi" {
+                "Jacobi"
+            } else {
+                run.method
+            },
             run.backend.to_uppercase(),
             run.millis
         ));

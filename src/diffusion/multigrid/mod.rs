@@ -23,6 +23,7 @@
 
 pub(crate) mod hierarchy;
 pub mod ops;
+mod parallel;
 
 use web_time::{Duration, Instant};
 

@@ -7,86 +7,142 @@
 
 use crate::diffusion::FixedMask;
 
-/// Sum of the in-grid neighbours of cell (`x`, `y`) and their count.
-#[inline(always)]
-fn neighbours(u: &[f32], w: usize, h: usize, x: usize, y: usize) -> (f32, f32) {
-    let i = y * w + x;
-    let mut sum = 0.0f32;
-    let mut count = 0.0f32;
-    if x > 0 {
-        sum += u[i - 1];
-        count += 1.0;
-    }
-    if x + 1 < w {
-        sum += u[i + 1];
-        count += 1.0;
-    }
-    if y > 0 {
-        sum += u[i - w];
-        count += 1.0;
-    }
-    if y + 1 < h {
-        sum += u[i + w];
-        count += 1.0;
-    }
-    (sum, count)
-}
+use super::parallel;
+
+/// Copies of the rows just above and below a band (absent at the grid's border).
+type Halo = (Option<Vec<f32>>, Option<Vec<f32>>);
 
 /// One red-black Gauss-Seidel sweep: first the cells with even `x + y`, then the odd ones;
 /// each free cell solves its own row of `A u = b`: `u_i = (b_i + sum u_j) / n_i`.
-/// Within a colour the updates are independent, so the GPU gives the same result. O(cells).
+/// Within a colour the updates are independent, so the GPU gives the same result, and so do
+/// any number of threads: natively, large levels are split into row bands relaxed in
+/// parallel, each band reading copies of the two rows bordering it (the other colour, which
+/// no thread writes during this half-sweep). O(cells).
 pub fn relax_red_black(u: &mut [f32], b: Option<&[f32]>, fixed: &FixedMask, w: usize, h: usize) {
+    let bands = parallel::bands(w, h);
     for colour in 0..2 {
-        for y in 0..h {
-            let first = (y + colour) & 1;
-            if y == 0 || y + 1 == h || w < 3 {
-                relax_row_general(u, b, fixed, w, h, y, first);
-                continue;
-            }
-            // Interior row: split the buffer so the row above, this row and the row below
-            // are separate slices (no index arithmetic or bounds checks on the hot path).
-            let (above, rest) = u.split_at_mut(y * w);
-            let (row, below) = rest.split_at_mut(w);
-            let up = &above[(y - 1) * w..];
-            let down = &below[..w];
-            let rhs = b.map(|b| &b[y * w..(y + 1) * w]);
-            let base = y * w;
+        if bands <= 1 {
+            relax_band(u, 0, None, None, b, fixed, (w, h), colour);
+            continue;
+        }
+        let rows_per_band = h.div_ceil(bands);
+        // Halo rows: the row above and below each band, copied before anything changes.
+        let halos: Vec<Halo> = (0..h)
+            .step_by(rows_per_band)
+            .map(|y0| {
+                let y1 = (y0 + rows_per_band).min(h);
+                let above = (y0 > 0).then(|| u[(y0 - 1) * w..y0 * w].to_vec());
+                let below = (y1 < h).then(|| u[y1 * w..(y1 + 1) * w].to_vec());
+                (above, below)
+            })
+            .collect();
+        parallel::for_each_band(u, rows_per_band * w, |k, band| {
+            let (above, below) = &halos[k];
+            relax_band(
+                band,
+                k * rows_per_band,
+                above.as_deref(),
+                below.as_deref(),
+                b,
+                fixed,
+                (w, h),
+                colour,
+            );
+        });
+    }
+}
+
+/// One colour of a red-black half-sweep over `band`, the rows `y0..` of a `w` x `h` grid.
+/// `above` / `below` are the rows just outside the band (absent at the grid's border).
+#[allow(clippy::too_many_arguments)]
+fn relax_band(
+    band: &mut [f32],
+    y0: usize,
+    above: Option<&[f32]>,
+    below: Option<&[f32]>,
+    b: Option<&[f32]>,
+    fixed: &FixedMask,
+    (w, h): (usize, usize),
+    colour: usize,
+) {
+    let rows = band.len() / w;
+    for local in 0..rows {
+        let y = y0 + local;
+        let (before, rest) = band.split_at_mut(local * w);
+        let (row, after) = rest.split_at_mut(w);
+        let up = if local > 0 {
+            Some(&before[(local - 1) * w..])
+        } else {
+            above
+        };
+        let down = if local + 1 < rows {
+            Some(&after[..w])
+        } else {
+            below
+        };
+        let rhs = b.map(|b| &b[y * w..(y + 1) * w]);
+        relax_row(row, up, down, rhs, fixed, y * w, (y + colour) & 1);
+        debug_assert!(y < h);
+    }
+}
+
+/// One colour of one row: the cells `first, first + 2, ...`. `up` / `down` are the rows
+/// above and below (absent at the top and bottom border of the grid).
+#[inline(always)]
+fn relax_row(
+    row: &mut [f32],
+    up: Option<&[f32]>,
+    down: Option<&[f32]>,
+    rhs: Option<&[f32]>,
+    fixed: &FixedMask,
+    base: usize,
+    first: usize,
+) {
+    let w = row.len();
+    match (up, down) {
+        (Some(up), Some(down)) if w >= 3 => {
             let mut x = first;
             if x == 0 {
-                relax_cell_general(row, up, down, rhs, fixed, base, 0, w);
+                relax_cell(row, Some(up), Some(down), rhs, fixed, base, 0);
                 x = 2;
             }
             while x + 1 < w {
                 if !fixed.is_fixed_index(base + x) {
                     let r = rhs.map_or(0.0, |r| r[x]);
-                    // Same sum order as `neighbours` (left, right, up, down), n = 4.
+                    // Same sum order as `relax_cell` (left, right, up, down), n = 4.
                     row[x] = (r + (((row[x - 1] + row[x + 1]) + up[x]) + down[x])) * 0.25;
                 }
                 x += 2;
             }
             if x == w - 1 {
-                relax_cell_general(row, up, down, rhs, fixed, base, x, w);
+                relax_cell(row, Some(up), Some(down), rhs, fixed, base, x);
+            }
+        }
+        _ => {
+            let mut x = first;
+            while x < w {
+                relax_cell(row, up, down, rhs, fixed, base, x);
+                x += 2;
             }
         }
     }
 }
 
-/// One cell of an interior row at the left or right border (3 neighbours).
+/// One cell with whatever neighbours it has (the general case at the grid's border).
 #[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn relax_cell_general(
+fn relax_cell(
     row: &mut [f32],
-    up: &[f32],
-    down: &[f32],
+    up: Option<&[f32]>,
+    down: Option<&[f32]>,
     rhs: Option<&[f32]>,
     fixed: &FixedMask,
     base: usize,
     x: usize,
-    w: usize,
 ) {
     if fixed.is_fixed_index(base + x) {
         return;
     }
+    let w = row.len();
     let mut sum = 0.0f32;
     let mut count = 0.0f32;
     if x > 0 {
@@ -97,32 +153,16 @@ fn relax_cell_general(
         sum += row[x + 1];
         count += 1.0;
     }
-    sum += up[x];
-    sum += down[x];
-    count += 2.0;
-    row[x] = (rhs.map_or(0.0, |r| r[x]) + sum) / count;
-}
-
-/// One colour of a top or bottom row (or of a grid too narrow for the fast path).
-fn relax_row_general(
-    u: &mut [f32],
-    b: Option<&[f32]>,
-    fixed: &FixedMask,
-    w: usize,
-    h: usize,
-    y: usize,
-    first: usize,
-) {
-    let mut x = first;
-    while x < w {
-        let i = y * w + x;
-        if !fixed.is_fixed_index(i) {
-            let (sum, count) = neighbours(u, w, h, x, y);
-            if count > 0.0 {
-                u[i] = (b.map_or(0.0, |b| b[i]) + sum) / count;
-            }
-        }
-        x += 2;
+    if let Some(up) = up {
+        sum += up[x];
+        count += 1.0;
+    }
+    if let Some(down) = down {
+        sum += down[x];
+        count += 1.0;
+    }
+    if count > 0.0 {
+        row[x] = (rhs.map_or(0.0, |r| r[x]) + sum) / count;
     }
 }
 
@@ -248,11 +288,17 @@ pub fn restrict_residual(
 ) {
     // Row by row over the fine grid: each coarse cell accumulates its children in the order
     // (2y, 2x), (2y, 2x+1), (2y+1, 2x), (2y+1, 2x+1), as the WGSL kernel does.
-    coarse.fill(0.0);
-    for y in 0..h {
-        let row = &mut coarse[(y / 2) * cw..(y / 2 + 1) * cw];
-        residuals_in_row(u, b, fixed, (w, h), y, |x, r| row[x / 2] += r);
-    }
+    let rows_per_band = h.div_ceil(2).div_ceil(parallel::bands(w, h)).max(1);
+    parallel::for_each_band(coarse, rows_per_band * cw, |k, band| {
+        band.fill(0.0);
+        let first_coarse_row = k * rows_per_band;
+        for (local, row) in band.chunks_exact_mut(cw).enumerate() {
+            let cy = first_coarse_row + local;
+            for y in 2 * cy..(2 * cy + 2).min(h) {
+                residuals_in_row(u, b, fixed, (w, h), y, |x, r| row[x / 2] += r);
+            }
+        }
+    });
 }
 
 /// Coarse-grid coordinate and weights of a fine cell along one axis (cell-centred bilinear
@@ -302,21 +348,38 @@ fn prolong(
     (w, h): (usize, usize),
     coarse: &[f32],
     (cw, ch): (usize, usize),
-    apply: impl Fn(&mut f32, f32),
+    apply: impl Fn(&mut f32, f32) + Sync,
 ) {
-    for (y, row) in u.chunks_exact_mut(w).enumerate().take(h) {
-        let (yn, yf, wy) = axis(y, ch);
-        let near_row = &coarse[yn * cw..(yn + 1) * cw];
-        let far_row = &coarse[yf * cw..(yf + 1) * cw];
-        for (x, cell) in row.iter_mut().enumerate() {
-            if fixed.is_fixed_index(y * w + x) {
-                continue;
-            }
-            let (xn, xf, wx) = axis(x, cw);
-            let near = near_row[xn] * (1.0 - wx) + near_row[xf] * wx;
-            let far = far_row[xn] * (1.0 - wx) + far_row[xf] * wx;
-            apply(cell, near * (1.0 - wy) + far * wy);
+    let rows_per_band = h.div_ceil(parallel::bands(w, h)).max(1);
+    parallel::for_each_band(u, rows_per_band * w, |k, band| {
+        for (local, row) in band.chunks_exact_mut(w).enumerate() {
+            let y = k * rows_per_band + local;
+            prolong_row(row, y, fixed, w, coarse, (cw, ch), &apply);
         }
+    });
+}
+
+#[inline(always)]
+fn prolong_row(
+    row: &mut [f32],
+    y: usize,
+    fixed: &FixedMask,
+    w: usize,
+    coarse: &[f32],
+    (cw, ch): (usize, usize),
+    apply: &impl Fn(&mut f32, f32),
+) {
+    let (yn, yf, wy) = axis(y, ch);
+    let near_row = &coarse[yn * cw..(yn + 1) * cw];
+    let far_row = &coarse[yf * cw..(yf + 1) * cw];
+    for (x, cell) in row.iter_mut().enumerate() {
+        if fixed.is_fixed_index(y * w + x) {
+            continue;
+        }
+        let (xn, xf, wx) = axis(x, cw);
+        let near = near_row[xn] * (1.0 - wx) + near_row[xf] * wx;
+        let far = far_row[xn] * (1.0 - wx) + far_row[xf] * wx;
+        apply(cell, near * (1.0 - wy) + far * wy);
     }
 }
 
@@ -344,6 +407,26 @@ mod tests {
                 v[3 * w + x]
             );
         }
+    }
+
+    #[test]
+    fn banded_relaxation_gives_the_same_bits_as_serial() {
+        // Large enough to be split into bands on a machine with several cores.
+        let (w, h) = (301, 263);
+        let mut fixed = FixedMask::new(w, h);
+        let mut u: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 1000) as f32 * 0.37).collect();
+        for i in (0..w * h).step_by(53) {
+            fixed.fix(i % w, i / w);
+        }
+        let b: Vec<f32> = (0..w * h).map(|i| (i % 17) as f32 * 0.01).collect();
+        let mut serial = u.clone();
+        for _ in 0..3 {
+            relax_red_black(&mut u, Some(&b), &fixed, w, h);
+            for colour in 0..2 {
+                relax_band(&mut serial, 0, None, None, Some(&b), &fixed, (w, h), colour);
+            }
+        }
+        assert!(u.iter().zip(&serial).all(|(a, b)| a.to_bits() == b.to_bits()));
     }
 
     #[test]
