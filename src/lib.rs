@@ -12,6 +12,7 @@
 //! - [`diffusion`]: Laplace diffusion with fixed cells (seed paper 000, eqs. 6-7): multigrid
 //!   and the paper's Jacobi baseline, on CPU and GPU.
 //! - [`dem`]: real elevation rasters in and out (GeoTIFF).
+//! - [`river`]: Tokunaga river networks grown by an L-system (seed paper 000, Sec. IV).
 //! - [`jobs`]: background work with progress and cancellation that never blocks the UI.
 //! - [`app`]: the eframe application.
 
@@ -22,6 +23,7 @@ pub mod diffusion;
 pub mod gpu;
 pub mod heightfield;
 pub mod jobs;
+pub mod river;
 
 #[cfg(not(target_arch = "wasm32"))]
 pub mod cli;

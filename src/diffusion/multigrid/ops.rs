@@ -414,7 +414,9 @@ mod tests {
         // Large enough to be split into bands on a machine with several cores.
         let (w, h) = (301, 263);
         let mut fixed = FixedMask::new(w, h);
-        let mut u: Vec<f32> = (0..w * h).map(|i| ((i * 7919) % 1000) as f32 * 0.37).collect();
+        let mut u: Vec<f32> = (0..w * h)
+            .map(|i| ((i * 7919) % 1000) as f32 * 0.37)
+            .collect();
         for i in (0..w * h).step_by(53) {
             fixed.fix(i % w, i / w);
         }
@@ -426,7 +428,11 @@ mod tests {
                 relax_band(&mut serial, 0, None, None, Some(&b), &fixed, (w, h), colour);
             }
         }
-        assert!(u.iter().zip(&serial).all(|(a, b)| a.to_bits() == b.to_bits()));
+        assert!(
+            u.iter()
+                .zip(&serial)
+                .all(|(a, b)| a.to_bits() == b.to_bits())
+        );
     }
 
     #[test]

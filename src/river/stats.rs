@@ -1,0 +1,184 @@
+//! Horton-Strahler and Tokunaga statistics of a river network (seed paper 000, Sec. IV-A:
+//! the networks must be self-similar in these measures).
+
+use serde::Serialize;
+
+use super::network::RiverNetwork;
+
+/// The measures the report and the tests use.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct NetworkStats {
+    pub nodes: usize,
+    pub links: usize,
+    pub max_order: u32,
+    /// `streams_per_order[k - 1]`: number of Strahler streams of order k.
+    pub streams_per_order: Vec<usize>,
+    /// Horton's bifurcation ratio `R_b`: `N_k ~ R_b^-k`, fitted by least squares in log.
+    pub bifurcation_ratio: Option<f64>,
+    /// Tokunaga's side-branch counts `T_m` (m = 1, 2, ...): average number of tributaries of
+    /// order `k - m` joining a stream of order `k`, averaged over k.
+    pub tokunaga: Vec<f64>,
+    /// Fit `T_m = a c^(m - 1)`.
+    pub tokunaga_a: Option<f64>,
+    pub tokunaga_c: Option<f64>,
+}
+
+/// Strahler order of every node's downstream link (the estuary gets its subtree's order):
+/// sources are 1; where two or more branches of the highest upstream order k meet, k + 1;
+/// otherwise that highest order. O(nodes); children always come after their parent.
+pub fn strahler_orders(net: &RiverNetwork) -> Vec<u32> {
+    let n = net.nodes.len();
+    let mut best = vec![0u32; n];
+    let mut best_count = vec![0u32; n];
+    let mut order = vec![1u32; n];
+    for node in (0..n).rev() {
+        order[node] = match best[node] {
+            0 => 1,
+            k if best_count[node] >= 2 => k + 1,
+            k => k,
+        };
+        if let Some(p) = net.parent[node] {
+            let p = p as usize;
+            if order[node] > best[p] {
+                best[p] = order[node];
+                best_count[p] = 1;
+            } else if order[node] == best[p] {
+                best_count[p] += 1;
+            }
+        }
+    }
+    order
+}
+
+/// Computes [`NetworkStats`]. O(nodes).
+pub fn analyse(net: &RiverNetwork) -> NetworkStats {
+    let n = net.nodes.len();
+    if n < 2 {
+        return NetworkStats {
+            nodes: n,
+            ..Default::default()
+        };
+    }
+    let order = strahler_orders(net);
+    let max_order = order[1..].iter().copied().max().unwrap_or(1);
+    let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (p, c) in net.link_pairs() {
+        children[p].push(c);
+    }
+    let k_max = max_order as usize;
+    // A link of order k heads a stream when no upstream link continues it at order k.
+    let mut streams = vec![0usize; k_max];
+    for node in 1..n {
+        let k = order[node];
+        if !children[node].iter().any(|&c| order[c] == k) {
+            streams[k as usize - 1] += 1;
+        }
+    }
+    // Side tributaries: at a node whose stream continues upstream at order k, every other
+    // upstream link of order j < k.
+    let mut side = vec![vec![0usize; k_max + 1]; k_max + 1];
+    for node in 0..n {
+        let k = order[node];
+        if !children[node].iter().any(|&c| order[c] == k) {
+            continue;
+        }
+        for &c in &children[node] {
+            if order[c] < k {
+                side[k as usize][order[c] as usize] += 1;
+            }
+        }
+    }
+    let mut tokunaga = Vec::new();
+    for m in 1..k_max {
+        let values: Vec<f64> = ((m + 1)..=k_max)
+            .filter(|&k| streams[k - 1] > 0)
+            .map(|k| side[k][k - m] as f64 / streams[k - 1] as f64)
+            .collect();
+        if values.is_empty() {
+            break;
+        }
+        tokunaga.push(values.iter().sum::<f64>() / values.len() as f64);
+    }
+    let bifurcation_ratio = log_fit(
+        &streams
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| **s > 0)
+            .map(|(k, &s)| (k as f64, (s as f64).ln()))
+            .collect::<Vec<_>>(),
+    )
+    .map(|(_, slope)| (-slope).exp());
+    let tok_fit = log_fit(
+        &tokunaga
+            .iter()
+            .enumerate()
+            .filter(|(_, t)| **t > 0.0)
+            .map(|(m, &t)| (m as f64, t.ln()))
+            .collect::<Vec<_>>(),
+    );
+    NetworkStats {
+        nodes: n,
+        links: n - 1,
+        max_order,
+        streams_per_order: streams,
+        bifurcation_ratio,
+        tokunaga,
+        tokunaga_a: tok_fit.map(|(a, _)| a.exp()),
+        tokunaga_c: tok_fit.map(|(_, c)| c.exp()),
+    }
+}
+
+/// Least-squares line `y = a + b x`; `None` with fewer than two points.
+fn log_fit(points: &[(f64, f64)]) -> Option<(f64, f64)> {
+    if points.len() < 2 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (sx, sy) = points
+        .iter()
+        .fold((0.0, 0.0), |(sx, sy), (x, y)| (sx + x, sy + y));
+    let (mx, my) = (sx / n, sy / n);
+    let (sxy, sxx) = points.iter().fold((0.0, 0.0), |(sxy, sxx), (x, y)| {
+        (sxy + (x - mx) * (y - my), sxx + (x - mx) * (x - mx))
+    });
+    (sxx > 0.0).then(|| {
+        let b = sxy / sxx;
+        (my - b * mx, b)
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec2;
+
+    /// A perfect binary tree of depth 2 below the estuary link: orders 3 / 2 / 1.
+    #[test]
+    fn strahler_orders_of_a_binary_tree() {
+        let mut net = RiverNetwork::default();
+        let parents = [
+            None,
+            Some(0),
+            Some(1),
+            Some(1),
+            Some(2),
+            Some(2),
+            Some(3),
+            Some(3),
+        ];
+        for p in parents {
+            net.nodes.push(DVec2::ZERO);
+            net.parent.push(p);
+            net.exterior.push(false);
+            net.height.push(0.0);
+        }
+        let order = strahler_orders(&net);
+        assert_eq!(order, vec![3, 3, 2, 2, 1, 1, 1, 1]);
+        let stats = analyse(&net);
+        assert_eq!(stats.max_order, 3);
+        assert_eq!(stats.streams_per_order, vec![4, 2, 1]);
+        assert!((stats.bifurcation_ratio.unwrap() - 2.0).abs() < 1e-9);
+        // No side tributaries in a perfect binary tree.
+        assert!(stats.tokunaga.iter().all(|&t| t == 0.0));
+    }
+}
