@@ -23,6 +23,7 @@ pub mod diffusion;
 pub mod gpu;
 pub mod heightfield;
 pub mod jobs;
+pub mod ridge;
 pub mod river;
 
 #[cfg(not(target_arch = "wasm32"))]
