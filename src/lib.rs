@@ -25,6 +25,8 @@ pub mod heightfield;
 pub mod jobs;
 pub mod ridge;
 pub mod river;
+pub mod skeleton;
+pub mod terrain;
 
 #[cfg(not(target_arch = "wasm32"))]
 pub mod cli;
