@@ -203,3 +203,96 @@ fn fill_explains_bad_input() {
     assert!(!result.status.success());
     assert!(String::from_utf8_lossy(&result.stderr).contains("limit of 100 cells"));
 }
+
+#[test]
+fn generate_writes_heightmap_layers_and_report() {
+    let dir = out_dir();
+    let (png_out, layers, report) = (
+        dir.join("terrain.png"),
+        dir.join("layers"),
+        dir.join("gen.json"),
+    );
+    let result = strahler(&[
+        "generate",
+        "--river",
+        "0.5,1,0.5,0.3:phi=2:depth=8",
+        "--river",
+        "1,0.3,0.6,0.3:phi=3:depth=7",
+        "--size",
+        "256",
+        "--seed",
+        "5",
+        "--backend",
+        "cpu",
+        "--out",
+        png_out.to_str().unwrap(),
+        "--layers",
+        layers.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+
+    // The 16-bit PNG decodes to the asked size with real relief.
+    let decoder = png::Decoder::new(std::io::BufReader::new(
+        std::fs::File::open(&png_out).unwrap(),
+    ));
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    assert_eq!(
+        (info.width, info.height, info.bit_depth),
+        (256, 256, png::BitDepth::Sixteen)
+    );
+    let values: Vec<u16> = buf
+        .chunks_exact(2)
+        .map(|b| u16::from_be_bytes([b[0], b[1]]))
+        .collect();
+    assert_eq!(values.iter().min(), Some(&0));
+    assert_eq!(values.iter().max(), Some(&65535));
+    let sidecar: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("terrain.json")).unwrap()).unwrap();
+    assert!(sidecar["zmax"].as_f64().unwrap() > sidecar["zmin"].as_f64().unwrap() + 50.0);
+
+    for layer in ["rivers.png", "ridges.png", "constraints.png"] {
+        assert!(layers.join(layer).exists(), "{layer}");
+    }
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    let stages: Vec<&str> = report["stages"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|s| s["name"].as_str().unwrap())
+        .collect();
+    for stage in ["rivers", "ridges", "skeleton", "diffuse"] {
+        assert!(stages.contains(&stage), "{stages:?}");
+    }
+    assert!(report["rivers"]["max_order"].as_u64().unwrap() >= 3);
+    assert!(report["ridges"]["edges"].as_u64().unwrap() > 10);
+    assert!(report["drainage"]["river_fraction"].as_f64().unwrap() >= 0.95);
+    assert!(report["drainage"]["outlet_fraction"].as_f64().unwrap() >= 0.99);
+}
+
+#[test]
+fn generate_names_a_bad_river() {
+    let out = strahler(&[
+        "generate",
+        "--river",
+        "0.5,1,2,0.3",
+        "--size",
+        "64",
+        "--backend",
+        "cpu",
+    ]);
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("river 0") && err.contains("outside the map"),
+        "{err}"
+    );
+}

@@ -2,6 +2,7 @@
 
 mod bench;
 mod fill;
+mod generate;
 mod info;
 
 use std::process::ExitCode;
@@ -20,6 +21,8 @@ pub struct Cli {
 pub enum Command {
     /// Print the version, the GPU adapter found and the limits that matter.
     Info(info::InfoArgs),
+    /// Generate a terrain from river strokes (rivers, ridges, skeleton, diffusion).
+    Generate(generate::GenerateArgs),
     /// Fill the no-data cells of a DEM by harmonic (Laplace) diffusion.
     Fill(fill::FillArgs),
     /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
@@ -33,6 +36,7 @@ pub fn run(command: Command) -> ExitCode {
         Command::Info(args) => info::run(&args),
         Command::Bench(args) => bench::run(&args),
         Command::Fill(args) => fill::run(&args),
+        Command::Generate(args) => generate::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -6,6 +6,7 @@
 //! reachable from a file's bytes.
 
 pub mod geotiff;
+pub mod png16;
 
 use thiserror::Error;
 

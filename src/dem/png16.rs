@@ -1,0 +1,93 @@
+//! PNG heightmaps: 16-bit greyscale, linear (no gamma or sRGB chunk), big-endian samples, the
+//! height range in a text chunk (`strahler:z_range` = "min,max" in metres), and 8-bit masks
+//! for the layer images.
+
+use super::DemError;
+use crate::heightfield::Heightfield;
+
+/// Encodes `field` so that `z = min + v / 65535 * (max - min)`. No-data cells become 0.
+/// Returns the bytes and the `(min, max)` range used.
+pub fn write_heightmap(field: &Heightfield) -> Result<(Vec<u8>, (f32, f32)), DemError> {
+    let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
+    let span = f64::from(hi - lo);
+    let mut samples = Vec::with_capacity(field.data().len() * 2);
+    for &z in field.data() {
+        let v = if z.is_finite() && span > 0.0 {
+            ((f64::from(z - lo) / span) * 65535.0)
+                .round()
+                .clamp(0.0, 65535.0) as u16
+        } else {
+            0
+        };
+        samples.extend_from_slice(&v.to_be_bytes());
+    }
+    let text = ("strahler:z_range".to_owned(), format!("{lo},{hi}"));
+    let bytes = encode(
+        field.width(),
+        field.height(),
+        png::BitDepth::Sixteen,
+        &samples,
+        Some(text),
+    )?;
+    Ok((bytes, (lo, hi)))
+}
+
+/// Encodes an 8-bit greyscale image (masks, layers).
+pub fn write_grey8(width: usize, height: usize, values: &[u8]) -> Result<Vec<u8>, DemError> {
+    encode(width, height, png::BitDepth::Eight, values, None)
+}
+
+fn encode(
+    width: usize,
+    height: usize,
+    depth: png::BitDepth,
+    data: &[u8],
+    text: Option<(String, String)>,
+) -> Result<Vec<u8>, DemError> {
+    let err = |e: png::EncodingError| DemError::Write(e.to_string());
+    let mut out = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut out, width as u32, height as u32);
+        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_depth(depth);
+        if let Some((key, value)) = text {
+            encoder.add_text_chunk(key, value).map_err(err)?;
+        }
+        let mut writer = encoder.write_header().map_err(err)?;
+        writer.write_image_data(data).map_err(err)?;
+        writer.finish().map_err(err)?;
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn heightmap_round_trips_within_one_step() {
+        let data: Vec<f32> = (0..12 * 7)
+            .map(|i| 100.0 + (i as f32 * 0.7).sin() * 40.0)
+            .collect();
+        let field = Heightfield::from_vec(12, 7, data).unwrap();
+        let (bytes, (lo, hi)) = write_heightmap(&field).unwrap();
+        let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = decoder.read_info().unwrap();
+        let info = reader.info();
+        assert_eq!(
+            (info.width, info.height, info.bit_depth),
+            (12, 7, png::BitDepth::Sixteen)
+        );
+        assert!(info.gamma().is_none() && info.srgb.is_none());
+        let text = &info.uncompressed_latin1_text;
+        assert!(text.iter().any(|t| t.keyword == "strahler:z_range"));
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        let step = (hi - lo) / 65535.0;
+        for (i, z) in field.data().iter().enumerate() {
+            let v = u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]);
+            let back = lo + f32::from(v) / 65535.0 * (hi - lo);
+            assert!((back - z).abs() <= step, "{back} vs {z}");
+        }
+    }
+}
