@@ -15,6 +15,36 @@ use crate::heightfield::Heightfield;
 const MIN_ZOOM: f32 = 0.25;
 const MAX_ZOOM: f32 = 64.0;
 
+/// What a primary-button drag on the map does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Tool {
+    /// Drag to pan (any button pans in every tool except the primary one in River).
+    #[default]
+    Pan,
+    /// Press at the estuary and drag upstream: a new river stroke.
+    River,
+}
+
+/// Lines drawn over the terrain, in map units.
+#[derive(Clone, Debug, Default)]
+pub struct Overlay {
+    /// River links with their Strahler order.
+    pub rivers: Vec<(Pos2, Pos2, u32)>,
+    pub ridges: Vec<(Pos2, Pos2)>,
+    /// The user's strokes (estuary, flow point).
+    pub strokes: Vec<(Pos2, Pos2)>,
+    pub show_rivers: bool,
+    pub show_ridges: bool,
+}
+
+/// What happened on the map this frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct MapResponse {
+    pub hover: Option<Hover>,
+    /// A river stroke finished this frame (estuary, flow point), clamped to the map.
+    pub new_stroke: Option<(Pos2, Pos2)>,
+}
+
 /// What the pointer is over.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hover {
@@ -32,6 +62,8 @@ pub struct MapView {
     zoom: f32,
     texture: Option<TextureHandle>,
     field: Option<Heightfield>,
+    /// Start of the river stroke being drawn.
+    stroke_start: Option<Pos2>,
 }
 
 impl MapView {
@@ -57,9 +89,10 @@ impl MapView {
         self.zoom = 1.0;
     }
 
-    /// Draws the map into the remaining space and handles pan (drag with any button) and
-    /// zoom (scroll or pinch, about the pointer; double-click resets).
-    pub fn show(&mut self, ui: &mut egui::Ui) -> Option<Hover> {
+    /// Draws the map and its overlay into the remaining space and handles the tools: pan
+    /// (drag; with the river tool, drag with the secondary or middle button), zoom (scroll or
+    /// pinch, about the pointer; double-click resets) and river strokes.
+    pub fn show(&mut self, ui: &mut egui::Ui, tool: Tool, overlay: &Overlay) -> MapResponse {
         let (rect, response) = ui.allocate_exact_size(ui.available_size(), Sense::click_and_drag());
         if self.zoom <= 0.0 {
             self.zoom = 1.0;
@@ -70,7 +103,21 @@ impl MapView {
         let to_screen = |m: Pos2| rect.center() + (m - center) * scale;
         let to_map = |s: Pos2| center + (s - rect.center()) / scale;
 
-        if response.dragged() {
+        let drawing = tool == Tool::River && response.dragged_by(egui::PointerButton::Primary);
+        let mut new_stroke = None;
+        if tool == Tool::River && response.drag_started_by(egui::PointerButton::Primary) {
+            self.stroke_start = response.interact_pointer_pos().map(to_map);
+        }
+        if tool == Tool::River && response.drag_stopped_by(egui::PointerButton::Primary) {
+            let end = response.interact_pointer_pos().map(to_map);
+            if let (Some(a), Some(b)) = (self.stroke_start.take(), end) {
+                let clamp = |p: Pos2| pos2(p.x.clamp(0.0, 1.0), p.y.clamp(0.0, 1.0));
+                if a.distance(b) > 0.02 {
+                    new_stroke = Some((clamp(a), clamp(b)));
+                }
+            }
+        }
+        if response.dragged() && !drawing && self.stroke_start.is_none() {
             self.center = Some(center - response.drag_delta() / scale);
         }
         if response.double_clicked() {
@@ -112,14 +159,37 @@ impl MapView {
             Stroke::new(1.0, ui.visuals().widgets.noninteractive.bg_stroke.color),
             StrokeKind::Outside,
         );
-
-        response.hover_pos().map(|pointer| {
-            let map = to_map(pointer);
-            Hover {
-                map,
-                height: self.height_at(map),
+        if overlay.show_ridges {
+            let ridge = Stroke::new(1.0, Color32::from_rgb(200, 60, 50));
+            for (a, b) in &overlay.ridges {
+                painter.line_segment([to_screen(*a), to_screen(*b)], ridge);
             }
-        })
+        }
+        if overlay.show_rivers {
+            for (a, b, order) in &overlay.rivers {
+                let width = 0.6 + 0.5 * *order as f32;
+                let stroke = Stroke::new(width, Color32::from_rgb(40, 110, 220));
+                painter.line_segment([to_screen(*a), to_screen(*b)], stroke);
+            }
+        }
+        let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
+        for (a, b) in &overlay.strokes {
+            painter.arrow(to_screen(*a), to_screen(*b) - to_screen(*a), stroke_style);
+        }
+        if let (Some(a), Some(pointer)) = (self.stroke_start, response.interact_pointer_pos()) {
+            painter.arrow(to_screen(a), pointer - to_screen(a), stroke_style);
+        }
+
+        MapResponse {
+            hover: response.hover_pos().map(|pointer| {
+                let map = to_map(pointer);
+                Hover {
+                    map,
+                    height: self.height_at(map),
+                }
+            }),
+            new_stroke,
+        }
     }
 
     /// Height at a map position (nearest cell), `None` outside the map or without terrain.

@@ -12,17 +12,32 @@ mod status_bar;
 use std::sync::Arc;
 
 pub use automation::{Automation, JobStatus, Status};
-pub use map_view::{Hover, MapView};
+pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use side_panel::FillSettings;
+
+use egui::pos2;
+use glam::DVec2;
 
 use crate::compute::selftest::{RunSummary, SelfTest};
 use crate::compute::{ComputePath, CpuReason};
-use crate::diffusion::{DiffusionError, Filled};
+use crate::diffusion::DiffusionError;
 use crate::gpu::{GpuContext, device_descriptor};
 use crate::jobs::JobHandle;
+use crate::river::Stroke;
+use crate::terrain::{Generated, TerrainError};
 
-/// Width of the demo map in metres (sets the cell size for shading and readouts).
+/// Width of the map in metres (sets the cell size for shading and readouts).
 pub const MAP_WIDTH_M: f32 = 10_000.0;
+
+/// The river the first screen starts with: from the middle of the south edge, northwards.
+pub fn default_stroke() -> Stroke {
+    Stroke {
+        estuary: DVec2::new(0.5, 1.0),
+        toward: DVec2::new(0.5, 0.35),
+        phi: 3,
+        max_depth: 8,
+    }
+}
 
 /// eframe's wgpu setup for Strahler: the adapter's full limits, so compute on large fields
 /// works on the device egui draws with. On the web eframe tries WebGPU first and falls back
@@ -42,7 +57,13 @@ pub struct StrahlerApp {
     automation: Automation,
     map: MapView,
     settings: FillSettings,
-    fill_job: Option<JobHandle<Result<Filled, DiffusionError>>>,
+    strokes: Vec<Stroke>,
+    tool: Tool,
+    overlay: Overlay,
+    /// Something that shapes the terrain changed: regenerate at the next frame.
+    dirty: bool,
+    terrain_job: Option<JobHandle<Result<Generated, TerrainError>>>,
+    terrain_summary: Option<String>,
     selftest_job: Option<JobHandle<Result<SelfTest, DiffusionError>>>,
     last_run: Option<(usize, RunSummary)>,
     selftest: Option<Result<SelfTest, String>>,
@@ -51,8 +72,8 @@ pub struct StrahlerApp {
 }
 
 impl StrahlerApp {
-    /// Builds the app from eframe's creation context and starts the first fill, so the
-    /// first screen shows terrain.
+    /// Builds the app from eframe's creation context and starts generating from one default
+    /// river, so the first screen shows terrain.
     pub fn new(cc: &eframe::CreationContext<'_>, automation: Automation) -> Self {
         let (path, adapter, caps) = match &cc.wgpu_render_state {
             Some(state) => {
@@ -75,14 +96,19 @@ impl StrahlerApp {
             automation,
             map: MapView::default(),
             settings: FillSettings::default(),
-            fill_job: None,
+            strokes: vec![default_stroke()],
+            tool: Tool::default(),
+            overlay: Overlay::default(),
+            dirty: false,
+            terrain_job: None,
+            terrain_summary: None,
             selftest_job: None,
             last_run: None,
             selftest: None,
             error: None,
             hover: None,
         };
-        app.start_fill(&cc.egui_ctx);
+        app.start_generate(&cc.egui_ctx);
         app
     }
 
@@ -109,13 +135,41 @@ impl StrahlerApp {
         &mut self.settings
     }
 
-    /// Whether a job is running.
-    pub fn busy(&self) -> bool {
-        self.fill_job.is_some() || self.selftest_job.is_some()
+    /// The user's river strokes.
+    pub fn strokes(&self) -> &[Stroke] {
+        &self.strokes
     }
 
-    /// Starts the diffusion fill with the current settings, cancelling a running one.
-    pub fn start_fill(&mut self, ctx: &egui::Context) {
+    /// Adds a river stroke (map units, estuary first) and regenerates.
+    pub fn add_stroke(&mut self, stroke: Stroke) {
+        self.strokes.push(stroke);
+        self.dirty = true;
+    }
+
+    pub fn tool(&self) -> Tool {
+        self.tool
+    }
+
+    pub fn set_tool(&mut self, tool: Tool) {
+        self.tool = tool;
+    }
+
+    /// Whether a job is running or a regeneration is pending.
+    pub fn busy(&self) -> bool {
+        self.terrain_job.is_some() || self.selftest_job.is_some() || self.dirty
+    }
+
+    /// Generates the terrain from the strokes and settings, cancelling a running job (a newer
+    /// edit always wins).
+    pub fn start_generate(&mut self, ctx: &egui::Context) {
+        self.dirty = false;
+        if self.strokes.is_empty() {
+            self.terrain_job = None;
+            self.set_error(
+                "Draw a river to make terrain: choose Draw river and drag on the map.".into(),
+            );
+            return;
+        }
         let backend = match self.settings.backend.resolve(&self.path) {
             Ok(backend) => backend,
             Err(err) => {
@@ -123,19 +177,16 @@ impl StrahlerApp {
                 return;
             }
         };
-        let (size, method) = (self.settings.size, self.settings.method());
+        let (strokes, params) = (self.strokes.clone(), self.settings.terrain());
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
-            "diffusion",
-            move |job| async move {
-                let problem = crate::diffusion::demo::valley_and_peaks(size);
-                crate::diffusion::fill(&backend, &problem, method, &job).await
-            },
+            "terrain",
+            move |job| async move { crate::terrain::generate(&strokes, &params, &backend, &job).await },
             move || repaint.request_repaint(),
         );
         match spawned {
             // Replacing the handle drops (and so cancels) a stale job.
-            Ok(handle) => self.fill_job = Some(handle),
+            Ok(handle) => self.terrain_job = Some(handle),
             Err(err) => self.set_error(err.to_string()),
         }
     }
@@ -162,23 +213,64 @@ impl StrahlerApp {
         self.error = Some(message);
     }
 
+    /// Puts a generated terrain on the map with its overlay and publishes its summary.
+    fn show_terrain(&mut self, ctx: &egui::Context, g: Generated) {
+        let size = g.terrain.width();
+        let summary = RunSummary::of_terrain(&g);
+        let r = &g.report;
+        self.terrain_summary = Some(format!(
+            "{} river nodes, Strahler order {}, {} ridges; {:.1}% of river cells drain along \
+             the river, {} pits",
+            r.rivers.nodes,
+            r.rivers.max_order,
+            r.ridges.edges,
+            r.drainage.river_fraction * 100.0,
+            r.drainage.pit_cells
+        ));
+        let p = |v: DVec2| pos2(v.x as f32, v.y as f32);
+        self.overlay.rivers = g
+            .rivers
+            .iter()
+            .flat_map(|river| {
+                let order = crate::river::stats::strahler_orders(&river.network);
+                river
+                    .network
+                    .link_pairs()
+                    .map(|(a, b)| {
+                        (
+                            p(river.network.nodes[a]),
+                            p(river.network.nodes[b]),
+                            order[b],
+                        )
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        self.overlay.ridges = g
+            .ridges
+            .iter()
+            .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
+            .collect();
+        self.map
+            .set_field(ctx, g.terrain, MAP_WIDTH_M / size as f32);
+        self.automation
+            .update(|s| s.last_run = Some(summary.clone()));
+        self.last_run = Some((size, summary));
+        self.error = None;
+    }
+
     /// Takes finished results and publishes job progress. Called once per frame.
     fn poll_jobs(&mut self, ctx: &egui::Context) {
-        if let Some(result) = self.fill_job.as_ref().and_then(JobHandle::try_take) {
-            self.fill_job = None;
+        if self.dirty {
+            self.start_generate(ctx);
+        }
+        if let Some(result) = self.terrain_job.as_ref().and_then(JobHandle::try_take) {
+            self.terrain_job = None;
             match result {
-                Ok(filled) => {
-                    let size = filled.field.width();
-                    let summary = RunSummary::from(&filled);
-                    self.map
-                        .set_field(ctx, filled.field, MAP_WIDTH_M / size as f32);
-                    self.automation
-                        .update(|s| s.last_run = Some(summary.clone()));
-                    self.last_run = Some((size, summary));
-                    self.error = None;
-                }
-                Err(DiffusionError::Cancelled(_)) => {}
-                Err(err) => self.set_error(format!("Diffusion failed: {err}")),
+                Ok(generated) => self.show_terrain(ctx, generated),
+                Err(TerrainError::Cancelled(_))
+                | Err(TerrainError::Diffusion(DiffusionError::Cancelled(_))) => {}
+                Err(err) => self.set_error(format!("Terrain failed: {err}")),
             }
         }
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
@@ -186,7 +278,7 @@ impl StrahlerApp {
             self.selftest = Some(result.map_err(|err| err.to_string()));
         }
         let job = self
-            .fill_job
+            .terrain_job
             .as_ref()
             .map(|j| (j.name().to_owned(), j.progress(), j.message()))
             .or_else(|| {
@@ -213,10 +305,42 @@ impl eframe::App for StrahlerApp {
     fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.poll_jobs(&ctx);
+        if !ctx.egui_wants_keyboard_input() {
+            ctx.input(|i| {
+                if i.key_pressed(egui::Key::R) {
+                    self.tool = Tool::River;
+                }
+                if i.key_pressed(egui::Key::P) {
+                    self.tool = Tool::Pan;
+                }
+            });
+        }
         status_bar::show(ui, self);
         side_panel::show(ui, self);
+        self.overlay.show_rivers = self.settings.show_rivers;
+        self.overlay.show_ridges = self.settings.show_ridges;
+        self.overlay.strokes = self
+            .strokes
+            .iter()
+            .map(|s| {
+                (
+                    pos2(s.estuary.x as f32, s.estuary.y as f32),
+                    pos2(s.toward.x as f32, s.toward.y as f32),
+                )
+            })
+            .collect();
         egui::CentralPanel::no_frame().show(ui, |ui| {
-            self.hover = self.map.show(ui);
+            let response = self.map.show(ui, self.tool, &self.overlay);
+            self.hover = response.hover;
+            if let Some((a, b)) = response.new_stroke {
+                let last = self.strokes.last().copied().unwrap_or_else(default_stroke);
+                self.add_stroke(Stroke {
+                    estuary: DVec2::new(f64::from(a.x), f64::from(a.y)),
+                    toward: DVec2::new(f64::from(b.x), f64::from(b.y)),
+                    phi: last.phi,
+                    max_depth: last.max_depth,
+                });
+            }
         });
     }
 }

@@ -1,19 +1,30 @@
-//! The left panel: pipeline controls. For now the diffusion stage and the compute check;
-//! each later stage (rivers, ridges, detail, blending) adds its section here.
+//! The left panel: the river tool and strokes, the terrain parameters (with the paper's
+//! symbols in tooltips), the diffusion solver, and the compute check.
 
 use egui::{ComboBox, DragValue, ProgressBar, RichText};
 
 use super::StrahlerApp;
+use super::map_view::Tool;
 use crate::compute::BackendChoice;
 use crate::diffusion::{Method, MultigridParams};
+use crate::terrain::TerrainParams;
 
-/// Grid sizes offered for the fill (square, cells per side).
+/// Grid sizes offered (square, cells per side).
 pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
 
-/// The diffusion controls' values.
+/// The terrain controls' values.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FillSettings {
     pub size: usize,
+    pub seed: u64,
+    /// theta of Sec. IV-A in degrees.
+    pub theta: f64,
+    /// River slope (m per m of channel).
+    pub slope: f64,
+    /// alpha of eq. 4.
+    pub alpha: f64,
+    /// Amplitude of the fractal noise of eq. 5 (m).
+    pub noise: f64,
     /// Multigrid (converged) or the paper's fixed count of Jacobi sweeps.
     pub multigrid: bool,
     /// Residual tolerance of multigrid, as a fraction of the height range.
@@ -21,16 +32,26 @@ pub struct FillSettings {
     /// Sweeps of the Jacobi method.
     pub sweeps: u32,
     pub backend: BackendChoice,
+    pub show_rivers: bool,
+    pub show_ridges: bool,
 }
 
 impl Default for FillSettings {
     fn default() -> Self {
+        let terrain = TerrainParams::default();
         Self {
             size: 512,
+            seed: 1,
+            theta: terrain.rivers.theta_deg,
+            slope: terrain.rivers.slope,
+            alpha: terrain.ridges.alpha,
+            noise: terrain.noise.amplitude,
             multigrid: true,
             tolerance: MultigridParams::default().tolerance,
             sweeps: 5500,
             backend: BackendChoice::Auto,
+            show_rivers: true,
+            show_ridges: false,
         }
     }
 }
@@ -48,48 +69,157 @@ impl FillSettings {
             }
         }
     }
+
+    /// The pipeline parameters these settings stand for.
+    pub fn terrain(&self) -> TerrainParams {
+        let mut p = TerrainParams {
+            size: self.size,
+            seed: self.seed,
+            solver: self.method(),
+            ..Default::default()
+        };
+        p.rivers.theta_deg = self.theta;
+        p.rivers.slope = self.slope;
+        p.ridges.alpha = self.alpha;
+        p.noise.amplitude = self.noise;
+        p
+    }
 }
 
 pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     egui::Panel::left("pipeline")
         .resizable(true)
-        .default_size(270.0)
+        .default_size(290.0)
         .show(ui, |ui| {
             egui::ScrollArea::vertical().show(ui, |ui| {
                 ui.add_space(6.0);
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
                 ui.separator();
+                let before = app.settings.clone();
+                rivers_section(ui, app);
+                ui.separator();
+                terrain_section(ui, app);
+                ui.separator();
                 diffusion_section(ui, app);
+                if app.settings != before {
+                    app.dirty = true;
+                }
                 ui.separator();
                 selftest_section(ui, app);
             });
         });
 }
 
+fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.label(RichText::new("Rivers").strong()).on_hover_text(
+        "Each stroke grows a Tokunaga river network (seed paper 000, Sec. IV): press at the \
+         estuary and drag upstream in the flow direction.",
+    );
+    ui.horizontal(|ui| {
+        ui.selectable_value(&mut app.tool, Tool::Pan, "Pan (P)");
+        ui.selectable_value(&mut app.tool, Tool::River, "Draw river (R)");
+    });
+    let mut remove = None;
+    let mut changed = false;
+    for (i, stroke) in app.strokes.iter_mut().enumerate() {
+        ui.horizontal(|ui| {
+            ui.label(format!("#{}", i + 1));
+            ui.label("φ").on_hover_text(
+                "Generator index phi (1 to 6): higher grows more feather-like networks (Table 1).",
+            );
+            changed |= ui
+                .add(DragValue::new(&mut stroke.phi).range(1..=6))
+                .changed();
+            ui.label("depth")
+                .on_hover_text("MaxDepth of eq. 3 (1 to 16).");
+            changed |= ui
+                .add(DragValue::new(&mut stroke.max_depth).range(1..=16))
+                .changed();
+            if ui
+                .small_button("x")
+                .on_hover_text("Delete this river")
+                .clicked()
+            {
+                remove = Some(i);
+            }
+        });
+    }
+    if let Some(i) = remove {
+        app.strokes.remove(i);
+        changed = true;
+    }
+    if app.strokes.is_empty() {
+        ui.label(RichText::new("No river yet: choose Draw river and drag on the map.").weak());
+    } else if ui.button("Delete all rivers").clicked() {
+        app.strokes.clear();
+        changed = true;
+    }
+    if changed {
+        app.dirty = true;
+    }
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut app.settings.show_rivers, "show rivers");
+        ui.checkbox(&mut app.settings.show_ridges, "show ridges");
+    });
+}
+
+fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.label(RichText::new("Terrain").strong());
+    let s = &mut app.settings;
+    egui::Grid::new("terrain settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("Grid size");
+            ComboBox::from_id_salt("grid size")
+                .selected_text(format!("{0} x {0}", s.size))
+                .show_ui(ui, |ui| {
+                    for size in SIZES {
+                        ui.selectable_value(&mut s.size, size, format!("{size} x {size}"));
+                    }
+                });
+            ui.end_row();
+            ui.label("Seed");
+            ui.horizontal(|ui| {
+                ui.add(DragValue::new(&mut s.seed));
+                if ui.button("New seed").clicked() {
+                    s.seed = s
+                        .seed
+                        .wrapping_mul(6_364_136_223_846_793_005)
+                        .wrapping_add(1)
+                        >> 16;
+                }
+            });
+            ui.end_row();
+            ui.label("θ (°)")
+                .on_hover_text("Branching angle theta: exterior links turn theta or 2 theta.");
+            ui.add(DragValue::new(&mut s.theta).range(5.0..=60.0).speed(0.5));
+            ui.end_row();
+            ui.label("River slope")
+                .on_hover_text("Metres of height per metre of channel (Sec. IV-C).");
+            ui.add(DragValue::new(&mut s.slope).range(0.0..=0.2).speed(0.001));
+            ui.end_row();
+            ui.label("α").on_hover_text(
+                "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
+            );
+            ui.add(DragValue::new(&mut s.alpha).range(0.0..=1.0).speed(0.005));
+            ui.end_row();
+            ui.label("Noise (m)")
+                .on_hover_text("Amplitude of the fractal Perlin noise F(P) of eq. 5 on ridges.");
+            ui.add(DragValue::new(&mut s.noise).range(0.0..=500.0).speed(1.0));
+            ui.end_row();
+        });
+}
+
 fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.label(RichText::new("Diffusion").strong()).on_hover_text(
         "Laplace diffusion (seed paper 000, eqs. 6-7): every free cell relaxes to the mean \
-         of its four neighbours while the fixed cells (valley and summits) keep their heights.",
+         of its four neighbours while the skeleton's cells keep their heights.",
     );
     let ctx = ui.ctx().clone();
     egui::Grid::new("fill settings")
         .num_columns(2)
         .show(ui, |ui| {
-            ui.label("Grid size");
-            ComboBox::from_id_salt("grid size")
-                .selected_text(format!("{0} x {0}", app.settings.size))
-                .show_ui(ui, |ui| {
-                    for size in SIZES {
-                        ui.selectable_value(
-                            &mut app.settings.size,
-                            size,
-                            format!("{size} x {size}"),
-                        );
-                    }
-                });
-            ui.end_row();
-
             ui.label("Solver").on_hover_text(
                 "Multigrid solves eq. 7 to convergence in a few cycles. Jacobi runs the paper's \
                  fixed number of sweeps (5500), far from converged on large grids.",
@@ -134,21 +264,21 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         });
 
     ui.horizontal(|ui| {
-        if ui.button("Fill terrain").clicked() {
-            app.start_fill(&ctx);
+        if ui.button("Generate terrain").clicked() {
+            app.start_generate(&ctx);
         }
-        if let Some(job) = &app.fill_job
+        if let Some(job) = &app.terrain_job
             && ui.button("Cancel").clicked()
         {
             job.cancel();
         }
     });
-    if let Some(job) = &app.fill_job {
+    if let Some(job) = &app.terrain_job {
         ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }
     if let Some((size, run)) = &app.last_run {
         ui.label(format!(
-            "Last fill: {size} x {size}, {} on the {} in {:.0} ms",
+            "Last terrain: {size} x {size}, {} on the {} in {:.0} ms",
             if run.method == "jacobi" {
                 "Jacobi"
             } else {
@@ -172,6 +302,9 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             run.relative_residual, run.min, run.max
         ));
     }
+    if let Some(text) = &app.terrain_summary {
+        ui.label(text);
+    }
     if let Some(err) = &app.error {
         ui.colored_label(ui.visuals().error_fg_color, err);
     }
@@ -180,7 +313,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 fn selftest_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.label(RichText::new("Compute check").strong())
         .on_hover_text(
-            "Runs the same diffusion on the CPU and on the GPU and compares the results.",
+            "Runs the same diffusion problem on the CPU and on the GPU and compares the results.",
         );
     let ctx = ui.ctx().clone();
     ui.add_enabled_ui(app.selftest_job.is_none(), |ui| {
@@ -203,8 +336,7 @@ fn selftest_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     ui.label(format!("GPU: {:.0} ms", gpu.millis));
                     let verdict = if rel <= 1e-5 { "agree" } else { "DIFFER" };
                     ui.label(format!(
-                        "CPU and GPU {verdict}: max difference {:.2e} of the height range",
-                        rel
+                        "CPU and GPU {verdict}: max difference {rel:.2e} of the height range"
                     ));
                 }
                 _ => {

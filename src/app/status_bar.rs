@@ -12,7 +12,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
             let label = ui.label(RichText::new(path.to_string()).strong());
             label.on_hover_ui(|ui| compute_details(ui, path));
             if let Some(job) = app
-                .fill_job
+                .terrain_job
                 .as_ref()
                 .map(|j| (j.name(), j.progress()))
                 .or_else(|| app.selftest_job.as_ref().map(|j| (j.name(), j.progress())))
@@ -21,6 +21,12 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 ui.spinner();
                 ui.label(format!("{} {:.0}%", job.0, job.1 * 100.0));
             }
+            ui.separator();
+            let tool = match app.tool() {
+                super::Tool::Pan => "Tool: pan (P)",
+                super::Tool::River => "Tool: draw river (R) - press at the estuary, drag upstream",
+            };
+            ui.label(tool);
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                 ui.label(RichText::new(format!("v{}", crate::VERSION)).weak());
                 if let Some(hover) = app.hover {

@@ -44,7 +44,8 @@ pub struct TerrainParams {
     pub rivers: RiverParams,
     pub ridges: RidgeParams,
     pub noise: NoiseParams,
-    pub solver: MultigridParams,
+    /// How the diffusion stage solves (multigrid by default; Jacobi is the paper's baseline).
+    pub solver: Method,
 }
 
 impl Default for TerrainParams {
@@ -55,7 +56,7 @@ impl Default for TerrainParams {
             rivers: RiverParams::default(),
             ridges: RidgeParams::default(),
             noise: NoiseParams::default(),
-            solver: MultigridParams::default(),
+            solver: Method::Multigrid(MultigridParams::default()),
         }
     }
 }
@@ -91,9 +92,12 @@ pub struct RidgeReport {
 #[derive(Clone, Debug, Serialize)]
 pub struct DiffusionReport {
     pub backend: &'static str,
+    pub method: &'static str,
     pub cycles: u32,
+    pub sweeps: u32,
     pub relative_residual: f32,
     pub converged: bool,
+    pub millis: f64,
 }
 
 /// A generated terrain and its intermediate products (for layers and overlays).
@@ -184,7 +188,7 @@ pub async fn generate(
     lap("skeleton", &mut stages);
 
     let problem = skeleton.constraints();
-    let filled = diffusion::fill(backend, &problem, Method::Multigrid(params.solver), ctx).await?;
+    let filled = diffusion::fill(backend, &problem, params.solver, ctx).await?;
     lap("diffuse", &mut stages);
 
     let mut terrain = filled.field;
@@ -210,9 +214,12 @@ pub async fn generate(
         skeleton_cells: skeleton.fixed_cells(),
         diffusion: DiffusionReport {
             backend: filled.backend,
+            method: filled.method,
             cycles: filled.cycles,
+            sweeps: filled.sweeps,
             relative_residual: filled.relative_residual,
             converged: filled.converged,
+            millis: filled.millis,
         },
         drainage,
         conditioning,
