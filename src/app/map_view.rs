@@ -174,10 +174,10 @@ impl MapView {
         }
         let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
         for (a, b) in &overlay.strokes {
-            painter.arrow(to_screen(*a), to_screen(*b) - to_screen(*a), stroke_style);
+            arrow(&painter, to_screen(*a), to_screen(*b), stroke_style);
         }
         if let (Some(a), Some(pointer)) = (self.stroke_start, response.interact_pointer_pos()) {
-            painter.arrow(to_screen(a), pointer - to_screen(a), stroke_style);
+            arrow(&painter, to_screen(a), pointer, stroke_style);
         }
 
         MapResponse {
@@ -203,6 +203,19 @@ impl MapView {
             .get(cell(map.x, field.width()), cell(map.y, field.height()))
             .filter(|h| h.is_finite())
     }
+}
+
+/// A stroke from the estuary `a` to the flow point `b`, with a small fixed-size head at `b`.
+fn arrow(painter: &egui::Painter, a: Pos2, b: Pos2, stroke: Stroke) {
+    painter.line_segment([a, b], stroke);
+    let dir = (b - a).normalized();
+    if dir.is_finite() {
+        let back = -dir * 10.0;
+        let side = egui::vec2(-dir.y, dir.x) * 5.0;
+        painter.line_segment([b, b + back + side], stroke);
+        painter.line_segment([b, b + back - side], stroke);
+    }
+    painter.circle_filled(a, 3.5, stroke.color);
 }
 
 /// Screen points per map unit at zoom 1 for a panel of `size`: the map fits with a margin.
