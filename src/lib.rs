@@ -13,6 +13,7 @@
 //!   and the paper's Jacobi baseline, on CPU and GPU.
 //! - [`dem`]: real elevation rasters in and out (GeoTIFF).
 //! - [`river`]: Tokunaga river networks grown by an L-system (seed paper 000, Sec. IV).
+//! - [`scene`]: the user's document (versioned JSON) from which everything is rebuilt.
 //! - [`jobs`]: background work with progress and cancellation that never blocks the UI.
 //! - [`app`]: the eframe application.
 
@@ -25,6 +26,7 @@ pub mod heightfield;
 pub mod jobs;
 pub mod ridge;
 pub mod river;
+pub mod scene;
 pub mod skeleton;
 pub mod terrain;
 

@@ -292,7 +292,50 @@ fn generate_names_a_bad_river() {
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(
-        err.contains("river 0") && err.contains("outside the map"),
+        err.contains("rivers[0].toward") && err.contains("[0, 1]"),
         "{err}"
     );
+}
+
+#[test]
+fn generate_reads_a_scene_file_and_names_bad_fields() {
+    let dir = out_dir();
+    let scene = dir.join("scene.json");
+    std::fs::write(
+        &scene,
+        r#"{"version": 1, "size": 128, "seed": 3,
+            "rivers": [{"estuary": [0.5, 1.0], "toward": [0.5, 0.4], "phi": 2, "depth": 7},
+                       {"estuary": [0.0, 0.3], "toward": [0.4, 0.3]}]}"#,
+    )
+    .unwrap();
+    let report = dir.join("scene-report.json");
+    let args = [
+        "generate",
+        scene.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--report",
+        report.to_str().unwrap(),
+    ];
+    let result = strahler(&args);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    let first: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(first["size"], 128);
+    assert_eq!(first["rivers"]["networks"].as_array().unwrap().len(), 2);
+    // Same scene, same terrain: the report (stage times aside) repeats exactly.
+    assert!(strahler(&args).status.success());
+    let second: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(first["rivers"], second["rivers"]);
+    assert_eq!(first["height_range"], second["height_range"]);
+
+    std::fs::write(&scene, r#"{"version": 1, "rivers": [], "wind": 3}"#).unwrap();
+    let result = strahler(&["generate", scene.to_str().unwrap(), "--size", "64"]);
+    assert!(!result.status.success());
+    assert!(String::from_utf8_lossy(&result.stderr).contains("unknown field `wind`"));
 }

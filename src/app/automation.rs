@@ -10,6 +10,8 @@ use serde::Serialize;
 use crate::compute::ComputePath;
 use crate::compute::selftest::RunSummary;
 use crate::gpu::{AdapterSummary, Capabilities};
+use crate::river::Stroke;
+use crate::scene::Scene;
 
 /// What `window.strahler.status()` returns (serialised as camelCase JSON).
 #[derive(Clone, Debug, Default, Serialize)]
@@ -40,6 +42,15 @@ pub struct JobStatus {
     pub message: String,
 }
 
+/// What a script asks the app to do; applied at the start of the next frame.
+#[derive(Clone, Debug)]
+pub enum Command {
+    AddRiver(Stroke),
+    LoadScene(Box<Scene>),
+}
+
+type Repaint = Arc<dyn Fn() + Send + Sync>;
+
 /// Shared between the app and its automation bindings.
 #[derive(Clone, Default)]
 pub struct Automation {
@@ -50,6 +61,9 @@ pub struct Automation {
 struct Shared {
     status: Status,
     path: Option<ComputePath>,
+    scene: Option<Scene>,
+    commands: Vec<Command>,
+    repaint: Option<Repaint>,
 }
 
 impl Automation {
@@ -83,6 +97,51 @@ impl Automation {
         shared.status.compute_path = path.to_string();
         shared.status.adapter = adapter;
         shared.status.capabilities = caps;
+    }
+
+    /// The scene as the app last published it (`None` before the app started).
+    pub fn scene(&self) -> Option<Scene> {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .scene
+            .clone()
+    }
+
+    /// Queues a command for the app and wakes its frame loop.
+    pub fn push(&self, command: Command) {
+        let repaint = {
+            let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+            shared.commands.push(command);
+            shared.repaint.clone()
+        };
+        if let Some(repaint) = repaint {
+            repaint();
+        }
+    }
+
+    pub(crate) fn take_commands(&self) -> Vec<Command> {
+        std::mem::take(
+            &mut self
+                .inner
+                .lock()
+                .unwrap_or_else(PoisonError::into_inner)
+                .commands,
+        )
+    }
+
+    pub(crate) fn set_scene(&self, scene: Scene) {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .scene = Some(scene);
+    }
+
+    pub(crate) fn set_repaint(&self, repaint: impl Fn() + Send + Sync + 'static) {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .repaint = Some(Arc::new(repaint));
     }
 
     pub(crate) fn update(&self, edit: impl FnOnce(&mut Status)) {

@@ -11,7 +11,7 @@ mod status_bar;
 
 use std::sync::Arc;
 
-pub use automation::{Automation, JobStatus, Status};
+pub use automation::{Automation, Command, JobStatus, Status};
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use side_panel::FillSettings;
 
@@ -24,6 +24,7 @@ use crate::diffusion::DiffusionError;
 use crate::gpu::{GpuContext, device_descriptor};
 use crate::jobs::JobHandle;
 use crate::river::Stroke;
+use crate::scene::{RiverStroke, Scene};
 use crate::terrain::{Generated, TerrainError};
 
 /// Width of the map in metres (sets the cell size for shading and readouts).
@@ -91,6 +92,8 @@ impl StrahlerApp {
         };
         log::info!("compute path: {path}");
         automation.set_compute_path(&path, adapter, caps);
+        let repaint = cc.egui_ctx.clone();
+        automation.set_repaint(move || repaint.request_repaint());
         let mut app = Self {
             path,
             automation,
@@ -140,6 +143,41 @@ impl StrahlerApp {
         &self.strokes
     }
 
+    /// The document: strokes and settings as a [`Scene`].
+    pub fn scene(&self) -> Scene {
+        let s = &self.settings;
+        let mut scene = Scene {
+            size: s.size,
+            cell_size: f64::from(MAP_WIDTH_M) / s.size as f64,
+            seed: s.seed,
+            rivers: self
+                .strokes
+                .iter()
+                .copied()
+                .map(RiverStroke::from)
+                .collect(),
+            ..Default::default()
+        };
+        scene.params.theta = s.theta;
+        scene.params.river_slope = s.slope;
+        scene.params.alpha = s.alpha;
+        scene.params.noise.amplitude = s.noise;
+        scene
+    }
+
+    /// Replaces the document (a validated scene) and regenerates.
+    pub fn load_scene(&mut self, scene: &Scene) {
+        let s = &mut self.settings;
+        s.size = scene.size;
+        s.seed = scene.seed;
+        s.theta = scene.params.theta;
+        s.slope = scene.params.river_slope;
+        s.alpha = scene.params.alpha;
+        s.noise = scene.params.noise.amplitude;
+        self.strokes = scene.strokes();
+        self.dirty = true;
+    }
+
     /// Adds a river stroke (map units, estuary first) and regenerates.
     pub fn add_stroke(&mut self, stroke: Stroke) {
         self.strokes.push(stroke);
@@ -177,6 +215,7 @@ impl StrahlerApp {
                 return;
             }
         };
+        self.automation.set_scene(self.scene());
         let (strokes, params) = (self.strokes.clone(), self.settings.terrain());
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
@@ -261,6 +300,12 @@ impl StrahlerApp {
 
     /// Takes finished results and publishes job progress. Called once per frame.
     fn poll_jobs(&mut self, ctx: &egui::Context) {
+        for command in self.automation.take_commands() {
+            match command {
+                Command::AddRiver(stroke) => self.add_stroke(stroke),
+                Command::LoadScene(scene) => self.load_scene(&scene),
+            }
+        }
         if self.dirty {
             self.start_generate(ctx);
         }

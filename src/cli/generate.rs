@@ -10,36 +10,40 @@ use crate::dem::{self, GeoRef};
 use crate::gpu::GpuContext;
 use crate::jobs::JobCtx;
 use crate::river::Stroke;
+use crate::scene::{RiverStroke, Scene};
 use crate::skeleton::CellKind;
-use crate::terrain::{self, TerrainParams};
+use crate::terrain;
 
 #[derive(Debug, Args)]
 pub struct GenerateArgs {
+    /// A scene file (JSON, see the README); the options below add to or override it.
+    pub scene: Option<PathBuf>,
     /// A river stroke in map units (0..1, y down), estuary first:
-    /// X0,Y0,X1,Y1[:phi=P][:depth=D]. Repeat for several rivers. Without any, one river
-    /// rises from the middle of the south edge.
+    /// X0,Y0,X1,Y1[:phi=P][:depth=D]. Repeat for several rivers. With neither a scene nor a
+    /// river, one river rises from the middle of the south edge.
     #[arg(long = "river", value_parser = parse_stroke)]
     pub rivers: Vec<Stroke>,
-    /// Cells per side of the square map.
-    #[arg(long, default_value_t = 512)]
-    pub size: usize,
-    #[arg(long, default_value_t = 1)]
-    pub seed: u64,
-    /// Width of the map in metres.
-    #[arg(long, default_value_t = 10_000.0)]
-    pub map_width: f64,
-    /// Branching angle theta in degrees.
-    #[arg(long, default_value_t = 30.0)]
-    pub theta: f64,
-    /// River slope (metres per metre of channel).
-    #[arg(long, default_value_t = 0.01)]
-    pub slope: f64,
-    /// alpha of eq. 4 (ridge metres per metre from the nearest river node).
-    #[arg(long, default_value_t = 0.12)]
-    pub alpha: f64,
-    /// Amplitude of the ridge noise of eq. 5, in metres.
-    #[arg(long, default_value_t = 25.0)]
-    pub noise: f64,
+    /// Cells per side of the square map [default: 512].
+    #[arg(long)]
+    pub size: Option<usize>,
+    /// Random seed [default: 1].
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// Width of the map in metres [default: 10000].
+    #[arg(long)]
+    pub map_width: Option<f64>,
+    /// Branching angle theta in degrees [default: 30].
+    #[arg(long)]
+    pub theta: Option<f64>,
+    /// River slope (metres per metre of channel) [default: 0.01].
+    #[arg(long)]
+    pub slope: Option<f64>,
+    /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
+    #[arg(long)]
+    pub alpha: Option<f64>,
+    /// Amplitude of the ridge noise of eq. 5, in metres [default: 25].
+    #[arg(long)]
+    pub noise: Option<f64>,
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -51,6 +55,48 @@ pub struct GenerateArgs {
     pub report: Option<PathBuf>,
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
+}
+
+/// The scene the arguments describe: the file (or the defaults), then the options on top.
+pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>> {
+    let mut scene = match &args.scene {
+        Some(path) => {
+            let text = std::fs::read_to_string(path)
+                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
+        }
+        None => Scene::default(),
+    };
+    let width = scene.cell_size * scene.size as f64;
+    if let Some(size) = args.size {
+        scene.size = size;
+    }
+    scene.cell_size = args.map_width.unwrap_or(width) / scene.size.max(1) as f64;
+    if let Some(seed) = args.seed {
+        scene.seed = seed;
+    }
+    if let Some(v) = args.theta {
+        scene.params.theta = v;
+    }
+    if let Some(v) = args.slope {
+        scene.params.river_slope = v;
+    }
+    if let Some(v) = args.alpha {
+        scene.params.alpha = v;
+    }
+    if let Some(v) = args.noise {
+        scene.params.noise.amplitude = v;
+    }
+    scene
+        .rivers
+        .extend(args.rivers.iter().copied().map(RiverStroke::from));
+    if scene.rivers.is_empty() {
+        scene
+            .rivers
+            .push(RiverStroke::from(parse_stroke("0.5,1,0.5,0.3")?));
+    }
+    scene.validate()?;
+    Ok(scene)
 }
 
 /// Parses `X0,Y0,X1,Y1[:phi=P][:depth=D]`.
@@ -95,21 +141,10 @@ pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
 }
 
 pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
-    let strokes = if args.rivers.is_empty() {
-        vec![parse_stroke("0.5,1,0.5,0.3")?]
-    } else {
-        args.rivers.clone()
-    };
-    let mut params = TerrainParams {
-        size: args.size,
-        seed: args.seed,
-        ..Default::default()
-    };
-    params.rivers.theta_deg = args.theta;
-    params.rivers.slope = args.slope;
-    params.ridges.alpha = args.alpha;
-    params.ridges.map_width_m = args.map_width;
-    params.noise.amplitude = args.noise;
+    let scene = scene_of(args)?;
+    let strokes = scene.strokes();
+    let params = scene.terrain_params();
+    let map_width = params.ridges.map_width_m;
 
     let path = if args.backend == BackendChoice::Cpu {
         ComputePath::Cpu {
@@ -133,7 +168,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     let report = &generated.report;
 
     if let Some(out) = &args.out {
-        write_heightmap(out, &generated.terrain, args.map_width)?;
+        write_heightmap(out, &generated.terrain, map_width)?;
     }
     if let Some(dir) = &args.layers {
         write_layers(dir, &generated)?;

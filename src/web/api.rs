@@ -5,12 +5,17 @@
 //! - `status()`: `{version, ready, compute, computePath, adapter, capabilities, job,
 //!   lastRun, lastError}`; `compute` is "webgpu" on the GPU path and "cpu" on the fallback.
 //! - `selfTest()`: a promise of the CPU/GPU comparison (`compute::selftest::SelfTest`).
+//! - `scene()`: the current scene (the document, see `crate::scene`).
+//! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
+//! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
+//!   first); throws on invalid values. Both regenerate the terrain.
 
 use wasm_bindgen::prelude::*;
 
-use crate::app::Automation;
+use crate::app::{Automation, Command};
 use crate::compute::selftest;
 use crate::jobs::JobCtx;
+use crate::scene::{RiverStroke, Scene};
 
 /// Builds `window.strahler` around the shared automation state.
 pub(super) fn install(automation: &Automation) {
@@ -40,6 +45,43 @@ pub(super) fn install(automation: &Automation) {
     set(&api, "selfTest", self_test.as_ref());
     self_test.forget();
 
+    let scene_source = automation.clone();
+    let scene = Closure::<dyn Fn() -> JsValue>::new(move || match scene_source.scene() {
+        Some(scene) => to_js(&scene),
+        None => JsValue::NULL,
+    });
+    set(&api, "scene", scene.as_ref());
+    scene.forget();
+
+    let load_target = automation.clone();
+    let load_scene =
+        Closure::<dyn Fn(JsValue) -> Result<(), JsValue>>::new(move |value: JsValue| {
+            let scene = Scene::from_json(&json_text(&value)?).map_err(error)?;
+            load_target.push(Command::LoadScene(Box::new(scene)));
+            Ok(())
+        });
+    set(&api, "loadScene", load_scene.as_ref());
+    load_scene.forget();
+
+    let river_target = automation.clone();
+    let add_river = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<(), JsValue>>::new(
+        move |from: JsValue, to: JsValue, options: JsValue| {
+            let text = format!(
+                r#"{{"version": {}, "rivers": [{{"estuary": {}, "toward": {}{}}}]}}"#,
+                crate::scene::VERSION,
+                json_text(&from)?,
+                json_text(&to)?,
+                river_options(&options)?
+            );
+            let scene = Scene::from_json(&text).map_err(error)?;
+            let river: RiverStroke = scene.rivers[0];
+            river_target.push(Command::AddRiver(river.into()));
+            Ok(())
+        },
+    );
+    set(&api, "addRiver", add_river.as_ref());
+    add_river.forget();
+
     set(&api, "version", &JsValue::from_str(crate::VERSION));
     set(&window, "strahler", &api);
 }
@@ -48,6 +90,34 @@ fn set(target: &JsValue, name: &str, value: &JsValue) {
     if js_sys::Reflect::set(target, &JsValue::from_str(name), value).is_err() {
         log::error!("could not set window.strahler.{name}");
     }
+}
+
+/// `JSON.stringify(value)`, or an `Error` if it cannot be.
+fn json_text(value: &JsValue) -> Result<String, JsValue> {
+    js_sys::JSON::stringify(value)
+        .ok()
+        .and_then(|s| s.as_string())
+        .ok_or_else(|| error("expected a JSON value"))
+}
+
+/// `, "phi": P, "depth": D` from an options object (either may be absent).
+fn river_options(options: &JsValue) -> Result<String, JsValue> {
+    if options.is_undefined() || options.is_null() {
+        return Ok(String::new());
+    }
+    let mut out = String::new();
+    for key in ["phi", "depth"] {
+        let value = js_sys::Reflect::get(options, &JsValue::from_str(key))
+            .map_err(|_| error("options must be an object like {phi: 3, depth: 8}"))?;
+        if !value.is_undefined() {
+            out.push_str(&format!(r#", "{key}": {}"#, json_text(&value)?));
+        }
+    }
+    Ok(out)
+}
+
+fn error(message: impl ToString) -> JsValue {
+    js_sys::Error::new(&message.to_string()).into()
 }
 
 /// Serialises through JSON so the result is a plain object (NaN and infinities become null).

@@ -117,6 +117,23 @@ async function runMode(url, mode, expectedChecksum) {
       check('CPU result has the same bits as the native build', test.cpu.checksum === expectedChecksum,
         `${test.cpu.checksum} != ${expectedChecksum}`);
     }
+    // Scripted editing: scene(), addRiver(), loadScene() with a field-naming error.
+    const scene = await page.evaluate(() => window.strahler.scene());
+    check('scene() returns the document', scene.version === 1 && scene.rivers.length === 1,
+      JSON.stringify(scene));
+    const before = run.checksum;
+    await page.evaluate(() => window.strahler.addRiver([1.0, 0.25], [0.7, 0.3], { phi: 2, depth: 7 }));
+    await page.waitForFunction((old) => {
+      const s = window.strahler.status();
+      return window.strahler.scene().rivers.length === 2 && s.job === null && s.lastRun.checksum !== old;
+    }, before, { timeout: 120_000 });
+    check('addRiver() adds a river and regenerates', true);
+    const bad = await page.evaluate(() => {
+      try { window.strahler.loadScene({ version: 1, rivers: [{ estuary: [0.5, 1], toward: [0.5, 0.3], phi: 9 }] }); return null; }
+      catch (e) { return String(e.message); }
+    });
+    check('loadScene() names a bad field', bad !== null && bad.includes('rivers[0].phi'), String(bad));
+    check('a refused scene changes nothing', (await page.evaluate(() => window.strahler.scene().rivers.length)) === 2);
     await page.screenshot({ path: join(output, `${mode}.png`) });
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
     if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);

@@ -1,0 +1,314 @@
+//! The scene: the user's document, as versioned JSON. Everything else (rivers, ridges,
+//! terrain) is rebuilt from it, so the app, `window.strahler` and the command line give the
+//! same terrain for the same scene.
+//!
+//! Coordinates are map units, (0, 0) north-west to (1, 1) south-east, so one scene renders at
+//! any size. Missing fields take the documented defaults (see [`Scene::default`] and the
+//! README); unknown fields and invalid values are errors that name the field.
+
+use glam::DVec2;
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use crate::river::Stroke;
+use crate::terrain::TerrainParams;
+
+/// The version this build writes and reads.
+pub const VERSION: u32 = 1;
+
+#[derive(Debug, Error, PartialEq)]
+pub enum SceneError {
+    /// Malformed JSON, an unknown field or a value of the wrong type (serde names it).
+    #[error("scene: {0}")]
+    Parse(String),
+    #[error("scene: {field}: {problem}")]
+    Invalid { field: String, problem: String },
+}
+
+/// One river as drawn: estuary first, then the point giving flow direction and extent.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RiverStroke {
+    pub estuary: [f64; 2],
+    pub toward: [f64; 2],
+    /// Generator index phi, 1 to 6.
+    #[serde(default = "default_phi")]
+    pub phi: u32,
+    /// MaxDepth of eq. 3, 1 to 16.
+    #[serde(default = "default_depth")]
+    pub depth: u32,
+}
+
+fn default_phi() -> u32 {
+    3
+}
+
+fn default_depth() -> u32 {
+    8
+}
+
+impl From<RiverStroke> for Stroke {
+    fn from(r: RiverStroke) -> Self {
+        Stroke {
+            estuary: DVec2::from(r.estuary),
+            toward: DVec2::from(r.toward),
+            phi: r.phi,
+            max_depth: r.depth,
+        }
+    }
+}
+
+impl From<Stroke> for RiverStroke {
+    fn from(s: Stroke) -> Self {
+        Self {
+            estuary: s.estuary.to_array(),
+            toward: s.toward.to_array(),
+            phi: s.phi,
+            depth: s.max_depth,
+        }
+    }
+}
+
+/// Fractal noise of eq. 5.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct NoiseSettings {
+    /// Amplitude in metres.
+    pub amplitude: f64,
+    pub octaves: u32,
+    /// Amplitude ratio between octaves.
+    pub roughness: f64,
+}
+
+impl Default for NoiseSettings {
+    fn default() -> Self {
+        let n = crate::skeleton::NoiseParams::default();
+        Self {
+            amplitude: n.amplitude,
+            octaves: n.octaves,
+            roughness: n.roughness,
+        }
+    }
+}
+
+/// The paper's global parameters.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Params {
+    /// Branching angle theta in degrees.
+    pub theta: f64,
+    /// River slope in metres per metre of channel.
+    pub river_slope: f64,
+    /// alpha of eq. 4.
+    pub alpha: f64,
+    pub noise: NoiseSettings,
+}
+
+impl Default for Params {
+    fn default() -> Self {
+        let t = TerrainParams::default();
+        Self {
+            theta: t.rivers.theta_deg,
+            river_slope: t.rivers.slope,
+            alpha: t.ridges.alpha,
+            noise: NoiseSettings::default(),
+        }
+    }
+}
+
+/// The document.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct Scene {
+    pub version: u32,
+    /// Cells per side of the square map.
+    pub size: usize,
+    /// Horizontal cell size in metres at `size`.
+    pub cell_size: f64,
+    /// Multiplier applied to heights on export.
+    pub vertical_scale: f64,
+    pub seed: u64,
+    pub rivers: Vec<RiverStroke>,
+    pub params: Params,
+}
+
+impl Default for Scene {
+    fn default() -> Self {
+        Self {
+            version: VERSION,
+            size: 512,
+            cell_size: 10_000.0 / 512.0,
+            vertical_scale: 1.0,
+            seed: 1,
+            rivers: Vec::new(),
+            params: Params::default(),
+        }
+    }
+}
+
+impl Scene {
+    /// Parses and validates a scene.
+    pub fn from_json(text: &str) -> Result<Self, SceneError> {
+        let scene: Scene =
+            serde_json::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        scene.validate()?;
+        Ok(scene)
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// Checks every value, naming the first bad field.
+    pub fn validate(&self) -> Result<(), SceneError> {
+        let bad = |field: &str, problem: String| {
+            Err(SceneError::Invalid {
+                field: field.to_owned(),
+                problem,
+            })
+        };
+        if self.version != VERSION {
+            return bad(
+                "version",
+                format!("this build reads version {VERSION}, got {}", self.version),
+            );
+        }
+        if !(16..=8192).contains(&self.size) {
+            return bad(
+                "size",
+                format!("must be 16 to 8192 cells, got {}", self.size),
+            );
+        }
+        if !(self.cell_size.is_finite() && self.cell_size > 0.0) {
+            return bad(
+                "cell_size",
+                format!(
+                    "must be a positive number of metres, got {}",
+                    self.cell_size
+                ),
+            );
+        }
+        if !(self.vertical_scale.is_finite() && self.vertical_scale > 0.0) {
+            return bad(
+                "vertical_scale",
+                format!("must be positive, got {}", self.vertical_scale),
+            );
+        }
+        for (i, r) in self.rivers.iter().enumerate() {
+            for (name, p) in [("estuary", r.estuary), ("toward", r.toward)] {
+                if !p.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v)) {
+                    return bad(
+                        &format!("rivers[{i}].{name}"),
+                        format!("must lie in [0, 1] x [0, 1], got {p:?}"),
+                    );
+                }
+            }
+            if !(1..=6).contains(&r.phi) {
+                return bad(
+                    &format!("rivers[{i}].phi"),
+                    format!("must be 1 to 6, got {}", r.phi),
+                );
+            }
+            if !(1..=16).contains(&r.depth) {
+                return bad(
+                    &format!("rivers[{i}].depth"),
+                    format!("must be 1 to 16, got {}", r.depth),
+                );
+            }
+        }
+        let p = &self.params;
+        if !(p.theta.is_finite() && (1.0..=89.0).contains(&p.theta)) {
+            return bad(
+                "params.theta",
+                format!("must be 1 to 89 degrees, got {}", p.theta),
+            );
+        }
+        if !(p.river_slope.is_finite() && (0.0..=1.0).contains(&p.river_slope)) {
+            return bad(
+                "params.river_slope",
+                format!("must be 0 to 1, got {}", p.river_slope),
+            );
+        }
+        if !(p.alpha.is_finite() && (0.0..=10.0).contains(&p.alpha)) {
+            return bad("params.alpha", format!("must be 0 to 10, got {}", p.alpha));
+        }
+        if !(p.noise.amplitude.is_finite() && (0.0..=10_000.0).contains(&p.noise.amplitude)) {
+            return bad(
+                "params.noise.amplitude",
+                format!("must be 0 to 10000 m, got {}", p.noise.amplitude),
+            );
+        }
+        if !(1..=16).contains(&p.noise.octaves) {
+            return bad(
+                "params.noise.octaves",
+                format!("must be 1 to 16, got {}", p.noise.octaves),
+            );
+        }
+        if !(p.noise.roughness.is_finite() && (0.0..=1.0).contains(&p.noise.roughness)) {
+            return bad(
+                "params.noise.roughness",
+                format!("must be 0 to 1, got {}", p.noise.roughness),
+            );
+        }
+        Ok(())
+    }
+
+    /// The strokes of the rivers.
+    pub fn strokes(&self) -> Vec<Stroke> {
+        self.rivers.iter().copied().map(Stroke::from).collect()
+    }
+
+    /// The pipeline parameters at the scene's own size.
+    pub fn terrain_params(&self) -> TerrainParams {
+        let mut t = TerrainParams {
+            size: self.size,
+            seed: self.seed,
+            ..Default::default()
+        };
+        t.rivers.theta_deg = self.params.theta;
+        t.rivers.slope = self.params.river_slope;
+        t.ridges.alpha = self.params.alpha;
+        t.ridges.map_width_m = self.cell_size * self.size as f64;
+        t.rivers.map_width_m = t.ridges.map_width_m;
+        t.noise.amplitude = self.params.noise.amplitude;
+        t.noise.octaves = self.params.noise.octaves;
+        t.noise.roughness = self.params.noise.roughness;
+        t
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn round_trips_and_fills_defaults() {
+        let scene = Scene::from_json(
+            r#"{"version": 1, "rivers": [{"estuary": [0.5, 1], "toward": [0.5, 0.3]}]}"#,
+        )
+        .unwrap();
+        assert_eq!(scene.size, 512);
+        assert_eq!(scene.rivers[0].phi, 3);
+        assert_eq!(Scene::from_json(&scene.to_json()).unwrap(), scene);
+    }
+
+    #[test]
+    fn unknown_and_invalid_fields_are_named() {
+        let err = Scene::from_json(r#"{"version": 1, "colour": "red"}"#).unwrap_err();
+        assert!(err.to_string().contains("unknown field `colour`"), "{err}");
+        let err = Scene::from_json(
+            r#"{"version": 1, "rivers": [{"estuary": [0.5, 1], "toward": [0.5, 0.3], "phi": 9}]}"#,
+        )
+        .unwrap_err();
+        assert_eq!(
+            err.to_string(),
+            "scene: rivers[0].phi: must be 1 to 6, got 9"
+        );
+        let err =
+            Scene::from_json(r#"{"version": 1, "params": {"noise": {"octaves": 0}}}"#).unwrap_err();
+        assert!(err.to_string().contains("params.noise.octaves"), "{err}");
+        let err = Scene::from_json(r#"{"version": 2}"#).unwrap_err();
+        assert!(err.to_string().contains("version"), "{err}");
+        assert!(Scene::from_json("{not json").is_err());
+    }
+}
