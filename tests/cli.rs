@@ -269,9 +269,10 @@ fn generate_writes_heightmap_layers_and_report() {
         .iter()
         .map(|s| s["name"].as_str().unwrap())
         .collect();
-    for stage in ["rivers", "ridges", "skeleton", "diffuse"] {
+    for stage in ["rivers", "ridges", "skeleton", "enrich", "diffuse"] {
         assert!(stages.contains(&stage), "{stages:?}");
     }
+    assert!(report["enriched_cells"].as_u64().unwrap() > 0);
     assert!(report["rivers"]["max_order"].as_u64().unwrap() >= 3);
     assert!(report["ridges"]["edges"].as_u64().unwrap() > 10);
     assert!(report["drainage"]["river_fraction"].as_f64().unwrap() >= 0.95);

@@ -162,6 +162,8 @@ impl StrahlerApp {
         scene.params.river_slope = s.slope;
         scene.params.alpha = s.alpha;
         scene.params.noise.amplitude = s.noise;
+        scene.params.enrich.passes = s.passes;
+        scene.params.enrich.distance_limit = s.distance_limit;
         scene
     }
 
@@ -174,6 +176,8 @@ impl StrahlerApp {
         s.slope = scene.params.river_slope;
         s.alpha = scene.params.alpha;
         s.noise = scene.params.noise.amplitude;
+        s.passes = scene.params.enrich.passes;
+        s.distance_limit = scene.params.enrich.distance_limit;
         self.strokes = scene.strokes();
         self.dirty = true;
     }

@@ -25,6 +25,9 @@ pub struct FillSettings {
     pub alpha: f64,
     /// Amplitude of the fractal noise of eq. 5 (m).
     pub noise: f64,
+    /// MD/MDI passes and distance limit L (cells), Sec. V-B.
+    pub passes: u32,
+    pub distance_limit: u32,
     /// Multigrid (converged) or the paper's fixed count of Jacobi sweeps.
     pub multigrid: bool,
     /// Residual tolerance of multigrid, as a fraction of the height range.
@@ -46,6 +49,8 @@ impl Default for FillSettings {
             slope: terrain.rivers.slope,
             alpha: terrain.ridges.alpha,
             noise: terrain.noise.amplitude,
+            passes: terrain.enrich.passes,
+            distance_limit: terrain.enrich.distance_limit,
             multigrid: true,
             tolerance: MultigridParams::default().tolerance,
             sweeps: 5500,
@@ -82,6 +87,8 @@ impl FillSettings {
         p.rivers.slope = self.slope;
         p.ridges.alpha = self.alpha;
         p.noise.amplitude = self.noise;
+        p.enrich.passes = self.passes;
+        p.enrich.distance_limit = self.distance_limit;
         p
     }
 }
@@ -207,6 +214,16 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.label("Noise (m)")
                 .on_hover_text("Amplitude of the fractal Perlin noise F(P) of eq. 5 on ridges.");
             ui.add(DragValue::new(&mut s.noise).range(0.0..=500.0).speed(1.0));
+            ui.end_row();
+            ui.label("MD/MDI passes").on_hover_text(
+                "Midpoint displacement and its inverse (Sec. V-B): each pass widens rivers and \
+                 ridges by a cell of flank. 0 turns enrichment off.",
+            );
+            ui.add(DragValue::new(&mut s.passes).range(0..=16));
+            ui.end_row();
+            ui.label("L (cells)")
+                .on_hover_text("Distance limit L: no point is added farther from the skeleton.");
+            ui.add(DragValue::new(&mut s.distance_limit).range(1..=64));
             ui.end_row();
         });
 }

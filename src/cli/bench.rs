@@ -57,8 +57,17 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     ];
     println!("hydrology pipeline: 4 rivers (phi 2, 3, 4, 3), CPU, times in ms");
     println!(
-        "{:>6} {:>7} {:>8} {:>8} {:>8} {:>9} {:>8} {:>9} {:>9}",
-        "size", "nodes", "rivers", "ridges", "skeleton", "diffuse", "drainage", "total", "skeleton"
+        "{:>6} {:>7} {:>8} {:>8} {:>8} {:>8} {:>9} {:>8} {:>9} {:>9}",
+        "size",
+        "nodes",
+        "rivers",
+        "ridges",
+        "skeleton",
+        "enrich",
+        "diffuse",
+        "drainage",
+        "total",
+        "skeleton"
     );
     for &size in &args.sizes {
         let params = TerrainParams {
@@ -80,12 +89,13 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         };
         let total: f64 = g.report.stages.iter().map(|s| s.ms).sum();
         println!(
-            "{:>6} {:>7} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>8.1} {:>9.1} {:>8} cells",
+            "{:>6} {:>7} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>8.1} {:>9.1} {:>8} cells",
             size,
             g.report.rivers.nodes,
             ms("rivers"),
             ms("ridges"),
             ms("skeleton"),
+            ms("enrich"),
             ms("diffuse"),
             ms("drainage"),
             total,

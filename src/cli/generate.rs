@@ -44,6 +44,12 @@ pub struct GenerateArgs {
     /// Amplitude of the ridge noise of eq. 5, in metres [default: 25].
     #[arg(long)]
     pub noise: Option<f64>,
+    /// MD/MDI enrichment passes (0 = off) [default: 2].
+    #[arg(long)]
+    pub passes: Option<u32>,
+    /// Enrichment distance limit L in cells [default: 3].
+    #[arg(long)]
+    pub distance_limit: Option<u32>,
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -86,6 +92,12 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.noise {
         scene.params.noise.amplitude = v;
+    }
+    if let Some(v) = args.passes {
+        scene.params.enrich.passes = v;
+    }
+    if let Some(v) = args.distance_limit {
+        scene.params.enrich.distance_limit = v;
     }
     scene
         .rivers

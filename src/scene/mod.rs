@@ -91,6 +91,26 @@ impl Default for NoiseSettings {
     }
 }
 
+/// MD/MDI enrichment (Sec. V-B).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct EnrichSettings {
+    /// MDI + MD passes (0 = off).
+    pub passes: u32,
+    /// Distance limit L in cells.
+    pub distance_limit: u32,
+}
+
+impl Default for EnrichSettings {
+    fn default() -> Self {
+        let e = crate::skeleton::enrich::EnrichParams::default();
+        Self {
+            passes: e.passes,
+            distance_limit: e.distance_limit,
+        }
+    }
+}
+
 /// The paper's global parameters.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -102,6 +122,7 @@ pub struct Params {
     /// alpha of eq. 4.
     pub alpha: f64,
     pub noise: NoiseSettings,
+    pub enrich: EnrichSettings,
 }
 
 impl Default for Params {
@@ -112,6 +133,7 @@ impl Default for Params {
             river_slope: t.rivers.slope,
             alpha: t.ridges.alpha,
             noise: NoiseSettings::default(),
+            enrich: EnrichSettings::default(),
         }
     }
 }
@@ -250,6 +272,18 @@ impl Scene {
                 format!("must be 0 to 1, got {}", p.noise.roughness),
             );
         }
+        if p.enrich.passes > 16 {
+            return bad(
+                "params.enrich.passes",
+                format!("must be 0 to 16, got {}", p.enrich.passes),
+            );
+        }
+        if !(1..=64).contains(&p.enrich.distance_limit) {
+            return bad(
+                "params.enrich.distance_limit",
+                format!("must be 1 to 64 cells, got {}", p.enrich.distance_limit),
+            );
+        }
         Ok(())
     }
 
@@ -273,6 +307,8 @@ impl Scene {
         t.noise.amplitude = self.params.noise.amplitude;
         t.noise.octaves = self.params.noise.octaves;
         t.noise.roughness = self.params.noise.roughness;
+        t.enrich.passes = self.params.enrich.passes;
+        t.enrich.distance_limit = self.params.enrich.distance_limit;
         t
     }
 }

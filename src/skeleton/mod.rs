@@ -1,6 +1,7 @@
 //! The skeleton raster (seed paper 000, Sec. V-A): rivers and ridges drawn onto the grid with
 //! Bresenham's algorithm and heights by eq. 5, as the fixed cells of the diffusion.
 
+pub mod enrich;
 pub mod noise;
 
 use glam::DVec2;
@@ -18,6 +19,8 @@ pub enum CellKind {
     Free = 0,
     River = 1,
     Ridge = 2,
+    /// Added around the skeleton by MD/MDI enrichment (`enrich`).
+    Enriched = 3,
 }
 
 /// Noise of eq. 5 on ridges.

@@ -1,5 +1,5 @@
 //! The hydrology pipeline of seed paper 000 end to end: rivers (Sec. IV) -> ridges (V-A) ->
-//! skeleton raster (eq. 5) -> Laplace diffusion (V-C) -> depression filling and drainage
+//! skeleton raster (eq. 5) -> MD/MDI enrichment (V-B) -> Laplace diffusion (V-C) -> depression filling and drainage
 //! check (D8). Each stage is a
 //! plain function of its inputs; its seed derives from the scene seed and the stage's name,
 //! so editing one stage's parameters never reshuffles another's randomness.
@@ -16,6 +16,7 @@ use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::ridge::{self, RidgeError, RidgeParams, RidgeSegment};
 use crate::river::{self, GrownRiver, RiverParams, Stroke};
+use crate::skeleton::enrich::EnrichParams;
 use crate::skeleton::{self, NoiseParams, Skeleton};
 pub use drainage::Drainage;
 
@@ -44,6 +45,8 @@ pub struct TerrainParams {
     pub rivers: RiverParams,
     pub ridges: RidgeParams,
     pub noise: NoiseParams,
+    /// MD/MDI enrichment of the skeleton (Sec. V-B).
+    pub enrich: EnrichParams,
     /// How the diffusion stage solves (multigrid by default; Jacobi is the paper's baseline).
     pub solver: Method,
 }
@@ -56,6 +59,7 @@ impl Default for TerrainParams {
             rivers: RiverParams::default(),
             ridges: RidgeParams::default(),
             noise: NoiseParams::default(),
+            enrich: EnrichParams::default(),
             solver: Method::Multigrid(MultigridParams::default()),
         }
     }
@@ -77,6 +81,8 @@ pub struct TerrainReport {
     pub rivers: river::RiverReport,
     pub ridges: RidgeReport,
     pub skeleton_cells: usize,
+    /// Cells added by MD/MDI enrichment (included in `skeleton_cells`).
+    pub enriched_cells: usize,
     pub diffusion: DiffusionReport,
     pub drainage: Drainage,
     /// Depressions left by noise, raised so every cell drains (Priority-Flood).
@@ -177,7 +183,7 @@ pub async fn generate(
 
     ctx.checkpoint(0.2, "rasterising the skeleton").await?;
     let orders: Vec<Vec<u32>> = networks.iter().map(river::stats::strahler_orders).collect();
-    let skeleton = skeleton::rasterise(
+    let mut skeleton = skeleton::rasterise(
         &networks,
         &orders,
         &ridges,
@@ -186,6 +192,13 @@ pub async fn generate(
         stage_seed(params.seed, "skeleton"),
     );
     lap("skeleton", &mut stages);
+
+    ctx.checkpoint(0.25, "enriching the skeleton (MD/MDI)")
+        .await?;
+    let cell_m = params.ridges.map_width_m / n as f64;
+    let enriched_cells =
+        skeleton::enrich::enrich(&mut skeleton, &params.enrich, params.ridges.alpha, cell_m);
+    lap("enrich", &mut stages);
 
     let problem = skeleton.constraints();
     let filled = diffusion::fill(backend, &problem, params.solver, ctx).await?;
@@ -212,6 +225,7 @@ pub async fn generate(
             edges: ridges.len(),
         },
         skeleton_cells: skeleton.fixed_cells(),
+        enriched_cells,
         diffusion: DiffusionReport {
             backend: filled.backend,
             method: filled.method,
