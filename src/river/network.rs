@@ -192,7 +192,10 @@ pub fn turtle(symbols: &[Sym], estuary: DVec2, toward: DVec2, theta: f64) -> Riv
         height: vec![0.0],
         link_length,
     };
-    let (mut node, mut heading) = (0u32, (toward - estuary).to_angle());
+    // `libm` rather than the platform's trigonometry: the same bits natively and in wasm, so
+    // the same scene grows the same network everywhere.
+    let d = toward - estuary;
+    let (mut node, mut heading) = (0u32, libm::atan2(d.y, d.x));
     let mut stack = Vec::new();
     for s in symbols {
         match s {
@@ -201,7 +204,8 @@ pub fn turtle(symbols: &[Sym], estuary: DVec2, toward: DVec2, theta: f64) -> Riv
             Sym::Plus => heading += theta,
             Sym::Minus => heading -= theta,
             Sym::F | Sym::G => {
-                let to = net.nodes[node as usize] + DVec2::from_angle(heading) * link_length;
+                let dir = DVec2::new(libm::cos(heading), libm::sin(heading));
+                let to = net.nodes[node as usize] + dir * link_length;
                 net.nodes.push(to);
                 net.parent.push(Some(node));
                 net.exterior.push(*s == Sym::G);

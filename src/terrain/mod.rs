@@ -88,6 +88,8 @@ pub struct TerrainReport {
     /// Depressions left by noise, raised so every cell drains (Priority-Flood).
     pub conditioning: drainage::Conditioning,
     pub height_range: [f32; 2],
+    /// FNV-1a of the terrain's bits: equal for the same scene natively and in the browser.
+    pub checksum: String,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -240,6 +242,7 @@ pub async fn generate(
         height_range: terrain
             .finite_range()
             .map_or([0.0, 0.0], |(lo, hi)| [lo, hi]),
+        checksum: terrain.checksum(),
     };
     ctx.set_progress(1.0, "terrain ready");
     Ok(Generated {

@@ -11,7 +11,7 @@
 // Usage: node tests/browser.mjs [DIST_DIR]   (env: CHROMIUM, STRAHLER_BIN, TEST_OUTPUT)
 
 import { execFileSync } from 'node:child_process';
-import { createReadStream, existsSync, mkdirSync, statSync } from 'node:fs';
+import { createReadStream, existsSync, mkdirSync, readFileSync, statSync, writeFileSync } from 'node:fs';
 import { createServer } from 'node:http';
 import { extname, join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
@@ -119,6 +119,16 @@ async function runMode(url, mode, expectedChecksum) {
     }
     // Scripted editing: scene(), addRiver(), loadScene() with a field-naming error.
     const scene = await page.evaluate(() => window.strahler.scene());
+    if (mode === 'cpu' && process.env.STRAHLER_BIN) {
+      // Same scene, same terrain: the page's CPU result has the command line's bits.
+      const file = join(output, 'scene.json');
+      const report = join(output, 'scene-report.json');
+      writeFileSync(file, JSON.stringify(scene));
+      execFileSync(process.env.STRAHLER_BIN, ['generate', file, '--backend', 'cpu', '--report', report]);
+      const native = JSON.parse(readFileSync(report, 'utf8')).checksum;
+      check('the page and the command line make the same terrain bits', run.checksum === native,
+        `${run.checksum} != ${native}`);
+    }
     check('scene() returns the document', scene.version === 1 && scene.rivers.length === 1,
       JSON.stringify(scene));
     const before = run.checksum;
