@@ -159,3 +159,59 @@ fn drawing_a_river_with_the_mouse_adds_a_network_and_regenerates() {
     );
     harness.get_by_label_contains("#2");
 }
+
+/// Drags with the primary button from `from` to `to` over a few frames.
+fn drag(harness: &mut Harness<'static, StrahlerApp>, from: egui::Pos2, to: egui::Pos2) {
+    harness.hover_at(from);
+    harness.step();
+    harness.drag_at(from);
+    harness.step();
+    for k in 1..=8 {
+        harness.hover_at(from + (to - from) * (k as f32 / 8.0));
+        harness.step();
+    }
+    harness.drop_at(to);
+    harness.run_steps(2);
+}
+
+#[test]
+fn sketch_tools_add_peaks_ridges_and_valleys_with_keys_and_clicks() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+
+    // Peak tool by its key, then a click on the map.
+    harness.key_press(egui::Key::K);
+    harness.run_steps(2);
+    assert_eq!(harness.state().tool(), strahler::app::Tool::Peak);
+    let spot = egui::pos2(900.0, 200.0);
+    harness.hover_at(spot);
+    harness.step();
+    // A click: press and release in one frame, as a quick tap delivers them.
+    harness.drag_at(spot);
+    harness.drop_at(spot);
+    harness.run_steps(2);
+    assert_eq!(harness.state().sketch().peaks.len(), 1);
+
+    // Ridge tool by its button, then a drag.
+    harness.get_by_label("Ridge (D)").click();
+    harness.run_steps(2);
+    drag(
+        &mut harness,
+        egui::pos2(500.0, 150.0),
+        egui::pos2(650.0, 250.0),
+    );
+    assert_eq!(harness.state().sketch().ridges.len(), 1);
+    assert_eq!(harness.state().sketch().ridges[0].points.len(), 2);
+
+    wait_idle(&mut harness);
+    harness.get_by_label_contains("Sketch: 1 ridges, 0 valleys, 1 peaks");
+    let scene = harness.state().scene();
+    assert_eq!(scene.sketch.peaks.len(), 1);
+    assert!(scene.validate().is_ok());
+    harness.get_by_label("Delete sketch").click();
+    harness.run_steps(2);
+    assert!(harness.state().sketch().peaks.is_empty());
+}

@@ -23,6 +23,19 @@ pub enum Tool {
     Pan,
     /// Press at the estuary and drag upstream: a new river stroke.
     River,
+    /// Drag a sketched ridge line.
+    Ridge,
+    /// Drag a sketched valley line, from its mouth upwards.
+    Valley,
+    /// Click a sketched peak.
+    Peak,
+}
+
+impl Tool {
+    /// Tools whose primary drag draws a line.
+    fn draws_lines(self) -> bool {
+        matches!(self, Tool::River | Tool::Ridge | Tool::Valley)
+    }
 }
 
 /// Lines drawn over the terrain, in map units.
@@ -33,6 +46,10 @@ pub struct Overlay {
     pub ridges: Vec<(Pos2, Pos2)>,
     /// The user's strokes (estuary, flow point).
     pub strokes: Vec<(Pos2, Pos2)>,
+    /// Sketched ridge and valley segments, and peaks.
+    pub sketch_ridges: Vec<(Pos2, Pos2)>,
+    pub sketch_valleys: Vec<(Pos2, Pos2)>,
+    pub peaks: Vec<Pos2>,
     pub show_rivers: bool,
     pub show_ridges: bool,
 }
@@ -41,8 +58,10 @@ pub struct Overlay {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MapResponse {
     pub hover: Option<Hover>,
-    /// A river stroke finished this frame (estuary, flow point), clamped to the map.
+    /// A line finished this frame with the active line tool (start, end), clamped to the map.
     pub new_stroke: Option<(Pos2, Pos2)>,
+    /// A click with the peak tool, in map units.
+    pub clicked: Option<Pos2>,
 }
 
 /// What the pointer is over.
@@ -64,6 +83,8 @@ pub struct MapView {
     field: Option<Heightfield>,
     /// Start of the river stroke being drawn.
     stroke_start: Option<Pos2>,
+    /// Where the pointer last went down on the map (screen), for clicks.
+    press_at: Option<Pos2>,
 }
 
 impl MapView {
@@ -103,12 +124,22 @@ impl MapView {
         let to_screen = |m: Pos2| rect.center() + (m - center) * scale;
         let to_map = |s: Pos2| center + (s - rect.center()) / scale;
 
-        let drawing = tool == Tool::River && response.dragged_by(egui::PointerButton::Primary);
+        let lines = tool.draws_lines();
+        let drawing = lines && response.dragged_by(egui::PointerButton::Primary);
         let mut new_stroke = None;
-        if tool == Tool::River && response.drag_started_by(egui::PointerButton::Primary) {
+        if response.is_pointer_button_down_on()
+            && let Some(p) = response.interact_pointer_pos()
+        {
+            self.press_at = Some(p);
+        }
+        let clicked = (tool == Tool::Peak && response.clicked())
+            .then(|| self.press_at.map(to_map))
+            .flatten()
+            .filter(|p| (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y));
+        if lines && response.drag_started_by(egui::PointerButton::Primary) {
             self.stroke_start = response.interact_pointer_pos().map(to_map);
         }
-        if tool == Tool::River && response.drag_stopped_by(egui::PointerButton::Primary) {
+        if lines && response.drag_stopped_by(egui::PointerButton::Primary) {
             let end = response.interact_pointer_pos().map(to_map);
             if let (Some(a), Some(b)) = (self.stroke_start.take(), end) {
                 let clamp = |p: Pos2| pos2(p.x.clamp(0.0, 1.0), p.y.clamp(0.0, 1.0));
@@ -172,6 +203,27 @@ impl MapView {
                 painter.line_segment([to_screen(*a), to_screen(*b)], stroke);
             }
         }
+        let sketch_ridge = Stroke::new(2.5, Color32::from_rgb(150, 70, 30));
+        for (a, b) in &overlay.sketch_ridges {
+            painter.line_segment([to_screen(*a), to_screen(*b)], sketch_ridge);
+        }
+        let sketch_valley = Stroke::new(2.5, Color32::from_rgb(30, 190, 200));
+        for (a, b) in &overlay.sketch_valleys {
+            painter.line_segment([to_screen(*a), to_screen(*b)], sketch_valley);
+        }
+        for p in &overlay.peaks {
+            let c = to_screen(*p);
+            let tri = vec![
+                c + egui::vec2(0.0, -7.0),
+                c + egui::vec2(6.0, 5.0),
+                c + egui::vec2(-6.0, 5.0),
+            ];
+            painter.add(egui::Shape::convex_polygon(
+                tri,
+                Color32::from_rgb(120, 60, 20),
+                Stroke::new(1.0, Color32::WHITE),
+            ));
+        }
         let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
         for (a, b) in &overlay.strokes {
             arrow(&painter, to_screen(*a), to_screen(*b), stroke_style);
@@ -189,6 +241,7 @@ impl MapView {
                 }
             }),
             new_stroke,
+            clicked,
         }
     }
 

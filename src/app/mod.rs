@@ -59,6 +59,7 @@ pub struct StrahlerApp {
     map: MapView,
     settings: FillSettings,
     strokes: Vec<Stroke>,
+    sketch: crate::skeleton::sketch::Sketch,
     tool: Tool,
     overlay: Overlay,
     /// Something that shapes the terrain changed: regenerate at the next frame.
@@ -100,6 +101,7 @@ impl StrahlerApp {
             map: MapView::default(),
             settings: FillSettings::default(),
             strokes: vec![default_stroke()],
+            sketch: Default::default(),
             tool: Tool::default(),
             overlay: Overlay::default(),
             dirty: false,
@@ -156,6 +158,7 @@ impl StrahlerApp {
                 .copied()
                 .map(RiverStroke::from)
                 .collect(),
+            sketch: crate::scene::SketchSettings::from_sketch(&self.sketch),
             ..Default::default()
         };
         scene.params.theta = s.theta;
@@ -179,7 +182,13 @@ impl StrahlerApp {
         s.passes = scene.params.enrich.passes;
         s.distance_limit = scene.params.enrich.distance_limit;
         self.strokes = scene.strokes();
+        self.sketch = scene.sketch.to_sketch();
         self.dirty = true;
+    }
+
+    /// The sketched ridges, valleys and peaks.
+    pub fn sketch(&self) -> &crate::skeleton::sketch::Sketch {
+        &self.sketch
     }
 
     /// Adds a river stroke (map units, estuary first) and regenerates.
@@ -220,7 +229,9 @@ impl StrahlerApp {
             }
         };
         self.automation.set_scene(self.scene());
-        let (strokes, params) = (self.strokes.clone(), self.settings.terrain());
+        let strokes = self.strokes.clone();
+        let mut params = self.settings.terrain();
+        params.sketch = self.sketch.clone();
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "terrain",
@@ -362,6 +373,15 @@ impl eframe::App for StrahlerApp {
                 if i.key_pressed(egui::Key::P) {
                     self.tool = Tool::Pan;
                 }
+                if i.key_pressed(egui::Key::D) {
+                    self.tool = Tool::Ridge;
+                }
+                if i.key_pressed(egui::Key::V) {
+                    self.tool = Tool::Valley;
+                }
+                if i.key_pressed(egui::Key::K) {
+                    self.tool = Tool::Peak;
+                }
             });
         }
         status_bar::show(ui, self);
@@ -378,17 +398,52 @@ impl eframe::App for StrahlerApp {
                 )
             })
             .collect();
+        let p = |v: &DVec2| pos2(v.x as f32, v.y as f32);
+        let segments = |lines: &[crate::skeleton::sketch::SketchLine]| {
+            lines
+                .iter()
+                .flat_map(|l| {
+                    l.points
+                        .windows(2)
+                        .map(|w| (p(&w[0]), p(&w[1])))
+                        .collect::<Vec<_>>()
+                })
+                .collect::<Vec<_>>()
+        };
+        self.overlay.sketch_ridges = segments(&self.sketch.ridges);
+        self.overlay.sketch_valleys = segments(&self.sketch.valleys);
+        self.overlay.peaks = self.sketch.peaks.iter().map(|k| p(&k.at)).collect();
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let response = self.map.show(ui, self.tool, &self.overlay);
             self.hover = response.hover;
+            let d = |q: egui::Pos2| DVec2::new(f64::from(q.x), f64::from(q.y));
             if let Some((a, b)) = response.new_stroke {
-                let last = self.strokes.last().copied().unwrap_or_else(default_stroke);
-                self.add_stroke(Stroke {
-                    estuary: DVec2::new(f64::from(a.x), f64::from(a.y)),
-                    toward: DVec2::new(f64::from(b.x), f64::from(b.y)),
-                    phi: last.phi,
-                    max_depth: last.max_depth,
+                use crate::skeleton::sketch::SketchLine;
+                let line = SketchLine {
+                    points: vec![d(a), d(b)],
+                    height: None,
+                };
+                match self.tool {
+                    Tool::Ridge => self.sketch.ridges.push(line),
+                    Tool::Valley => self.sketch.valleys.push(line),
+                    _ => {
+                        let last = self.strokes.last().copied().unwrap_or_else(default_stroke);
+                        self.strokes.push(Stroke {
+                            estuary: d(a),
+                            toward: d(b),
+                            phi: last.phi,
+                            max_depth: last.max_depth,
+                        });
+                    }
+                }
+                self.dirty = true;
+            }
+            if let Some(at) = response.clicked {
+                self.sketch.peaks.push(crate::skeleton::sketch::SketchPeak {
+                    at: d(at),
+                    height: None,
                 });
+                self.dirty = true;
             }
         });
     }

@@ -123,9 +123,18 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         "Each stroke grows a Tokunaga river network (seed paper 000, Sec. IV): press at the \
          estuary and drag upstream in the flow direction.",
     );
-    ui.horizontal(|ui| {
+    ui.horizontal_wrapped(|ui| {
         ui.selectable_value(&mut app.tool, Tool::Pan, "Pan (P)");
         ui.selectable_value(&mut app.tool, Tool::River, "Draw river (R)");
+    });
+    ui.horizontal_wrapped(|ui| {
+        ui.label("Sketch:").on_hover_text(
+            "Sketched features (seed paper 003) become extra constraints: ridges (drag), \
+             valleys (drag from the mouth upwards) and peaks (click). Heights follow eq. 4.",
+        );
+        ui.selectable_value(&mut app.tool, Tool::Ridge, "Ridge (D)");
+        ui.selectable_value(&mut app.tool, Tool::Valley, "Valley (V)");
+        ui.selectable_value(&mut app.tool, Tool::Peak, "Peak (K)");
     });
     let mut remove = None;
     let mut changed = false;
@@ -161,6 +170,23 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     } else if ui.button("Delete all rivers").clicked() {
         app.strokes.clear();
         changed = true;
+    }
+    let counts = (
+        app.sketch.ridges.len(),
+        app.sketch.valleys.len(),
+        app.sketch.peaks.len(),
+    );
+    if counts != (0, 0, 0) {
+        ui.horizontal(|ui| {
+            ui.label(format!(
+                "Sketch: {} ridges, {} valleys, {} peaks",
+                counts.0, counts.1, counts.2
+            ));
+            if ui.button("Delete sketch").clicked() {
+                app.sketch = Default::default();
+                changed = true;
+            }
+        });
     }
     if changed {
         app.dirty = true;

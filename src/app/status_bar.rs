@@ -25,6 +25,9 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
             let tool = match app.tool() {
                 super::Tool::Pan => "Tool: pan (P)",
                 super::Tool::River => "Tool: draw river (R) - press at the estuary, drag upstream",
+                super::Tool::Ridge => "Tool: sketch ridge (D) - drag along the crest",
+                super::Tool::Valley => "Tool: sketch valley (V) - drag from its mouth upwards",
+                super::Tool::Peak => "Tool: sketch peak (K) - click",
             };
             ui.label(tool);
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {

@@ -138,6 +138,77 @@ impl Default for Params {
     }
 }
 
+/// A sketched ridge or valley line (seed paper 003): map-unit points, optional height (m).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SketchLine {
+    pub points: Vec<[f64; 2]>,
+    #[serde(default)]
+    pub height: Option<f64>,
+}
+
+/// A sketched peak point with an optional height (m).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SketchPeak {
+    pub at: [f64; 2],
+    #[serde(default)]
+    pub height: Option<f64>,
+}
+
+/// Sketched features: extra constraints beside the grown rivers and ridges.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct SketchSettings {
+    pub ridges: Vec<SketchLine>,
+    /// Valleys start at their mouth (first point).
+    pub valleys: Vec<SketchLine>,
+    pub peaks: Vec<SketchPeak>,
+}
+
+impl SketchSettings {
+    /// The pipeline's form.
+    pub fn to_sketch(&self) -> crate::skeleton::sketch::Sketch {
+        use crate::skeleton::sketch;
+        let line = |l: &SketchLine| sketch::SketchLine {
+            points: l.points.iter().map(|p| DVec2::from(*p)).collect(),
+            height: l.height,
+        };
+        sketch::Sketch {
+            ridges: self.ridges.iter().map(line).collect(),
+            valleys: self.valleys.iter().map(line).collect(),
+            peaks: self
+                .peaks
+                .iter()
+                .map(|p| sketch::SketchPeak {
+                    at: DVec2::from(p.at),
+                    height: p.height,
+                })
+                .collect(),
+        }
+    }
+
+    /// From the pipeline's form.
+    pub fn from_sketch(s: &crate::skeleton::sketch::Sketch) -> Self {
+        let line = |l: &crate::skeleton::sketch::SketchLine| SketchLine {
+            points: l.points.iter().map(|p| p.to_array()).collect(),
+            height: l.height,
+        };
+        Self {
+            ridges: s.ridges.iter().map(line).collect(),
+            valleys: s.valleys.iter().map(line).collect(),
+            peaks: s
+                .peaks
+                .iter()
+                .map(|p| SketchPeak {
+                    at: p.at.to_array(),
+                    height: p.height,
+                })
+                .collect(),
+        }
+    }
+}
+
 /// The document.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -152,6 +223,7 @@ pub struct Scene {
     pub seed: u64,
     pub rivers: Vec<RiverStroke>,
     pub params: Params,
+    pub sketch: SketchSettings,
 }
 
 impl Default for Scene {
@@ -164,6 +236,7 @@ impl Default for Scene {
             seed: 1,
             rivers: Vec::new(),
             params: Params::default(),
+            sketch: SketchSettings::default(),
         }
     }
 }
@@ -272,6 +345,46 @@ impl Scene {
                 format!("must be 0 to 1, got {}", p.noise.roughness),
             );
         }
+        let in_map = |p: &[f64; 2]| p.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v));
+        let height_ok =
+            |h: Option<f64>| h.is_none_or(|h| h.is_finite() && (-11_000.0..=9_000.0).contains(&h));
+        for (kind, lines) in [
+            ("ridges", &self.sketch.ridges),
+            ("valleys", &self.sketch.valleys),
+        ] {
+            for (i, line) in lines.iter().enumerate() {
+                let field = format!("sketch.{kind}[{i}]");
+                if line.points.len() < 2 {
+                    return bad(&format!("{field}.points"), "needs at least 2 points".into());
+                }
+                if let Some(p) = line.points.iter().find(|p| !in_map(p)) {
+                    return bad(
+                        &format!("{field}.points"),
+                        format!("{p:?} is outside [0, 1] x [0, 1]"),
+                    );
+                }
+                if !height_ok(line.height) {
+                    return bad(
+                        &format!("{field}.height"),
+                        "must be -11000 to 9000 m".into(),
+                    );
+                }
+            }
+        }
+        for (i, peak) in self.sketch.peaks.iter().enumerate() {
+            if !in_map(&peak.at) {
+                return bad(
+                    &format!("sketch.peaks[{i}].at"),
+                    format!("{:?} is outside [0, 1] x [0, 1]", peak.at),
+                );
+            }
+            if !height_ok(peak.height) {
+                return bad(
+                    &format!("sketch.peaks[{i}].height"),
+                    "must be -11000 to 9000 m".into(),
+                );
+            }
+        }
         if p.enrich.passes > 16 {
             return bad(
                 "params.enrich.passes",
@@ -309,6 +422,7 @@ impl Scene {
         t.noise.roughness = self.params.noise.roughness;
         t.enrich.passes = self.params.enrich.passes;
         t.enrich.distance_limit = self.params.enrich.distance_limit;
+        t.sketch = self.sketch.to_sketch();
         t
     }
 }
@@ -343,6 +457,13 @@ mod tests {
         let err =
             Scene::from_json(r#"{"version": 1, "params": {"noise": {"octaves": 0}}}"#).unwrap_err();
         assert!(err.to_string().contains("params.noise.octaves"), "{err}");
+        let err = Scene::from_json(r#"{"version": 1, "sketch": {"peaks": [{"at": [0.5, 1.5]}]}}"#)
+            .unwrap_err();
+        assert!(err.to_string().contains("sketch.peaks[0].at"), "{err}");
+        let err =
+            Scene::from_json(r#"{"version": 1, "sketch": {"ridges": [{"points": [[0.1, 0.1]]}]}}"#)
+                .unwrap_err();
+        assert!(err.to_string().contains("sketch.ridges[0].points"), "{err}");
         let err = Scene::from_json(r#"{"version": 2}"#).unwrap_err();
         assert!(err.to_string().contains("version"), "{err}");
         assert!(Scene::from_json("{not json").is_err());

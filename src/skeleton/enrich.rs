@@ -50,7 +50,7 @@ pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64)
         .kinds
         .iter()
         .map(|k| match k {
-            CellKind::River => 1,
+            CellKind::River | CellKind::Valley => 1,
             CellKind::Ridge => -1,
             _ => 0,
         })

@@ -3,6 +3,7 @@
 
 pub mod enrich;
 pub mod noise;
+pub mod sketch;
 
 use glam::DVec2;
 
@@ -21,6 +22,8 @@ pub enum CellKind {
     Ridge = 2,
     /// Added around the skeleton by MD/MDI enrichment (`enrich`).
     Enriched = 3,
+    /// A sketched valley line (`sketch`): a channel that drains to its mouth.
+    Valley = 4,
 }
 
 /// Noise of eq. 5 on ridges.

@@ -17,6 +17,7 @@ use crate::jobs::{Cancelled, JobCtx};
 use crate::ridge::{self, RidgeError, RidgeParams, RidgeSegment};
 use crate::river::{self, GrownRiver, RiverParams, Stroke};
 use crate::skeleton::enrich::EnrichParams;
+use crate::skeleton::sketch::Sketch;
 use crate::skeleton::{self, NoiseParams, Skeleton};
 pub use drainage::Drainage;
 
@@ -47,6 +48,8 @@ pub struct TerrainParams {
     pub noise: NoiseParams,
     /// MD/MDI enrichment of the skeleton (Sec. V-B).
     pub enrich: EnrichParams,
+    /// Sketched ridges, valleys and peaks (extra constraints).
+    pub sketch: Sketch,
     /// How the diffusion stage solves (multigrid by default; Jacobi is the paper's baseline).
     pub solver: Method,
 }
@@ -60,6 +63,7 @@ impl Default for TerrainParams {
             ridges: RidgeParams::default(),
             noise: NoiseParams::default(),
             enrich: EnrichParams::default(),
+            sketch: Sketch::default(),
             solver: Method::Multigrid(MultigridParams::default()),
         }
     }
@@ -193,6 +197,16 @@ pub async fn generate(
         &params.noise,
         stage_seed(params.seed, "skeleton"),
     );
+    skeleton::sketch::rasterise(
+        &mut skeleton,
+        &params.sketch,
+        &networks,
+        params.ridges.alpha,
+        params.rivers.slope,
+        params.ridges.map_width_m,
+        &params.noise,
+        stage_seed(params.seed, "sketch"),
+    );
     lap("skeleton", &mut stages);
 
     ctx.checkpoint(0.25, "enriching the skeleton (MD/MDI)")
@@ -324,6 +338,53 @@ mod tests {
             run(&s, 128, 9).terrain.checksum(),
             run(&s, 128, 10).terrain.checksum()
         );
+    }
+
+    #[test]
+    fn sketched_peaks_ridges_and_valleys_are_kept() {
+        use crate::skeleton::CellKind;
+        use crate::skeleton::sketch::{SketchLine, SketchPeak};
+        let mut params = TerrainParams {
+            size: 128,
+            ..Default::default()
+        };
+        params.sketch.peaks.push(SketchPeak {
+            at: DVec2::new(0.2, 0.2),
+            height: Some(900.0),
+        });
+        params.sketch.ridges.push(SketchLine {
+            points: vec![DVec2::new(0.7, 0.1), DVec2::new(0.9, 0.4)],
+            height: None,
+        });
+        params.sketch.valleys.push(SketchLine {
+            points: vec![DVec2::new(0.5, 0.75), DVec2::new(0.2, 0.6)],
+            height: None,
+        });
+        // A small river in the south-east corner, away from the sketches.
+        let strokes = [stroke((0.95, 1.0), (0.95, 0.85), 2, 4)];
+        let g = pollster::block_on(generate(
+            &strokes,
+            &params,
+            &Backend::Cpu,
+            &JobCtx::detached(),
+        ))
+        .unwrap();
+        let n = 128;
+        let at = |x: f64, y: f64| {
+            let (cx, cy) = crate::skeleton::to_cell(DVec2::new(x, y), n);
+            cy as usize * n + cx as usize
+        };
+        // The peak is fixed at its height and is the highest point around.
+        assert_eq!(g.skeleton.kinds[at(0.2, 0.2)], CellKind::Ridge);
+        // (Flats get an epsilon tilt from the Priority-Flood so they drain.)
+        assert!((g.terrain.data()[at(0.2, 0.2)] - 900.0).abs() < 1e-3);
+        assert!(g.report.height_range[1] >= 900.0);
+        assert_eq!(g.skeleton.kinds[at(0.8, 0.25)], CellKind::Ridge);
+        // The valley rises from its mouth.
+        let (mouth, head) = (at(0.5, 0.75), at(0.2, 0.6));
+        assert_eq!(g.skeleton.kinds[head], CellKind::Valley);
+        assert!(g.terrain.data()[head] > g.terrain.data()[mouth]);
+        assert!(g.report.drainage.outlet_fraction >= 0.99);
     }
 
     #[test]

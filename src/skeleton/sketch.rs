@@ -1,0 +1,178 @@
+//! Sketched features (seed paper 003, Sec. 3: ridge lines, valley lines and peak points) as
+//! extra fixed cells of the skeleton, next to the grown rivers and ridges.
+//!
+//! Heights, where the sketch gives none, follow the hydrology paper so sketches blend in:
+//! a ridge vertex gets eq. 4 from its three nearest river nodes; a valley starts at the
+//! height of its nearest river node at its first point (its mouth) and rises along its length
+//! with the river slope, so it drains towards its mouth; a peak gets eq. 4 with twice alpha.
+
+use glam::DVec2;
+
+use super::noise::Perlin;
+use super::{CellKind, NoiseParams, Skeleton, bresenham, to_cell};
+use crate::river::RiverNetwork;
+
+/// A sketched polyline in map units with an optional height in metres.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SketchLine {
+    pub points: Vec<DVec2>,
+    pub height: Option<f64>,
+}
+
+/// A sketched peak.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SketchPeak {
+    pub at: DVec2,
+    pub height: Option<f64>,
+}
+
+/// All sketched features.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Sketch {
+    pub ridges: Vec<SketchLine>,
+    pub valleys: Vec<SketchLine>,
+    pub peaks: Vec<SketchPeak>,
+}
+
+/// Heights derived from the river network (eq. 4 style).
+struct Heights<'a> {
+    rivers: &'a [RiverNetwork],
+    alpha: f64,
+    map_width_m: f64,
+}
+
+impl Heights<'_> {
+    /// The `k` nearest river nodes' heights and the distance to the nearest (map units).
+    /// O(river nodes): sketches have few vertices.
+    fn nearest(&self, p: DVec2, k: usize) -> (Vec<f32>, f64) {
+        let mut all: Vec<(f64, f32)> = self
+            .rivers
+            .iter()
+            .flat_map(|r| {
+                r.nodes
+                    .iter()
+                    .zip(&r.height)
+                    .map(|(n, h)| (n.distance(p), *h))
+            })
+            .collect();
+        all.sort_by(|a, b| a.0.total_cmp(&b.0));
+        let d = all.first().map_or(0.0, |a| a.0);
+        (all.iter().take(k).map(|a| a.1).collect(), d)
+    }
+
+    /// Eq. 4: `max(H_p1, H_p2, H_p3) + alpha * d`, with `alpha` scaled by `factor`.
+    fn eq4(&self, p: DVec2, factor: f64) -> f64 {
+        let (heights, d) = self.nearest(p, 3);
+        let top = heights.iter().copied().fold(0.0f32, f32::max);
+        f64::from(top) + factor * self.alpha * d * self.map_width_m
+    }
+}
+
+/// Rasterises `sketch` into `sk` (after rivers and ridges). Rivers keep their cells; valleys
+/// take precedence over ridges and peaks. O(sketch length in cells + vertices x river nodes).
+#[allow(clippy::too_many_arguments)]
+pub fn rasterise(
+    sk: &mut Skeleton,
+    sketch: &Sketch,
+    rivers: &[RiverNetwork],
+    alpha: f64,
+    slope: f64,
+    map_width_m: f64,
+    noise: &NoiseParams,
+    seed: u64,
+) {
+    let n = sk.size;
+    let heights = Heights {
+        rivers,
+        alpha,
+        map_width_m,
+    };
+    let perlin = Perlin::new(seed);
+    let inside = |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < n && (y as usize) < n;
+    let put = |sk: &mut Skeleton, x: i64, y: i64, h: f64, kind: CellKind| {
+        if !inside(x, y) {
+            return;
+        }
+        let i = y as usize * n + x as usize;
+        let rank = |k: CellKind| match k {
+            CellKind::River => 3,
+            CellKind::Valley => 2,
+            CellKind::Ridge | CellKind::Enriched => 1,
+            CellKind::Free => 0,
+        };
+        if rank(kind) >= rank(sk.kinds[i]) {
+            sk.kinds[i] = kind;
+            sk.heights[i] = h as f32;
+        }
+    };
+
+    for line in &sketch.ridges {
+        let vertex_h: Vec<f64> = line
+            .points
+            .iter()
+            .map(|p| line.height.unwrap_or_else(|| heights.eq4(*p, 1.0)))
+            .collect();
+        draw_polyline(&line.points, &vertex_h, n, |x, y, h| {
+            let f = noise.amplitude
+                * perlin.fbm(
+                    x as f64 / n as f64,
+                    y as f64 / n as f64,
+                    noise.frequency,
+                    noise.octaves,
+                    noise.roughness,
+                );
+            put(sk, x, y, h + f, CellKind::Ridge);
+        });
+    }
+    for line in &sketch.valleys {
+        let Some(mouth) = line.points.first() else {
+            continue;
+        };
+        let base = line.height.unwrap_or_else(|| {
+            f64::from(heights.nearest(*mouth, 1).0.first().copied().unwrap_or(0.0))
+        });
+        let mut along = 0.0;
+        let mut vertex_h = Vec::with_capacity(line.points.len());
+        for (k, p) in line.points.iter().enumerate() {
+            if k > 0 {
+                along += p.distance(line.points[k - 1]);
+            }
+            vertex_h.push(base + slope * along * map_width_m);
+        }
+        draw_polyline(&line.points, &vertex_h, n, |x, y, h| {
+            put(sk, x, y, h, CellKind::Valley)
+        });
+    }
+    for peak in &sketch.peaks {
+        let h = peak.height.unwrap_or_else(|| heights.eq4(peak.at, 2.0));
+        let (cx, cy) = to_cell(peak.at, n);
+        for dy in -2i64..=2 {
+            for dx in -2i64..=2 {
+                if dx * dx + dy * dy <= 4 {
+                    put(sk, cx + dx, cy + dy, h, CellKind::Ridge);
+                }
+            }
+        }
+    }
+}
+
+/// Bresenham along each segment with heights linear between the vertices (eq. 5 without
+/// the noise term, which the caller adds where it applies).
+fn draw_polyline(
+    points: &[DVec2],
+    heights: &[f64],
+    n: usize,
+    mut visit: impl FnMut(i64, i64, f64),
+) {
+    for k in 1..points.len() {
+        let (a, b) = (to_cell(points[k - 1], n), to_cell(points[k], n));
+        let len = (((b.0 - a.0).pow(2) + (b.1 - a.1).pow(2)) as f64)
+            .sqrt()
+            .max(1.0);
+        let (ha, hb) = (heights[k - 1], heights[k]);
+        bresenham(a, b, |x, y| {
+            let t = ((((x - a.0).pow(2) + (y - a.1).pow(2)) as f64).sqrt() / len).min(1.0);
+            visit(x, y, ha + t * (hb - ha));
+        });
+    }
+}
