@@ -19,6 +19,9 @@ pub struct RiverNetwork {
     pub height: Vec<f32>,
     /// Length of every link in map units.
     pub link_length: f64,
+    /// Whether the link from the parent lies on the trunk (the straight line the user drew).
+    /// Filled by [`turtle`]; empty on admitted networks.
+    pub trunk: Vec<bool>,
 }
 
 impl RiverNetwork {
@@ -105,8 +108,8 @@ pub fn segments_intersect(a: DVec2, b: DVec2, p: DVec2, q: DVec2) -> bool {
 
 /// Keeps the links of several turtle drawings ([`turtle`]) that fit together.
 ///
-/// Links are admitted from the estuaries upstream, higher Strahler orders first across all
-/// networks: one that would leave the map or cross a link already admitted is dropped with
+/// Links are admitted from the estuaries upstream, the trunks (the strokes themselves) first,
+/// then higher Strahler orders first across all networks: one that would leave the map or cross a link already admitted is dropped with
 /// everything upstream of it, so main streams win over tributaries and networks never cross.
 /// Heights: `slope * geodesic distance`, in metres for a map `map_width_m` wide (Sec. IV-C;
 /// each estuary is at 0 m). O(L log L) for L links in all.
@@ -136,6 +139,7 @@ pub fn admit(drawings: &[RiverNetwork], slope: f64, map_width_m: f64) -> Vec<Riv
             nodes: vec![d.nodes[0]],
             parent: vec![None],
             exterior: vec![false],
+            trunk: Vec::new(),
             height: vec![0.0],
             link_length: d.link_length,
         })
@@ -145,12 +149,17 @@ pub fn admit(drawings: &[RiverNetwork], slope: f64, map_width_m: f64) -> Vec<Riv
         .map(|d| vec![u32::MAX; d.nodes.len()])
         .collect();
     let mut distance: Vec<Vec<f64>> = drawings.iter().map(|d| vec![0.0; d.nodes.len()]).collect();
-    // (order, closeness to the estuary, network, node): best first.
+    // Trunks first (what the user drew is kept), then by Strahler order, then closeness to
+    // the estuary: (rank, closeness, network, node), best first.
+    let rank = |k: usize, c: usize| {
+        let trunk = drawings[k].trunk.get(c).copied().unwrap_or(false);
+        orders[k][c] + if trunk { 1 << 20 } else { 0 }
+    };
     let mut frontier = BinaryHeap::new();
     for (k, d) in drawings.iter().enumerate() {
         new_id[k][0] = 0;
         for &c in &children[k][0] {
-            frontier.push((orders[k][c], Reverse((d.link_length * 1e9) as u64), k, c));
+            frontier.push((rank(k, c), Reverse((d.link_length * 1e9) as u64), k, c));
         }
     }
     while let Some((_, _, k, node)) = frontier.pop() {
@@ -172,7 +181,7 @@ pub fn admit(drawings: &[RiverNetwork], slope: f64, map_width_m: f64) -> Vec<Riv
         net.height.push((slope * dist * map_width_m) as f32);
         for &c in &children[k][node] {
             let closeness = Reverse(((dist + d.link_length) * 1e9) as u64);
-            frontier.push((orders[k][c], closeness, k, c));
+            frontier.push((rank(k, c), closeness, k, c));
         }
     }
     nets
@@ -189,6 +198,7 @@ pub fn turtle(symbols: &[Sym], estuary: DVec2, toward: DVec2, theta: f64) -> Riv
         nodes: vec![estuary],
         parent: vec![None],
         exterior: vec![false],
+        trunk: vec![false],
         height: vec![0.0],
         link_length,
     };
@@ -201,6 +211,7 @@ pub fn turtle(symbols: &[Sym], estuary: DVec2, toward: DVec2, theta: f64) -> Riv
         match s {
             Sym::Push => stack.push((node, heading)),
             Sym::Pop => (node, heading) = stack.pop().unwrap_or((node, heading)),
+
             Sym::Plus => heading += theta,
             Sym::Minus => heading -= theta,
             Sym::F | Sym::G => {
@@ -209,6 +220,7 @@ pub fn turtle(symbols: &[Sym], estuary: DVec2, toward: DVec2, theta: f64) -> Riv
                 net.nodes.push(to);
                 net.parent.push(Some(node));
                 net.exterior.push(*s == Sym::G);
+                net.trunk.push(stack.is_empty());
                 net.height.push(0.0);
                 node = (net.nodes.len() - 1) as u32;
             }
