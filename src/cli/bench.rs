@@ -8,9 +8,8 @@ use std::fmt::Write as _;
 
 use clap::Args;
 
-use crate::compute::{Backend, ComputePath, CpuReason};
+use crate::compute::Backend;
 use crate::diffusion::{self, Constraints, Method, MultigridParams, demo};
-use crate::gpu::GpuContext;
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
@@ -127,12 +126,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     if !want_cpu && !want_gpu {
         return Err(format!("unknown --backend {:?}: use cpu, gpu or both", args.backend).into());
     }
-    let path = match pollster::block_on(GpuContext::headless()) {
-        Ok(context) => ComputePath::from_context(context),
-        Err(err) => ComputePath::Cpu {
-            reason: CpuReason::NoAdapter(err.to_string()),
-        },
-    };
+    let path = super::compute_path(crate::compute::BackendChoice::Auto);
     let mut backends = Vec::new();
     if want_cpu {
         backends.push(Backend::Cpu);

@@ -7,10 +7,9 @@ use std::path::PathBuf;
 use clap::Args;
 use serde::Serialize;
 
-use crate::compute::{BackendChoice, ComputePath, CpuReason};
+use crate::compute::BackendChoice;
 use crate::dem::{self, ReadLimits};
 use crate::diffusion::{self, Constraints, FixedMask, Method, MultigridParams};
-use crate::gpu::GpuContext;
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
@@ -90,19 +89,7 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
     let backend = if free == 0 {
         crate::compute::Backend::Cpu
     } else {
-        let path = if args.backend == BackendChoice::Cpu {
-            ComputePath::Cpu {
-                reason: CpuReason::NoAdapter("the CPU was requested".into()),
-            }
-        } else {
-            match pollster::block_on(GpuContext::headless()) {
-                Ok(context) => ComputePath::from_context(context),
-                Err(err) => ComputePath::Cpu {
-                    reason: CpuReason::NoAdapter(err.to_string()),
-                },
-            }
-        };
-        args.backend.resolve(&path)?
+        args.backend.resolve(&super::compute_path(args.backend))?
     };
     let filled = if free == 0 {
         None

@@ -5,9 +5,8 @@ use std::path::{Path, PathBuf};
 use clap::Args;
 use glam::DVec2;
 
-use crate::compute::{BackendChoice, ComputePath, CpuReason};
+use crate::compute::BackendChoice;
 use crate::dem::{self, GeoRef};
-use crate::gpu::GpuContext;
 use crate::jobs::JobCtx;
 use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene};
@@ -158,18 +157,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     let params = scene.terrain_params();
     let map_width = params.ridges.map_width_m;
 
-    let path = if args.backend == BackendChoice::Cpu {
-        ComputePath::Cpu {
-            reason: CpuReason::NoAdapter("the CPU was requested".into()),
-        }
-    } else {
-        match pollster::block_on(GpuContext::headless()) {
-            Ok(context) => ComputePath::from_context(context),
-            Err(err) => ComputePath::Cpu {
-                reason: CpuReason::NoAdapter(err.to_string()),
-            },
-        }
-    };
+    let path = super::compute_path(args.backend);
     let backend = args.backend.resolve(&path)?;
     let generated = pollster::block_on(terrain::generate(
         &strokes,

@@ -5,9 +5,9 @@ use std::fmt::Write as _;
 use clap::Args;
 use serde::Serialize;
 
+use crate::compute::ComputePath;
 use crate::compute::selftest::{self, SelfTest};
-use crate::compute::{ComputePath, CpuReason};
-use crate::gpu::{AdapterSummary, Capabilities, GpuContext};
+use crate::gpu::{AdapterSummary, Capabilities};
 use crate::jobs::JobCtx;
 
 #[derive(Debug, Args)]
@@ -32,12 +32,7 @@ struct InfoReport {
 }
 
 pub fn run(args: &InfoArgs) -> Result<(), Box<dyn std::error::Error>> {
-    let path = match pollster::block_on(GpuContext::headless()) {
-        Ok(context) => ComputePath::from_context(context),
-        Err(err) => ComputePath::Cpu {
-            reason: CpuReason::NoAdapter(err.to_string()),
-        },
-    };
+    let path = super::compute_path(crate::compute::BackendChoice::Auto);
     let check = if args.check {
         Some(pollster::block_on(selftest::run(
             &path,

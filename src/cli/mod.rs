@@ -30,6 +30,23 @@ pub enum Command {
     Bench(bench::BenchArgs),
 }
 
+/// The compute path of the command line: a headless GPU if one computes, else the CPU with
+/// the reason. With `--backend cpu` no GPU is probed at all.
+pub fn compute_path(choice: crate::compute::BackendChoice) -> crate::compute::ComputePath {
+    use crate::compute::{BackendChoice, ComputePath, CpuReason};
+    if choice == BackendChoice::Cpu {
+        return ComputePath::Cpu {
+            reason: CpuReason::NoAdapter("the CPU was requested".into()),
+        };
+    }
+    match pollster::block_on(crate::gpu::GpuContext::headless()) {
+        Ok(context) => ComputePath::from_context(context),
+        Err(err) => ComputePath::Cpu {
+            reason: CpuReason::NoAdapter(err.to_string()),
+        },
+    }
+}
+
 /// Runs a subcommand and maps its outcome to an exit code (errors go to stderr).
 pub fn run(command: Command) -> ExitCode {
     let result = match command {
