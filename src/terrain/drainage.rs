@@ -58,6 +58,22 @@ fn receivers(field: &Heightfield) -> Vec<Option<u32>> {
         .collect()
 }
 
+/// Whether any interior cell has no strictly lower neighbour (a pit or a flat). O(cells).
+/// A harmonic fill obeys the maximum principle, so pits can only sit on fixed cells; most
+/// terrains have none and skip the flooding below.
+pub fn has_pits(field: &Heightfield) -> bool {
+    let (w, h) = (field.width() as i64, field.height() as i64);
+    let z = field.data();
+    (1..h - 1).any(|y| {
+        (1..w - 1).any(|x| {
+            let c = z[(y * w + x) as usize];
+            !NEIGHBOURS
+                .iter()
+                .any(|(dx, dy, _)| z[((y + dy) * w + x + dx) as usize] < c)
+        })
+    })
+}
+
 /// What [`fill_depressions`] changed.
 #[derive(Clone, Copy, Debug, Default, Serialize)]
 pub struct Conditioning {
@@ -204,6 +220,7 @@ mod tests {
             .collect();
         let mut bowl = Heightfield::from_vec(n, n, bowl).unwrap();
         let d = measure(&bowl, &kinds);
+        assert!(has_pits(&bowl));
         assert_eq!(d.pit_cells, 1);
         assert_eq!(d.cells_to_outlet, 0);
         // Flooding the bowl leaves no pit and every cell draining out.
@@ -211,5 +228,6 @@ mod tests {
         assert!(c.raised_cells > 0);
         let d = measure(&bowl, &kinds);
         assert_eq!((d.pit_cells, d.outlet_fraction), (0, 1.0));
+        assert!(!has_pits(&bowl));
     }
 }

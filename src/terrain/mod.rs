@@ -221,7 +221,11 @@ pub async fn generate(
     lap("diffuse", &mut stages);
 
     let mut terrain = filled.field;
-    let conditioning = drainage::fill_depressions(&mut terrain);
+    let conditioning = if drainage::has_pits(&terrain) {
+        drainage::fill_depressions(&mut terrain)
+    } else {
+        drainage::Conditioning::default()
+    };
     let drainage = drainage::measure(&terrain, &skeleton.kinds);
     lap("drainage", &mut stages);
 
