@@ -11,8 +11,3 @@ mod readback;
 pub use caps::Capabilities;
 pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
 pub use readback::{read_bytes, read_f32_buffer, wait_for_submitted_work};
-
-/// Bytes of an `n` x `n` field of `f32`.
-pub fn square_field_bytes(n: u64) -> u64 {
-    n * n * 4
-}

@@ -13,9 +13,7 @@ use wgpu::util::DeviceExt;
 
 use super::{WORKGROUP, bind, pipeline};
 use crate::diffusion::multigrid::hierarchy::{self, Level};
-use crate::diffusion::multigrid::{
-    COARSEST_SWEEPS, MultigridParams, Solved, Work, error_estimate, progress,
-};
+use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
 use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
 use crate::gpu::{GpuContext, GpuError, read_bytes, read_f32_buffer};
 use crate::heightfield::Heightfield;
@@ -120,50 +118,31 @@ pub(in crate::diffusion) async fn multigrid(
     }
     gpu.queue.submit([encoder.finish()]);
 
-    let (mut residual, mut last_correction) =
-        read_checks(gpu, &pipes, &levels, &checks, &result).await?;
-    let first = residual.max(f32::MIN_POSITIVE);
-    let target = params.tolerance * scale;
-    let error_target = params.error_tolerance * scale;
-    let mut cycles = 0;
-    let mut stalled = 0;
-    let mut estimate = f32::INFINITY;
-    while (residual > target || estimate > error_target)
-        && cycles < params.max_cycles
-        && stalled < 2
-    {
+    let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
+    let mut stop = Stopping::new(params, scale, residual, correction);
+    while stop.keep_going() {
         ctx.checkpoint(
-            progress(first, residual, target),
-            &format!(
-                "multigrid cycle {} on the GPU (residual {:.1e} of the range)",
-                cycles + 1,
-                residual / scale
-            ),
+            stop.progress(),
+            &format!("multigrid on the GPU, {}", stop.describe()),
         )
         .await?;
         let mut encoder = device.create_command_encoder(&Default::default());
         v_cycle(&mut encoder, &pipes, &levels, 0, params, &mut stats, finest);
         gpu.queue.submit([encoder.finish()]);
-        cycles += 1;
-        let previous = residual;
-        let (now, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
-        residual = now;
-        estimate = error_estimate(last_correction, correction);
-        let progressing = residual < 0.8 * previous || correction < 0.8 * last_correction;
-        stalled = if progressing { 0 } else { stalled + 1 };
-        last_correction = correction;
+        let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
+        stop.record(residual, correction);
     }
     let data = read_f32_buffer(gpu, &levels[0].u, finest).await?;
     ctx.set_progress(1.0, "multigrid: done");
     Ok(Solved {
         field: Heightfield::from_vec(w, h, data).map_err(|e| GpuError::Readback(e.to_string()))?,
-        cycles,
+        cycles: stop.cycles,
         fine_sweeps: stats.fine_sweeps,
         work_sweeps: stats.work_sweeps,
-        residual,
-        relative_residual: residual / scale,
-        estimated_error: estimate.min(f32::MAX) / scale,
-        converged: residual <= target && estimate <= error_target,
+        residual: stop.residual,
+        relative_residual: stop.relative_residual(),
+        estimated_error: stop.relative_estimate(),
+        converged: stop.converged(),
     })
 }
 

@@ -24,6 +24,9 @@
 pub(crate) mod hierarchy;
 pub mod ops;
 mod parallel;
+mod stopping;
+
+pub(crate) use stopping::Stopping;
 
 use web_time::{Duration, Instant};
 
@@ -136,58 +139,29 @@ pub async fn solve(
     }
 
     let b = rhs.map(Heightfield::data);
-    let mut residual = ops::max_scaled_residual(&levels[0].u, b, &levels[0].fixed, w, h);
-    let first = residual.max(f32::MIN_POSITIVE);
-    let target = params.tolerance * scale;
-    let error_target = params.error_tolerance * scale;
-    let mut cycles = 0;
-    let mut stalled = 0;
-    let mut estimate = f32::INFINITY;
-    while (residual > target || estimate > error_target)
-        && cycles < params.max_cycles
-        && stalled < 2
-    {
-        slicer.progress = progress(first, residual, target);
-        slicer.message = format!(
-            "multigrid cycle {} (residual {:.1e} of the range)",
-            cycles + 1,
-            residual / scale
-        );
+    let residual = ops::max_scaled_residual(&levels[0].u, b, &levels[0].fixed, w, h);
+    let mut stop = Stopping::new(params, scale, residual, last_correction);
+    while stop.keep_going() {
+        slicer.progress = stop.progress();
+        slicer.message = format!("multigrid {}", stop.describe());
         ctx.checkpoint(slicer.progress, &slicer.message).await?;
         slicer.since = Instant::now();
         let correction = v_cycle(&mut levels, 0, params, &mut stats, w * h, &mut slicer).await?;
-        cycles += 1;
-        let previous = residual;
-        residual = ops::max_scaled_residual(&levels[0].u, b, &levels[0].fixed, w, h);
-        estimate = error_estimate(last_correction, correction);
-        // At the f32 rounding floor neither the residual nor the corrections fall: stop.
-        let progressing = residual < 0.8 * previous || correction < 0.8 * last_correction;
-        stalled = if progressing { 0 } else { stalled + 1 };
-        last_correction = correction;
+        let residual = ops::max_scaled_residual(&levels[0].u, b, &levels[0].fixed, w, h);
+        stop.record(residual, correction);
     }
     let u = std::mem::take(&mut levels[0].u);
     ctx.set_progress(1.0, "multigrid: done");
     Ok(Solved {
         field: Heightfield::from_vec(w, h, u).expect("finest level has the problem's size"),
-        cycles,
+        cycles: stop.cycles,
         fine_sweeps: stats.fine_sweeps,
         work_sweeps: stats.work_sweeps,
-        residual,
-        relative_residual: residual / scale,
-        estimated_error: estimate.min(f32::MAX) / scale,
-        converged: residual <= target && estimate <= error_target,
+        residual: stop.residual,
+        relative_residual: stop.relative_residual(),
+        estimated_error: stop.relative_estimate(),
+        converged: stop.converged(),
     })
-}
-
-/// Remaining error estimated from the last two coarse-grid corrections: they shrink by the
-/// cycle's contraction `rho = correction / previous` (clamped to [0.05, 0.95]), so the
-/// error left after the last one is about `rho / (1 - rho)` times it (a geometric tail).
-pub(crate) fn error_estimate(previous: f32, correction: f32) -> f32 {
-    if !previous.is_finite() {
-        return f32::INFINITY;
-    }
-    let rho = (correction / previous.max(f32::MIN_POSITIVE)).clamp(0.05, 0.95);
-    rho / (1.0 - rho) * correction
 }
 
 /// Fails unless `rhs` (if any) has the problem's size.
@@ -201,15 +175,6 @@ fn check_rhs(problem: &Constraints, rhs: Option<&Heightfield>) -> Result<(), Dif
         }
         _ => Ok(()),
     }
-}
-
-/// Progress as the fraction of the residual's way (in orders of magnitude) to the target.
-pub(crate) fn progress(first: f32, now: f32, target: f32) -> f32 {
-    let total = (first / target.max(f32::MIN_POSITIVE)).ln();
-    if total <= 0.0 {
-        return 1.0;
-    }
-    ((first / now.max(f32::MIN_POSITIVE)).ln() / total).clamp(0.0, 0.99)
 }
 
 /// Relaxation work done, for the report.
