@@ -14,6 +14,7 @@
 //! - [`dem`]: real elevation rasters in and out (GeoTIFF).
 //! - [`river`]: Tokunaga river networks grown by an L-system (seed paper 000, Sec. IV).
 //! - [`scene`]: the user's document (versioned JSON) from which everything is rebuilt.
+//! - [`wavelet`]: wavelet levels of detail with energy-reduction masks (seed paper 001).
 //! - [`jobs`]: background work with progress and cancellation that never blocks the UI.
 //! - [`app`]: the eframe application.
 
@@ -29,6 +30,7 @@ pub mod river;
 pub mod scene;
 pub mod skeleton;
 pub mod terrain;
+pub mod wavelet;
 
 #[cfg(not(target_arch = "wasm32"))]
 pub mod cli;

@@ -206,43 +206,13 @@ fn write_heightmap(
     terrain: &crate::heightfield::Heightfield,
     map_width: f64,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let ext = out
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    let write = |path: &Path, bytes: &[u8]| {
-        std::fs::write(path, bytes).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    let cell = map_width / terrain.width() as f64;
+    let georef = GeoRef {
+        pixel_scale: Some(vec![cell, cell, 0.0]),
+        tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, map_width, 0.0]),
+        ..Default::default()
     };
-    match ext.as_deref() {
-        Some("tif" | "tiff") => {
-            let cell = map_width / terrain.width() as f64;
-            let georef = GeoRef {
-                pixel_scale: Some(vec![cell, cell, 0.0]),
-                tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, map_width, 0.0]),
-                ..Default::default()
-            };
-            write(out, &dem::geotiff::write(terrain, &georef)?)?;
-        }
-        Some("png") => {
-            let (bytes, (lo, hi)) = dem::png16::write_heightmap(terrain)?;
-            write(out, &bytes)?;
-            let sidecar = out.with_extension("json");
-            let meta = serde_json::json!({
-                "zmin": lo, "zmax": hi, "width": terrain.width(), "height": terrain.height(),
-                "cell_size_m": map_width / terrain.width() as f64,
-                "decode": "z = zmin + v / 65535 * (zmax - zmin)"
-            });
-            write(&sidecar, serde_json::to_string_pretty(&meta)?.as_bytes())?;
-        }
-        _ => {
-            return Err(format!(
-                "{}: use a .tif (float32 GeoTIFF) or .png (16-bit) file name",
-                out.display()
-            )
-            .into());
-        }
-    }
-    Ok(())
+    super::io::write_dem(out, terrain, &georef, Some(cell))
 }
 
 fn write_layers(dir: &Path, g: &terrain::Generated) -> Result<(), Box<dyn std::error::Error>> {

@@ -1,9 +1,12 @@
 //! The native command line. `strahler` with no subcommand opens the app window.
 
+mod amplify;
+mod analyze;
 mod bench;
 mod fill;
 mod generate;
 mod info;
+mod io;
 
 use std::process::ExitCode;
 
@@ -25,6 +28,10 @@ pub enum Command {
     Generate(generate::GenerateArgs),
     /// Fill the no-data cells of a DEM by harmonic (Laplace) diffusion.
     Fill(fill::FillArgs),
+    /// Print the wavelet statistics of a DEM: detail variance per level and band, fitted lines.
+    Analyze(analyze::AnalyzeArgs),
+    /// Add synthetic levels of detail to a DEM (wavelet statistics, optional mask).
+    Amplify(amplify::AmplifyArgs),
     /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
     /// and print a table beside the paper's numbers.
     Bench(bench::BenchArgs),
@@ -54,6 +61,8 @@ pub fn run(command: Command) -> ExitCode {
         Command::Bench(args) => bench::run(&args),
         Command::Fill(args) => fill::run(&args),
         Command::Generate(args) => generate::run(&args),
+        Command::Analyze(args) => analyze::run(&args),
+        Command::Amplify(args) => amplify::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -25,6 +25,8 @@ pub enum DemError {
     Unsupported(String),
     #[error("the file has no cells")]
     Empty,
+    #[error("not a readable PNG: {0}")]
+    Png(String),
     #[error("could not write the GeoTIFF: {0}")]
     Write(String),
 }
@@ -77,6 +79,39 @@ pub struct GeoRef {
 }
 
 impl GeoRef {
+    /// The georeferencing of a vertex-preserving refinement by `factor` (wavelet levels of
+    /// detail): the cell size divides by `factor` and cell (0, 0) keeps its centre, so the
+    /// raster's outer corner moves in by half the difference of the old and new cell sizes
+    /// (GeoTIFF's default PixelIsArea convention).
+    pub fn refined(&self, factor: f64) -> Self {
+        let mut out = self.clone();
+        if let (Some(scale), Some(tie)) = (&mut out.pixel_scale, &mut out.tiepoint) {
+            if scale.len() >= 2 && tie.len() >= 6 && tie[0] == 0.0 && tie[1] == 0.0 {
+                let (sx, sy) = (scale[0], scale[1]);
+                scale[0] = sx / factor;
+                scale[1] = sy / factor;
+                tie[3] += (sx - scale[0]) / 2.0;
+                tie[4] -= (sy - scale[1]) / 2.0;
+            } else if scale.len() >= 2 {
+                scale[0] /= factor;
+                scale[1] /= factor;
+            }
+        }
+        if let Some(m) = &mut out.transformation {
+            if m.len() >= 16 {
+                // Rows (x, y, z, 1) of a 4x4 matrix: raster (i, j) columns 0 and 1.
+                let (a, b, e, f) = (m[0], m[1], m[4], m[5]);
+                m[0] /= factor;
+                m[1] /= factor;
+                m[4] /= factor;
+                m[5] /= factor;
+                m[3] += (a - m[0]) / 2.0 + (b - m[1]) / 2.0;
+                m[7] += (e - m[4]) / 2.0 + (f - m[5]) / 2.0;
+            }
+        }
+        out
+    }
+
     /// Horizontal cell size in the CRS's units, when the file says.
     pub fn cell_size(&self) -> Option<(f64, f64)> {
         let s = self.pixel_scale.as_ref()?;

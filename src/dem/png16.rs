@@ -91,3 +91,76 @@ mod tests {
         }
     }
 }
+
+/// Reads an 8- or 16-bit greyscale PNG heightmap as `z = min + v / vmax * (max - min)`. The
+/// range is `z_range` when given, else the `strahler:z_range` text chunk written by
+/// [`write_heightmap`]; without either the file's heights are unknown and it is an error.
+/// The size is checked against `limits` from the header, before any allocation.
+pub fn read_heightmap(
+    bytes: &[u8],
+    z_range: Option<(f32, f32)>,
+    limits: super::ReadLimits,
+) -> Result<super::Dem, DemError> {
+    let bad = |e: png::DecodingError| DemError::Png(e.to_string());
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().map_err(bad)?;
+    let (width, height) = (reader.info().width as usize, reader.info().height as usize);
+    limits.check(width as u64, height as u64)?;
+    let color = reader.info().color_type;
+    if !matches!(
+        color,
+        png::ColorType::Grayscale | png::ColorType::GrayscaleAlpha
+    ) {
+        return Err(DemError::Unsupported(format!(
+            "a {color:?} PNG is not a heightmap; use greyscale (8 or 16 bits)"
+        )));
+    }
+    let from_chunk = reader.info().uncompressed_latin1_text.iter().find_map(|t| {
+        (t.keyword == "strahler:z_range")
+            .then(|| parse_range(&t.text))
+            .flatten()
+    });
+    let (lo, hi) = z_range.or(from_chunk).ok_or_else(|| {
+        DemError::Unsupported(
+            "the PNG does not say its height range; give it (--z-range MIN,MAX)".into(),
+        )
+    })?;
+    if !(lo.is_finite() && hi.is_finite()) {
+        return Err(DemError::Unsupported(format!(
+            "the height range {lo},{hi} is not finite"
+        )));
+    }
+    let size = reader
+        .output_buffer_size()
+        .ok_or_else(|| DemError::Png("the image is too large to decode".into()))?;
+    let mut buf = vec![0u8; size];
+    let frame = reader.next_frame(&mut buf).map_err(bad)?;
+    let wide = frame.bit_depth == png::BitDepth::Sixteen;
+    let channels = frame.color_type.samples();
+    let vmax = if wide { 65535.0 } else { 255.0 };
+    let mut data = Vec::with_capacity(width * height);
+    for y in 0..height {
+        let row = &buf[y * frame.line_size..(y + 1) * frame.line_size];
+        for x in 0..width {
+            let v = if wide {
+                let k = 2 * x * channels;
+                f64::from(u16::from_be_bytes([row[k], row[k + 1]]))
+            } else {
+                f64::from(row[x * channels])
+            };
+            data.push((f64::from(lo) + v / vmax * f64::from(hi - lo)) as f32);
+        }
+    }
+    let field = Heightfield::from_vec(width, height, data).map_err(|_| DemError::Empty)?;
+    Ok(super::Dem {
+        field,
+        georef: super::GeoRef::default(),
+    })
+}
+
+/// "min,max" to a pair of numbers.
+pub fn parse_range(text: &str) -> Option<(f32, f32)> {
+    let (a, b) = text.split_once(',')?;
+    Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
+}

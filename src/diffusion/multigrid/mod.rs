@@ -23,7 +23,7 @@
 
 pub(crate) mod hierarchy;
 pub mod ops;
-mod parallel;
+
 mod stopping;
 
 pub(crate) use stopping::Stopping;

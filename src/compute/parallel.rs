@@ -1,5 +1,6 @@
-//! Row bands for the grid operators: several threads natively, one on the web (wasm has no
-//! threads here). Results do not depend on the number of bands.
+//! Row bands and item batches for the grid operators (multigrid, wavelet lifting): several
+//! threads natively, one on the web (wasm has no threads here). Results do not depend on the
+//! number of threads.
 
 use std::sync::OnceLock;
 
@@ -7,7 +8,7 @@ use std::sync::OnceLock;
 const MIN_PARALLEL_CELLS: usize = 1 << 16;
 
 /// Worker threads available to the solver: the machine's parallelism natively, 1 on wasm.
-fn threads() -> usize {
+pub fn threads() -> usize {
     static THREADS: OnceLock<usize> = OnceLock::new();
     *THREADS.get_or_init(|| {
         if cfg!(target_arch = "wasm32") {
@@ -49,4 +50,26 @@ pub fn for_each_band<T: Send>(data: &mut [T], band_len: usize, f: impl Fn(usize,
     for (k, chunk) in data.chunks_mut(band_len).enumerate() {
         f(k, chunk);
     }
+}
+
+/// Calls `f` on every item, the items split into one batch per thread natively (all on the
+/// calling thread on wasm). For independent rows of a lifting step and the like.
+pub fn for_each_item<T: Send>(items: Vec<T>, f: impl Fn(T) + Sync) {
+    let batches = threads().min(items.len()).max(1);
+    #[cfg(not(target_arch = "wasm32"))]
+    if batches > 1 {
+        let per_batch = items.len().div_ceil(batches);
+        let mut items = items;
+        std::thread::scope(|scope| {
+            while items.len() > per_batch {
+                let batch = items.split_off(items.len() - per_batch);
+                let f = &f;
+                scope.spawn(move || batch.into_iter().for_each(f));
+            }
+            items.into_iter().for_each(&f);
+        });
+        return;
+    }
+    let _ = batches;
+    items.into_iter().for_each(f);
 }

@@ -1,0 +1,148 @@
+//! `strahler amplify`: new levels of detail for a DEM (seed paper 001): GSA or LSA statistics,
+//! Gaussian coefficients, an optional energy-reduction mask (MGR), the inverse transform.
+
+use std::path::PathBuf;
+
+use clap::{Args, ValueEnum};
+use serde::Serialize;
+
+use crate::compute::BackendChoice;
+use crate::dem::ReadLimits;
+use crate::jobs::JobCtx;
+use crate::wavelet::{self, AmplifyParams, AnalysisParams, LocalParams, Mask, Scope};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ScopeArg {
+    /// One fitted line per band (GSA).
+    Global,
+    /// One fitted line per band and location (LSA).
+    Local,
+}
+
+#[derive(Debug, Args)]
+pub struct AmplifyArgs {
+    /// The DEM (.tif GeoTIFF, or .png heightmap with its height range).
+    pub input: PathBuf,
+    /// New levels of detail, 1 to 3 (each doubles the resolution: n -> 2n - 1).
+    #[arg(long, default_value_t = 1)]
+    pub levels: u32,
+    /// Where the detail variances come from.
+    #[arg(long, value_enum, default_value = "global")]
+    pub scope: ScopeArg,
+    /// Window side in coefficients for --scope local (odd).
+    #[arg(long, default_value_t = LocalParams::default().window)]
+    pub window: usize,
+    /// Energy-reduction mask: greyscale PNG, white removes the synthetic detail.
+    #[arg(long)]
+    pub mask: Option<PathBuf>,
+    /// Seed of the synthetic coefficients (same seed, same bytes).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// auto (GPU if it computes, else CPU), cpu or gpu.
+    #[arg(long, default_value = "auto")]
+    pub backend: BackendChoice,
+    /// Output: .tif (float32 GeoTIFF, georeferencing refined) or .png (16-bit + JSON).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Height range of a PNG heightmap input without a text chunk or sidecar JSON.
+    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    pub z_range: Option<(f32, f32)>,
+    /// Write a JSON report here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+    /// Refuse inputs with more cells than this.
+    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    pub max_cells: u64,
+}
+
+#[derive(Serialize)]
+struct AmplifyReport {
+    input: String,
+    output: String,
+    source: [usize; 2],
+    size: [usize; 2],
+    levels: u32,
+    scope: String,
+    backend: String,
+    masked: bool,
+    gamma: [Option<f64>; 3],
+    millis: f64,
+    checksum: String,
+}
+
+pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let limits = ReadLimits {
+        max_cells: args.max_cells,
+    };
+    let dem = super::io::read_dem(&args.input, limits, args.z_range)?;
+    let mask = match &args.mask {
+        Some(path) => {
+            let bytes =
+                std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            Some(Mask::from_png(&bytes, limits).map_err(|e| format!("{}: {e}", path.display()))?)
+        }
+        None => None,
+    };
+    let scope = match args.scope {
+        ScopeArg::Global => Scope::Global,
+        ScopeArg::Local => Scope::Local(LocalParams {
+            window: args.window,
+            ..Default::default()
+        }),
+    };
+    let params = AmplifyParams {
+        levels: args.levels,
+        scope,
+        seed: args.seed,
+        analysis: AnalysisParams::default(),
+    };
+    // Parameter and size errors before any GPU is probed.
+    wavelet::synthesis::check(&dem.field, &params)?;
+    let backend = args.backend.resolve(&super::compute_path(args.backend))?;
+    let clock = web_time::Instant::now();
+    let amplified = pollster::block_on(wavelet::amplify_on(
+        &backend,
+        &dem.field,
+        &params,
+        mask.as_ref(),
+        &JobCtx::detached(),
+    ))
+    .map_err(|e| format!("{}: {e}", args.input.display()))?;
+    let millis = clock.elapsed().as_secs_f64() * 1e3;
+    let field = &amplified.field;
+    let factor = f64::from(1u32 << args.levels);
+    let georef = dem.georef.refined(factor);
+    let cell = georef.cell_size().map(|(x, _)| x);
+    super::io::write_dem(&args.out, field, &georef, cell)?;
+    println!(
+        "{} x {} -> {} x {} ({} level{}, {:?} scope{}) on the {} in {:.0} ms",
+        dem.field.width(),
+        dem.field.height(),
+        field.width(),
+        field.height(),
+        args.levels,
+        if args.levels == 1 { "" } else { "s" },
+        args.scope,
+        if mask.is_some() { ", masked" } else { "" },
+        backend.key(),
+        millis
+    );
+    if let Some(path) = &args.report {
+        let report = AmplifyReport {
+            input: args.input.display().to_string(),
+            output: args.out.display().to_string(),
+            source: [dem.field.width(), dem.field.height()],
+            size: [field.width(), field.height()],
+            levels: args.levels,
+            scope: format!("{:?}", args.scope).to_lowercase(),
+            backend: backend.key().to_owned(),
+            masked: mask.is_some(),
+            gamma: amplified.analysis.fits.map(|f| f.map(|f| f.gamma)),
+            millis,
+            checksum: field.checksum(),
+        };
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}

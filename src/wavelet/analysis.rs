@@ -1,0 +1,410 @@
+//! Wavelet statistics of a terrain (seed paper 001, Secs. 2.2, 3.2 and 3.3).
+//!
+//! - Global scope (GSA): per level and band the variance of the detail coefficients (eq. 6),
+//!   taken as zero-mean (the mean square), then the line `log2 Var = -n gamma + a` (eq. 7)
+//!   over the levels with at least [`AnalysisParams::min_coefficients`] coefficients (the paper
+//!   starts at 16). `n` counts levels from the coarsest analysed one; for fBm of Hurst
+//!   exponent H the slope is `gamma = 2H + 2` with the L2-normalised filter bank used here.
+//! - Local scope (LSA): the same fit per location from a window of `W x W` coefficients of
+//!   each of the finest levels (the same count at every level), giving `gamma^t(r)` and
+//!   `a^t(r)` for eq. 8. Window sums come from summed-area tables, so the cost is
+//!   O(levels x cells) whatever the window size.
+//!
+//! Variances are stored for the L2-normalised bank ([`Band::normalisation`]); the lifting code
+//! works unnormalised and converts.
+
+use super::WaveletError;
+use super::lifting::{self, Band, band_count, for_each_coefficient};
+use crate::heightfield::Heightfield;
+
+/// Parameters of the global analysis.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AnalysisParams {
+    /// Levels whose band has fewer coefficients are shown but not fitted (paper: 16).
+    pub min_coefficients: usize,
+}
+
+impl Default for AnalysisParams {
+    fn default() -> Self {
+        Self {
+            min_coefficients: 16,
+        }
+    }
+}
+
+/// Statistics of one decomposition level.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LevelStats {
+    /// 1 = the finest detail of the analysed grid, growing towards coarse levels.
+    pub depth: u32,
+    /// The paper's level index `n`: 0 = the coarsest analysed level.
+    pub level: u32,
+    /// Coefficients per band (H, V, D).
+    pub counts: [usize; 3],
+    /// Mean square of the normalised coefficients per band (eq. 6).
+    pub variances: [f64; 3],
+    /// Whether each band's variance entered the line fit.
+    pub fitted: [bool; 3],
+}
+
+/// The fitted line of eq. 7 for one band, expressed by depth: `log2 Var(depth) = intercept +
+/// gamma * depth` (depth 0 is the first level finer than the analysed grid).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LineFit {
+    /// Decay of log2 variance per level towards finer levels (the paper's gamma).
+    pub gamma: f64,
+    /// log2 variance extrapolated to depth 0.
+    pub intercept: f64,
+    /// Root-mean-square residual of the fit in log2 units.
+    pub residual: f64,
+    /// How many levels entered the fit.
+    pub levels_used: usize,
+}
+
+impl LineFit {
+    /// log2 of the normalised variance at `depth` (negative depths are finer still).
+    pub fn log2_variance(&self, depth: i32) -> f64 {
+        self.intercept + self.gamma * f64::from(depth)
+    }
+
+    /// The paper's ordinate `a` of eq. 7 for a pyramid of `levels` levels (n = levels - depth).
+    pub fn paper_a(&self, levels: u32) -> f64 {
+        self.intercept + self.gamma * f64::from(levels)
+    }
+}
+
+/// Global statistics of a terrain: the table `strahler analyze` prints.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Analysis {
+    pub width: usize,
+    pub height: usize,
+    /// Finest first.
+    pub levels: Vec<LevelStats>,
+    /// Per band (H, V, D); `None` where fewer than two levels had non-zero variance and
+    /// enough coefficients (a flat or tiny terrain).
+    pub fits: [Option<LineFit>; 3],
+}
+
+/// The forward transform of a terrain kept for the local analysis.
+pub struct Transformed {
+    pub width: usize,
+    pub height: usize,
+    pub levels: u32,
+    pub data: Vec<f32>,
+}
+
+impl Transformed {
+    /// Forward transform of `field` over every level it allows. NaN cells are refused: fill
+    /// the voids first.
+    pub fn of(field: &Heightfield) -> Result<Self, WaveletError> {
+        let voids = field.data().iter().filter(|v| !v.is_finite()).count();
+        if voids > 0 {
+            return Err(WaveletError::NoData { cells: voids });
+        }
+        let (width, height) = (field.width(), field.height());
+        let levels = lifting::max_levels(width, height);
+        if levels < 2 {
+            return Err(WaveletError::TooSmall { width, height });
+        }
+        let mut data = field.data().to_vec();
+        lifting::forward(&mut data, width, height, levels);
+        Ok(Self {
+            width,
+            height,
+            levels,
+            data,
+        })
+    }
+}
+
+/// Least-squares line through `(x, y)` points: (slope, intercept, rms residual).
+fn fit_line(points: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
+    if points.len() < 2 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let mx = points.iter().map(|p| p.0).sum::<f64>() / n;
+    let my = points.iter().map(|p| p.1).sum::<f64>() / n;
+    let sxx: f64 = points.iter().map(|p| (p.0 - mx).powi(2)).sum();
+    let sxy: f64 = points.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if sxx == 0.0 {
+        return None;
+    }
+    let slope = sxy / sxx;
+    let intercept = my - slope * mx;
+    let rss: f64 = points
+        .iter()
+        .map(|p| (p.1 - intercept - slope * p.0).powi(2))
+        .sum();
+    Some((slope, intercept, (rss / n).sqrt()))
+}
+
+/// Global scope analysis (GSA steps 1-2) of an already transformed terrain.
+pub fn analyze_transformed(t: &Transformed, params: &AnalysisParams) -> Analysis {
+    let mut levels = Vec::with_capacity(t.levels as usize);
+    for depth in 1..=t.levels {
+        let s = 1usize << (depth - 1);
+        let mut counts = [0; 3];
+        let mut variances = [0.0; 3];
+        for band in Band::ALL {
+            let norm = band.normalisation(depth as i32);
+            let mut sum = 0.0f64;
+            for_each_coefficient(&t.data, t.width, t.height, s, band, |_, _, v| {
+                sum += (f64::from(v) * norm).powi(2);
+            });
+            let count = band_count(t.width, t.height, s, band);
+            counts[band.index()] = count;
+            variances[band.index()] = if count > 0 { sum / count as f64 } else { 0.0 };
+        }
+        levels.push(LevelStats {
+            depth,
+            level: t.levels - depth,
+            counts,
+            variances,
+            fitted: [false; 3],
+        });
+    }
+    let mut fits = [None; 3];
+    for band in Band::ALL {
+        let b = band.index();
+        let mut points = Vec::new();
+        for stats in &mut levels {
+            if stats.counts[b] >= params.min_coefficients && stats.variances[b] > 0.0 {
+                stats.fitted[b] = true;
+                points.push((f64::from(stats.depth), stats.variances[b].log2()));
+            }
+        }
+        fits[b] = fit_line(&points).map(|(gamma, intercept, residual)| LineFit {
+            gamma,
+            intercept,
+            residual,
+            levels_used: points.len(),
+        });
+    }
+    Analysis {
+        width: t.width,
+        height: t.height,
+        levels,
+        fits,
+    }
+}
+
+/// Global scope analysis of a terrain.
+pub fn analyze(field: &Heightfield, params: &AnalysisParams) -> Result<Analysis, WaveletError> {
+    Ok(analyze_transformed(&Transformed::of(field)?, params))
+}
+
+/// Parameters of the local (LSA) estimation.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalParams {
+    /// Window side in coefficients (odd; 3 is the paper's choice).
+    pub window: usize,
+    /// How many of the finest levels enter each local fit (at least 2).
+    pub levels: u32,
+}
+
+impl Default for LocalParams {
+    fn default() -> Self {
+        Self {
+            window: 3,
+            levels: 3,
+        }
+    }
+}
+
+/// Largest local slope kept; noisy windows can give absurd extrapolations otherwise.
+const MAX_LOCAL_GAMMA: f64 = 8.0;
+
+/// Per-location fits of eq. 7 (LSA), at the analysed grid's resolution, per band.
+pub struct LocalFit {
+    pub width: usize,
+    pub height: usize,
+    /// gamma^t(r) per band, row-major.
+    pub gamma: [Vec<f32>; 3],
+    /// log2 variance at depth 0 per band (eq. 8's `a^t(r)` shifted to depth 0).
+    pub intercept: [Vec<f32>; 3],
+}
+
+impl LocalFit {
+    /// log2 normalised variance of `band` at `depth` for cell `i`.
+    pub fn log2_variance(&self, band: Band, i: usize, depth: i32) -> f64 {
+        let b = band.index();
+        f64::from(self.intercept[b][i]) + f64::from(self.gamma[b][i]) * f64::from(depth)
+    }
+}
+
+/// A summed-area table of one band's squared normalised coefficients at one level.
+struct WindowSums {
+    nx: usize,
+    ny: usize,
+    table: Vec<f64>,
+}
+
+impl WindowSums {
+    fn new(t: &Transformed, depth: u32, band: Band) -> Self {
+        let s = 1usize << (depth - 1);
+        let (px, py) = band.parities();
+        let half = |len: usize, p: usize| {
+            let n = lifting::count_at(len, s);
+            if p == 0 { n.div_ceil(2) } else { n / 2 }
+        };
+        let (nx, ny) = (half(t.width, px), half(t.height, py));
+        let norm = band.normalisation(depth as i32);
+        let mut table = vec![0.0f64; (nx + 1) * (ny + 1)];
+        let stride = nx + 1;
+        for_each_coefficient(&t.data, t.width, t.height, s, band, |i, j, v| {
+            let (ci, cj) = (i / 2, j / 2);
+            table[(cj + 1) * stride + ci + 1] = (f64::from(v) * norm).powi(2);
+        });
+        for j in 1..=ny {
+            for i in 1..=nx {
+                let k = j * stride + i;
+                table[k] += table[k - 1] + table[k - stride] - table[k - stride - 1];
+            }
+        }
+        Self { nx, ny, table }
+    }
+
+    /// Mean over a `window`-wide square around coefficient (i, j), shifted inside the grid so
+    /// that it always holds the same number of coefficients where the grid allows.
+    fn mean_around(&self, i: usize, j: usize, window: usize) -> f64 {
+        let span = |c: usize, n: usize| {
+            let w = window.min(n);
+            let lo = c.saturating_sub(window / 2).min(n - w);
+            (lo, lo + w)
+        };
+        let (x0, x1) = span(i.min(self.nx - 1), self.nx);
+        let (y0, y1) = span(j.min(self.ny - 1), self.ny);
+        let stride = self.nx + 1;
+        let sum = self.table[y1 * stride + x1]
+            - self.table[y0 * stride + x1]
+            - self.table[y1 * stride + x0]
+            + self.table[y0 * stride + x0];
+        sum / ((x1 - x0) * (y1 - y0)) as f64
+    }
+}
+
+/// The band coefficient index nearest to grid cell `x` at stride `s` with parity `p`: band
+/// samples sit at `(2i + p) s`.
+fn nearest_coefficient(x: usize, s: usize, p: usize) -> usize {
+    let pos = x as f64 / s as f64 - p as f64;
+    (pos / 2.0).round().max(0.0) as usize
+}
+
+/// Local scope estimation (LSA, Sec. 3.3.1): for every cell of the analysed grid and every
+/// band, the fit of eq. 7 to the windowed variances of the `params.levels` finest levels.
+///
+/// A window of a few coefficients gives a noisy log-variance, and eq. 8 extrapolates it:
+/// - the log of a mean of `N` squared Gaussian coefficients is low by about `1 / (N ln 2)`
+///   (delta method); it is added back;
+/// - the local slopes are shrunk towards the global one by the share of their spread across
+///   the map that is not estimation noise (empirical Bayes, with the noise of a slope fitted
+///   to logs of `N`-sample means: `2 / (N ln^2 2) / Sxx`).
+///
+/// The synthesis then calibrates each level's mean energy to the global line
+/// ([`super::synthesis::SigmaTables`]), so the local fit decides where the detail goes and
+/// the global statistics how much there is in all.
+///
+/// Windows with zero energy are floored at a millionth of the level's global variance, so
+/// flat areas extrapolate to (almost) no detail rather than to NaN.
+pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> LocalFit {
+    let levels = params.levels.clamp(2, t.levels);
+    let window = params.window.max(1);
+    let (w, h) = (t.width, t.height);
+    let depths: Vec<f64> = (1..=levels).map(f64::from).collect();
+    let mean_depth = depths.iter().sum::<f64>() / depths.len() as f64;
+    let sxx: f64 = depths.iter().map(|d| (d - mean_depth).powi(2)).sum();
+    let n_window = (window * window) as f64;
+    let log_bias = 1.0 / (n_window * std::f64::consts::LN_2);
+    let analytic_log_var = 2.0 / n_window / std::f64::consts::LN_2.powi(2);
+    let mut gamma: [Vec<f32>; 3] = Default::default();
+    let mut intercept: [Vec<f32>; 3] = Default::default();
+    for band in Band::ALL {
+        let b = band.index();
+        let (px, py) = band.parities();
+        let sums: Vec<WindowSums> = (1..=levels).map(|d| WindowSums::new(t, d, band)).collect();
+        let floors: Vec<f64> = (1..=levels)
+            .map(|d| (global.levels[d as usize - 1].variances[b] * 1e-6).max(1e-30))
+            .collect();
+        // Pass 1: raw local slopes and mean logs, and the spread statistics.
+        let mut raw_slope = vec![0.0f64; w * h];
+        let mut mean_logs = vec![0.0f64; w * h];
+        let mut logs = vec![0.0f64; levels as usize];
+        let (mut slope_sum, mut slope_sq) = (0.0f64, 0.0f64);
+        for y in 0..h {
+            for x in 0..w {
+                for (k, table) in sums.iter().enumerate() {
+                    let s = 1usize << k;
+                    let i = nearest_coefficient(x, s, px);
+                    let j = nearest_coefficient(y, s, py);
+                    logs[k] = table.mean_around(i, j, window).max(floors[k]).log2() + log_bias;
+                }
+                let mean_log = logs.iter().sum::<f64>() / logs.len() as f64;
+                let sxy: f64 = depths
+                    .iter()
+                    .zip(&logs)
+                    .map(|(d, l)| (d - mean_depth) * (l - mean_log))
+                    .sum();
+                let slope = sxy / sxx;
+                raw_slope[y * w + x] = slope;
+                mean_logs[y * w + x] = mean_log;
+                slope_sum += slope;
+                slope_sq += slope * slope;
+            }
+        }
+        let cells = (w * h) as f64;
+        let slope_noise = analytic_log_var / sxx;
+        let centre = global.fits[b].map_or(slope_sum / cells, |f| f.gamma);
+        let spread = (slope_sq / cells - (slope_sum / cells).powi(2)).max(0.0);
+        let keep = if spread > 0.0 {
+            ((spread - slope_noise) / spread).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let mut g = vec![0.0f32; w * h];
+        let mut a = vec![0.0f32; w * h];
+        for i in 0..w * h {
+            let slope = (centre + keep * (raw_slope[i] - centre)).clamp(0.0, MAX_LOCAL_GAMMA);
+            g[i] = slope as f32;
+            a[i] = (mean_logs[i] - slope * mean_depth) as f32;
+        }
+        gamma[b] = g;
+        intercept[b] = a;
+    }
+    LocalFit {
+        width: w,
+        height: h,
+        gamma,
+        intercept,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_fit_recovers_an_exact_line() {
+        let points: Vec<(f64, f64)> = (1..6).map(|d| (d as f64, 3.0 * d as f64 - 7.0)).collect();
+        let (slope, intercept, residual) = fit_line(&points).unwrap();
+        assert!((slope - 3.0).abs() < 1e-12 && (intercept + 7.0).abs() < 1e-12);
+        assert!(residual < 1e-12);
+    }
+
+    #[test]
+    fn nan_cells_are_refused_with_their_count() {
+        let mut field = Heightfield::filled(9, 9, 1.0).unwrap();
+        field.data_mut()[4] = f32::NAN;
+        assert!(matches!(
+            analyze(&field, &AnalysisParams::default()),
+            Err(WaveletError::NoData { cells: 1 })
+        ));
+    }
+
+    #[test]
+    fn flat_terrain_has_no_fit() {
+        let field = Heightfield::filled(65, 65, 120.0).unwrap();
+        let analysis = analyze(&field, &AnalysisParams::default()).unwrap();
+        assert!(analysis.fits.iter().all(Option::is_none));
+    }
+}
