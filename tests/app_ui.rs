@@ -215,3 +215,58 @@ fn sketch_tools_add_peaks_ridges_and_valleys_with_keys_and_clicks() {
     harness.run_steps(2);
     assert!(harness.state().sketch().peaks.is_empty());
 }
+
+#[test]
+fn painting_the_mask_over_detail_removes_it_there_and_keeps_it_elsewhere() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+    // One new level of detail on a 256 map (as a user sets the slider).
+    let mut scene = harness.state().scene();
+    scene.size = 256;
+    scene.detail.levels = 1;
+    harness.state_mut().load_scene(&scene);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let status = harness.state().automation().status();
+    let detail = status.detail.expect("detail on the map");
+    assert_eq!(detail.width, 511);
+    assert!(detail.rms_unmasked > 0.0 && detail.rms_masked.is_none());
+    assert_eq!(harness.state().terrain().unwrap().width(), 511);
+
+    // The mask tool by its key, a broad hard brush, a stroke across the map.
+    harness.key_press(egui::Key::M);
+    harness.run_steps(2);
+    assert_eq!(harness.state().tool(), strahler::app::Tool::Mask);
+    harness.state_mut().brush_mut().radius = 24.0;
+    harness.state_mut().brush_mut().hardness = 0.9;
+    drag(
+        &mut harness,
+        egui::pos2(450.0, 400.0),
+        egui::pos2(1100.0, 420.0),
+    );
+    assert!(
+        !harness.state().mask().is_clear(),
+        "the drag painted the mask"
+    );
+    wait_idle(&mut harness);
+    let detail = harness
+        .state()
+        .automation()
+        .status()
+        .detail
+        .expect("detail after painting");
+    let masked = detail.rms_masked.expect("cells fully under the mask");
+    assert!(
+        masked < 0.1 * detail.rms_unmasked,
+        "detail under the mask {masked} vs elsewhere {}",
+        detail.rms_unmasked
+    );
+    harness.get_by_label_contains("under the mask");
+    // The mask travels with the scene.
+    let saved = harness.state().scene();
+    assert!(saved.detail.mask_png.is_some());
+    assert!(saved.detail.mask().unwrap().is_some_and(|m| !m.is_clear()));
+}

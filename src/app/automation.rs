@@ -33,9 +33,28 @@ pub struct Status {
     pub last_run: Option<RunSummary>,
     /// The last error shown to the user.
     pub last_error: Option<String>,
+    /// The wavelet levels of detail on the map, if any.
+    pub detail: Option<DetailStatus>,
 }
 
+/// The levels of detail on the map, as scripts see them.
 #[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct DetailStatus {
+    pub levels: u32,
+    pub width: usize,
+    pub height: usize,
+    pub backend: String,
+    pub millis: f64,
+    /// RMS of the synthetic detail where the mask is clear, and where it is fully white.
+    pub rms_unmasked: f64,
+    pub rms_masked: Option<f64>,
+    /// Mask samples painted (value > 0).
+    pub mask_cells: usize,
+}
+
+/// A running job, as scripts see it.
+#[derive(Clone, Debug, Default, Serialize)]
 pub struct JobStatus {
     pub name: String,
     pub progress: f32,
@@ -47,6 +66,10 @@ pub struct JobStatus {
 pub enum Command {
     AddRiver(Stroke),
     LoadScene(Box<Scene>),
+    /// Replace the detail mask by one derived from the rivers.
+    MaskFromRivers,
+    /// Paint the detail mask from one map point to another with a brush.
+    PaintMask(glam::DVec2, glam::DVec2, crate::wavelet::Brush),
 }
 
 type Repaint = Arc<dyn Fn() + Send + Sync>;

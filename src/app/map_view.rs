@@ -29,6 +29,8 @@ pub enum Tool {
     Valley,
     /// Click a sketched peak.
     Peak,
+    /// Paint the energy-reduction mask (drag; the brush is set in the Detail section).
+    Mask,
 }
 
 impl Tool {
@@ -52,6 +54,9 @@ pub struct Overlay {
     pub peaks: Vec<Pos2>,
     pub show_rivers: bool,
     pub show_ridges: bool,
+    pub show_mask: bool,
+    /// Brush radius in map units, drawn around the pointer with the mask tool.
+    pub brush_radius: Option<f32>,
 }
 
 /// What happened on the map this frame.
@@ -62,6 +67,10 @@ pub struct MapResponse {
     pub new_stroke: Option<(Pos2, Pos2)>,
     /// A click with the peak tool, in map units.
     pub clicked: Option<Pos2>,
+    /// A piece of mask brush stroke painted this frame (from, to), in map units.
+    pub paint: Option<(Pos2, Pos2)>,
+    /// The mask brush stroke ended this frame.
+    pub paint_finished: bool,
 }
 
 /// What the pointer is over.
@@ -85,6 +94,9 @@ pub struct MapView {
     stroke_start: Option<Pos2>,
     /// Where the pointer last went down on the map (screen), for clicks.
     press_at: Option<Pos2>,
+    /// Last point of the mask brush stroke being painted (map units).
+    last_paint: Option<Pos2>,
+    mask_texture: Option<TextureHandle>,
 }
 
 impl MapView {
@@ -102,6 +114,26 @@ impl MapView {
 
     pub fn field(&self) -> Option<&Heightfield> {
         self.field.as_ref()
+    }
+
+    /// Shows `mask` (magenta, opacity by value) over the terrain; `None` removes it.
+    pub fn set_mask(&mut self, ctx: &egui::Context, mask: Option<&crate::wavelet::Mask>) {
+        let Some(mask) = mask else {
+            self.mask_texture = None;
+            return;
+        };
+        let rgba: Vec<u8> = mask
+            .values()
+            .iter()
+            .flat_map(|v| [230, 40, 200, (v * 150.0).round() as u8])
+            .collect();
+        let image = egui::ColorImage::from_rgba_unmultiplied([mask.width(), mask.height()], &rgba);
+        match &mut self.mask_texture {
+            Some(texture) => texture.set(image, TextureOptions::LINEAR),
+            None => {
+                self.mask_texture = Some(ctx.load_texture("mask", image, TextureOptions::LINEAR));
+            }
+        }
     }
 
     /// Back to the whole map, centred.
@@ -125,7 +157,21 @@ impl MapView {
         let to_map = |s: Pos2| center + (s - rect.center()) / scale;
 
         let lines = tool.draws_lines();
-        let drawing = lines && response.dragged_by(egui::PointerButton::Primary);
+        let painting = tool == Tool::Mask;
+        let drawing = (lines || painting) && response.dragged_by(egui::PointerButton::Primary);
+        let mut paint = None;
+        let mut paint_finished = false;
+        if painting {
+            let primary_down = ui.input(|i| i.pointer.primary_down());
+            if primary_down && (response.is_pointer_button_down_on() || self.last_paint.is_some()) {
+                if let Some(p) = response.interact_pointer_pos().map(to_map) {
+                    paint = Some((self.last_paint.unwrap_or(p), p));
+                    self.last_paint = Some(p);
+                }
+            } else if self.last_paint.take().is_some() {
+                paint_finished = true;
+            }
+        }
         let mut new_stroke = None;
         if response.is_pointer_button_down_on()
             && let Some(p) = response.interact_pointer_pos()
@@ -173,6 +219,9 @@ impl MapView {
             Some(texture) => {
                 let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
                 painter.image(texture.id(), map_rect, uv, Color32::WHITE);
+                if let (true, Some(mask)) = (overlay.show_mask, &self.mask_texture) {
+                    painter.image(mask.id(), map_rect, uv, Color32::WHITE);
+                }
             }
             None => {
                 painter.text(
@@ -231,6 +280,12 @@ impl MapView {
         if let (Some(a), Some(pointer)) = (self.stroke_start, response.interact_pointer_pos()) {
             arrow(&painter, to_screen(a), pointer, stroke_style);
         }
+        if let (true, Some(radius), Some(pointer)) =
+            (painting, overlay.brush_radius, response.hover_pos())
+        {
+            let ring = Stroke::new(1.5, Color32::from_rgb(230, 40, 200));
+            painter.circle_stroke(pointer, radius * scale, ring);
+        }
 
         MapResponse {
             hover: response.hover_pos().map(|pointer| {
@@ -242,6 +297,8 @@ impl MapView {
             }),
             new_stroke,
             clicked,
+            paint,
+            paint_finished,
         }
     }
 

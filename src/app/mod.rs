@@ -4,6 +4,8 @@
 //! [`crate::jobs`] jobs; the frame loop only polls their progress and takes their results.
 
 mod automation;
+mod detail;
+mod files;
 mod map_view;
 mod relief;
 mod side_panel;
@@ -70,7 +72,26 @@ pub struct StrahlerApp {
     last_run: Option<(usize, RunSummary)>,
     selftest: Option<Result<SelfTest, String>>,
     error: Option<String>,
+    /// A passing message (a file saved, a mask imported).
+    notice: Option<String>,
     hover: Option<Hover>,
+    /// Wavelet levels of detail settings (the scene's `detail`, without the mask bytes).
+    detail: crate::scene::DetailSettings,
+    /// The energy-reduction mask, at the terrain's size.
+    mask: crate::wavelet::Mask,
+    brush: crate::wavelet::Brush,
+    show_mask: bool,
+    /// The generated terrain before detail, and its rivers (for the mask from rivers).
+    base: Option<crate::heightfield::Heightfield>,
+    rivers: Vec<crate::river::GrownRiver>,
+    detail_job: Option<JobHandle<detail::DetailResult>>,
+    /// The detail settings or the mask changed: re-run the detail stage at the next frame.
+    detail_dirty: bool,
+    detail_summary: Option<String>,
+    /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
+    mask_overlay_stale: bool,
+    /// A dropped file being read (the browser reads files asynchronously).
+    import_job: Option<JobHandle<detail::Dropped>>,
 }
 
 impl StrahlerApp {
@@ -111,8 +132,21 @@ impl StrahlerApp {
             last_run: None,
             selftest: None,
             error: None,
+            notice: None,
             hover: None,
+            detail: Default::default(),
+            mask: crate::wavelet::Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
+            brush: Default::default(),
+            show_mask: true,
+            base: None,
+            rivers: Vec::new(),
+            detail_job: None,
+            detail_dirty: false,
+            detail_summary: None,
+            mask_overlay_stale: false,
+            import_job: None,
         };
+        app.fit_mask(app.settings.size);
         app.start_generate(&cc.egui_ctx);
         app
     }
@@ -159,8 +193,10 @@ impl StrahlerApp {
                 .map(RiverStroke::from)
                 .collect(),
             sketch: crate::scene::SketchSettings::from_sketch(&self.sketch),
+            detail: self.detail.clone(),
             ..Default::default()
         };
+        scene.detail.set_mask(Some(&self.mask));
         scene.params.theta = s.theta;
         scene.params.river_slope = s.slope;
         scene.params.alpha = s.alpha;
@@ -183,6 +219,21 @@ impl StrahlerApp {
         s.distance_limit = scene.params.enrich.distance_limit;
         self.strokes = scene.strokes();
         self.sketch = scene.sketch.to_sketch();
+        self.detail = crate::scene::DetailSettings {
+            mask_png: None,
+            ..scene.detail.clone()
+        };
+        match scene.detail.mask() {
+            Ok(Some(mask)) => self.mask = mask,
+            Ok(None) => {
+                if let Ok(clear) = crate::wavelet::Mask::new(scene.size, scene.size) {
+                    self.mask = clear;
+                }
+            }
+            Err(err) => self.set_error(err.to_string()),
+        }
+        self.fit_mask(scene.size);
+        self.mask_overlay_stale = true;
         self.dirty = true;
     }
 
@@ -197,6 +248,11 @@ impl StrahlerApp {
         self.dirty = true;
     }
 
+    /// The mask brush (size, hardness, grey value, eraser).
+    pub fn brush_mut(&mut self) -> &mut crate::wavelet::Brush {
+        &mut self.brush
+    }
+
     pub fn tool(&self) -> Tool {
         self.tool
     }
@@ -207,7 +263,11 @@ impl StrahlerApp {
 
     /// Whether a job is running or a regeneration is pending.
     pub fn busy(&self) -> bool {
-        self.terrain_job.is_some() || self.selftest_job.is_some() || self.dirty
+        self.terrain_job.is_some()
+            || self.selftest_job.is_some()
+            || self.detail_job.is_some()
+            || self.dirty
+            || self.detail_dirty
     }
 
     /// Generates the terrain from the strokes and settings, cancelling a running job (a newer
@@ -305,8 +365,11 @@ impl StrahlerApp {
             .iter()
             .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
             .collect();
-        self.map
-            .set_field(ctx, g.terrain, MAP_WIDTH_M / size as f32);
+        self.rivers = g.rivers;
+        self.base = Some(g.terrain);
+        self.fit_mask(size);
+        self.map.set_mask(ctx, Some(&self.mask));
+        self.start_detail(ctx);
         self.automation
             .update(|s| s.last_run = Some(summary.clone()));
         self.last_run = Some((size, summary));
@@ -319,6 +382,11 @@ impl StrahlerApp {
             match command {
                 Command::AddRiver(stroke) => self.add_stroke(stroke),
                 Command::LoadScene(scene) => self.load_scene(&scene),
+                Command::MaskFromRivers => self.mask_from_rivers(ctx),
+                Command::PaintMask(a, b, brush) => {
+                    self.mask.paint_segment(a, b, &brush);
+                    self.set_mask(ctx, self.mask.clone());
+                }
             }
         }
         if self.dirty {
@@ -333,6 +401,24 @@ impl StrahlerApp {
                 Err(err) => self.set_error(format!("Terrain failed: {err}")),
             }
         }
+        if self.mask_overlay_stale {
+            self.mask_overlay_stale = false;
+            self.map.set_mask(ctx, Some(&self.mask));
+        }
+        if self.detail_dirty && self.terrain_job.is_none() && !self.dirty {
+            self.start_detail(ctx);
+        }
+        if let Some((name, bytes)) = self.import_job.as_ref().and_then(JobHandle::try_take) {
+            self.import_job = None;
+            match bytes {
+                Ok(bytes) => self.import_mask(ctx, &name, &bytes),
+                Err(err) => self.set_error(format!("{name}: {err}")),
+            }
+        }
+        if let Some(result) = detail::take(&self.detail_job) {
+            self.detail_job = None;
+            self.show_detail(ctx, result);
+        }
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
             self.selftest = Some(result.map_err(|err| err.to_string()));
@@ -341,6 +427,11 @@ impl StrahlerApp {
             .terrain_job
             .as_ref()
             .map(|j| (j.name().to_owned(), j.progress(), j.message()))
+            .or_else(|| {
+                self.detail_job
+                    .as_ref()
+                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
+            })
             .or_else(|| {
                 self.selftest_job
                     .as_ref()
@@ -382,12 +473,20 @@ impl eframe::App for StrahlerApp {
                 if i.key_pressed(egui::Key::K) {
                     self.tool = Tool::Peak;
                 }
+                if i.key_pressed(egui::Key::M) {
+                    self.tool = Tool::Mask;
+                }
             });
         }
         status_bar::show(ui, self);
         side_panel::show(ui, self);
         self.overlay.show_rivers = self.settings.show_rivers;
         self.overlay.show_ridges = self.settings.show_ridges;
+        self.overlay.show_mask = self.show_mask || self.tool == Tool::Mask;
+        self.overlay.brush_radius = Some(self.brush.radius / self.mask.width().max(2) as f32);
+        for file in ctx.input(|i| i.raw.dropped_files.clone()) {
+            self.start_import(&ctx, file);
+        }
         self.overlay.strokes = self
             .strokes
             .iter()
@@ -416,6 +515,12 @@ impl eframe::App for StrahlerApp {
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let response = self.map.show(ui, self.tool, &self.overlay);
             self.hover = response.hover;
+            if let Some((a, b)) = response.paint {
+                self.paint_mask(&ctx, a, b);
+            }
+            if response.paint_finished {
+                self.finish_mask_stroke(&ctx);
+            }
             let d = |q: egui::Pos2| DVec2::new(f64::from(q.x), f64::from(q.y));
             if let Some((a, b)) = response.new_stroke {
                 use crate::skeleton::sketch::SketchLine;

@@ -113,6 +113,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     app.dirty = true;
                 }
                 ui.separator();
+                super::detail::section(ui, app);
+                ui.separator();
                 selftest_section(ui, app);
             });
         });

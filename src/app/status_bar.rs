@@ -28,6 +28,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 super::Tool::Ridge => "Tool: sketch ridge (D) - drag along the crest",
                 super::Tool::Valley => "Tool: sketch valley (V) - drag from its mouth upwards",
                 super::Tool::Peak => "Tool: sketch peak (K) - click",
+                super::Tool::Mask => "Tool: paint mask (M) - drag; white keeps the detail smooth",
             };
             ui.label(tool);
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {

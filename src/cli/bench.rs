@@ -34,6 +34,10 @@ pub struct BenchArgs {
     /// CPU), beside the paper's Table 3.
     #[arg(long)]
     pub pipeline: bool,
+    /// Time the wavelet levels of detail instead (2 new levels on each size as the source:
+    /// global and local scope, with and without a mask).
+    #[arg(long)]
+    pub wavelet: bool,
 }
 
 /// Per-stage table of the hydrology pipeline at each size.
@@ -128,6 +132,18 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     }
     let path = super::compute_path(crate::compute::BackendChoice::Auto);
     let mut backends = Vec::new();
+    if args.wavelet {
+        let mut list = Vec::new();
+        if want_cpu {
+            list.push(Backend::Cpu);
+        }
+        if want_gpu {
+            if let Some(gpu) = path.gpu() {
+                list.push(Backend::Gpu(gpu.clone()));
+            }
+        }
+        return super::bench_wavelet::run(&args.sizes, &list);
+    }
     if want_cpu {
         backends.push(Backend::Cpu);
     }

@@ -3,6 +3,7 @@
 mod amplify;
 mod analyze;
 mod bench;
+mod bench_wavelet;
 mod fill;
 mod generate;
 mod info;

@@ -224,6 +224,81 @@ pub struct Scene {
     pub rivers: Vec<RiverStroke>,
     pub params: Params,
     pub sketch: SketchSettings,
+    pub detail: DetailSettings,
+}
+
+/// Wavelet levels of detail (seed paper 001) added on top of the generated terrain.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct DetailSettings {
+    /// New levels, 0 (off) to 3; each turns `n` cells into `2n - 1` per side.
+    pub levels: u32,
+    /// "global" (GSA) or "local" (LSA).
+    pub scope: String,
+    /// LSA window in coefficients (odd, 1 to 65).
+    pub window: usize,
+    /// The energy-reduction mask as a base64 greyscale PNG (white removes the synthetic
+    /// detail), any resolution; absent = no mask.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub mask_png: Option<String>,
+}
+
+impl Default for DetailSettings {
+    fn default() -> Self {
+        Self {
+            levels: 0,
+            scope: "global".into(),
+            window: 3,
+            mask_png: None,
+        }
+    }
+}
+
+impl DetailSettings {
+    /// The synthesis parameters (`seed` is the scene's, mixed per stage by the caller).
+    pub fn params(&self, seed: u64) -> crate::wavelet::AmplifyParams {
+        use crate::wavelet::{AmplifyParams, LocalParams, Scope};
+        AmplifyParams {
+            levels: self.levels.max(1),
+            scope: if self.scope == "local" {
+                Scope::Local(LocalParams {
+                    window: self.window,
+                    ..Default::default()
+                })
+            } else {
+                Scope::Global
+            },
+            seed,
+            ..Default::default()
+        }
+    }
+
+    /// The decoded mask, if any.
+    pub fn mask(&self) -> Result<Option<crate::wavelet::Mask>, SceneError> {
+        use base64::Engine as _;
+        let Some(text) = &self.mask_png else {
+            return Ok(None);
+        };
+        let invalid = |problem: String| SceneError::Invalid {
+            field: "detail.mask_png".into(),
+            problem,
+        };
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(text.trim())
+            .map_err(|e| invalid(format!("is not base64: {e}")))?;
+        crate::wavelet::Mask::from_png(&bytes, crate::dem::ReadLimits::default())
+            .map(Some)
+            .map_err(|e| invalid(e.to_string()))
+    }
+
+    /// Stores `mask` (or removes it when `None` or clear).
+    pub fn set_mask(&mut self, mask: Option<&crate::wavelet::Mask>) {
+        use base64::Engine as _;
+        self.mask_png = mask
+            .filter(|m| !m.is_clear())
+            .and_then(|m| m.to_png().ok())
+            .map(|png| base64::engine::general_purpose::STANDARD.encode(png));
+    }
 }
 
 impl Default for Scene {
@@ -237,6 +312,7 @@ impl Default for Scene {
             rivers: Vec::new(),
             params: Params::default(),
             sketch: SketchSettings::default(),
+            detail: DetailSettings::default(),
         }
     }
 }
@@ -311,6 +387,30 @@ impl Scene {
                 );
             }
         }
+        let d = &self.detail;
+        if d.levels > crate::wavelet::synthesis::MAX_LEVELS {
+            return bad(
+                "detail.levels",
+                format!(
+                    "must be 0 to {}, got {}",
+                    crate::wavelet::synthesis::MAX_LEVELS,
+                    d.levels
+                ),
+            );
+        }
+        if d.scope != "global" && d.scope != "local" {
+            return bad(
+                "detail.scope",
+                format!("must be \"global\" or \"local\", got {:?}", d.scope),
+            );
+        }
+        if d.window == 0 || d.window > 65 || d.window % 2 == 0 {
+            return bad(
+                "detail.window",
+                format!("must be an odd number from 1 to 65, got {}", d.window),
+            );
+        }
+        d.mask()?;
         let p = &self.params;
         if !(p.theta.is_finite() && (1.0..=89.0).contains(&p.theta)) {
             return bad(

@@ -326,3 +326,55 @@ pub enum AmplifyFailure {
     #[error(transparent)]
     Cancelled(#[from] Cancelled),
 }
+
+/// How much synthetic detail an amplified terrain carries: the RMS of its difference from the
+/// spline-linear (bilinear) interpolation of the source, over the cells a mask leaves free
+/// (value below 0.01) and over those it covers fully (value 0.99 and above).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct DetailRms {
+    pub unmasked: f64,
+    /// `None` without a mask or where no cell is fully covered.
+    pub masked: Option<f64>,
+}
+
+/// Measures [`DetailRms`] of `amplified` (made from `source` with `levels` new levels).
+/// O(output cells).
+pub fn detail_rms(
+    source: &Heightfield,
+    amplified: &Heightfield,
+    levels: u32,
+    mask: Option<&Mask>,
+) -> DetailRms {
+    let (sw, sh) = (source.width(), source.height());
+    let f = 1usize << levels;
+    let (ow, oh) = (amplified.width(), amplified.height());
+    let mask = mask.filter(|m| !m.is_clear());
+    let (mut free, mut free_n, mut covered, mut covered_n) = (0.0f64, 0usize, 0.0f64, 0usize);
+    let du = 1.0 / (ow.max(2) - 1) as f64;
+    let dv = 1.0 / (oh.max(2) - 1) as f64;
+    for y in 0..oh {
+        let y0 = (y / f).min(sh.saturating_sub(2));
+        let ty = (y as f64 - (y0 * f) as f64) / f as f64;
+        for x in 0..ow {
+            let x0 = (x / f).min(sw.saturating_sub(2));
+            let tx = (x as f64 - (x0 * f) as f64) / f as f64;
+            let at =
+                |i: usize, j: usize| f64::from(source.data()[j.min(sh - 1) * sw + i.min(sw - 1)]);
+            let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+            let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+            let d = f64::from(amplified.data()[y * ow + x]) - (top * (1.0 - ty) + bottom * ty);
+            let m = mask.map_or(0.0, |m| m.sample(x as f64 * du, y as f64 * dv));
+            if m < 0.01 {
+                free += d * d;
+                free_n += 1;
+            } else if m >= 0.99 {
+                covered += d * d;
+                covered_n += 1;
+            }
+        }
+    }
+    DetailRms {
+        unmasked: (free / free_n.max(1) as f64).sqrt(),
+        masked: (covered_n > 0).then(|| (covered / covered_n as f64).sqrt()),
+    }
+}

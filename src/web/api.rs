@@ -82,6 +82,56 @@ pub(super) fn install(automation: &Automation) {
     set(&api, "addRiver", add_river.as_ref());
     add_river.forget();
 
+    let mask_target = automation.clone();
+    let mask_from_rivers = Closure::<dyn Fn()>::new(move || {
+        mask_target.push(Command::MaskFromRivers);
+    });
+    set(&api, "maskFromRivers", mask_from_rivers.as_ref());
+    mask_from_rivers.forget();
+
+    let paint_target = automation.clone();
+    let paint_mask = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<(), JsValue>>::new(
+        move |from: JsValue, to: JsValue, options: JsValue| {
+            let point = |v: &JsValue| -> Result<glam::DVec2, JsValue> {
+                let p: [f64; 2] = serde_json::from_str(&json_text(v)?)
+                    .map_err(|_| error("points are [x, y] in map units"))?;
+                if !p.iter().all(|c| c.is_finite()) {
+                    return Err(error("points must be finite"));
+                }
+                Ok(glam::DVec2::new(p[0], p[1]))
+            };
+            let mut brush = crate::wavelet::Brush::default();
+            if !(options.is_undefined() || options.is_null()) {
+                let get = |key: &str| {
+                    js_sys::Reflect::get(&options, &JsValue::from_str(key))
+                        .ok()
+                        .and_then(|v| v.as_f64())
+                };
+                if let Some(r) = get("radius") {
+                    brush.radius = r as f32;
+                }
+                if let Some(h) = get("hardness") {
+                    brush.hardness = h as f32;
+                }
+                if let Some(v) = get("value") {
+                    brush.value = v as f32;
+                }
+                brush.eraser = js_sys::Reflect::get(&options, &JsValue::from_str("eraser"))
+                    .ok()
+                    .and_then(|v| v.as_bool())
+                    .unwrap_or(false);
+            }
+            if !(brush.radius.is_finite() && brush.hardness.is_finite() && brush.value.is_finite())
+            {
+                return Err(error("brush values must be finite numbers"));
+            }
+            paint_target.push(Command::PaintMask(point(&from)?, point(&to)?, brush));
+            Ok(())
+        },
+    );
+    set(&api, "paintMask", paint_mask.as_ref());
+    paint_mask.forget();
+
     set(&api, "version", &JsValue::from_str(crate::VERSION));
     set(&window, "strahler", &api);
 }

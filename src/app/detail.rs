@@ -1,0 +1,338 @@
+//! The Detail section and stage of the app: wavelet levels of detail (seed paper 001) on top
+//! of the generated terrain, and the energy-reduction mask the user paints, derives from the
+//! rivers, imports and exports.
+//!
+//! The generated terrain is kept as the base; a change of the detail settings or a finished
+//! brush stroke re-runs only this stage (a job, like the pipeline), never the hydrology.
+
+use egui::{ComboBox, DragValue, ProgressBar, RichText, Slider};
+
+use super::automation::DetailStatus;
+use super::map_view::Tool;
+use super::{MAP_WIDTH_M, StrahlerApp};
+use crate::heightfield::Heightfield;
+use crate::jobs::JobHandle;
+use crate::terrain::stage_seed;
+use crate::wavelet::{self, Amplified, AmplifyFailure, Mask, synthesis};
+
+/// A dropped file's name and contents.
+pub type Dropped = (String, Result<Vec<u8>, String>);
+
+/// A finished detail job: the amplified terrain, how long it took and on what.
+pub type DetailResult = Result<(Amplified, f64, &'static str), AmplifyFailure>;
+
+impl StrahlerApp {
+    /// The mask, resampled to the `size x size` terrain when the size changed.
+    pub(super) fn fit_mask(&mut self, size: usize) {
+        if self.mask.width() != size || self.mask.height() != size {
+            let values = self.mask.resampled(size, size);
+            if let Ok(mask) = Mask::from_values(size, size, values) {
+                self.mask = mask;
+            }
+        }
+    }
+
+    /// The energy-reduction mask (terrain-sized).
+    pub fn mask(&self) -> &Mask {
+        &self.mask
+    }
+
+    /// Replaces the mask (e.g. imported), resampled to the terrain, and re-runs the detail.
+    pub fn set_mask(&mut self, ctx: &egui::Context, mask: Mask) {
+        self.mask = mask;
+        self.fit_mask(self.settings.size);
+        self.mask_changed(ctx);
+    }
+
+    /// After any mask edit: refresh the overlay, publish the scene, re-run the detail stage.
+    fn mask_changed(&mut self, ctx: &egui::Context) {
+        self.map.set_mask(ctx, Some(&self.mask));
+        self.automation.set_scene(self.scene());
+        self.detail_dirty = true;
+    }
+
+    /// Paints one piece of a brush stroke (map units).
+    pub(super) fn paint_mask(&mut self, ctx: &egui::Context, a: egui::Pos2, b: egui::Pos2) {
+        let d = |p: egui::Pos2| glam::DVec2::new(f64::from(p.x), f64::from(p.y));
+        self.mask.paint_segment(d(a), d(b), &self.brush);
+        self.map.set_mask(ctx, Some(&self.mask));
+    }
+
+    /// The brush stroke ended: the new mask takes effect.
+    pub(super) fn finish_mask_stroke(&mut self, ctx: &egui::Context) {
+        self.mask_changed(ctx);
+    }
+
+    /// Shows the base terrain plus detail: starts the detail job, or shows the base as is
+    /// when detail is off.
+    pub(super) fn start_detail(&mut self, ctx: &egui::Context) {
+        self.detail_dirty = false;
+        let Some(base) = self.base.clone() else {
+            return;
+        };
+        if self.detail.levels == 0 {
+            self.detail_job = None;
+            self.automation.update(|s| s.detail = None);
+            self.detail_summary = None;
+            let size = base.width();
+            self.map.set_field(ctx, base, MAP_WIDTH_M / size as f32);
+            return;
+        }
+        let backend = match self.settings.backend.resolve(&self.path) {
+            Ok(backend) => backend,
+            Err(err) => {
+                self.set_error(err.to_string());
+                return;
+            }
+        };
+        let params = self.detail.params(stage_seed(self.settings.seed, "detail"));
+        if let Err(err) = synthesis::check(&base, &params) {
+            self.set_error(format!("Detail: {err}"));
+            return;
+        }
+        // A GPU that cannot hold the output falls back to the CPU rather than failing.
+        let backend = match &backend {
+            crate::compute::Backend::Gpu(gpu) => {
+                let n = synthesis::output_len(base.width(), params.levels);
+                if gpu.check_field(n, n).is_ok() {
+                    backend
+                } else {
+                    crate::compute::Backend::Cpu
+                }
+            }
+            crate::compute::Backend::Cpu => backend,
+        };
+        let mask = (!self.mask.is_clear()).then(|| self.mask.clone());
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "detail",
+            move |job| async move {
+                let clock = web_time::Instant::now();
+                let out =
+                    wavelet::amplify_on(&backend, &base, &params, mask.as_ref(), &job).await?;
+                Ok((out, clock.elapsed().as_secs_f64() * 1e3, backend.key()))
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.detail_job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// Puts a finished detail result on the map.
+    pub(super) fn show_detail(&mut self, ctx: &egui::Context, result: DetailResult) {
+        let (amplified, millis, backend) = match result {
+            Ok(done) => done,
+            Err(AmplifyFailure::Cancelled(_)) => return,
+            Err(err) => {
+                self.set_error(format!("Detail failed: {err}"));
+                return;
+            }
+        };
+        let Some(base) = &self.base else { return };
+        let field: Heightfield = amplified.field;
+        let mask = (!self.mask.is_clear()).then_some(&self.mask);
+        let rms = synthesis::detail_rms(base, &field, self.detail.levels, mask);
+        let status = DetailStatus {
+            levels: self.detail.levels,
+            width: field.width(),
+            height: field.height(),
+            backend: backend.to_owned(),
+            millis,
+            rms_unmasked: rms.unmasked,
+            rms_masked: rms.masked,
+            mask_cells: self.mask.values().iter().filter(|&&v| v > 0.0).count(),
+        };
+        self.detail_summary = Some(format!(
+            "Detail: {} x {} on the {} in {:.0} ms; RMS {:.2} m{}",
+            status.width,
+            status.height,
+            backend.to_uppercase(),
+            millis,
+            rms.unmasked,
+            rms.masked
+                .map(|m| format!(", {m:.2} m under the mask"))
+                .unwrap_or_default()
+        ));
+        self.automation.update(|s| s.detail = Some(status));
+        let size = field.width();
+        self.map.set_field(ctx, field, MAP_WIDTH_M / size as f32);
+        self.error = None;
+    }
+
+    /// The river networks as a starting mask (rivers stay smooth).
+    pub(super) fn mask_from_rivers(&mut self, ctx: &egui::Context) {
+        let orders: Vec<Vec<u32>> = self
+            .rivers
+            .iter()
+            .map(|r| crate::river::stats::strahler_orders(&r.network))
+            .collect();
+        let rivers: Vec<_> = self
+            .rivers
+            .iter()
+            .zip(&orders)
+            .map(|(r, o)| (&r.network, o.as_slice()))
+            .collect();
+        let n = self.settings.size;
+        let radius = (n as f32 / 256.0).max(1.0);
+        match Mask::from_rivers(n, n, &rivers, radius) {
+            Ok(mask) => self.set_mask(ctx, mask),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// Reads a file dropped on the window (asynchronously: browsers only read files so).
+    pub(super) fn start_import(&mut self, ctx: &egui::Context, file: egui::DroppedFileHandle) {
+        let name = file
+            .path()
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_else(|| "the dropped file".to_owned());
+        if !name.to_ascii_lowercase().ends_with(".png") {
+            self.set_error(format!(
+                "{name}: drop a greyscale PNG to use it as the detail mask"
+            ));
+            return;
+        }
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "import",
+            move |_job| async move {
+                #[cfg(target_arch = "wasm32")]
+                let bytes = file.bytes_async().await;
+                #[cfg(not(target_arch = "wasm32"))]
+                let bytes = file.bytes();
+                (name, bytes)
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.import_job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// A PNG dropped on the window becomes the mask.
+    pub(super) fn import_mask(&mut self, ctx: &egui::Context, name: &str, bytes: &[u8]) {
+        match Mask::from_png(bytes, crate::dem::ReadLimits::default()) {
+            Ok(mask) => {
+                self.set_mask(ctx, mask);
+                self.show_mask = true;
+                self.notice = Some(format!("Mask imported from {name}"));
+            }
+            Err(err) => self.set_error(format!("{name}: {err}")),
+        }
+    }
+}
+
+/// The Detail section of the side panel.
+pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.label(RichText::new("Detail (wavelet LoD)").strong())
+        .on_hover_text(
+            "New levels of detail from the terrain's own wavelet statistics (seed paper 001): \
+         each level doubles the resolution with Gaussian detail whose variance continues the \
+         fitted line of log2 variance per level. The mask removes that detail where it is white.",
+        );
+    let ctx = ui.ctx().clone();
+    let before = app.detail.clone();
+    egui::Grid::new("detail settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("New levels");
+            let out = synthesis::output_len(app.settings.size, app.detail.levels);
+            ui.add(Slider::new(&mut app.detail.levels, 0..=3).text(format!("-> {out} x {out}")));
+            ui.end_row();
+            ui.label("Scope").on_hover_text(
+                "Global (GSA): one line per band for the whole map. Local (LSA): a line per \
+                 location from a window of coefficients, so rough and smooth areas keep their \
+                 character.",
+            );
+            ComboBox::from_id_salt("detail scope")
+                .selected_text(app.detail.scope.clone())
+                .show_ui(ui, |ui| {
+                    ui.selectable_value(&mut app.detail.scope, "global".to_owned(), "global");
+                    ui.selectable_value(&mut app.detail.scope, "local".to_owned(), "local");
+                });
+            ui.end_row();
+            if app.detail.scope == "local" {
+                ui.label("Window");
+                let mut half = (app.detail.window / 2) as u32;
+                ui.add(Slider::new(&mut half, 0..=8).custom_formatter(|v, _| {
+                    let w = 2 * v as usize + 1;
+                    format!("{w} x {w}")
+                }));
+                app.detail.window = 2 * half as usize + 1;
+                ui.end_row();
+            }
+        });
+    if app.detail != before {
+        app.detail_dirty = true;
+        app.automation.set_scene(app.scene());
+    }
+
+    ui.horizontal_wrapped(|ui| {
+        ui.selectable_value(&mut app.tool, Tool::Mask, "Paint mask (M)");
+        ui.checkbox(&mut app.show_mask, "show mask");
+    });
+    egui::Grid::new("brush settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            ui.label("Brush size");
+            ui.add(
+                DragValue::new(&mut app.brush.radius)
+                    .range(1.0..=256.0)
+                    .suffix(" cells"),
+            );
+            ui.end_row();
+            ui.label("Hardness");
+            ui.add(Slider::new(&mut app.brush.hardness, 0.0..=1.0));
+            ui.end_row();
+            ui.label("Grey value")
+                .on_hover_text("1 (white) removes all synthetic detail.");
+            ui.add(Slider::new(&mut app.brush.value, 0.0..=1.0));
+            ui.end_row();
+            ui.label("Eraser");
+            ui.checkbox(&mut app.brush.eraser, "");
+            ui.end_row();
+        });
+    ui.horizontal_wrapped(|ui| {
+        if ui
+            .button("Mask from rivers")
+            .on_hover_text("Start from the river network: wider for higher Strahler orders.")
+            .clicked()
+        {
+            app.mask_from_rivers(&ctx);
+            app.show_mask = true;
+        }
+        if ui.button("Clear mask").clicked() {
+            if let Ok(mask) = Mask::new(app.settings.size, app.settings.size) {
+                app.set_mask(&ctx, mask);
+            }
+        }
+        if ui.button("Export mask PNG").clicked() {
+            match app.mask.to_png() {
+                Ok(png) => match super::files::save("strahler-mask.png", "image/png", &png) {
+                    Ok(where_to) => app.notice = Some(format!("Mask {where_to}")),
+                    Err(err) => app.set_error(err),
+                },
+                Err(err) => app.set_error(err.to_string()),
+            }
+        }
+    });
+    ui.label(RichText::new("Import a mask: drop a PNG on the map.").weak());
+    if let Some(job) = &app.detail_job {
+        ui.add(ProgressBar::new(job.progress()).text(job.message()));
+    }
+    if let Some(text) = &app.detail_summary {
+        ui.label(text);
+    }
+    if let Some(text) = &app.notice {
+        ui.label(RichText::new(text).weak());
+    }
+}
+
+/// Takes a finished detail job's result, if any.
+pub(super) fn take(job: &Option<JobHandle<DetailResult>>) -> Option<DetailResult> {
+    job.as_ref().and_then(JobHandle::try_take)
+}
