@@ -340,3 +340,120 @@ fn generate_reads_a_scene_file_and_names_bad_fields() {
     assert!(!result.status.success());
     assert!(String::from_utf8_lossy(&result.stderr).contains("unknown field `wind`"));
 }
+
+#[test]
+fn analyze_prints_the_variance_table_and_fits_for_tif_and_png() {
+    for name in ["olinda.tif", "olinda.png"] {
+        let input = shared_dem(name);
+        let out = strahler(&["analyze", input.to_str().unwrap()]);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let text = String::from_utf8_lossy(&out.stdout);
+        assert!(text.contains("111 x 111 cells, 7 levels"), "{text}");
+        for band in ["H: gamma", "V: gamma", "D: gamma"] {
+            assert!(text.contains(band), "{text}");
+        }
+    }
+    let json = strahler(&[
+        "analyze",
+        shared_dem("volcano_maungawhau.tif").to_str().unwrap(),
+        "--json",
+    ]);
+    let report: serde_json::Value = serde_json::from_slice(&json.stdout).expect("JSON");
+    assert_eq!(report["fits"].as_array().map(Vec::len), Some(3));
+    let gamma = report["fits"][0]["gamma"].as_f64().unwrap();
+    assert!(gamma > 1.0 && gamma < 8.0, "{gamma}");
+}
+
+#[test]
+fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
+    let dir = out_dir();
+    let input = shared_dem("olinda.tif");
+    let mask_path = dir.join("mask.png");
+    let mask = strahler::wavelet::Mask::from_values(2, 1, vec![1.0, 1.0]).unwrap();
+    std::fs::write(&mask_path, mask.to_png().unwrap()).unwrap();
+    let out = dir.join("olinda-x4.tif");
+    let report = dir.join("amplify.json");
+    let run = strahler(&[
+        "amplify",
+        input.to_str().unwrap(),
+        "--levels",
+        "2",
+        "--scope",
+        "local",
+        "--seed",
+        "4",
+        "--backend",
+        "cpu",
+        "--out",
+        out.to_str().unwrap(),
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let source = read_tif(&input);
+    let dem = read_tif(&out);
+    assert_eq!((dem.field.width(), dem.field.height()), (441, 441));
+    let (sx, _) = source.georef.cell_size().unwrap();
+    let (ox, _) = dem.georef.cell_size().unwrap();
+    assert!((sx / ox - 4.0).abs() < 1e-9, "cell size {sx} -> {ox}");
+    assert_eq!(dem.georef.geo_keys, source.georef.geo_keys, "CRS kept");
+    let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(json["size"][0], 441);
+
+    // An all-white mask: no synthetic detail, every source sample kept.
+    let smooth = dir.join("olinda-smooth.tif");
+    let run = strahler(&[
+        "amplify",
+        input.to_str().unwrap(),
+        "--mask",
+        mask_path.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--out",
+        smooth.to_str().unwrap(),
+    ]);
+    assert!(
+        run.status.success(),
+        "{}",
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let smooth = read_tif(&smooth);
+    for y in 0..source.field.height() {
+        for x in 0..source.field.width() {
+            assert_eq!(smooth.field.get(2 * x, 2 * y), source.field.get(x, y));
+        }
+        let mid = smooth.field.get(1, 2 * y).unwrap();
+        let expected = (source.field.get(0, y).unwrap() + source.field.get(1, y).unwrap()) / 2.0;
+        assert!((mid - expected).abs() < 1e-4);
+    }
+
+    // Absurd parameters and voids: clear errors, nothing written.
+    let bad = strahler(&[
+        "amplify",
+        input.to_str().unwrap(),
+        "--levels",
+        "5",
+        "--out",
+        "x.tif",
+    ]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("1 to 3"));
+    let voids = strahler(&[
+        "amplify",
+        shared_dem("luxembourg_full.tif").to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--out",
+        dir.join("lux.tif").to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&voids.stderr).contains("no-data"));
+    assert!(!dir.join("lux.tif").exists());
+}

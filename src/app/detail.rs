@@ -305,10 +305,10 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             app.mask_from_rivers(&ctx);
             app.show_mask = true;
         }
-        if ui.button("Clear mask").clicked() {
-            if let Ok(mask) = Mask::new(app.settings.size, app.settings.size) {
-                app.set_mask(&ctx, mask);
-            }
+        if ui.button("Clear mask").clicked()
+            && let Ok(mask) = Mask::new(app.settings.size, app.settings.size)
+        {
+            app.set_mask(&ctx, mask);
         }
         if ui.button("Export mask PNG").clicked() {
             match app.mask.to_png() {

@@ -137,10 +137,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         if want_cpu {
             list.push(Backend::Cpu);
         }
-        if want_gpu {
-            if let Some(gpu) = path.gpu() {
-                list.push(Backend::Gpu(gpu.clone()));
-            }
+        if want_gpu && let Some(gpu) = path.gpu() {
+            list.push(Backend::Gpu(gpu.clone()));
         }
         return super::bench_wavelet::run(&args.sizes, &list);
     }

@@ -97,8 +97,10 @@ impl GeoRef {
                 scale[1] /= factor;
             }
         }
-        if let Some(m) = &mut out.transformation {
-            if m.len() >= 16 {
+        if let Some(m) = &mut out.transformation
+            && m.len() >= 16
+        {
+            {
                 // Rows (x, y, z, 1) of a 4x4 matrix: raster (i, j) columns 0 and 1.
                 let (a, b, e, f) = (m[0], m[1], m[4], m[5]);
                 m[0] /= factor;

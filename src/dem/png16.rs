@@ -60,38 +60,6 @@ fn encode(
     Ok(out)
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn heightmap_round_trips_within_one_step() {
-        let data: Vec<f32> = (0..12 * 7)
-            .map(|i| 100.0 + (i as f32 * 0.7).sin() * 40.0)
-            .collect();
-        let field = Heightfield::from_vec(12, 7, data).unwrap();
-        let (bytes, (lo, hi)) = write_heightmap(&field).unwrap();
-        let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
-        let mut reader = decoder.read_info().unwrap();
-        let info = reader.info();
-        assert_eq!(
-            (info.width, info.height, info.bit_depth),
-            (12, 7, png::BitDepth::Sixteen)
-        );
-        assert!(info.gamma().is_none() && info.srgb.is_none());
-        let text = &info.uncompressed_latin1_text;
-        assert!(text.iter().any(|t| t.keyword == "strahler:z_range"));
-        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
-        reader.next_frame(&mut buf).unwrap();
-        let step = (hi - lo) / 65535.0;
-        for (i, z) in field.data().iter().enumerate() {
-            let v = u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]);
-            let back = lo + f32::from(v) / 65535.0 * (hi - lo);
-            assert!((back - z).abs() <= step, "{back} vs {z}");
-        }
-    }
-}
-
 /// Reads an 8- or 16-bit greyscale PNG heightmap as `z = min + v / vmax * (max - min)`. The
 /// range is `z_range` when given, else the `strahler:z_range` text chunk written by
 /// [`write_heightmap`]; without either the file's heights are unknown and it is an error.
@@ -163,4 +131,36 @@ pub fn read_heightmap(
 pub fn parse_range(text: &str) -> Option<(f32, f32)> {
     let (a, b) = text.split_once(',')?;
     Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn heightmap_round_trips_within_one_step() {
+        let data: Vec<f32> = (0..12 * 7)
+            .map(|i| 100.0 + (i as f32 * 0.7).sin() * 40.0)
+            .collect();
+        let field = Heightfield::from_vec(12, 7, data).unwrap();
+        let (bytes, (lo, hi)) = write_heightmap(&field).unwrap();
+        let decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        let mut reader = decoder.read_info().unwrap();
+        let info = reader.info();
+        assert_eq!(
+            (info.width, info.height, info.bit_depth),
+            (12, 7, png::BitDepth::Sixteen)
+        );
+        assert!(info.gamma().is_none() && info.srgb.is_none());
+        let text = &info.uncompressed_latin1_text;
+        assert!(text.iter().any(|t| t.keyword == "strahler:z_range"));
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        reader.next_frame(&mut buf).unwrap();
+        let step = (hi - lo) / 65535.0;
+        for (i, z) in field.data().iter().enumerate() {
+            let v = u16::from_be_bytes([buf[2 * i], buf[2 * i + 1]]);
+            let back = lo + f32::from(v) / 65535.0 * (hi - lo);
+            assert!((back - z).abs() <= step, "{back} vs {z}");
+        }
+    }
 }

@@ -404,7 +404,7 @@ impl Scene {
                 format!("must be \"global\" or \"local\", got {:?}", d.scope),
             );
         }
-        if d.window == 0 || d.window > 65 || d.window % 2 == 0 {
+        if d.window == 0 || d.window > 65 || d.window.is_multiple_of(2) {
             return bad(
                 "detail.window",
                 format!("must be an odd number from 1 to 65, got {}", d.window),

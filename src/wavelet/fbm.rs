@@ -38,7 +38,11 @@ pub fn diamond_square(
         }
         // Square: edge midpoints, averaging the neighbours that exist.
         for y in (0..side).step_by(half) {
-            let start = if (y / half) % 2 == 0 { half } else { 0 };
+            let start = if (y / half).is_multiple_of(2) {
+                half
+            } else {
+                0
+            };
             for x in (start..side).step_by(step) {
                 let mut sum = 0.0;
                 let mut n = 0.0;

@@ -84,10 +84,10 @@ pub fn check(source: &Heightfield, params: &AmplifyParams) -> Result<(usize, usi
     if !(1..=MAX_LEVELS).contains(&params.levels) {
         return Err(WaveletError::Levels(params.levels));
     }
-    if let Scope::Local(local) = params.scope {
-        if local.window == 0 || local.window > 65 || local.window % 2 == 0 {
-            return Err(WaveletError::Window(local.window));
-        }
+    if let Scope::Local(local) = params.scope
+        && (local.window == 0 || local.window > 65 || local.window.is_multiple_of(2))
+    {
+        return Err(WaveletError::Window(local.window));
     }
     let (w, h) = (source.width(), source.height());
     let (ow, oh) = (output_len(w, params.levels), output_len(h, params.levels));

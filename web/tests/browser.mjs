@@ -144,6 +144,34 @@ async function runMode(url, mode, expectedChecksum) {
     });
     check('loadScene() names a bad field', bad !== null && bad.includes('rivers[0].phi'), String(bad));
     check('a refused scene changes nothing', (await page.evaluate(() => window.strahler.scene().rivers.length)) === 2);
+    // Wavelet levels of detail and the energy-reduction mask (seed paper 001).
+    await page.evaluate(() => {
+      const s = window.strahler.scene();
+      s.size = 256;
+      s.detail = { levels: 1, scope: 'global', window: 3 };
+      window.strahler.loadScene(s);
+    });
+    await page.waitForFunction(() => {
+      const s = window.strahler.status();
+      return s.job === null && s.detail !== null && s.detail.width === 511;
+    }, null, { timeout: 120_000 });
+    check('one detail level turns 256 cells into 511', true);
+    await page.evaluate(() => window.strahler.paintMask([0.1, 0.5], [0.9, 0.5], { radius: 24, hardness: 0.9 }));
+    await page.waitForFunction(() => {
+      const s = window.strahler.status();
+      return s.job === null && s.detail !== null && s.detail.rmsMasked !== null;
+    }, null, { timeout: 120_000 });
+    const detail = await page.evaluate(() => window.strahler.status().detail);
+    check('a painted mask removes the detail under it and keeps it elsewhere',
+      detail.rmsUnmasked > 0 && detail.rmsMasked < 0.1 * detail.rmsUnmasked, JSON.stringify(detail));
+    await page.evaluate(() => window.strahler.maskFromRivers());
+    await page.waitForFunction((old) => {
+      const s = window.strahler.status();
+      return s.job === null && s.detail !== null && s.detail.maskCells !== old;
+    }, detail.maskCells, { timeout: 120_000 });
+    const maskPng = await page.evaluate(() => window.strahler.scene().detail.mask_png);
+    check('maskFromRivers() makes a mask saved in the scene as a PNG',
+      typeof maskPng === 'string' && Buffer.from(maskPng, 'base64').subarray(1, 4).toString() === 'PNG');
     await page.screenshot({ path: join(output, `${mode}.png`) });
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
     if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);
