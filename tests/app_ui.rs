@@ -11,7 +11,7 @@ use strahler::app::{Automation, StrahlerApp};
 
 fn harness() -> Harness<'static, StrahlerApp> {
     Harness::builder()
-        .with_size(egui::vec2(1200.0, 800.0))
+        .with_size(egui::vec2(1200.0, 900.0))
         .wgpu()
         .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
 }

@@ -275,27 +275,29 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         ui.selectable_value(&mut app.tool, Tool::Mask, "Paint mask (M)");
         ui.checkbox(&mut app.show_mask, "show mask");
     });
-    egui::Grid::new("brush settings")
-        .num_columns(2)
-        .show(ui, |ui| {
-            ui.label("Brush size");
-            ui.add(
-                DragValue::new(&mut app.brush.radius)
-                    .range(1.0..=256.0)
-                    .suffix(" cells"),
-            );
-            ui.end_row();
-            ui.label("Hardness");
-            ui.add(Slider::new(&mut app.brush.hardness, 0.0..=1.0));
-            ui.end_row();
-            ui.label("Grey value")
-                .on_hover_text("1 (white) removes all synthetic detail.");
-            ui.add(Slider::new(&mut app.brush.value, 0.0..=1.0));
-            ui.end_row();
-            ui.label("Eraser");
-            ui.checkbox(&mut app.brush.eraser, "");
-            ui.end_row();
-        });
+    if app.tool == Tool::Mask {
+        egui::Grid::new("brush settings")
+            .num_columns(2)
+            .show(ui, |ui| {
+                ui.label("Brush size");
+                ui.add(
+                    DragValue::new(&mut app.brush.radius)
+                        .range(1.0..=256.0)
+                        .suffix(" cells"),
+                );
+                ui.end_row();
+                ui.label("Hardness");
+                ui.add(Slider::new(&mut app.brush.hardness, 0.0..=1.0));
+                ui.end_row();
+                ui.label("Grey value")
+                    .on_hover_text("1 (white) removes all synthetic detail.");
+                ui.add(Slider::new(&mut app.brush.value, 0.0..=1.0));
+                ui.end_row();
+                ui.label("Eraser");
+                ui.checkbox(&mut app.brush.eraser, "");
+                ui.end_row();
+            });
+    }
     ui.horizontal_wrapped(|ui| {
         if ui
             .button("Mask from rivers")
