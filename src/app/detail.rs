@@ -19,7 +19,8 @@ use crate::wavelet::{self, Amplified, AmplifyFailure, Mask, synthesis};
 pub type Dropped = (String, Result<Vec<u8>, String>);
 
 /// A finished detail job: the amplified terrain, how long it took and on what.
-pub type DetailResult = Result<(Amplified, f64, &'static str), AmplifyFailure>;
+pub type DetailResult =
+    Result<(Amplified, synthesis::DetailRms, f64, &'static str), AmplifyFailure>;
 
 impl StrahlerApp {
     /// The mask, resampled to the `size x size` terrain when the size changed.
@@ -110,7 +111,10 @@ impl StrahlerApp {
                 let clock = web_time::Instant::now();
                 let out =
                     wavelet::amplify_on(&backend, &base, &params, mask.as_ref(), &job).await?;
-                Ok((out, clock.elapsed().as_secs_f64() * 1e3, backend.key()))
+                let millis = clock.elapsed().as_secs_f64() * 1e3;
+                // O(output cells): measured here, off the UI thread.
+                let rms = synthesis::detail_rms(&base, &out.field, params.levels, mask.as_ref());
+                Ok((out, rms, millis, backend.key()))
             },
             move || repaint.request_repaint(),
         );
@@ -122,7 +126,7 @@ impl StrahlerApp {
 
     /// Puts a finished detail result on the map.
     pub(super) fn show_detail(&mut self, ctx: &egui::Context, result: DetailResult) {
-        let (amplified, millis, backend) = match result {
+        let (amplified, rms, millis, backend) = match result {
             Ok(done) => done,
             Err(AmplifyFailure::Cancelled(_)) => return,
             Err(err) => {
@@ -130,10 +134,7 @@ impl StrahlerApp {
                 return;
             }
         };
-        let Some(base) = &self.base else { return };
         let field: Heightfield = amplified.field;
-        let mask = (!self.mask.is_clear()).then_some(&self.mask);
-        let rms = synthesis::detail_rms(base, &field, self.detail.levels, mask);
         let status = DetailStatus {
             levels: self.detail.levels,
             width: field.width(),
