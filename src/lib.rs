@@ -11,7 +11,8 @@
 //! - [`compute`]: the CPU/GPU backend choice and the human-readable compute path.
 //! - [`diffusion`]: Laplace diffusion with fixed cells (seed paper 000, eqs. 6-7): multigrid
 //!   and the paper's Jacobi baseline, on CPU and GPU.
-//! - [`dem`]: real elevation rasters in and out (GeoTIFF).
+//! - [`dem`]: real elevation rasters in and out (GeoTIFF, SRTM .hgt, ESRI ASCII, PNG).
+//! - [`blend`]: Poisson blending of real DEM blocks into the terrain (seed paper 000, Sec. VI).
 //! - [`river`]: Tokunaga river networks grown by an L-system (seed paper 000, Sec. IV).
 //! - [`scene`]: the user's document (versioned JSON) from which everything is rebuilt.
 //! - [`wavelet`]: wavelet levels of detail with energy-reduction masks (seed paper 001).
@@ -19,6 +20,7 @@
 //! - [`app`]: the eframe application.
 
 pub mod app;
+pub mod blend;
 pub mod compute;
 pub mod dem;
 pub mod diffusion;

@@ -457,3 +457,225 @@ fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
     assert!(String::from_utf8_lossy(&voids.stderr).contains("no-data"));
     assert!(!dir.join("lux.tif").exists());
 }
+
+/// `strahler convert` between every format: lossless ones bit-exactly, quantised ones within
+/// one step, georeferencing kept, voids kept or filled, presets and flips applied.
+#[test]
+fn convert_round_trips_every_format() {
+    let dir = out_dir().join("convert");
+    std::fs::create_dir_all(&dir).unwrap();
+    let src = shared_dem("olinda.tif");
+    let original = read_tif(&src);
+    let run = |args: &[&str]| {
+        let out = strahler(args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+    };
+    let path = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let (lo, hi) = original.field.finite_range().unwrap();
+    let step = (hi - lo) / 65535.0;
+
+    // Lossless: GeoTIFF -> ASCII -> GeoTIFF is bit-exact and keeps the cell size.
+    run(&["convert", &src.to_string_lossy(), &path("o.asc")]);
+    run(&["convert", &path("o.asc"), &path("o_back.tif")]);
+    let back = read_tif(&dir.join("o_back.tif"));
+    assert_eq!(back.field, original.field);
+    assert_eq!(back.georef.cell_size(), original.georef.cell_size());
+
+    // PNG and RAW R16 (with its sidecar and a Y flip) within one quantisation step.
+    for name in ["o.png", "o.r16"] {
+        run(&["convert", &src.to_string_lossy(), &path(name), "--flip-y"]);
+        assert!(dir.join(name).with_extension("json").exists());
+        let back_name = format!("{name}.tif");
+        run(&["convert", &path(name), &path(&back_name)]);
+        let mut back = read_tif(&dir.join(&back_name)).field;
+        if name == "o.png" {
+            // PNG carries no flip flag: the rows come back bottom-up.
+            back = strahler::dem::resize::flipped_y(&back);
+        }
+        let err = back.max_abs_diff(&original.field).unwrap();
+        assert!(err <= step * 0.51, "{name}: error {err} > step {step}");
+    }
+
+    // SRTM .hgt rounds to whole metres.
+    run(&["convert", &src.to_string_lossy(), &path("N07W035.hgt")]);
+    run(&["convert", &path("N07W035.hgt"), &path("hgt_back.tif")]);
+    let back = read_tif(&dir.join("hgt_back.tif"));
+    assert!(back.field.max_abs_diff(&original.field).unwrap() <= 0.5);
+    assert!(back.georef.crs_label().as_deref() == Some("EPSG:4326"));
+
+    // OBJ: one vertex per cell, heights kept.
+    run(&[
+        "convert",
+        &src.to_string_lossy(),
+        &path("o.obj"),
+        "--size",
+        "65",
+    ]);
+    let obj = std::fs::read_to_string(dir.join("o.obj")).unwrap();
+    assert_eq!(obj.lines().filter(|l| l.starts_with("v ")).count(), 65 * 65);
+    assert_eq!(
+        obj.lines().filter(|l| l.starts_with("f ")).count(),
+        2 * 64 * 64
+    );
+
+    // A size preset keeps the corners; a z scale multiplies.
+    run(&[
+        "convert",
+        &src.to_string_lossy(),
+        &path("o_129.tif"),
+        "--size",
+        "129",
+        "--z-scale",
+        "2",
+    ]);
+    let resized = read_tif(&dir.join("o_129.tif")).field;
+    assert_eq!((resized.width(), resized.height()), (129, 129));
+    assert_eq!(
+        resized.get(128, 128).unwrap(),
+        original.field.get(110, 110).unwrap() * 2.0
+    );
+
+    // Voids: kept as NaN unless --fill-voids.
+    let lux = shared_dem("luxembourg_full.tif");
+    run(&["convert", &lux.to_string_lossy(), &path("lux.asc")]);
+    let kept = strahler::dem::asc::read(
+        &std::fs::read(dir.join("lux.asc")).unwrap(),
+        Default::default(),
+    )
+    .unwrap();
+    assert_eq!(kept.void_cells(), 3942);
+    run(&[
+        "convert",
+        &lux.to_string_lossy(),
+        &path("lux_filled.tif"),
+        "--fill-voids",
+    ]);
+    assert_eq!(read_tif(&dir.join("lux_filled.tif")).void_cells(), 0);
+}
+
+#[test]
+fn convert_explains_bad_input() {
+    let dir = out_dir().join("convert_bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cases: [(&str, &[u8], &str); 4] = [
+        (
+            "bad.asc",
+            b"ncols 3\nnrows 2\ncellsize 1\n1 2 3\n4 nan 6\n",
+            "row 1, column 1",
+        ),
+        ("short.hgt", &[0u8; 7], "16-bit samples"),
+        (
+            "huge.asc",
+            b"ncols 900000\nnrows 900000\ncellsize 1\n",
+            "exceed the limit",
+        ),
+        ("x.dem", b"whatever", "unknown elevation format"),
+    ];
+    for (name, bytes, expect) in cases {
+        let path = dir.join(name);
+        std::fs::write(&path, bytes).unwrap();
+        let out = strahler(&[
+            "convert",
+            &path.to_string_lossy(),
+            &dir.join("o.tif").to_string_lossy(),
+        ]);
+        assert!(!out.status.success());
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(err.contains(expect), "{name}: {err}");
+    }
+    let out = strahler(&[
+        "convert",
+        &shared_dem("olinda.tif").to_string_lossy(),
+        &dir.join("o.xyz").to_string_lossy(),
+    ]);
+    assert!(String::from_utf8_lossy(&out.stderr).contains("unknown output format"));
+}
+
+#[test]
+fn blend_solves_a_block_and_keeps_the_rest() {
+    let dir = out_dir().join("blend");
+    std::fs::create_dir_all(&dir).unwrap();
+    let target = shared_dem("olinda.tif");
+    let reference = shared_dem("volcano_maungawhau.tif");
+    let out_path = dir.join("blended.tif");
+    let report = dir.join("blend.json");
+    let out = strahler(&[
+        "blend",
+        &target.to_string_lossy(),
+        &reference.to_string_lossy(),
+        "--block",
+        "30,20,50,70",
+        "--ref-at",
+        "5,8",
+        "--scale-z",
+        "0.8",
+        "--out",
+        &out_path.to_string_lossy(),
+        "--report",
+        &report.to_string_lossy(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let before = read_tif(&target).field;
+    let after = read_tif(&out_path).field;
+    let r: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(r["converged"], true);
+    assert_eq!(r["unknowns"], 48 * 68);
+    for y in 0..before.height() {
+        for x in 0..before.width() {
+            let inside = (31..79).contains(&y) && (21..89).contains(&x);
+            if !inside {
+                assert_eq!(after.get(x, y), before.get(x, y), "({x}, {y}) moved");
+            }
+        }
+    }
+    // Eq. 9 holds: on every unknown cell the 5-point Laplacian of the result equals the
+    // scaled reference's, so the volcano's shape (not its heights) is what was blended in.
+    let ref_field = read_tif(&reference).field;
+    let lap = |f: &strahler::heightfield::Heightfield, x: usize, y: usize| {
+        4.0 * f.get(x, y).unwrap()
+            - f.get(x - 1, y).unwrap()
+            - f.get(x + 1, y).unwrap()
+            - f.get(x, y - 1).unwrap()
+            - f.get(x, y + 1).unwrap()
+    };
+    let mut worst = 0.0f32;
+    for y in 31..79 {
+        for x in 21..89 {
+            let want = 0.8 * lap(&ref_field, x - 20 + 8, y - 30 + 5);
+            worst = worst.max((lap(&after, x, y) - want).abs());
+        }
+    }
+    assert!(worst < 1e-2, "Laplacian mismatch {worst} m");
+    let bad = strahler(&[
+        "blend",
+        &target.to_string_lossy(),
+        &reference.to_string_lossy(),
+        "--block",
+        "100,100,50,50",
+        "--ref-at",
+        "0,0",
+        "--out",
+        &out_path.to_string_lossy(),
+    ]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("does not fit the 111 x 111 terrain"));
+    let bad = strahler(&[
+        "blend",
+        &target.to_string_lossy(),
+        &reference.to_string_lossy(),
+        "--block",
+        "0,0,50,50",
+        "--ref-at",
+        "40,0",
+        "--out",
+        &out_path.to_string_lossy(),
+    ]);
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("does not fit the 61 x 87 reference"));
+}

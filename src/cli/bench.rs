@@ -38,6 +38,9 @@ pub struct BenchArgs {
     /// global and local scope, with and without a mask).
     #[arg(long)]
     pub wavelet: bool,
+    /// Time Poisson blending instead (a block of half the side in each size).
+    #[arg(long)]
+    pub blend: bool,
 }
 
 /// Per-stage table of the hydrology pipeline at each size.
@@ -132,13 +135,16 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     }
     let path = super::compute_path(crate::compute::BackendChoice::Auto);
     let mut backends = Vec::new();
-    if args.wavelet {
+    if args.wavelet || args.blend {
         let mut list = Vec::new();
         if want_cpu {
             list.push(Backend::Cpu);
         }
         if want_gpu && let Some(gpu) = path.gpu() {
             list.push(Backend::Gpu(gpu.clone()));
+        }
+        if args.blend {
+            return super::bench_blend::run(&args.sizes, &list);
         }
         return super::bench_wavelet::run(&args.sizes, &list);
     }

@@ -3,7 +3,10 @@
 mod amplify;
 mod analyze;
 mod bench;
+mod bench_blend;
 mod bench_wavelet;
+mod blend;
+mod convert;
 mod fill;
 mod generate;
 mod info;
@@ -33,6 +36,11 @@ pub enum Command {
     Analyze(analyze::AnalyzeArgs),
     /// Add synthetic levels of detail to a DEM (wavelet statistics, optional mask).
     Amplify(amplify::AmplifyArgs),
+    /// Convert an elevation file between formats (GeoTIFF, SRTM .hgt, ESRI ASCII, PNG, RAW
+    /// R16, OBJ), optionally filling voids, resizing, flipping and scaling.
+    Convert(convert::ConvertArgs),
+    /// Blend a window of a real DEM into a block of a terrain by the Poisson equation.
+    Blend(blend::BlendArgs),
     /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
     /// and print a table beside the paper's numbers.
     Bench(bench::BenchArgs),
@@ -64,6 +72,8 @@ pub fn run(command: Command) -> ExitCode {
         Command::Generate(args) => generate::run(&args),
         Command::Analyze(args) => analyze::run(&args),
         Command::Amplify(args) => amplify::run(&args),
+        Command::Convert(args) => convert::run(&args),
+        Command::Blend(args) => blend::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -1,12 +1,19 @@
-//! Real elevation rasters in and out. GeoTIFF for now; the DEM issue adds SRTM `.hgt`, ESRI
-//! ASCII grids and PNG heightmaps behind the same [`Dem`] type.
+//! Real elevation rasters in and out: GeoTIFF, SRTM `.hgt`, ESRI ASCII grids, PNG and RAW
+//! heightmaps, and OBJ meshes, all behind the same [`Dem`] type; [`format`] picks one by
+//! file name.
 //!
 //! Every reader checks the size from the header against [`ReadLimits`] before allocating,
 //! turns no-data into NaN, and returns a [`DemError`] that says what is wrong; no panic is
 //! reachable from a file's bytes.
 
+pub mod asc;
+pub mod format;
 pub mod geotiff;
+pub mod hgt;
+pub mod obj;
 pub mod png16;
+pub mod raw;
+pub mod resize;
 
 use thiserror::Error;
 
@@ -27,8 +34,18 @@ pub enum DemError {
     Empty,
     #[error("not a readable PNG: {0}")]
     Png(String),
-    #[error("could not write the GeoTIFF: {0}")]
+    #[error("could not write the file: {0}")]
     Write(String),
+    #[error("not a readable {format}: {problem}")]
+    Malformed {
+        format: &'static str,
+        problem: String,
+    },
+    #[error(
+        "{0}: unknown elevation format; use .tif/.tiff (GeoTIFF), .hgt (SRTM), .asc (ESRI \
+         ASCII grid), .png (greyscale heightmap) or .r16/.raw (RAW 16-bit)"
+    )]
+    UnknownFormat(String),
 }
 
 /// Size limit checked before any allocation.
@@ -84,34 +101,59 @@ impl GeoRef {
     /// raster's outer corner moves in by half the difference of the old and new cell sizes
     /// (GeoTIFF's default PixelIsArea convention).
     pub fn refined(&self, factor: f64) -> Self {
+        self.resampled(factor, factor)
+    }
+
+    /// [`GeoRef::refined`] with separate factors for x and y (an export size preset on a
+    /// non-square raster): cell sizes divide by `fx`, `fy`; cell (0, 0) keeps its centre.
+    pub fn resampled(&self, fx: f64, fy: f64) -> Self {
         let mut out = self.clone();
         if let (Some(scale), Some(tie)) = (&mut out.pixel_scale, &mut out.tiepoint) {
             if scale.len() >= 2 && tie.len() >= 6 && tie[0] == 0.0 && tie[1] == 0.0 {
                 let (sx, sy) = (scale[0], scale[1]);
-                scale[0] = sx / factor;
-                scale[1] = sy / factor;
+                scale[0] = sx / fx;
+                scale[1] = sy / fy;
                 tie[3] += (sx - scale[0]) / 2.0;
                 tie[4] -= (sy - scale[1]) / 2.0;
             } else if scale.len() >= 2 {
-                scale[0] /= factor;
-                scale[1] /= factor;
+                scale[0] /= fx;
+                scale[1] /= fy;
             }
         }
         if let Some(m) = &mut out.transformation
             && m.len() >= 16
         {
-            {
-                // Rows (x, y, z, 1) of a 4x4 matrix: raster (i, j) columns 0 and 1.
-                let (a, b, e, f) = (m[0], m[1], m[4], m[5]);
-                m[0] /= factor;
-                m[1] /= factor;
-                m[4] /= factor;
-                m[5] /= factor;
-                m[3] += (a - m[0]) / 2.0 + (b - m[1]) / 2.0;
-                m[7] += (e - m[4]) / 2.0 + (f - m[5]) / 2.0;
-            }
+            // Rows (x, y, z, 1) of a 4x4 matrix: raster (i, j) columns 0 and 1.
+            let (a, b, e, f) = (m[0], m[1], m[4], m[5]);
+            m[0] /= fx;
+            m[1] /= fy;
+            m[4] /= fx;
+            m[5] /= fy;
+            m[3] += (a - m[0]) / 2.0 + (b - m[1]) / 2.0;
+            m[7] += (e - m[4]) / 2.0 + (f - m[5]) / 2.0;
         }
         out
+    }
+
+    /// The CRS as `EPSG:code` from the GeoKey directory (projected or geographic), when the
+    /// file says.
+    pub fn crs_label(&self) -> Option<String> {
+        let keys = self.geo_keys.as_ref()?;
+        // Header of 4 shorts, then (key, location, count, value) entries.
+        let entries = keys.get(4..)?.chunks_exact(4);
+        let mut geographic = None;
+        for e in entries {
+            match (e[0], e[1]) {
+                (3072, 0) if e[3] != 0 && e[3] != 32767 => {
+                    return Some(format!("EPSG:{}", e[3]));
+                }
+                (2048, 0) if e[3] != 0 && e[3] != 32767 => geographic = Some(e[3]),
+                _ => {}
+            }
+        }
+        geographic
+            .map(|c| format!("EPSG:{c}"))
+            .or_else(|| self.geo_ascii.clone().filter(|a| !a.trim().is_empty()))
     }
 
     /// Horizontal cell size in the CRS's units, when the file says.

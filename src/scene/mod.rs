@@ -225,6 +225,9 @@ pub struct Scene {
     pub params: Params,
     pub sketch: SketchSettings,
     pub detail: DetailSettings,
+    /// Blocks of real terrain blended in by the Poisson equation, solved in order.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub blend: Vec<crate::blend::BlendBlock>,
 }
 
 /// Wavelet levels of detail (seed paper 001) added on top of the generated terrain.
@@ -313,6 +316,7 @@ impl Default for Scene {
             params: Params::default(),
             sketch: SketchSettings::default(),
             detail: DetailSettings::default(),
+            blend: Vec::new(),
         }
     }
 }
@@ -411,6 +415,11 @@ impl Scene {
             );
         }
         d.mask()?;
+        for (i, block) in self.blend.iter().enumerate() {
+            if let Err((field, problem)) = block.validate() {
+                return bad(&format!("blend[{i}].{field}"), problem);
+            }
+        }
         let p = &self.params;
         if !(p.theta.is_finite() && (1.0..=89.0).contains(&p.theta)) {
             return bad(

@@ -1,0 +1,147 @@
+//! `strahler blend TARGET REFERENCE --block ROW,COL,HEIGHT,WIDTH --ref-at ROW,COL`: Poisson
+//! blending (seed paper 000, Algorithm 1) of a window of REFERENCE into a block of TARGET.
+
+use std::path::PathBuf;
+
+use clap::Args;
+use serde::Serialize;
+
+use crate::blend::{self, BlockRect, guide};
+use crate::compute::BackendChoice;
+use crate::dem::ReadLimits;
+use crate::diffusion::MultigridParams;
+use crate::jobs::JobCtx;
+
+#[derive(Debug, Args)]
+pub struct BlendArgs {
+    /// The terrain to blend into (any supported format).
+    pub target: PathBuf,
+    /// The real terrain whose features are blended in.
+    pub reference: PathBuf,
+    /// The block of TARGET to solve: ROW,COL,HEIGHT,WIDTH in cells, row 0 = north.
+    #[arg(long, value_parser = parse_block)]
+    pub block: BlockRect,
+    /// Top-left ROW,COL of the same-sized window of REFERENCE that guides it.
+    #[arg(long, value_parser = parse_pair)]
+    pub ref_at: (usize, usize),
+    /// Multiply the reference's heights (and so its gradients).
+    #[arg(long, default_value_t = 1.0)]
+    pub scale_z: f32,
+    /// Output file (format from the extension).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// auto (GPU if it computes, else CPU), cpu or gpu.
+    #[arg(long, default_value = "cpu")]
+    pub backend: BackendChoice,
+    /// Height range MIN,MAX for PNG/RAW inputs without one.
+    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    pub z_range: Option<(f32, f32)>,
+    /// Write a JSON report of the solve here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+fn numbers(text: &str, n: usize, what: &str) -> Result<Vec<usize>, String> {
+    let v: Vec<usize> = text
+        .split(',')
+        .map(|t| t.trim().parse::<usize>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("expected {what}, whole numbers, got '{text}'"))?;
+    if v.len() != n {
+        return Err(format!("expected {what}, got '{text}'"));
+    }
+    Ok(v)
+}
+
+fn parse_block(text: &str) -> Result<BlockRect, String> {
+    let v = numbers(text, 4, "ROW,COL,HEIGHT,WIDTH")?;
+    Ok(BlockRect {
+        row: v[0],
+        col: v[1],
+        height: v[2],
+        width: v[3],
+    })
+}
+
+fn parse_pair(text: &str) -> Result<(usize, usize), String> {
+    let v = numbers(text, 2, "ROW,COL")?;
+    Ok((v[0], v[1]))
+}
+
+#[derive(Debug, Serialize)]
+struct BlendReport {
+    block: [usize; 4],
+    ref_at: [usize; 2],
+    unknowns: usize,
+    backend: String,
+    cycles: u32,
+    relative_residual: f32,
+    converged: bool,
+    millis: f64,
+}
+
+pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
+    if !args.scale_z.is_finite() {
+        return Err(format!("--scale-z must be a number, got {}", args.scale_z).into());
+    }
+    let limits = ReadLimits::default();
+    let target = super::io::read_dem(&args.target, limits, args.z_range)?;
+    let reference = super::io::read_dem(&args.reference, limits, args.z_range)?;
+    let b = args.block;
+    b.check_inside(target.field.width(), target.field.height())?;
+    let g = guide::window(
+        &reference.field,
+        args.ref_at.0,
+        args.ref_at.1,
+        b.height,
+        b.width,
+        args.scale_z,
+    )?;
+    let backend = args.backend.resolve(&super::compute_path(args.backend))?;
+    let mut field = target.field.clone();
+    let solve = pollster::block_on(blend::solve_block(
+        &backend,
+        &mut field,
+        b,
+        &g,
+        &MultigridParams::default(),
+        &JobCtx::detached(),
+    ))?;
+    super::io::write_dem(
+        &args.out,
+        &field,
+        &target.georef,
+        target.georef.cell_size().map(|c| c.0),
+    )?;
+    println!(
+        "blended {} x {} cells at row {}, col {} on the {} in {:.0} ms: {} cycles, residual {:.1e} of the range{}",
+        b.height,
+        b.width,
+        b.row,
+        b.col,
+        backend.key(),
+        solve.millis,
+        solve.cycles,
+        solve.relative_residual,
+        if solve.converged {
+            ""
+        } else {
+            " (NOT converged)"
+        }
+    );
+    if let Some(path) = &args.report {
+        let report = BlendReport {
+            block: [b.row, b.col, b.height, b.width],
+            ref_at: [args.ref_at.0, args.ref_at.1],
+            unknowns: solve.unknowns,
+            backend: backend.key().to_owned(),
+            cycles: solve.cycles,
+            relative_residual: solve.relative_residual,
+            converged: solve.converged,
+            millis: solve.millis,
+        };
+        std::fs::write(path, serde_json::to_string_pretty(&report)?)
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    Ok(())
+}

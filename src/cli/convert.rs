@@ -1,0 +1,81 @@
+//! `strahler convert IN OUT`: any supported elevation format to any other, by extension,
+//! optionally filling voids (harmonic fill), resizing to a preset, flipping rows and scaling
+//! heights.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::compute::BackendChoice;
+use crate::dem::ReadLimits;
+use crate::dem::format::{ExportOptions, ImportOptions};
+use crate::diffusion::{self, Method, MultigridParams};
+use crate::jobs::JobCtx;
+
+#[derive(Debug, Args)]
+pub struct ConvertArgs {
+    /// Input: .tif/.tiff, .hgt, .asc, .png, .r16/.raw.
+    pub input: PathBuf,
+    /// Output: .tif, .png (+ .json), .r16 (+ .json), .asc, .hgt, .obj.
+    pub output: PathBuf,
+    /// Height range MIN,MAX for PNG and RAW inputs that do not carry one.
+    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    pub z_range: Option<(f32, f32)>,
+    /// Fill no-data cells by harmonic (Laplace) diffusion instead of keeping them.
+    #[arg(long)]
+    pub fill_voids: bool,
+    /// Write rows bottom-up (PNG and RAW, for Unity); read a RAW input bottom-up.
+    #[arg(long)]
+    pub flip_y: bool,
+    /// Resample to SIZE x SIZE cells (corners kept), e.g. 1025 or 2049 for engines.
+    #[arg(long)]
+    pub size: Option<usize>,
+    /// Multiply the heights.
+    #[arg(long, default_value_t = 1.0)]
+    pub z_scale: f32,
+    /// Refuse inputs with more cells than this.
+    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    pub max_cells: u64,
+}
+
+pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let mut dem = super::io::read_dem_with(
+        &args.input,
+        &ImportOptions {
+            limits: ReadLimits {
+                max_cells: args.max_cells,
+            },
+            z_range: args.z_range,
+            flip_y: args.flip_y,
+        },
+    )?;
+    let voids = dem.void_cells();
+    if args.fill_voids && voids > 0 {
+        let problem = super::fill::void_problem(&dem.field);
+        let filled = pollster::block_on(diffusion::fill(
+            &BackendChoice::Cpu.resolve(&super::compute_path(BackendChoice::Cpu))?,
+            &problem,
+            Method::Multigrid(MultigridParams::default()),
+            &JobCtx::detached(),
+        ))?;
+        dem.field = filled.field;
+        println!("filled {voids} no-data cells by harmonic diffusion");
+    } else if voids > 0 {
+        println!("{voids} no-data cells kept as no-data (use --fill-voids to fill them)");
+    }
+    let options = ExportOptions {
+        size: args.size,
+        flip_y: args.flip_y,
+        z_scale: args.z_scale,
+        cell_size: dem.georef.cell_size().map_or(1.0, |c| c.0),
+    };
+    super::io::write_dem_with(&args.output, &dem.field, &dem.georef, &options)?;
+    println!(
+        "{} ({} x {}) -> {}",
+        args.input.display(),
+        dem.field.width(),
+        dem.field.height(),
+        args.output.display()
+    );
+    Ok(())
+}

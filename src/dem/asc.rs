@@ -1,0 +1,231 @@
+//! ESRI ASCII grids (`.asc`): a header of `key value` lines (`ncols`, `nrows`, `xllcorner` or
+//! `xllcenter`, `yllcorner` or `yllcenter`, `cellsize`, optional `NODATA_value`), then
+//! `nrows` rows of `ncols` numbers from north to south.
+//!
+//! Reading checks the header's size against the limits before allocating, requires exactly
+//! `nrows * ncols` values, maps `NODATA_value` to NaN, and rejects `nan`/`inf` tokens
+//! explicitly (missing cells must use `NODATA_value`). Writing uses Rust's shortest
+//! round-trip formatting of `f32`, so a read of a written file is bit-exact.
+
+use super::{Dem, DemError, GeoRef, ReadLimits};
+use crate::heightfield::Heightfield;
+
+/// The no-data value written for NaN cells (unless a height uses it).
+pub const NODATA: f32 = -9999.0;
+
+fn bad(problem: String) -> DemError {
+    DemError::Malformed {
+        format: "ESRI ASCII grid",
+        problem,
+    }
+}
+
+#[derive(Default)]
+struct Header {
+    ncols: Option<usize>,
+    nrows: Option<usize>,
+    xll: Option<(f64, bool)>,
+    yll: Option<(f64, bool)>,
+    cellsize: Option<f64>,
+    nodata: Option<f32>,
+}
+
+/// Reads a grid from its bytes (ASCII / UTF-8 text).
+pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
+    let text = std::str::from_utf8(bytes).map_err(|e| {
+        bad(format!(
+            "not text: invalid byte at offset {}",
+            e.valid_up_to()
+        ))
+    })?;
+    let mut header = Header::default();
+    let mut rest = text;
+    // Header lines: a keyword, then a value. The first line starting with a number ends it.
+    loop {
+        let line_end = rest.find('\n').map_or(rest.len(), |i| i + 1);
+        let line = &rest[..line_end];
+        let mut tokens = line.split_whitespace();
+        let Some(key) = tokens.next() else {
+            if line_end == 0 {
+                break;
+            }
+            rest = &rest[line_end..];
+            continue;
+        };
+        let first = key.as_bytes()[0];
+        if first.is_ascii_digit() || matches!(first, b'-' | b'+' | b'.') {
+            break;
+        }
+        let value = tokens
+            .next()
+            .ok_or_else(|| bad(format!("header line '{}' has no value", line.trim())))?;
+        let number = |what: &str| -> Result<f64, DemError> {
+            value
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| bad(format!("{what} must be a finite number, got '{value}'")))
+        };
+        let count = |what: &str| -> Result<usize, DemError> {
+            value
+                .parse::<usize>()
+                .map_err(|_| bad(format!("{what} must be a whole number, got '{value}'")))
+        };
+        match key.to_ascii_lowercase().as_str() {
+            "ncols" => header.ncols = Some(count("ncols")?),
+            "nrows" => header.nrows = Some(count("nrows")?),
+            "xllcorner" => header.xll = Some((number("xllcorner")?, false)),
+            "xllcenter" => header.xll = Some((number("xllcenter")?, true)),
+            "yllcorner" => header.yll = Some((number("yllcorner")?, false)),
+            "yllcenter" => header.yll = Some((number("yllcenter")?, true)),
+            "cellsize" | "dx" => header.cellsize = Some(number("cellsize")?),
+            "dy" => {}
+            "nodata_value" => header.nodata = Some(number("NODATA_value")? as f32),
+            other => return Err(bad(format!("unknown header keyword '{other}'"))),
+        }
+        rest = &rest[line_end..];
+    }
+    let ncols = header
+        .ncols
+        .ok_or_else(|| bad("the header has no ncols".into()))?;
+    let nrows = header
+        .nrows
+        .ok_or_else(|| bad("the header has no nrows".into()))?;
+    limits.check(ncols as u64, nrows as u64)?;
+    let cellsize = header
+        .cellsize
+        .ok_or_else(|| bad("the header has no cellsize".into()))?;
+    if cellsize <= 0.0 {
+        return Err(bad(format!("cellsize must be positive, got {cellsize}")));
+    }
+    let expected = ncols * nrows;
+    let mut data = Vec::with_capacity(expected);
+    for token in rest.split_whitespace() {
+        if data.len() == expected {
+            return Err(bad(format!(
+                "more than nrows x ncols = {expected} values (header and data disagree)"
+            )));
+        }
+        let v: f32 = token.parse().map_err(|_| {
+            let i = data.len();
+            bad(format!(
+                "row {}, column {}: '{token}' is not a number",
+                i / ncols,
+                i % ncols
+            ))
+        })?;
+        if !v.is_finite() {
+            let i = data.len();
+            return Err(bad(format!(
+                "row {}, column {}: '{token}' is not a finite height (mark missing cells with \
+                 NODATA_value)",
+                i / ncols,
+                i % ncols
+            )));
+        }
+        data.push(if Some(v) == header.nodata {
+            f32::NAN
+        } else {
+            v
+        });
+    }
+    if data.len() != expected {
+        return Err(bad(format!(
+            "truncated: nrows x ncols = {expected} values expected, found {}",
+            data.len()
+        )));
+    }
+    let field = Heightfield::from_vec(ncols, nrows, data).map_err(|_| DemError::Empty)?;
+    // Outer corner of the raster (upper left) for the GeoTIFF-style georeferencing.
+    let (xll, x_centre) = header.xll.unwrap_or((0.0, false));
+    let (yll, y_centre) = header.yll.unwrap_or((0.0, false));
+    let left = if x_centre { xll - cellsize / 2.0 } else { xll };
+    let bottom = if y_centre { yll - cellsize / 2.0 } else { yll };
+    let georef = GeoRef {
+        pixel_scale: Some(vec![cellsize, cellsize, 0.0]),
+        tiepoint: Some(vec![
+            0.0,
+            0.0,
+            0.0,
+            left,
+            bottom + cellsize * nrows as f64,
+            0.0,
+        ]),
+        ..Default::default()
+    };
+    Ok(Dem { field, georef })
+}
+
+/// Writes `field` with the georeferencing's corner and cell size when known (else corner 0, 0
+/// and `cell_size`).
+pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Vec<u8> {
+    use std::fmt::Write as _;
+    let cell = georef.cell_size().map_or(cell_size, |(sx, _)| sx);
+    let (left, top) = georef
+        .tiepoint
+        .as_ref()
+        .filter(|t| t.len() >= 6 && t[0] == 0.0 && t[1] == 0.0)
+        .map_or((0.0, cell * field.height() as f64), |t| (t[3], t[4]));
+    let bottom = top - cell * field.height() as f64;
+    let mut nodata = NODATA;
+    for _ in 0..8 {
+        if !field.data().contains(&nodata) {
+            break;
+        }
+        nodata = nodata * 10.0 - 9.0;
+    }
+    let mut out = String::with_capacity(field.data().len() * 8 + 200);
+    let _ = writeln!(out, "ncols {}", field.width());
+    let _ = writeln!(out, "nrows {}", field.height());
+    let _ = writeln!(out, "xllcorner {left}");
+    let _ = writeln!(out, "yllcorner {bottom}");
+    let _ = writeln!(out, "cellsize {cell}");
+    let _ = writeln!(out, "NODATA_value {nodata}");
+    for row in field.data().chunks(field.width()) {
+        for (i, &z) in row.iter().enumerate() {
+            if i > 0 {
+                out.push(' ');
+            }
+            let _ = write!(out, "{}", if z.is_finite() { z } else { nodata });
+        }
+        out.push('\n');
+    }
+    out.into_bytes()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_written_grid_reads_back_bit_exactly() {
+        let data = vec![1.5, -0.1, f32::NAN, 1e-7, 12345.678, -9999.0];
+        let field = Heightfield::from_vec(3, 2, data.clone()).unwrap();
+        let bytes = write(&field, &GeoRef::default(), 30.0);
+        let back = read(&bytes, ReadLimits::default()).unwrap();
+        for (a, b) in data.iter().zip(back.field.data()) {
+            assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
+        }
+        assert_eq!(back.georef.cell_size(), Some((30.0, 30.0)));
+    }
+
+    #[test]
+    fn bad_grids_are_named() {
+        let ok = "ncols 2\nnrows 2\nxllcorner 0\nyllcorner 0\ncellsize 1\n1 2\n3 4\n";
+        assert!(read(ok.as_bytes(), ReadLimits::default()).is_ok());
+        let short = "ncols 2\nnrows 2\ncellsize 1\n1 2\n3\n";
+        let e = read(short.as_bytes(), ReadLimits::default()).unwrap_err();
+        assert!(e.to_string().contains("truncated"), "{e}");
+        let inf = "ncols 2\nnrows 1\ncellsize 1\n1 inf\n";
+        let e = read(inf.as_bytes(), ReadLimits::default()).unwrap_err();
+        assert!(e.to_string().contains("row 0, column 1"), "{e}");
+        let huge = "ncols 100000\nnrows 100000\ncellsize 1\n1\n";
+        assert!(matches!(
+            read(huge.as_bytes(), ReadLimits::default()),
+            Err(DemError::TooLarge { .. })
+        ));
+        let nodata = "ncols 2\nnrows 1\ncellsize 1\nNODATA_value -1\n5 -1\n";
+        let dem = read(nodata.as_bytes(), ReadLimits::default()).unwrap();
+        assert!(dem.field.data()[1].is_nan());
+    }
+}
