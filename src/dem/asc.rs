@@ -99,7 +99,8 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
         return Err(bad(format!("cellsize must be positive, got {cellsize}")));
     }
     let expected = ncols * nrows;
-    let mut data = Vec::with_capacity(expected);
+    // Every value takes at least two bytes ("0 "): a short file cannot reserve a large grid.
+    let mut data = Vec::with_capacity(expected.min(rest.len() / 2 + 1));
     for token in rest.split_whitespace() {
         if data.len() == expected {
             return Err(bad(format!(
@@ -141,16 +142,15 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
     let (yll, y_centre) = header.yll.unwrap_or((0.0, false));
     let left = if x_centre { xll - cellsize / 2.0 } else { xll };
     let bottom = if y_centre { yll - cellsize / 2.0 } else { yll };
+    let top = bottom + cellsize * nrows as f64;
+    if !(left.is_finite() && top.is_finite() && (left + cellsize * ncols as f64).is_finite()) {
+        return Err(bad(format!(
+            "the grid's extent overflows (corner {left}, {bottom}, cell size {cellsize})"
+        )));
+    }
     let georef = GeoRef {
         pixel_scale: Some(vec![cellsize, cellsize, 0.0]),
-        tiepoint: Some(vec![
-            0.0,
-            0.0,
-            0.0,
-            left,
-            bottom + cellsize * nrows as f64,
-            0.0,
-        ]),
+        tiepoint: Some(vec![0.0, 0.0, 0.0, left, top, 0.0]),
         ..Default::default()
     };
     Ok(Dem { field, georef })

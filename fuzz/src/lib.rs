@@ -1,0 +1,18 @@
+//! The main crate's DEM readers and writers, compiled from its own files.
+
+#[path = "../../src/heightfield.rs"]
+pub mod heightfield;
+
+#[path = "../../src/dem/mod.rs"]
+pub mod dem;
+
+/// The limits the fuzzers read with: 1 Mi cells (4 MiB as `f32`), so every input stays cheap.
+pub const LIMITS: dem::ReadLimits = dem::ReadLimits { max_cells: 1 << 20 };
+
+/// Checks what every successful read promises: the size is within the limits and the field
+/// has exactly `width * height` values.
+pub fn check(dem: &dem::Dem) {
+    let f = &dem.field;
+    assert!((f.width() * f.height()) as u64 <= LIMITS.max_cells);
+    assert_eq!(f.data().len(), f.width() * f.height());
+}
