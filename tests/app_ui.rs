@@ -270,3 +270,84 @@ fn painting_the_mask_over_detail_removes_it_there_and_keeps_it_elsewhere() {
     assert!(saved.detail.mask_png.is_some());
     assert!(saved.detail.mask().unwrap().is_some_and(|m| !m.is_clear()));
 }
+
+/// The DEM flow as a user does it: upload (here through the same command the upload button
+/// and a drop send), read the panel, place a block with its button, see it blended, move it
+/// with the Block tool and see it re-solved; the block travels with the scene.
+#[test]
+fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1200.0, 1500.0))
+        .wgpu()
+        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()));
+    wait_idle(&mut harness);
+    let mut scene = harness.state().scene();
+    scene.size = 256;
+    harness.state_mut().load_scene(&scene);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let before = harness.state().terrain().unwrap().clone();
+
+    // A corrupt file is refused with a message naming the format; nothing is lost.
+    let automation = harness.state().automation().clone();
+    automation.push(strahler::app::Command::LoadDem {
+        name: "broken.asc".into(),
+        bytes: b"ncols 3\nnrows 3\ncellsize 1\n1 2\n".to_vec(),
+    });
+    harness.run_steps(2);
+    let err = automation.status().last_error.unwrap_or_default();
+    assert!(err.contains("ESRI ASCII") && err.contains("truncated"), "{err}");
+    assert_eq!(harness.state().terrain(), Some(&before));
+
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../shared/data/dems/volcano_maungawhau.tif");
+    automation.push(strahler::app::Command::LoadDem {
+        name: "volcano_maungawhau.tif".into(),
+        bytes: std::fs::read(path).unwrap(),
+    });
+    harness.run_steps(3);
+    let dem = automation.status().dem.expect("the DEM panel has the file");
+    assert_eq!((dem.width, dem.height), (87, 61));
+    assert!(dem.zmin >= 94.0 && dem.zmax <= 196.0);
+    harness.get_by_label("87 x 61 cells");
+
+    harness.get_by_label("Place block on map").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let status = automation.status();
+    let blend = status.blend.expect("the block was blended");
+    assert_eq!(blend.blocks, 1);
+    assert!(blend.converged);
+    let [row, col, h, w] = blend.rects[0];
+    assert_eq!((h, w), (61, 61), "one DEM cell per terrain cell");
+    let after = harness.state().terrain().unwrap().clone();
+    assert_ne!(after, before);
+    for y in 0..256 {
+        for x in 0..256 {
+            let inside = (row..row + h).contains(&y) && (col..col + w).contains(&x);
+            if !inside {
+                assert_eq!(after.get(x, y), before.get(x, y));
+            }
+        }
+    }
+    harness.get_by_label_contains("1 block blended");
+    assert_eq!(harness.state().scene().blend.len(), 1);
+
+    // The Block tool by its key: drag the block eastwards; on release it re-solves there.
+    harness.key_press(egui::Key::B);
+    harness.run_steps(2);
+    assert_eq!(harness.state().tool(), strahler::app::Tool::Block);
+    let x0 = harness.state().scene().blend[0].rect[0];
+    // The map fills the central panel; its centre is where the block was placed.
+    let centre = egui::pos2(300.0 + 900.0 / 2.0, 1480.0 / 2.0);
+    drag(&mut harness, centre, centre + egui::vec2(150.0, 0.0));
+    wait_idle(&mut harness);
+    let moved = harness.state().scene().blend[0].rect;
+    assert!(moved[0] > x0 + 0.05, "the block moved east: {x0} -> {moved:?}");
+    let rect = automation.status().blend.unwrap().rects[0];
+    assert!(rect[1] > col + 10, "re-solved at the new place: {rect:?}");
+    assert_ne!(harness.state().terrain().unwrap(), &after);
+}

@@ -35,6 +35,50 @@ pub struct Status {
     pub last_error: Option<String>,
     /// The wavelet levels of detail on the map, if any.
     pub detail: Option<DetailStatus>,
+    /// The uploaded real DEM, if any.
+    pub dem: Option<DemStatus>,
+    /// The blended blocks on the map, if any.
+    pub blend: Option<BlendStatus>,
+    /// The terrain on the map (after detail and blending).
+    pub terrain: Option<TerrainStatus>,
+}
+
+/// The uploaded DEM, as the DEM panel shows it.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct DemStatus {
+    pub name: String,
+    pub width: usize,
+    pub height: usize,
+    pub zmin: f32,
+    pub zmax: f32,
+    pub void_cells: usize,
+    /// Cell size in the CRS's units, when the file says.
+    pub cell_size: Option<f64>,
+    pub crs: Option<String>,
+}
+
+/// The last blend stage run.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct BlendStatus {
+    pub blocks: usize,
+    pub backend: String,
+    pub millis: f64,
+    pub converged: bool,
+    /// Each block's cells on the terrain: `[row, col, height, width]`.
+    pub rects: Vec<[usize; 4]>,
+}
+
+/// The terrain on the map.
+#[derive(Clone, Debug, Serialize)]
+#[serde(rename_all = "camelCase")]
+pub struct TerrainStatus {
+    pub width: usize,
+    pub height: usize,
+    pub zmin: f32,
+    pub zmax: f32,
+    pub checksum: String,
 }
 
 /// The levels of detail on the map, as scripts see them.
@@ -70,6 +114,32 @@ pub enum Command {
     MaskFromRivers,
     /// Paint the detail mask from one map point to another with a brush.
     PaintMask(glam::DVec2, glam::DVec2, crate::wavelet::Brush),
+    /// A file's bytes for the DEM panel (upload button, drop, or script).
+    LoadDem {
+        name: String,
+        bytes: Vec<u8>,
+    },
+    /// A PNG's bytes for the detail mask (import button).
+    ImportMask {
+        name: String,
+        bytes: Vec<u8>,
+    },
+    /// Fill the uploaded DEM's voids by harmonic diffusion.
+    FillVoids,
+    /// Place a block of the uploaded DEM: its window `[row, col, height, width]` on the
+    /// DEM, and where it goes on the map (`[x0, y0, x1, y1]`, map units).
+    PlaceBlock {
+        window: [usize; 4],
+        rect: [f64; 4],
+        quarter_turns: u8,
+        mirror: bool,
+        z_scale: f32,
+    },
+    /// Move or resize block `index` to `rect` (map units) and re-solve.
+    MoveBlock {
+        index: usize,
+        rect: [f64; 4],
+    },
 }
 
 type Repaint = Arc<dyn Fn() + Send + Sync>;
@@ -85,6 +155,8 @@ struct Shared {
     status: Status,
     path: Option<ComputePath>,
     scene: Option<Scene>,
+    /// The terrain on the map and its cell size in metres, for `exportHeightmap`.
+    terrain: Option<(Arc<crate::heightfield::Heightfield>, f64)>,
     commands: Vec<Command>,
     repaint: Option<Repaint>,
 }
@@ -151,6 +223,29 @@ impl Automation {
                 .unwrap_or_else(PoisonError::into_inner)
                 .commands,
         )
+    }
+
+    /// The terrain on the map and its cell size in metres.
+    pub fn terrain(&self) -> Option<(Arc<crate::heightfield::Heightfield>, f64)> {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .terrain
+            .clone()
+    }
+
+    pub(crate) fn set_terrain(&self, field: Arc<crate::heightfield::Heightfield>, cell: f64) {
+        let (zmin, zmax) = field.finite_range().unwrap_or((0.0, 0.0));
+        let status = TerrainStatus {
+            width: field.width(),
+            height: field.height(),
+            zmin,
+            zmax,
+            checksum: field.checksum(),
+        };
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        shared.terrain = Some((field, cell));
+        shared.status.terrain = Some(status);
     }
 
     pub(crate) fn set_scene(&self, scene: Scene) {

@@ -7,16 +7,25 @@
 
 use egui::{ComboBox, DragValue, ProgressBar, RichText, Slider};
 
+use super::StrahlerApp;
 use super::automation::DetailStatus;
 use super::map_view::Tool;
-use super::{MAP_WIDTH_M, StrahlerApp};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobHandle;
 use crate::terrain::stage_seed;
 use crate::wavelet::{self, Amplified, AmplifyFailure, Mask, synthesis};
 
-/// A dropped file's name and contents.
-pub type Dropped = (String, Result<Vec<u8>, String>);
+/// What a dropped file is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImportTarget {
+    /// The detail mask: a PNG dropped while the mask tool is active.
+    Mask,
+    /// The DEM panel: any elevation file otherwise.
+    Dem,
+}
+
+/// A dropped file's name, what it is for, and its contents.
+pub type Dropped = (String, ImportTarget, Result<Vec<u8>, String>);
 
 /// A finished detail job: the amplified terrain, how long it took and on what.
 pub type DetailResult =
@@ -75,8 +84,7 @@ impl StrahlerApp {
             self.detail_job = None;
             self.automation.update(|s| s.detail = None);
             self.detail_summary = None;
-            let size = base.width();
-            self.map.set_field(ctx, base, MAP_WIDTH_M / size as f32);
+            self.set_detailed(ctx, base);
             return;
         }
         let backend = match self.settings.backend.resolve(&self.path) {
@@ -157,8 +165,7 @@ impl StrahlerApp {
                 .unwrap_or_default()
         ));
         self.automation.update(|s| s.detail = Some(status));
-        let size = field.width();
-        self.map.set_field(ctx, field, MAP_WIDTH_M / size as f32);
+        self.set_detailed(ctx, field);
         self.error = None;
     }
 
@@ -190,9 +197,16 @@ impl StrahlerApp {
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "the dropped file".to_owned());
-        if !name.to_ascii_lowercase().ends_with(".png") {
+        let is_png = name.to_ascii_lowercase().ends_with(".png");
+        let target = if self.tool == Tool::Mask && is_png {
+            ImportTarget::Mask
+        } else {
+            ImportTarget::Dem
+        };
+        if target == ImportTarget::Dem && crate::dem::format::Format::from_name(&name).is_none() {
             self.set_error(format!(
-                "{name}: drop a greyscale PNG to use it as the detail mask"
+                "{name}: drop an elevation file (.tif, .hgt, .asc, .png, .r16) to upload it as \
+                 a DEM, or a greyscale PNG with the mask tool active to import a mask"
             ));
             return;
         }
@@ -204,7 +218,7 @@ impl StrahlerApp {
                 let bytes = file.bytes_async().await;
                 #[cfg(not(target_arch = "wasm32"))]
                 let bytes = file.bytes();
-                (name, bytes)
+                (name, target, bytes)
             },
             move || repaint.request_repaint(),
         );
@@ -323,7 +337,18 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             }
         }
     });
-    ui.label(RichText::new("Import a mask: drop a PNG on the map.").weak());
+    ui.horizontal_wrapped(|ui| {
+        #[cfg(target_arch = "wasm32")]
+        if ui.button("Import mask PNG...").clicked() {
+            let automation = app.automation.clone();
+            if let Err(err) = super::files::pick_file(".png", move |name, bytes| {
+                automation.push(super::Command::ImportMask { name, bytes });
+            }) {
+                app.set_error(err);
+            }
+        }
+        ui.label(RichText::new("or drop a PNG on the map with the mask tool active").weak());
+    });
     if let Some(job) = &app.detail_job {
         ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }

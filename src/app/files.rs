@@ -39,3 +39,42 @@ fn download(name: &str, mime: &str, bytes: &[u8]) -> Result<(), wasm_bindgen::Js
     web_sys::Url::revoke_object_url(&url)?;
     Ok(())
 }
+
+/// Opens the browser's file picker for `accept` (e.g. ".tif,.png"); the chosen file's name
+/// and bytes go to `deliver` once read. Nothing happens if the user cancels.
+#[cfg(target_arch = "wasm32")]
+pub fn pick_file(accept: &str, deliver: impl Fn(String, Vec<u8>) + 'static) -> Result<(), String> {
+    use wasm_bindgen::JsCast;
+    use wasm_bindgen::closure::Closure;
+    let fail = |e: wasm_bindgen::JsValue| format!("the file picker failed: {e:?}");
+    let document = web_sys::window()
+        .and_then(|w| w.document())
+        .ok_or("no document")?;
+    let input: web_sys::HtmlInputElement = document
+        .create_element("input")
+        .map_err(fail)?
+        .dyn_into()
+        .map_err(|_| "not an input element".to_owned())?;
+    input.set_type("file");
+    input.set_accept(accept);
+    let source = input.clone();
+    let deliver = std::rc::Rc::new(deliver);
+    let on_change = Closure::<dyn Fn()>::new(move || {
+        let Some(file) = source.files().and_then(|files| files.get(0)) else {
+            return;
+        };
+        let deliver = deliver.clone();
+        wasm_bindgen_futures::spawn_local(async move {
+            let name = file.name();
+            match wasm_bindgen_futures::JsFuture::from(file.array_buffer()).await {
+                Ok(buffer) => deliver(name, js_sys::Uint8Array::new(&buffer).to_vec()),
+                Err(err) => log::warn!("cannot read {name}: {err:?}"),
+            }
+        });
+    });
+    input.set_onchange(Some(on_change.as_ref().unchecked_ref()));
+    // The input lives as long as the page may still deliver its file.
+    on_change.forget();
+    input.click();
+    Ok(())
+}

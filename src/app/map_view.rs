@@ -31,6 +31,8 @@ pub enum Tool {
     Peak,
     /// Paint the energy-reduction mask (drag; the brush is set in the Detail section).
     Mask,
+    /// Move a blended DEM block (drag it) or resize it (drag its corner handle).
+    Block,
 }
 
 impl Tool {
@@ -57,6 +59,19 @@ pub struct Overlay {
     pub show_mask: bool,
     /// Brush radius in map units, drawn around the pointer with the mask tool.
     pub brush_radius: Option<f32>,
+    /// Blended DEM blocks (map units) and whether each is the selected one.
+    pub blocks: Vec<(Rect, bool)>,
+}
+
+/// A drag with the block tool, in map units.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BlockDrag {
+    /// Where the drag started.
+    pub from: Pos2,
+    /// Movement this frame.
+    pub delta: Vec2,
+    /// The drag ended this frame.
+    pub finished: bool,
 }
 
 /// What happened on the map this frame.
@@ -71,6 +86,8 @@ pub struct MapResponse {
     pub paint: Option<(Pos2, Pos2)>,
     /// The mask brush stroke ended this frame.
     pub paint_finished: bool,
+    /// A drag with the block tool.
+    pub block_drag: Option<BlockDrag>,
 }
 
 /// What the pointer is over.
@@ -96,6 +113,8 @@ pub struct MapView {
     press_at: Option<Pos2>,
     /// Last point of the mask brush stroke being painted (map units).
     last_paint: Option<Pos2>,
+    /// Start of the block drag in progress (map units).
+    block_from: Option<Pos2>,
     mask_texture: Option<TextureHandle>,
 }
 
@@ -158,7 +177,26 @@ impl MapView {
 
         let lines = tool.draws_lines();
         let painting = tool == Tool::Mask;
-        let drawing = (lines || painting) && response.dragged_by(egui::PointerButton::Primary);
+        let blocks = tool == Tool::Block;
+        let drawing =
+            (lines || painting || blocks) && response.dragged_by(egui::PointerButton::Primary);
+        let mut block_drag = None;
+        if blocks {
+            if response.drag_started_by(egui::PointerButton::Primary) {
+                self.block_from = response.interact_pointer_pos().map(to_map);
+            }
+            if let Some(from) = self.block_from {
+                let finished = response.drag_stopped();
+                block_drag = Some(BlockDrag {
+                    from,
+                    delta: response.drag_delta() / scale,
+                    finished,
+                });
+                if finished {
+                    self.block_from = None;
+                }
+            }
+        }
         let mut paint = None;
         let mut paint_finished = false;
         if painting {
@@ -273,6 +311,19 @@ impl MapView {
                 Stroke::new(1.0, Color32::WHITE),
             ));
         }
+        for (block, selected) in &overlay.blocks {
+            let r = Rect::from_min_max(to_screen(block.min), to_screen(block.max));
+            let color = if *selected {
+                Color32::from_rgb(255, 235, 60)
+            } else {
+                Color32::from_rgb(190, 170, 60)
+            };
+            painter.rect_stroke(r, 0.0, Stroke::new(2.0, color), StrokeKind::Middle);
+            if *selected {
+                // The resize handle at the south-east corner.
+                painter.rect_filled(Rect::from_center_size(r.max, Vec2::splat(10.0)), 1.0, color);
+            }
+        }
         let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
         for (a, b) in &overlay.strokes {
             arrow(&painter, to_screen(*a), to_screen(*b), stroke_style);
@@ -299,6 +350,7 @@ impl MapView {
             clicked,
             paint,
             paint_finished,
+            block_drag,
         }
     }
 

@@ -4,7 +4,9 @@
 //! [`crate::jobs`] jobs; the frame loop only polls their progress and takes their results.
 
 mod automation;
+mod blend;
 mod detail;
+mod export;
 mod files;
 mod map_view;
 mod relief;
@@ -14,6 +16,7 @@ mod status_bar;
 use std::sync::Arc;
 
 pub use automation::{Automation, Command, JobStatus, Status};
+pub use export::encode as encode_heightmap;
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use side_panel::FillSettings;
 
@@ -92,6 +95,9 @@ pub struct StrahlerApp {
     mask_overlay_stale: bool,
     /// A dropped file being read (the browser reads files asynchronously).
     import_job: Option<JobHandle<detail::Dropped>>,
+    /// The uploaded DEM, the placed blocks and the blend stage.
+    blend: blend::BlendState,
+    export: export::ExportDialog,
 }
 
 impl StrahlerApp {
@@ -145,6 +151,8 @@ impl StrahlerApp {
             detail_summary: None,
             mask_overlay_stale: false,
             import_job: None,
+            blend: Default::default(),
+            export: Default::default(),
         };
         app.fit_mask(app.settings.size);
         app.start_generate(&cc.egui_ctx);
@@ -194,6 +202,7 @@ impl StrahlerApp {
                 .collect(),
             sketch: crate::scene::SketchSettings::from_sketch(&self.sketch),
             detail: self.detail.clone(),
+            blend: self.blend.blocks.clone(),
             ..Default::default()
         };
         scene.detail.set_mask(Some(&self.mask));
@@ -234,6 +243,8 @@ impl StrahlerApp {
         }
         self.fit_mask(scene.size);
         self.mask_overlay_stale = true;
+        self.blend.blocks = scene.blend.clone();
+        self.blend.selected = None;
         self.dirty = true;
     }
 
@@ -266,8 +277,11 @@ impl StrahlerApp {
         self.terrain_job.is_some()
             || self.selftest_job.is_some()
             || self.detail_job.is_some()
+            || self.blend.job.is_some()
+            || self.blend.fill_job.is_some()
             || self.dirty
             || self.detail_dirty
+            || self.blend.dirty
     }
 
     /// Generates the terrain from the strokes and settings, cancelling a running job (a newer
@@ -387,6 +401,27 @@ impl StrahlerApp {
                     self.mask.paint_segment(a, b, &brush);
                     self.set_mask(ctx, self.mask.clone());
                 }
+                Command::LoadDem { name, bytes } => self.load_dem(ctx, &name, bytes),
+                Command::ImportMask { name, bytes } => self.import_mask(ctx, &name, &bytes),
+                Command::FillVoids => self.fill_dem_voids(ctx),
+                Command::PlaceBlock {
+                    window,
+                    rect,
+                    quarter_turns,
+                    mirror,
+                    z_scale,
+                } => self.place_block(ctx, window, Some(rect), quarter_turns, mirror, z_scale),
+                Command::MoveBlock { index, rect } => match self.blend.blocks.get_mut(index) {
+                    Some(block) => {
+                        block.rect = rect;
+                        if let Err((field, problem)) = block.validate() {
+                            self.set_error(format!("Block {field}: {problem}"));
+                        } else {
+                            self.blocks_changed(ctx);
+                        }
+                    }
+                    None => self.set_error(format!("There is no block {index}")),
+                },
             }
         }
         if self.dirty {
@@ -408,10 +443,14 @@ impl StrahlerApp {
         if self.detail_dirty && self.terrain_job.is_none() && !self.dirty {
             self.start_detail(ctx);
         }
-        if let Some((name, bytes)) = self.import_job.as_ref().and_then(JobHandle::try_take) {
+        if let Some((name, target, bytes)) = self.import_job.as_ref().and_then(JobHandle::try_take)
+        {
             self.import_job = None;
             match bytes {
-                Ok(bytes) => self.import_mask(ctx, &name, &bytes),
+                Ok(bytes) if target == detail::ImportTarget::Mask => {
+                    self.import_mask(ctx, &name, &bytes)
+                }
+                Ok(bytes) => self.load_dem(ctx, &name, bytes),
                 Err(err) => self.set_error(format!("{name}: {err}")),
             }
         }
@@ -419,6 +458,19 @@ impl StrahlerApp {
             self.detail_job = None;
             self.show_detail(ctx, result);
         }
+        if self.blend.dirty
+            && self.terrain_job.is_none()
+            && self.detail_job.is_none()
+            && !self.dirty
+            && !self.detail_dirty
+        {
+            self.start_blend(ctx);
+        }
+        if let Some(result) = self.blend.job.as_ref().and_then(JobHandle::try_take) {
+            self.blend.job = None;
+            self.show_blend(ctx, result);
+        }
+        self.take_filled_dem(ctx);
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
             self.selftest = Some(result.map_err(|err| err.to_string()));
@@ -429,6 +481,18 @@ impl StrahlerApp {
             .map(|j| (j.name().to_owned(), j.progress(), j.message()))
             .or_else(|| {
                 self.detail_job
+                    .as_ref()
+                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
+            })
+            .or_else(|| {
+                self.blend
+                    .job
+                    .as_ref()
+                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
+            })
+            .or_else(|| {
+                self.blend
+                    .fill_job
                     .as_ref()
                     .map(|j| (j.name().to_owned(), j.progress(), j.message()))
             })
@@ -476,14 +540,31 @@ impl eframe::App for StrahlerApp {
                 if i.key_pressed(egui::Key::M) {
                     self.tool = Tool::Mask;
                 }
+                if i.key_pressed(egui::Key::B) {
+                    self.tool = Tool::Block;
+                }
             });
         }
         status_bar::show(ui, self);
         side_panel::show(ui, self);
+        export::window(&ctx, self);
         self.overlay.show_rivers = self.settings.show_rivers;
         self.overlay.show_ridges = self.settings.show_ridges;
         self.overlay.show_mask = self.show_mask || self.tool == Tool::Mask;
         self.overlay.brush_radius = Some(self.brush.radius / self.mask.width().max(2) as f32);
+        self.overlay.blocks = self
+            .blend
+            .blocks
+            .iter()
+            .enumerate()
+            .map(|(i, b)| {
+                let [x0, y0, x1, y1] = b.rect.map(|v| v as f32);
+                (
+                    egui::Rect::from_min_max(pos2(x0, y0), pos2(x1, y1)),
+                    self.blend.selected == Some(i),
+                )
+            })
+            .collect();
         for file in ctx.input(|i| i.raw.dropped_files.clone()) {
             self.start_import(&ctx, file);
         }
@@ -520,6 +601,9 @@ impl eframe::App for StrahlerApp {
             }
             if response.paint_finished {
                 self.finish_mask_stroke(&ctx);
+            }
+            if let Some(drag) = response.block_drag {
+                self.drag_block(&ctx, drag);
             }
             let d = |q: egui::Pos2| DVec2::new(f64::from(q.x), f64::from(q.y));
             if let Some((a, b)) = response.new_stroke {

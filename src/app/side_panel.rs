@@ -115,6 +115,16 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.separator();
                 super::detail::section(ui, app);
                 ui.separator();
+                super::blend::section(ui, app);
+                ui.separator();
+                if ui
+                    .button("Export heightmap...")
+                    .on_hover_text("PNG 16-bit, GeoTIFF, RAW R16, ESRI ASCII, SRTM .hgt or OBJ")
+                    .clicked()
+                {
+                    app.export.open = true;
+                }
+                ui.separator();
                 selftest_section(ui, app);
             });
         });

@@ -51,7 +51,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
     )?;
     let voids = dem.void_cells();
     if args.fill_voids && voids > 0 {
-        let problem = super::fill::void_problem(&dem.field);
+        let problem = diffusion::void_problem(&dem.field);
         let filled = pollster::block_on(diffusion::fill(
             &BackendChoice::Cpu.resolve(&super::compute_path(BackendChoice::Cpu))?,
             &problem,

@@ -9,8 +9,7 @@ use serde::Serialize;
 
 use crate::compute::BackendChoice;
 use crate::dem::{self, ReadLimits};
-use crate::diffusion::{self, Constraints, FixedMask, Method, MultigridParams};
-use crate::heightfield::Heightfield;
+use crate::diffusion::{self, Method, MultigridParams};
 use crate::jobs::JobCtx;
 
 #[derive(Debug, Args)]
@@ -83,7 +82,7 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
         },
     )
     .map_err(|e| format!("{}: {e}", args.input.display()))?;
-    let problem = void_problem(&dem.field);
+    let problem = diffusion::void_problem(&dem.field);
     let free = problem.width() * problem.height() - problem.fixed().count();
 
     let backend = if free == 0 {
@@ -147,26 +146,4 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     Ok(())
-}
-
-/// Finite cells fixed, NaN cells free (starting at the mean of the fixed heights).
-pub fn void_problem(field: &Heightfield) -> Constraints {
-    let (w, h) = (field.width(), field.height());
-    let mut fixed = FixedMask::new(w, h);
-    let (mut sum, mut n) = (0.0f64, 0usize);
-    for (i, v) in field.data().iter().enumerate() {
-        if v.is_finite() {
-            fixed.fix(i % w, i / w);
-            sum += f64::from(*v);
-            n += 1;
-        }
-    }
-    let mean = if n > 0 { (sum / n as f64) as f32 } else { 0.0 };
-    let initial: Vec<f32> = field
-        .data()
-        .iter()
-        .map(|v| if v.is_finite() { *v } else { mean })
-        .collect();
-    let initial = Heightfield::from_vec(w, h, initial).expect("same size as the input");
-    Constraints::new(initial, fixed).expect("fixed cells are finite by construction")
 }

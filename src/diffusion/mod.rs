@@ -153,3 +153,26 @@ pub fn fixed_height_range(problem: &Constraints) -> f32 {
     }
     range.map_or(0.0, |(lo, hi)| hi - lo)
 }
+
+/// The void-filling problem of a DEM: finite cells fixed, NaN (no-data) cells free, starting
+/// at the mean of the fixed heights. Solving it is the harmonic fill of the voids.
+pub fn void_problem(field: &Heightfield) -> Constraints {
+    let (w, h) = (field.width(), field.height());
+    let mut fixed = FixedMask::new(w, h);
+    let (mut sum, mut n) = (0.0f64, 0usize);
+    for (i, v) in field.data().iter().enumerate() {
+        if v.is_finite() {
+            fixed.fix(i % w, i / w);
+            sum += f64::from(*v);
+            n += 1;
+        }
+    }
+    let mean = if n > 0 { (sum / n as f64) as f32 } else { 0.0 };
+    let initial: Vec<f32> = field
+        .data()
+        .iter()
+        .map(|v| if v.is_finite() { *v } else { mean })
+        .collect();
+    let initial = Heightfield::from_vec(w, h, initial).expect("same size as the input");
+    Constraints::new(initial, fixed).expect("fixed cells are finite by construction")
+}

@@ -9,6 +9,13 @@
 //! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
 //! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
 //!   first); throws on invalid values. Both regenerate the terrain.
+//! - `maskFromRivers()`, `paintMask([x0, y0], [x1, y1], {radius, hardness, value, eraser})`.
+//! - `loadDem(name, bytes)`: uploads a DEM (`Uint8Array`; the format comes from `name`).
+//! - `fillVoids()`: harmonic fill of the uploaded DEM's no-data cells.
+//! - `placeBlock({window: [row, col, height, width], rect: [x0, y0, x1, y1], quarterTurns,
+//!   mirror, zScale})`: blends a window of the DEM into the map; `moveBlock(index, rect)`.
+//! - `exportHeightmap(format, {size, flipY, zScale})`: the terrain on the map as a file's
+//!   bytes (`Uint8Array`); `format` is png, tif, r16, asc, hgt or obj.
 
 use wasm_bindgen::prelude::*;
 
@@ -132,6 +139,94 @@ pub(super) fn install(automation: &Automation) {
     set(&api, "paintMask", paint_mask.as_ref());
     paint_mask.forget();
 
+    let dem_target = automation.clone();
+    let load_dem = Closure::<dyn Fn(String, js_sys::Uint8Array)>::new(
+        move |name: String, bytes: js_sys::Uint8Array| {
+            dem_target.push(Command::LoadDem {
+                name,
+                bytes: bytes.to_vec(),
+            });
+        },
+    );
+    set(&api, "loadDem", load_dem.as_ref());
+    load_dem.forget();
+
+    let fill_target = automation.clone();
+    let fill_voids = Closure::<dyn Fn()>::new(move || fill_target.push(Command::FillVoids));
+    set(&api, "fillVoids", fill_voids.as_ref());
+    fill_voids.forget();
+
+    let place_target = automation.clone();
+    let place_block =
+        Closure::<dyn Fn(JsValue) -> Result<(), JsValue>>::new(move |options: JsValue| {
+            let o: PlaceOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
+                error(format!(
+                    "placeBlock({{window: [row, col, height, width], rect: [x0, y0, x1, y1], \
+                     quarterTurns, mirror, zScale}}): {e}"
+                ))
+            })?;
+            place_target.push(Command::PlaceBlock {
+                window: o.window,
+                rect: o.rect,
+                quarter_turns: o.quarter_turns,
+                mirror: o.mirror,
+                z_scale: o.z_scale,
+            });
+            Ok(())
+        });
+    set(&api, "placeBlock", place_block.as_ref());
+    place_block.forget();
+
+    let move_target = automation.clone();
+    let move_block = Closure::<dyn Fn(u32, JsValue) -> Result<(), JsValue>>::new(
+        move |index: u32, rect: JsValue| {
+            let rect: [f64; 4] = serde_json::from_str(&json_text(&rect)?)
+                .map_err(|_| error("rect is [x0, y0, x1, y1] in map units"))?;
+            move_target.push(Command::MoveBlock {
+                index: index as usize,
+                rect,
+            });
+            Ok(())
+        },
+    );
+    set(&api, "moveBlock", move_block.as_ref());
+    move_block.forget();
+
+    let export_source = automation.clone();
+    let export = Closure::<dyn Fn(String, JsValue) -> Result<js_sys::Uint8Array, JsValue>>::new(
+        move |format: String, options: JsValue| {
+            let fmt = crate::dem::format::Format::from_key(&format).ok_or_else(|| {
+                error(format!(
+                    "unknown format {format:?}: use png, tif, r16, asc, hgt or obj"
+                ))
+            })?;
+            let o: ExportOptions = if options.is_undefined() || options.is_null() {
+                ExportOptions::default()
+            } else {
+                serde_json::from_str(&json_text(&options)?).map_err(|e| {
+                    error(format!(
+                        "exportHeightmap options {{size, flipY, zScale}}: {e}"
+                    ))
+                })?
+            };
+            let (field, cell) = export_source
+                .terrain()
+                .ok_or_else(|| error("there is no terrain yet"))?;
+            let out = crate::app::encode_heightmap(
+                &field,
+                cell,
+                fmt,
+                o.size,
+                o.flip_y,
+                o.z_scale.unwrap_or(1.0),
+            )
+            .map_err(error)?;
+            Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))
+        },
+    );
+    set(&api, "exportHeightmap", export.as_ref());
+    export.forget();
+
     set(&api, "version", &JsValue::from_str(crate::VERSION));
     set(&window, "strahler", &api);
 }
@@ -176,4 +271,32 @@ fn to_js<T: serde::Serialize>(value: &T) -> JsValue {
         .ok()
         .and_then(|text| js_sys::JSON::parse(&text).ok())
         .unwrap_or(JsValue::NULL)
+}
+
+/// `placeBlock`'s argument.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+struct PlaceOptions {
+    window: [usize; 4],
+    rect: [f64; 4],
+    #[serde(default)]
+    quarter_turns: u8,
+    #[serde(default)]
+    mirror: bool,
+    #[serde(default = "one")]
+    z_scale: f32,
+}
+
+fn one() -> f32 {
+    1.0
+}
+
+/// `exportHeightmap`'s options.
+#[derive(Default, serde::Deserialize)]
+#[serde(deny_unknown_fields, rename_all = "camelCase")]
+struct ExportOptions {
+    size: Option<usize>,
+    #[serde(default)]
+    flip_y: bool,
+    z_scale: Option<f32>,
 }

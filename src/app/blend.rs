@@ -1,0 +1,706 @@
+//! The DEM panel and the blend stage of the app (seed paper 000, Sec. VI, Algorithm 1).
+//!
+//! The user uploads a real DEM (button, drop, or `window.strahler.loadDem`), sees its size,
+//! range, cell size and CRS, fills its voids if it has any, drags a rectangle on its preview
+//! to select the reference block R, and places it on the map. With the Block tool (B) a
+//! placed block is moved by dragging it and resized by dragging its corner handle; each
+//! release re-solves. Turns, mirror and height scale are set per block. Blocks live in the
+//! scene (`blend`), so they re-solve after a reload.
+//!
+//! The stage runs after the detail stage on its output (`detailed`); only block edits re-run
+//! it, never the hydrology or the detail.
+
+use std::sync::Arc;
+
+use egui::{Color32, DragValue, ProgressBar, Rect, RichText, Sense, Stroke, StrokeKind, pos2};
+
+use super::automation::{BlendStatus, DemStatus};
+use super::map_view::{BlockDrag, Tool};
+use super::{MAP_WIDTH_M, StrahlerApp};
+use crate::blend::{self, BlendBlock, BlendError, BlockSolve};
+use crate::dem::format::{self, Format, ImportOptions};
+use crate::dem::{Dem, DemError, ReadLimits};
+use crate::diffusion::{self, DiffusionError, Method, MultigridParams};
+use crate::heightfield::Heightfield;
+use crate::jobs::JobHandle;
+
+/// A finished blend job: the blended terrain, each block's solve, the time and backend.
+pub type BlendResult = Result<(Heightfield, Vec<BlockSolve>, f64, &'static str), BlendError>;
+
+/// The uploaded DEM.
+pub struct LoadedDem {
+    pub name: String,
+    pub dem: Dem,
+    /// The file's bytes, kept to re-read a PNG/RAW with another height range.
+    bytes: Arc<Vec<u8>>,
+    preview: Option<egui::TextureHandle>,
+}
+
+/// How a block drag changes the block.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Grab {
+    Move,
+    Resize,
+}
+
+/// Everything the DEM panel and the blend stage keep.
+pub struct BlendState {
+    pub dem: Option<LoadedDem>,
+    /// Height range for PNG and RAW files that carry none.
+    pub z_range: (f32, f32),
+    /// The reference window on the DEM: row, col, height, width.
+    pub selection: [usize; 4],
+    select_from: Option<(usize, usize)>,
+    pub blocks: Vec<BlendBlock>,
+    pub selected: Option<usize>,
+    grab: Option<(usize, Grab)>,
+    /// The terrain the blocks are blended into (generated terrain plus detail).
+    pub detailed: Option<Heightfield>,
+    pub job: Option<JobHandle<BlendResult>>,
+    pub fill_job: Option<JobHandle<Result<Heightfield, DiffusionError>>>,
+    pub dirty: bool,
+    pub summary: Option<String>,
+    /// Native builds: the path typed into the Open field.
+    #[cfg(not(target_arch = "wasm32"))]
+    pub path_input: String,
+}
+
+impl Default for BlendState {
+    fn default() -> Self {
+        Self {
+            dem: None,
+            z_range: (0.0, 1000.0),
+            selection: [0, 0, 0, 0],
+            select_from: None,
+            blocks: Vec::new(),
+            selected: None,
+            grab: None,
+            detailed: None,
+            job: None,
+            fill_job: None,
+            dirty: false,
+            summary: None,
+            #[cfg(not(target_arch = "wasm32"))]
+            path_input: String::new(),
+        }
+    }
+}
+
+/// Heights of `field` in the window `[row, col, height, width]`.
+fn crop(field: &Heightfield, [row, col, h, w]: [usize; 4]) -> Option<Heightfield> {
+    if h == 0 || w == 0 || row + h > field.height() || col + w > field.width() {
+        return None;
+    }
+    let data = (row..row + h)
+        .flat_map(|y| field.data()[y * field.width() + col..][..w].iter().copied())
+        .collect();
+    Heightfield::from_vec(w, h, data).ok()
+}
+
+impl StrahlerApp {
+    /// Reads an uploaded file as the DEM. A PNG or RAW file without a height range uses the
+    /// panel's range (and says so).
+    pub(super) fn load_dem(&mut self, ctx: &egui::Context, name: &str, bytes: Vec<u8>) {
+        let bytes = Arc::new(bytes);
+        let options = ImportOptions {
+            limits: ReadLimits::default(),
+            z_range: None,
+            flip_y: false,
+        };
+        let mut read = format::read(name, &bytes, &options);
+        let needs_range = matches!(
+            (&read, Format::from_name(name)),
+            (Err(DemError::Unsupported(_)), Some(Format::Png))
+                | (Err(DemError::Malformed { .. }), Some(Format::R16))
+        );
+        if needs_range {
+            read = format::read(
+                name,
+                &bytes,
+                &ImportOptions {
+                    z_range: Some(self.blend.z_range),
+                    ..options
+                },
+            );
+            if read.is_ok() {
+                self.notice = Some(format!(
+                    "{name} does not say its height range: read as {} to {} m (change it in the \
+                     DEM panel)",
+                    self.blend.z_range.0, self.blend.z_range.1
+                ));
+            }
+        }
+        match read {
+            Ok(dem) => self.set_dem(ctx, name, dem, bytes),
+            Err(err) => self.set_error(format!("{name}: {err}")),
+        }
+    }
+
+    fn set_dem(&mut self, ctx: &egui::Context, name: &str, dem: Dem, bytes: Arc<Vec<u8>>) {
+        let (w, h) = (dem.field.width(), dem.field.height());
+        let side = w.min(h).min(256);
+        self.blend.selection = [(h - side) / 2, (w - side) / 2, side, side];
+        let cell = dem.georef.cell_size().map_or(1.0, |c| c.0 as f32);
+        let image = super::relief::shaded_relief(&dem.field, cell.max(1e-6));
+        let preview = Some(ctx.load_texture("dem preview", image, egui::TextureOptions::LINEAR));
+        let (zmin, zmax) = dem.field.finite_range().unwrap_or((0.0, 0.0));
+        let status = DemStatus {
+            name: name.to_owned(),
+            width: w,
+            height: h,
+            zmin,
+            zmax,
+            void_cells: dem.void_cells(),
+            cell_size: dem.georef.cell_size().map(|c| c.0),
+            crs: dem.georef.crs_label(),
+        };
+        self.automation.update(|s| s.dem = Some(status));
+        self.blend.dem = Some(LoadedDem {
+            name: name.to_owned(),
+            dem,
+            bytes,
+            preview,
+        });
+        self.error = None;
+    }
+
+    /// Fills the DEM's voids by harmonic diffusion (the diffusion stage's solver), as a job.
+    pub(super) fn fill_dem_voids(&mut self, ctx: &egui::Context) {
+        let Some(loaded) = &self.blend.dem else {
+            return;
+        };
+        if loaded.dem.void_cells() == 0 {
+            return;
+        }
+        let backend = match self.settings.backend.resolve(&self.path) {
+            Ok(backend) => backend,
+            Err(err) => {
+                self.set_error(err.to_string());
+                return;
+            }
+        };
+        let problem = diffusion::void_problem(&loaded.dem.field);
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "fill voids",
+            move |job| async move {
+                let method = Method::Multigrid(MultigridParams::default());
+                diffusion::fill(&backend, &problem, method, &job)
+                    .await
+                    .map(|f| f.field)
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.blend.fill_job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// The selected window of the DEM becomes a block in the middle of the map, one DEM cell
+    /// per terrain cell (shrunk to half the map if larger).
+    pub(super) fn place_selection(&mut self, ctx: &egui::Context) {
+        let window = self.blend.selection;
+        self.place_block(ctx, window, None, 0, false, 1.0);
+    }
+
+    /// Adds a block from the DEM window `[row, col, height, width]` at `rect` (map units;
+    /// `None` = centred at one DEM cell per terrain cell).
+    pub(super) fn place_block(
+        &mut self,
+        ctx: &egui::Context,
+        window: [usize; 4],
+        rect: Option<[f64; 4]>,
+        quarter_turns: u8,
+        mirror: bool,
+        z_scale: f32,
+    ) {
+        let Some(loaded) = &self.blend.dem else {
+            self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
+            return;
+        };
+        let Some(reference) = crop(&loaded.dem.field, window) else {
+            self.set_error(format!(
+                "The window {window:?} (row, col, height, width) does not fit the {} x {} DEM",
+                loaded.dem.field.height(),
+                loaded.dem.field.width()
+            ));
+            return;
+        };
+        let [row, col, h, w] = window;
+        let name = format!("{} [{row},{col} {h}x{w}]", loaded.name);
+        let n = self
+            .blend
+            .detailed
+            .as_ref()
+            .map_or(self.settings.size, Heightfield::width)
+            .max(2);
+        let rect = rect.unwrap_or_else(|| {
+            let (tw, th) = if quarter_turns % 2 == 1 {
+                (h, w)
+            } else {
+                (w, h)
+            };
+            let span = |cells: usize| (cells.saturating_sub(1) as f64 / (n - 1) as f64).min(0.5);
+            let (sx, sy) = (span(tw), span(th));
+            [
+                0.5 - sx / 2.0,
+                0.5 - sy / 2.0,
+                0.5 + sx / 2.0,
+                0.5 + sy / 2.0,
+            ]
+        });
+        match BlendBlock::new(&name, &reference, rect) {
+            Ok(mut block) => {
+                block.quarter_turns = quarter_turns;
+                block.mirror = mirror;
+                block.z_scale = z_scale;
+                if let Err((field, problem)) = block.validate() {
+                    self.set_error(format!("Block {field}: {problem}"));
+                    return;
+                }
+                self.blend.blocks.push(block);
+                self.blend.selected = Some(self.blend.blocks.len() - 1);
+                self.blocks_changed(ctx);
+            }
+            Err(err) => self.set_error(format!("Block: {err}")),
+        }
+    }
+
+    /// After any block edit: publish the scene and re-solve.
+    pub(super) fn blocks_changed(&mut self, _ctx: &egui::Context) {
+        self.automation.set_scene(self.scene());
+        self.blend.dirty = true;
+    }
+
+    /// The terrain before blending is ready (base or base + detail): blend the blocks into it.
+    pub(super) fn set_detailed(&mut self, ctx: &egui::Context, field: Heightfield) {
+        self.blend.detailed = Some(field);
+        self.start_blend(ctx);
+    }
+
+    /// Shows `field` on the map and publishes it for export.
+    pub(super) fn show_final(&mut self, ctx: &egui::Context, field: Heightfield) {
+        let size = field.width();
+        let cell = MAP_WIDTH_M / size.saturating_sub(1).max(1) as f32;
+        self.automation
+            .set_terrain(Arc::new(field.clone()), f64::from(cell));
+        self.map.set_field(ctx, field, MAP_WIDTH_M / size as f32);
+    }
+
+    /// Runs the blend stage (a job), or shows the detailed terrain when there are no blocks.
+    pub(super) fn start_blend(&mut self, ctx: &egui::Context) {
+        self.blend.dirty = false;
+        let Some(detailed) = self.blend.detailed.clone() else {
+            return;
+        };
+        if self.blend.blocks.is_empty() {
+            self.blend.job = None;
+            self.blend.summary = None;
+            self.automation.update(|s| s.blend = None);
+            self.show_final(ctx, detailed);
+            return;
+        }
+        let backend = match self.settings.backend.resolve(&self.path) {
+            Ok(backend) => backend,
+            Err(err) => {
+                self.set_error(err.to_string());
+                return;
+            }
+        };
+        let blocks = self.blend.blocks.clone();
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "blend",
+            move |job| async move {
+                let clock = web_time::Instant::now();
+                let mut field = detailed;
+                let solves = blend::apply_blocks(&backend, &mut field, &blocks, &job).await?;
+                Ok((
+                    field,
+                    solves,
+                    clock.elapsed().as_secs_f64() * 1e3,
+                    backend.key(),
+                ))
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.blend.job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// Puts a finished blend on the map.
+    pub(super) fn show_blend(&mut self, ctx: &egui::Context, result: BlendResult) {
+        let (field, solves, millis, backend) = match result {
+            Ok(done) => done,
+            Err(BlendError::Diffusion(DiffusionError::Cancelled(_))) => return,
+            Err(err) => {
+                self.set_error(format!("Blend failed: {err}"));
+                // The terrain without blocks stays usable.
+                if let Some(detailed) = self.blend.detailed.clone() {
+                    self.show_final(ctx, detailed);
+                }
+                return;
+            }
+        };
+        let converged = solves.iter().all(|s| s.converged);
+        let rects = self
+            .blend
+            .blocks
+            .iter()
+            .map(|b| {
+                let r = b.rect_on(field.width(), field.height());
+                [r.row, r.col, r.height, r.width]
+            })
+            .collect();
+        self.blend.summary = Some(format!(
+            "{} block{} blended on the {} in {:.0} ms{}",
+            solves.len(),
+            if solves.len() == 1 { "" } else { "s" },
+            backend.to_uppercase(),
+            millis,
+            if converged { "" } else { " (NOT converged)" }
+        ));
+        self.automation.update(|s| {
+            s.blend = Some(BlendStatus {
+                blocks: solves.len(),
+                backend: backend.to_owned(),
+                millis,
+                converged,
+                rects,
+            })
+        });
+        self.show_final(ctx, field);
+        self.error = None;
+    }
+
+    /// A finished void fill replaces the DEM's heights.
+    pub(super) fn take_filled_dem(&mut self, ctx: &egui::Context) {
+        let Some(result) = self.blend.fill_job.as_ref().and_then(JobHandle::try_take) else {
+            return;
+        };
+        self.blend.fill_job = None;
+        match result {
+            Ok(field) => {
+                if let Some(loaded) = self.blend.dem.take() {
+                    let voids = loaded.dem.void_cells();
+                    let dem = Dem {
+                        field,
+                        georef: loaded.dem.georef,
+                    };
+                    self.set_dem(ctx, &loaded.name, dem, loaded.bytes);
+                    self.notice = Some(format!("Filled {voids} no-data cells"));
+                }
+            }
+            Err(DiffusionError::Cancelled(_)) => {}
+            Err(err) => self.set_error(format!("Fill voids failed: {err}")),
+        }
+    }
+
+    /// Moves or resizes blocks with the Block tool; a release re-solves.
+    pub(super) fn drag_block(&mut self, ctx: &egui::Context, drag: BlockDrag) {
+        if self.blend.grab.is_none() {
+            // Pick the topmost block under the drag's start; its corner handle resizes.
+            let handle = 12.0 / 600.0;
+            let hit = self
+                .blend
+                .blocks
+                .iter()
+                .enumerate()
+                .rev()
+                .find_map(|(i, b)| {
+                    let [x0, y0, x1, y1] = b.rect.map(|v| v as f32);
+                    let p = drag.from;
+                    let near_corner = (p.x - x1).abs() < handle && (p.y - y1).abs() < handle;
+                    let inside = (x0..=x1).contains(&p.x) && (y0..=y1).contains(&p.y);
+                    if near_corner {
+                        Some((i, Grab::Resize))
+                    } else {
+                        inside.then_some((i, Grab::Move))
+                    }
+                });
+            self.blend.grab = hit;
+            if let Some((i, _)) = hit {
+                self.blend.selected = Some(i);
+            }
+        }
+        if let Some((i, grab)) = self.blend.grab
+            && let Some(block) = self.blend.blocks.get_mut(i)
+        {
+            let (dx, dy) = (f64::from(drag.delta.x), f64::from(drag.delta.y));
+            let [x0, y0, x1, y1] = block.rect;
+            block.rect = match grab {
+                Grab::Move => {
+                    let dx = dx.clamp(-x0, 1.0 - x1);
+                    let dy = dy.clamp(-y0, 1.0 - y1);
+                    [x0 + dx, y0 + dy, x1 + dx, y1 + dy]
+                }
+                Grab::Resize => {
+                    let min = 4.0 / self.settings.size.max(8) as f64;
+                    [
+                        x0,
+                        y0,
+                        (x1 + dx).clamp(x0 + min, 1.0),
+                        (y1 + dy).clamp(y0 + min, 1.0),
+                    ]
+                }
+            };
+        }
+        if drag.finished && self.blend.grab.take().is_some() {
+            self.blocks_changed(ctx);
+        }
+    }
+}
+
+/// The DEM section of the side panel.
+pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    let ctx = ui.ctx().clone();
+    ui.label(RichText::new("Real DEM and blending").strong())
+        .on_hover_text(
+            "Upload a real elevation file, select a block of it and place it on the map: the \
+             block is solved from the Poisson equation with the terrain on its border (seed \
+             paper 000, Sec. VI), so its landforms appear without a seam.",
+        );
+    ui.horizontal_wrapped(|ui| {
+        if ui
+            .button("Upload DEM...")
+            .on_hover_text("GeoTIFF, SRTM .hgt, ESRI .asc, PNG or RAW .r16; or drop the file")
+            .clicked()
+        {
+            upload(app);
+        }
+        if app.blend.dem.is_some() && ui.button("Remove DEM").clicked() {
+            app.blend.dem = None;
+            app.automation.update(|s| s.dem = None);
+        }
+    });
+    #[cfg(not(target_arch = "wasm32"))]
+    ui.horizontal(|ui| {
+        ui.add(egui::TextEdit::singleline(&mut app.blend.path_input).hint_text("path/to/dem.tif"));
+        if ui.button("Open").clicked() {
+            let path = std::path::PathBuf::from(app.blend.path_input.trim());
+            match std::fs::read(&path) {
+                Ok(bytes) => {
+                    let name = path.to_string_lossy().into_owned();
+                    app.load_dem(&ctx, &name, bytes);
+                }
+                Err(err) => app.set_error(format!("cannot read {}: {err}", path.display())),
+            }
+        }
+    });
+    let mut reread = false;
+    let mut fill = false;
+    let mut place = false;
+    if let Some(loaded) = &app.blend.dem {
+        let f = &loaded.dem.field;
+        let (lo, hi) = f.finite_range().unwrap_or((0.0, 0.0));
+        let voids = loaded.dem.void_cells();
+        egui::Grid::new("dem info").num_columns(2).show(ui, |ui| {
+            ui.label("File");
+            ui.label(&loaded.name);
+            ui.end_row();
+            ui.label("Size");
+            ui.label(format!("{} x {} cells", f.width(), f.height()));
+            ui.end_row();
+            ui.label("Heights");
+            ui.label(format!("{lo:.1} to {hi:.1} m"));
+            ui.end_row();
+            ui.label("Cell size");
+            ui.label(
+                loaded
+                    .dem
+                    .georef
+                    .cell_size()
+                    .map_or("unknown".into(), |(x, y)| format!("{x:.6} x {y:.6}")),
+            );
+            ui.end_row();
+            ui.label("CRS");
+            ui.label(loaded.dem.georef.crs_label().unwrap_or("unknown".into()));
+            ui.end_row();
+            ui.label("No-data");
+            ui.label(format!("{voids} cells"));
+            ui.end_row();
+        });
+        if matches!(
+            Format::from_name(&loaded.name),
+            Some(Format::Png | Format::R16)
+        ) {
+            ui.horizontal(|ui| {
+                ui.label("Height range");
+                let (a, b) = &mut app.blend.z_range;
+                ui.add(DragValue::new(a).suffix(" m"));
+                ui.add(DragValue::new(b).suffix(" m"));
+                reread = ui.button("Apply").clicked();
+            });
+        }
+        if voids > 0 {
+            fill = ui
+                .button("Fill voids")
+                .on_hover_text("Harmonic fill: the diffusion solver with every known cell fixed")
+                .clicked();
+        }
+        if let Some(job) = &app.blend.fill_job {
+            ui.add(ProgressBar::new(job.progress()).text(job.message()));
+        }
+        preview(ui, app);
+        place = ui
+            .button("Place block on map")
+            .on_hover_text("Then drag it with the Block tool (B); drag its corner to resize")
+            .clicked();
+    }
+    if reread && let Some(loaded) = app.blend.dem.take() {
+        let bytes = loaded.bytes.as_ref().clone();
+        app.load_dem(&ctx, &loaded.name, bytes);
+    }
+    if fill {
+        app.fill_dem_voids(&ctx);
+    }
+    if place {
+        app.place_selection(&ctx);
+    }
+    blocks_list(ui, app, &ctx);
+}
+
+/// The DEM preview with the reference window; drag on it to select a new window.
+fn preview(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    let Some(loaded) = &app.blend.dem else {
+        return;
+    };
+    let Some(texture) = &loaded.preview else {
+        return;
+    };
+    let (w, h) = (loaded.dem.field.width(), loaded.dem.field.height());
+    let side = ui.available_width().min(260.0);
+    let scale = side / w.max(h) as f32;
+    let (rect, response) = ui.allocate_exact_size(
+        egui::vec2(w as f32 * scale, h as f32 * scale),
+        Sense::drag(),
+    );
+    let painter = ui.painter_at(rect);
+    let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
+    painter.image(texture.id(), rect, uv, Color32::WHITE);
+    let cell = |p: egui::Pos2| {
+        let v = (p - rect.min) / scale;
+        (
+            (v.y.max(0.0) as usize).min(h - 1),
+            (v.x.max(0.0) as usize).min(w - 1),
+        )
+    };
+    if response.drag_started()
+        && let Some(p) = response.interact_pointer_pos()
+    {
+        app.blend.select_from = Some(cell(p));
+    }
+    if let (Some((r0, c0)), Some(p)) = (app.blend.select_from, response.interact_pointer_pos()) {
+        let (r1, c1) = cell(p);
+        app.blend.selection = [
+            r0.min(r1),
+            c0.min(c1),
+            r0.abs_diff(r1) + 1,
+            c0.abs_diff(c1) + 1,
+        ];
+    }
+    if response.drag_stopped() {
+        app.blend.select_from = None;
+    }
+    let [row, col, sh, sw] = app.blend.selection;
+    let sel = Rect::from_min_size(
+        rect.min + egui::vec2(col as f32, row as f32) * scale,
+        egui::vec2(sw as f32, sh as f32) * scale,
+    );
+    painter.rect_stroke(
+        sel,
+        0.0,
+        Stroke::new(2.0, Color32::from_rgb(230, 40, 40)),
+        StrokeKind::Middle,
+    );
+    ui.horizontal(|ui| {
+        ui.label("Window")
+            .on_hover_text("row, col, height, width on the DEM");
+        let s = &mut app.blend.selection;
+        ui.add(DragValue::new(&mut s[0]).range(0..=h - 1));
+        ui.add(DragValue::new(&mut s[1]).range(0..=w - 1));
+        ui.add(DragValue::new(&mut s[2]).range(3..=h));
+        ui.add(DragValue::new(&mut s[3]).range(3..=w));
+        s[2] = s[2].min(h - s[0]);
+        s[3] = s[3].min(w - s[1]);
+    });
+}
+
+/// The placed blocks: select, turn, mirror, scale, remove.
+fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
+    if app.blend.blocks.is_empty() {
+        return;
+    }
+    ui.horizontal_wrapped(|ui| {
+        ui.selectable_value(&mut app.tool, Tool::Block, "Move blocks (B)");
+    });
+    let mut changed = false;
+    let mut remove = None;
+    for (i, block) in app.blend.blocks.iter_mut().enumerate() {
+        let selected = app.blend.selected == Some(i);
+        ui.horizontal(|ui| {
+            if ui.selectable_label(selected, &block.name).clicked() {
+                app.blend.selected = Some(i);
+            }
+            if ui
+                .small_button("x")
+                .on_hover_text("Remove this block")
+                .clicked()
+            {
+                remove = Some(i);
+            }
+        });
+        if selected {
+            ui.horizontal(|ui| {
+                if ui.button("Rotate 90").clicked() {
+                    block.quarter_turns = (block.quarter_turns + 1) % 4;
+                    changed = true;
+                }
+                changed |= ui.checkbox(&mut block.mirror, "Mirror").changed();
+                ui.label("z x");
+                changed |= ui
+                    .add(
+                        DragValue::new(&mut block.z_scale)
+                            .range(-10.0..=10.0)
+                            .speed(0.02),
+                    )
+                    .changed();
+            });
+        }
+    }
+    if let Some(i) = remove {
+        app.blend.blocks.remove(i);
+        app.blend.selected = None;
+        changed = true;
+    }
+    if changed {
+        app.blocks_changed(ctx);
+    }
+    if let Some(job) = &app.blend.job {
+        ui.add(ProgressBar::new(job.progress()).text(job.message()));
+    }
+    if let Some(text) = &app.blend.summary {
+        ui.label(text);
+    }
+}
+
+/// Opens the file picker (web) whose file arrives as a `LoadDem` command.
+fn upload(app: &mut StrahlerApp) {
+    #[cfg(target_arch = "wasm32")]
+    {
+        let automation = app.automation.clone();
+        let accept = ".tif,.tiff,.hgt,.asc,.png,.r16,.raw";
+        if let Err(err) = super::files::pick_file(accept, move |name, bytes| {
+            automation.push(super::Command::LoadDem { name, bytes });
+        }) {
+            app.set_error(err);
+        }
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        app.notice = Some("Type the DEM's path below and press Open, or drop the file".into());
+    }
+}

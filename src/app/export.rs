@@ -1,0 +1,150 @@
+//! The export dialog: the terrain on the map in a format engines and GIS tools read, at a
+//! size preset, with an optional Y flip and height scale. In the browser the file downloads;
+//! natively it is saved in the working directory. PNG and RAW also get their sidecar JSON
+//! (height range, cell size), since their samples are normalised.
+
+use egui::{ComboBox, DragValue, RichText};
+
+use super::StrahlerApp;
+use crate::dem::GeoRef;
+use crate::dem::format::{self, ExportOptions, Exported, Format, SIZE_PRESETS};
+use crate::heightfield::Heightfield;
+
+/// What the dialog remembers between openings.
+pub struct ExportDialog {
+    pub open: bool,
+    pub format: Format,
+    /// `None` = the terrain's own size.
+    pub size: Option<usize>,
+    pub flip_y: bool,
+    pub z_scale: f32,
+}
+
+impl Default for ExportDialog {
+    fn default() -> Self {
+        Self {
+            open: false,
+            format: Format::Png,
+            size: None,
+            flip_y: false,
+            z_scale: 1.0,
+        }
+    }
+}
+
+/// Encodes `field` (cell size `cell` metres) as `format`: the bytes `exportHeightmap` returns
+/// and the dialog saves.
+pub fn encode(
+    field: &Heightfield,
+    cell: f64,
+    format: Format,
+    size: Option<usize>,
+    flip_y: bool,
+    z_scale: f32,
+) -> Result<Exported, String> {
+    // The map's georeferencing: a local metric grid with its north-west corner at (0, 0).
+    let georef = GeoRef {
+        pixel_scale: Some(vec![cell, cell, 0.0]),
+        tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, cell * field.height() as f64, 0.0]),
+        ..Default::default()
+    };
+    let options = ExportOptions {
+        size,
+        flip_y,
+        z_scale,
+        cell_size: cell,
+    };
+    format::write(format, field, &georef, &options).map_err(|e| e.to_string())
+}
+
+/// Shows the dialog when open.
+pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
+    let mut open = app.export.open;
+    let mut save = false;
+    egui::Window::new("Export heightmap")
+        .open(&mut open)
+        .collapsible(false)
+        .resizable(false)
+        .show(ctx, |ui| {
+            let d = &mut app.export;
+            let native = app.map.field().map(|f| f.width()).unwrap_or(0);
+            egui::Grid::new("export settings")
+                .num_columns(2)
+                .show(ui, |ui| {
+                    ui.label("Format");
+                    ComboBox::from_id_salt("export format")
+                        .selected_text(d.format.label())
+                        .show_ui(ui, |ui| {
+                            for f in Format::EXPORTS {
+                                ui.selectable_value(&mut d.format, f, f.label());
+                            }
+                        });
+                    ui.end_row();
+                    ui.label("Size");
+                    let label = |s: Option<usize>| match s {
+                        None => format!("as on the map ({native} x {native})"),
+                        Some(n) => format!("{n} x {n}"),
+                    };
+                    ComboBox::from_id_salt("export size")
+                        .selected_text(label(d.size))
+                        .show_ui(ui, |ui| {
+                            ui.selectable_value(&mut d.size, None, label(None));
+                            for n in SIZE_PRESETS {
+                                ui.selectable_value(&mut d.size, Some(n), label(Some(n)));
+                            }
+                        });
+                    ui.end_row();
+                    ui.label("Flip Y")
+                        .on_hover_text("Rows bottom-up, as Unity reads RAW files (PNG and RAW)");
+                    ui.add_enabled(
+                        matches!(d.format, Format::Png | Format::R16),
+                        egui::Checkbox::without_text(&mut d.flip_y),
+                    );
+                    ui.end_row();
+                    ui.label("Height scale");
+                    ui.add(
+                        DragValue::new(&mut d.z_scale)
+                            .range(0.001..=1000.0)
+                            .speed(0.01),
+                    );
+                    ui.end_row();
+                });
+            if d.format == Format::Obj && d.size.unwrap_or(native) > 2049 {
+                ui.label(
+                    RichText::new("OBJ meshes are limited to 2049 x 2049: pick a smaller size")
+                        .weak(),
+                );
+            }
+            save = ui.button("Download").clicked();
+        });
+    app.export.open = open;
+    if save {
+        export_now(app);
+    }
+}
+
+fn export_now(app: &mut StrahlerApp) {
+    let Some(field) = app.map.field() else {
+        app.set_error("Nothing to export yet: draw a river first.".into());
+        return;
+    };
+    let d = &app.export;
+    let cell = super::MAP_WIDTH_M as f64 / field.width().saturating_sub(1).max(1) as f64;
+    let result = encode(field, cell, d.format, d.size, d.flip_y, d.z_scale).and_then(|out| {
+        let name = format!("strahler-heightmap.{}", d.format.extension());
+        let mut said = super::files::save(&name, d.format.mime(), &out.bytes)?;
+        if let Some(json) = &out.sidecar {
+            super::files::save(
+                "strahler-heightmap.json",
+                "application/json",
+                json.as_bytes(),
+            )?;
+            said.push_str(" and its .json");
+        }
+        Ok(said)
+    });
+    match result {
+        Ok(said) => app.notice = Some(format!("Heightmap {said}")),
+        Err(err) => app.set_error(format!("Export failed: {err}")),
+    }
+}
