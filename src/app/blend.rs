@@ -465,7 +465,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         );
     ui.horizontal_wrapped(|ui| {
         if ui
-            .button("Upload DEM...")
+            .button("Upload DEM... (U)")
             .on_hover_text("GeoTIFF, SRTM .hgt, ESRI .asc, PNG or RAW .r16; or drop the file")
             .clicked()
         {
@@ -687,8 +687,8 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
     }
 }
 
-/// Opens the file picker (web) whose file arrives as a `LoadDem` command.
-fn upload(app: &mut StrahlerApp) {
+/// Opens the file picker (web) whose file arrives as a `LoadDem` command (button or U).
+pub(super) fn upload(app: &mut StrahlerApp) {
     #[cfg(target_arch = "wasm32")]
     {
         let automation = app.automation.clone();

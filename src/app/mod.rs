@@ -544,6 +544,9 @@ impl eframe::App for StrahlerApp {
                     self.tool = Tool::Block;
                 }
             });
+            if ctx.input(|i| i.key_pressed(egui::Key::U)) {
+                blend::upload(self);
+            }
         }
         status_bar::show(ui, self);
         side_panel::show(ui, self);

@@ -172,6 +172,59 @@ async function runMode(url, mode, expectedChecksum) {
     const maskPng = await page.evaluate(() => window.strahler.scene().detail.mask_png);
     check('maskFromRivers() makes a mask saved in the scene as a PNG',
       typeof maskPng === 'string' && Buffer.from(maskPng, 'base64').subarray(1, 4).toString() === 'PNG');
+    // A real DEM: uploaded through the file picker (the U key opens it, as the Upload DEM
+    // button does), a block of it blended in (Poisson), and the heightmap exported.
+    // A click on the map (pan tool: no edit) gives the canvas the keyboard focus. The CPU
+    // path may still be finishing a frame, so the key is pressed again if no picker opened.
+    await page.mouse.click(900, 400);
+    let chooser = null;
+    for (let attempt = 0; attempt < 3 && chooser === null; attempt += 1) {
+      await page.waitForTimeout(500);
+      [chooser] = await Promise.all([
+        page.waitForEvent('filechooser', { timeout: 8_000 }).catch(() => null),
+        page.keyboard.press('u'),
+      ]);
+    }
+    check('the U key opens the Upload DEM file picker', chooser !== null);
+    await chooser.setFiles(join(here, '..', '..', '..', 'shared', 'data', 'dems', 'volcano_maungawhau.tif'));
+    await page.waitForFunction(() => window.strahler.status().dem !== null, null, { timeout: 30_000 });
+    const dem = await page.evaluate(() => window.strahler.status().dem);
+    check('the Upload DEM picker reads a GeoTIFF into the DEM panel',
+      dem.width === 87 && dem.height === 61 && dem.zmin >= 94 && dem.zmax <= 196, JSON.stringify(dem));
+    const badPlace = await page.evaluate(() => {
+      try { window.strahler.placeBlock({ window: [0, 0, 10] }); return null; } catch (e) { return String(e); }
+    });
+    check('placeBlock() explains a bad argument', badPlace !== null && badPlace.includes('window'), String(badPlace));
+    await page.evaluate(() => window.strahler.placeBlock({ window: [0, 10, 61, 61], rect: [0.3, 0.3, 0.6, 0.6] }));
+    await page.waitForFunction(() => {
+      const s = window.strahler.status();
+      return s.job === null && s.blend !== null;
+    }, null, { timeout: 120_000 });
+    const blend = await page.evaluate(() => window.strahler.status().blend);
+    check('placeBlock() blends the DEM block into the terrain', blend.blocks === 1 && blend.converged
+      && blend.backend === (mode === 'webgpu' ? 'gpu' : 'cpu'), JSON.stringify(blend));
+    check('the block is saved in the scene', (await page.evaluate(() => window.strahler.scene().blend.length)) === 1);
+    const exported = await page.evaluate(() => {
+      const head = (b) => Array.from(b.slice(0, 24));
+      const png = window.strahler.exportHeightmap('png');
+      const r16 = window.strahler.exportHeightmap('r16', { size: 257, flipY: true });
+      const tif = window.strahler.exportHeightmap('tif');
+      const obj = new TextDecoder().decode(window.strahler.exportHeightmap('obj', { size: 65 }));
+      let bad = null;
+      try { window.strahler.exportHeightmap('bmp'); } catch (e) { bad = String(e); }
+      return { png: head(png), r16: r16.length, tif: head(tif),
+        objVertices: obj.split('\n').filter((l) => l.startsWith('v ')).length, bad,
+        width: window.strahler.status().terrain.width };
+    });
+    const pngWidth = Buffer.from(exported.png).readUInt32BE(16);
+    check('exportHeightmap(png) is a PNG of the terrain',
+      Buffer.from(exported.png).subarray(1, 4).toString() === 'PNG' && pngWidth === exported.width,
+      JSON.stringify(exported));
+    check('exportHeightmap(r16, {size: 257}) has 257 x 257 16-bit samples', exported.r16 === 257 * 257 * 2);
+    check('exportHeightmap(tif) is a TIFF', Buffer.from(exported.tif).subarray(0, 4).toString('hex') === '49492a00'
+      || Buffer.from(exported.tif).subarray(0, 4).toString('hex') === '4d4d002a');
+    check('exportHeightmap(obj, {size: 65}) has 65 x 65 vertices', exported.objVertices === 65 * 65);
+    check('exportHeightmap() names an unknown format', exported.bad !== null && exported.bad.includes('unknown format'));
     await page.screenshot({ path: join(output, `${mode}.png`) });
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
     if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);
@@ -192,7 +245,8 @@ const server = await serve(dist);
 const url = `http://127.0.0.1:${server.address().port}/`;
 try {
   const expected = nativeChecksum();
-  for (const mode of ['webgpu', 'cpu']) await runMode(url, mode, expected);
+  const modes = (process.env.BROWSER_MODES ?? 'webgpu,cpu').split(',');
+  for (const mode of modes) await runMode(url, mode, expected);
 } finally {
   server.close();
 }
