@@ -299,7 +299,10 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     });
     harness.run_steps(2);
     let err = automation.status().last_error.unwrap_or_default();
-    assert!(err.contains("ESRI ASCII") && err.contains("truncated"), "{err}");
+    assert!(
+        err.contains("ESRI ASCII") && err.contains("truncated"),
+        "{err}"
+    );
     assert_eq!(harness.state().terrain(), Some(&before));
 
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -346,7 +349,10 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     drag(&mut harness, centre, centre + egui::vec2(150.0, 0.0));
     wait_idle(&mut harness);
     let moved = harness.state().scene().blend[0].rect;
-    assert!(moved[0] > x0 + 0.05, "the block moved east: {x0} -> {moved:?}");
+    assert!(
+        moved[0] > x0 + 0.05,
+        "the block moved east: {x0} -> {moved:?}"
+    );
     let rect = automation.status().blend.unwrap().rects[0];
     assert!(rect[1] > col + 10, "re-solved at the new place: {rect:?}");
     assert_ne!(harness.state().terrain().unwrap(), &after);

@@ -564,7 +564,7 @@ fn convert_explains_bad_input() {
     let cases: [(&str, &[u8], &str); 4] = [
         (
             "bad.asc",
-            b"ncols 3\nnrows 2\ncellsize 1\n1 2 3\n4 nan 6\n",
+            b"ncols 3\nnrows 2\ncellsize 1\n1 2 3\n4 -inf 6\n",
             "row 1, column 1",
         ),
         ("short.hgt", &[0u8; 7], "16-bit samples"),
@@ -678,4 +678,38 @@ fn blend_solves_a_block_and_keeps_the_rest() {
         &out_path.to_string_lossy(),
     ]);
     assert!(String::from_utf8_lossy(&bad.stderr).contains("does not fit the 61 x 87 reference"));
+}
+
+/// Files written by GDAL 3.6 (`gdal_translate -of AAIGrid` and `-of SRTMHGT`, in
+/// `tests/data/gdal/`) read as GDAL means them.
+#[test]
+fn files_written_by_gdal_read_correctly() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gdal");
+    let limits = strahler::dem::ReadLimits::default();
+    // AAIGrid of a float raster with NaN voids: GDAL writes `nan` tokens.
+    let original = read_tif(&shared_dem("luxembourg_full.tif"));
+    let bytes = std::fs::read(data.join("luxembourg_full_gdal.asc")).unwrap();
+    let asc = strahler::dem::asc::read(&bytes, limits).unwrap();
+    assert_eq!((asc.field.width(), asc.field.height()), (95, 90));
+    assert_eq!(asc.void_cells(), 3942);
+    for (a, b) in asc.field.data().iter().zip(original.field.data()) {
+        assert!(a == b || (a.is_nan() && b.is_nan()), "{a} vs {b}");
+    }
+    let (sx, _) = asc.georef.cell_size().unwrap();
+    assert!((sx - 1.0 / 120.0).abs() < 1e-9);
+    let tie = asc.georef.tiepoint.clone().unwrap();
+    let orig_tie = original.georef.tiepoint.clone().unwrap();
+    assert!((tie[3] - orig_tie[3]).abs() < 1e-9 && (tie[4] - orig_tie[4]).abs() < 1e-9);
+    // SRTM tile: 1201 x 1201 whole metres, the corner from the name.
+    let bytes = std::fs::read(data.join("N49E006.hgt")).unwrap();
+    let hgt = strahler::dem::hgt::read("N49E006.hgt", &bytes, limits).unwrap();
+    assert_eq!((hgt.field.width(), hgt.field.height()), (1201, 1201));
+    let (lo, hi) = hgt.field.finite_range().unwrap();
+    assert_eq!((lo, hi), (155.0, 443.0), "gdalinfo -stats says 155..443");
+    assert_eq!(hgt.georef.crs_label().as_deref(), Some("EPSG:4326"));
+    let tie = hgt.georef.tiepoint.clone().unwrap();
+    // gdalinfo: Origin = (5.999583333333334, 50.000416666666666).
+    assert!(
+        (tie[3] - 5.999583333333334).abs() < 1e-9 && (tie[4] - 50.000416666666666).abs() < 1e-9
+    );
 }

@@ -3,8 +3,9 @@
 //! `nrows` rows of `ncols` numbers from north to south.
 //!
 //! Reading checks the header's size against the limits before allocating, requires exactly
-//! `nrows * ncols` values, maps `NODATA_value` to NaN, and rejects `nan`/`inf` tokens
-//! explicitly (missing cells must use `NODATA_value`). Writing uses Rust's shortest
+//! `nrows * ncols` values, maps `NODATA_value` and `nan` tokens (GDAL writes them for NaN
+//! cells of float rasters) to no-data, and rejects `inf` tokens with their row and column.
+//! Writing uses Rust's shortest
 //! round-trip formatting of `f32`, so a read of a written file is bit-exact.
 
 use super::{Dem, DemError, GeoRef, ReadLimits};
@@ -52,9 +53,8 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
             rest = &rest[line_end..];
             continue;
         };
-        let first = key.as_bytes()[0];
-        if first.is_ascii_digit() || matches!(first, b'-' | b'+' | b'.') {
-            break;
+        if key.parse::<f32>().is_ok() {
+            break; // a number (or `nan`): the data starts here
         }
         let value = tokens
             .next()
@@ -115,7 +115,7 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
                 i % ncols
             ))
         })?;
-        if !v.is_finite() {
+        if v.is_infinite() {
             let i = data.len();
             return Err(bad(format!(
                 "row {}, column {}: '{token}' is not a finite height (mark missing cells with \
@@ -124,6 +124,7 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
                 i % ncols
             )));
         }
+        // `nan` (GDAL writes it for NaN cells of float rasters) and NODATA_value: no data.
         data.push(if Some(v) == header.nodata {
             f32::NAN
         } else {
