@@ -16,6 +16,15 @@ fn harness() -> Harness<'static, StrahlerApp> {
         .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
 }
 
+/// A taller window, so the whole side panel (down to the compute check and the DEM panel)
+/// is on screen without scrolling.
+fn tall_harness() -> Harness<'static, StrahlerApp> {
+    Harness::builder()
+        .with_size(egui::vec2(1200.0, 1500.0))
+        .wgpu()
+        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
+}
+
 /// Steps frames until the app has no job running (the UI keeps responding meanwhile).
 fn wait_idle(harness: &mut Harness<'static, StrahlerApp>) {
     let start = Instant::now();
@@ -68,7 +77,7 @@ fn compute_check_reports_agreement() {
     if common::gpu().is_none() {
         return;
     }
-    let mut harness = harness();
+    let mut harness = tall_harness();
     wait_idle(&mut harness);
     harness.get_by_label("Compare CPU and GPU").click();
     harness.run_steps(2);
@@ -279,10 +288,7 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     if common::gpu().is_none() {
         return;
     }
-    let mut harness = Harness::builder()
-        .with_size(egui::vec2(1200.0, 1500.0))
-        .wgpu()
-        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()));
+    let mut harness = tall_harness();
     wait_idle(&mut harness);
     let mut scene = harness.state().scene();
     scene.size = 256;

@@ -212,6 +212,7 @@ impl StrahlerApp {
         scene.params.noise.amplitude = s.noise;
         scene.params.enrich.passes = s.passes;
         scene.params.enrich.distance_limit = s.distance_limit;
+        scene.params.post = s.post;
         scene
     }
 
@@ -226,6 +227,7 @@ impl StrahlerApp {
         s.noise = scene.params.noise.amplitude;
         s.passes = scene.params.enrich.passes;
         s.distance_limit = scene.params.enrich.distance_limit;
+        s.post = scene.params.post;
         self.strokes = scene.strokes();
         self.sketch = scene.sketch.to_sketch();
         self.detail = crate::scene::DetailSettings {

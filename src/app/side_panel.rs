@@ -35,6 +35,8 @@ pub struct FillSettings {
     /// Sweeps of the Jacobi method.
     pub sweeps: u32,
     pub backend: BackendChoice,
+    /// Post-filters of the filled terrain.
+    pub post: crate::diffusion::PostFilter,
     pub show_rivers: bool,
     pub show_ridges: bool,
 }
@@ -55,6 +57,7 @@ impl Default for FillSettings {
             tolerance: MultigridParams::default().tolerance,
             sweeps: 5500,
             backend: BackendChoice::Auto,
+            post: Default::default(),
             show_rivers: true,
             show_ridges: false,
         }
@@ -89,6 +92,7 @@ impl FillSettings {
         p.noise.amplitude = self.noise;
         p.enrich.passes = self.passes;
         p.enrich.distance_limit = self.distance_limit;
+        p.post = self.post;
         p
     }
 }
@@ -307,6 +311,28 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             }
             ui.end_row();
 
+            ui.label("Smoothing").on_hover_text(
+                "Gaussian smoothing of the filled terrain, sigma in cells (0 = off). Rivers and \
+                 a margin around them are never touched, so they drain as designed.",
+            );
+            ui.add(
+                DragValue::new(&mut app.settings.post.smooth_sigma)
+                    .range(0.0..=crate::diffusion::post::MAX_SIGMA)
+                    .speed(0.05)
+                    .suffix(" cells"),
+            );
+            ui.end_row();
+            ui.label("Added fBm").on_hover_text(
+                "Fractal Perlin noise added to the filled terrain (amplitude in metres; 0 = off), \
+                 faded out near the rivers.",
+            );
+            ui.add(
+                DragValue::new(&mut app.settings.post.fbm_amplitude)
+                    .range(0.0..=500.0)
+                    .speed(0.2)
+                    .suffix(" m"),
+            );
+            ui.end_row();
             ui.label("Compute on");
             ComboBox::from_id_salt("backend")
                 .selected_text(app.settings.backend.label())

@@ -49,6 +49,12 @@ pub struct GenerateArgs {
     /// Enrichment distance limit L in cells [default: 3].
     #[arg(long)]
     pub distance_limit: Option<u32>,
+    /// Gaussian smoothing of the filled terrain, sigma in cells, kept off the rivers [default: 0].
+    #[arg(long)]
+    pub smooth: Option<f32>,
+    /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
+    #[arg(long)]
+    pub fbm: Option<f32>,
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -94,6 +100,12 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.passes {
         scene.params.enrich.passes = v;
+    }
+    if let Some(v) = args.smooth {
+        scene.params.post.smooth_sigma = v;
+    }
+    if let Some(v) = args.fbm {
+        scene.params.post.fbm_amplitude = v;
     }
     if let Some(v) = args.distance_limit {
         scene.params.enrich.distance_limit = v;

@@ -15,6 +15,7 @@ mod cpu;
 pub mod demo;
 mod gpu;
 pub mod multigrid;
+pub mod post;
 
 use thiserror::Error;
 use web_time::Instant;
@@ -22,6 +23,7 @@ use web_time::Instant;
 pub use constraints::{Constraints, ConstraintsError, FixedMask};
 pub use cpu::{jacobi_sweep, max_update};
 pub use multigrid::{MultigridParams, Solved};
+pub use post::PostFilter;
 
 use crate::compute::Backend;
 use crate::gpu::GpuError;
@@ -138,6 +140,22 @@ pub async fn fill(
             })
         }
     }
+}
+
+/// Applies the post-filters ([`post`]) on `backend`; `protected` marks river and valley
+/// cells, which (with a margin) keep their heights.
+pub async fn post_filter(
+    backend: &Backend,
+    field: &Heightfield,
+    protected: &[bool],
+    filter: &PostFilter,
+    seed: u64,
+) -> Result<Heightfield, DiffusionError> {
+    let weights = post::protection(protected, field.width(), field.height(), filter.protect);
+    Ok(match backend {
+        Backend::Cpu => post::apply_cpu(field, &weights, filter, seed),
+        Backend::Gpu(gpu) => gpu::post_filter(gpu, field, &weights, filter, seed).await?,
+    })
 }
 
 /// Height range of the fixed cells: the scale tolerances and errors are relative to.

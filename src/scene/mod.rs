@@ -123,6 +123,8 @@ pub struct Params {
     pub alpha: f64,
     pub noise: NoiseSettings,
     pub enrich: EnrichSettings,
+    /// Gaussian smoothing and added fBm on the filled terrain, kept off the rivers.
+    pub post: crate::diffusion::PostFilter,
 }
 
 impl Default for Params {
@@ -134,6 +136,7 @@ impl Default for Params {
             alpha: t.ridges.alpha,
             noise: NoiseSettings::default(),
             enrich: EnrichSettings::default(),
+            post: Default::default(),
         }
     }
 }
@@ -506,6 +509,9 @@ impl Scene {
                 format!("must be 1 to 64 cells, got {}", p.enrich.distance_limit),
             );
         }
+        if let Err((field, problem)) = p.post.validate() {
+            return bad(&format!("params.post.{field}"), problem);
+        }
         Ok(())
     }
 
@@ -532,6 +538,7 @@ impl Scene {
         t.enrich.passes = self.params.enrich.passes;
         t.enrich.distance_limit = self.params.enrich.distance_limit;
         t.sketch = self.sketch.to_sketch();
+        t.post = self.params.post;
         t
     }
 }

@@ -24,6 +24,11 @@ impl Perlin {
         }
     }
 
+    /// The permutation table (the 256 entries twice), for the WGSL port of [`Perlin::noise`].
+    pub fn permutation(&self) -> &[u8; 512] {
+        &self.perm
+    }
+
     /// Gradient noise in about [-1, 1], zero at integer lattice points.
     pub fn noise(&self, x: f64, y: f64) -> f64 {
         let (xf, yf) = (x.floor(), y.floor());

@@ -18,7 +18,7 @@ use crate::ridge::{self, RidgeError, RidgeParams, RidgeSegment};
 use crate::river::{self, GrownRiver, RiverParams, Stroke};
 use crate::skeleton::enrich::EnrichParams;
 use crate::skeleton::sketch::Sketch;
-use crate::skeleton::{self, NoiseParams, Skeleton};
+use crate::skeleton::{self, CellKind, NoiseParams, Skeleton};
 pub use drainage::Drainage;
 
 #[derive(Debug, Error)]
@@ -52,6 +52,8 @@ pub struct TerrainParams {
     pub sketch: Sketch,
     /// How the diffusion stage solves (multigrid by default; Jacobi is the paper's baseline).
     pub solver: Method,
+    /// Gaussian smoothing and added fBm on the filled terrain, kept off the rivers.
+    pub post: crate::diffusion::PostFilter,
 }
 
 impl Default for TerrainParams {
@@ -65,6 +67,7 @@ impl Default for TerrainParams {
             enrich: EnrichParams::default(),
             sketch: Sketch::default(),
             solver: Method::Multigrid(MultigridParams::default()),
+            post: Default::default(),
         }
     }
 }
@@ -221,6 +224,24 @@ pub async fn generate(
     lap("diffuse", &mut stages);
 
     let mut terrain = filled.field;
+    if params.post.is_active() {
+        ctx.checkpoint(0.9, "post-filters (smoothing, fBm) off the rivers")
+            .await?;
+        let protected: Vec<bool> = skeleton
+            .kinds
+            .iter()
+            .map(|k| matches!(k, CellKind::River | CellKind::Valley))
+            .collect();
+        terrain = diffusion::post_filter(
+            backend,
+            &terrain,
+            &protected,
+            &params.post,
+            stage_seed(params.seed, "post"),
+        )
+        .await?;
+        lap("post", &mut stages);
+    }
     let conditioning = if drainage::has_pits(&terrain) {
         drainage::fill_depressions(&mut terrain)
     } else {

@@ -4,9 +4,11 @@
 
 mod jacobi;
 mod multigrid;
+mod post;
 
 pub(super) use jacobi::jacobi;
 pub(super) use multigrid::multigrid;
+pub(super) use post::post_filter;
 
 /// Side of the square workgroups every diffusion kernel uses.
 const WORKGROUP: u32 = 16;
