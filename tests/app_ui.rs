@@ -363,3 +363,63 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     assert!(rect[1] > col + 10, "re-solved at the new place: {rect:?}");
     assert_ne!(harness.state().terrain().unwrap(), &after);
 }
+
+/// Every edit is one undo step: a drawn river, a parameter change; Ctrl+Z and Ctrl+Shift+Z
+/// (and the buttons) walk the history and the terrain follows.
+#[test]
+fn undo_and_redo_walk_the_edits() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+    let first = harness.state().terrain().unwrap().checksum();
+    assert_eq!(harness.state().strokes().len(), 1);
+    // A river drawn with the mouse, then a new seed: two edits.
+    harness.key_press(egui::Key::R);
+    harness.run_steps(2);
+    drag(
+        &mut harness,
+        egui::pos2(1150.0, 250.0),
+        egui::pos2(900.0, 300.0),
+    );
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().strokes().len(), 2);
+    let seed = harness.state().settings().seed;
+    harness.get_by_label("New seed").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let status = harness.state().automation().status();
+    assert_eq!((status.undo, status.redo), (2, 0));
+
+    harness.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(
+        harness.state().settings().seed,
+        seed,
+        "the seed change is undone"
+    );
+    assert_eq!(harness.state().strokes().len(), 2);
+    harness.get_by_label("Undo").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().strokes().len(), 1, "the river is undone");
+    assert_eq!(harness.state().terrain().unwrap().checksum(), first);
+    let status = harness.state().automation().status();
+    assert_eq!((status.undo, status.redo), (0, 2));
+
+    harness.key_press_modifiers(
+        egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+        egui::Key::Z,
+    );
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().strokes().len(), 2, "the river is redone");
+    // A new edit after an undo drops the redo steps.
+    harness.get_by_label("New seed").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let status = harness.state().automation().status();
+    assert_eq!((status.undo, status.redo), (2, 0));
+}

@@ -41,6 +41,9 @@ pub struct Status {
     pub blend: Option<BlendStatus>,
     /// The terrain on the map (after detail and blending).
     pub terrain: Option<TerrainStatus>,
+    /// Undo and redo steps available.
+    pub undo: usize,
+    pub redo: usize,
 }
 
 /// The uploaded DEM, as the DEM panel shows it.
@@ -139,6 +142,13 @@ pub enum Command {
     MoveBlock {
         index: usize,
         rect: [f64; 4],
+    },
+    Undo,
+    Redo,
+    /// A scene file's bytes (open button or drop).
+    OpenScene {
+        name: String,
+        bytes: Vec<u8>,
     },
 }
 

@@ -22,6 +22,8 @@ pub enum ImportTarget {
     Mask,
     /// The DEM panel: any elevation file otherwise.
     Dem,
+    /// A scene (`.json`): replaces the document.
+    Scene,
 }
 
 /// A dropped file's name, what it is for, and its contents.
@@ -200,6 +202,8 @@ impl StrahlerApp {
         let is_png = name.to_ascii_lowercase().ends_with(".png");
         let target = if self.tool == Tool::Mask && is_png {
             ImportTarget::Mask
+        } else if name.to_ascii_lowercase().ends_with(".json") {
+            ImportTarget::Scene
         } else {
             ImportTarget::Dem
         };

@@ -115,7 +115,9 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
                         .weak(),
                 );
             }
-            save = ui.button("Download").clicked();
+            // Enter downloads too, so the dialog works from the keyboard (E, then Enter).
+            save = ui.button("Download (Enter)").clicked()
+                || ui.input(|i| i.key_pressed(egui::Key::Enter));
         });
     app.export.open = open;
     if save {

@@ -8,6 +8,7 @@ mod blend;
 mod detail;
 mod export;
 mod files;
+mod history;
 mod map_view;
 mod relief;
 mod side_panel;
@@ -98,6 +99,8 @@ pub struct StrahlerApp {
     /// The uploaded DEM, the placed blocks and the blend stage.
     blend: blend::BlendState,
     export: export::ExportDialog,
+    /// Undo, redo and autosave of the scene.
+    history: history::History,
 }
 
 impl StrahlerApp {
@@ -153,8 +156,22 @@ impl StrahlerApp {
             import_job: None,
             blend: Default::default(),
             export: Default::default(),
+            history: Default::default(),
         };
+        // A scene autosaved by an earlier visit comes back (web only).
+        match history::restore() {
+            Some(Ok(scene)) => {
+                app.load_scene(&scene);
+                app.notice = Some("Restored the scene autosaved in this browser".into());
+            }
+            Some(Err(err)) => {
+                app.notice = Some(format!("The autosaved scene was not restored: {err}"))
+            }
+            None => {}
+        }
         app.fit_mask(app.settings.size);
+        let first = app.scene();
+        app.history.start(first);
         app.start_generate(&cc.egui_ctx);
         app
     }
@@ -248,6 +265,21 @@ impl StrahlerApp {
         self.blend.blocks = scene.blend.clone();
         self.blend.selected = None;
         self.dirty = true;
+    }
+
+    /// Replaces the document by a scene file's contents (refused with the bad field named,
+    /// keeping the current scene).
+    pub fn open_scene(&mut self, name: &str, bytes: &[u8]) {
+        let scene = std::str::from_utf8(bytes)
+            .map_err(|_| "not a text file".to_owned())
+            .and_then(|text| Scene::from_json(text).map_err(|e| e.to_string()));
+        match scene {
+            Ok(scene) => {
+                self.load_scene(&scene);
+                self.notice = Some(format!("Opened {name}"));
+            }
+            Err(err) => self.set_error(format!("{name}: {err}")),
+        }
     }
 
     /// The sketched ridges, valleys and peaks.
@@ -413,6 +445,9 @@ impl StrahlerApp {
                     mirror,
                     z_scale,
                 } => self.place_block(ctx, window, Some(rect), quarter_turns, mirror, z_scale),
+                Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
+                Command::Undo => self.undo(),
+                Command::Redo => self.redo(),
                 Command::MoveBlock { index, rect } => match self.blend.blocks.get_mut(index) {
                     Some(block) => {
                         block.rect = rect;
@@ -426,6 +461,7 @@ impl StrahlerApp {
                 },
             }
         }
+        self.track_history(ctx);
         if self.dirty {
             self.start_generate(ctx);
         }
@@ -451,6 +487,9 @@ impl StrahlerApp {
             match bytes {
                 Ok(bytes) if target == detail::ImportTarget::Mask => {
                     self.import_mask(ctx, &name, &bytes)
+                }
+                Ok(bytes) if target == detail::ImportTarget::Scene => {
+                    self.open_scene(&name, &bytes)
                 }
                 Ok(bytes) => self.load_dem(ctx, &name, bytes),
                 Err(err) => self.set_error(format!("{name}: {err}")),
@@ -548,6 +587,22 @@ impl eframe::App for StrahlerApp {
             });
             if ctx.input(|i| i.key_pressed(egui::Key::U)) {
                 blend::upload(self);
+            }
+            if ctx.input(|i| i.key_pressed(egui::Key::E)) {
+                self.export.open = true;
+            }
+            let (undo, redo) = ctx.input_mut(|i| {
+                let redo = i.consume_key(
+                    egui::Modifiers::COMMAND | egui::Modifiers::SHIFT,
+                    egui::Key::Z,
+                ) || i.consume_key(egui::Modifiers::COMMAND, egui::Key::Y);
+                (i.consume_key(egui::Modifiers::COMMAND, egui::Key::Z), redo)
+            });
+            if undo {
+                self.undo();
+            }
+            if redo {
+                self.redo();
             }
         }
         status_bar::show(ui, self);

@@ -106,6 +106,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.add_space(6.0);
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
+                document_row(ui, app);
                 ui.separator();
                 let before = app.settings.clone();
                 rivers_section(ui, app);
@@ -122,7 +123,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 super::blend::section(ui, app);
                 ui.separator();
                 if ui
-                    .button("Export heightmap...")
+                    .button("Export heightmap... (E)")
                     .on_hover_text("PNG 16-bit, GeoTIFF, RAW R16, ESRI ASCII, SRTM .hgt or OBJ")
                     .clicked()
                 {
@@ -132,6 +133,50 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 selftest_section(ui, app);
             });
         });
+}
+
+/// Undo, redo, save and open: the document.
+fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.horizontal_wrapped(|ui| {
+        if ui
+            .add_enabled(app.history.can_undo(), egui::Button::new("Undo"))
+            .on_hover_text("Ctrl+Z")
+            .clicked()
+        {
+            app.undo();
+        }
+        if ui
+            .add_enabled(app.history.can_redo(), egui::Button::new("Redo"))
+            .on_hover_text("Ctrl+Shift+Z or Ctrl+Y")
+            .clicked()
+        {
+            app.redo();
+        }
+        if ui
+            .button("Save scene")
+            .on_hover_text("The whole document as JSON (rivers, sketch, parameters, mask, blocks)")
+            .clicked()
+        {
+            let json = app.scene().to_json();
+            match super::files::save("strahler-scene.json", "application/json", json.as_bytes()) {
+                Ok(said) => app.notice = Some(format!("Scene {said}")),
+                Err(err) => app.set_error(err),
+            }
+        }
+        #[cfg(target_arch = "wasm32")]
+        if ui
+            .button("Open scene...")
+            .on_hover_text("A scene saved before; or drop the .json file on the map")
+            .clicked()
+        {
+            let automation = app.automation.clone();
+            if let Err(err) = super::files::pick_file(".json", move |name, bytes| {
+                automation.push(super::Command::OpenScene { name, bytes });
+            }) {
+                app.set_error(err);
+            }
+        }
+    });
 }
 
 fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {

@@ -14,8 +14,11 @@
 //! - `fillVoids()`: harmonic fill of the uploaded DEM's no-data cells.
 //! - `placeBlock({window: [row, col, height, width], rect: [x0, y0, x1, y1], quarterTurns,
 //!   mirror, zScale})`: blends a window of the DEM into the map; `moveBlock(index, rect)`.
-//! - `exportHeightmap(format, {size, flipY, zScale})`: the terrain on the map as a file's
-//!   bytes (`Uint8Array`); `format` is png, tif, r16, asc, hgt or obj.
+//! - `exportHeightmap(format, {size, flipY, zScale})`: a promise of the terrain on the map
+//!   as a file's bytes (`Uint8Array`); `format` is png, tif, r16, asc, hgt or obj.
+//! - `undo()`, `redo()`: one step of the document's history.
+//! - `generate({size})`: a promise of the report `strahler generate --report` writes, for the
+//!   current scene at `size` (the map is not changed).
 
 use wasm_bindgen::prelude::*;
 
@@ -193,42 +196,98 @@ pub(super) fn install(automation: &Automation) {
     move_block.forget();
 
     let export_source = automation.clone();
-    let export = Closure::<dyn Fn(String, JsValue) -> Result<js_sys::Uint8Array, JsValue>>::new(
+    let export = Closure::<dyn Fn(String, JsValue) -> js_sys::Promise>::new(
         move |format: String, options: JsValue| {
-            let fmt = crate::dem::format::Format::from_key(&format).ok_or_else(|| {
-                error(format!(
-                    "unknown format {format:?}: use png, tif, r16, asc, hgt or obj"
-                ))
-            })?;
-            let o: ExportOptions = if options.is_undefined() || options.is_null() {
-                ExportOptions::default()
-            } else {
-                serde_json::from_str(&json_text(&options)?).map_err(|e| {
-                    error(format!(
-                        "exportHeightmap options {{size, flipY, zScale}}: {e}"
-                    ))
-                })?
-            };
-            let (field, cell) = export_source
-                .terrain()
-                .ok_or_else(|| error("there is no terrain yet"))?;
-            let out = crate::app::encode_heightmap(
-                &field,
-                cell,
-                fmt,
-                o.size,
-                o.flip_y,
-                o.z_scale.unwrap_or(1.0),
-            )
-            .map_err(error)?;
-            Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))
+            let bytes = export_bytes(&export_source, &format, &options);
+            match bytes {
+                Ok(bytes) => js_sys::Promise::resolve(&JsValue::from(bytes)),
+                Err(err) => js_sys::Promise::reject(&err),
+            }
         },
     );
     set(&api, "exportHeightmap", export.as_ref());
     export.forget();
 
+    let undo_target = automation.clone();
+    let undo = Closure::<dyn Fn()>::new(move || undo_target.push(Command::Undo));
+    set(&api, "undo", undo.as_ref());
+    undo.forget();
+    let redo_target = automation.clone();
+    let redo = Closure::<dyn Fn()>::new(move || redo_target.push(Command::Redo));
+    set(&api, "redo", redo.as_ref());
+    redo.forget();
+
+    let generate_source = automation.clone();
+    let generate = Closure::<dyn Fn(JsValue) -> js_sys::Promise>::new(move |options: JsValue| {
+        let automation = generate_source.clone();
+        let size = js_sys::Reflect::get(&options, &JsValue::from_str("size"))
+            .ok()
+            .and_then(|v| v.as_f64());
+        wasm_bindgen_futures::future_to_promise(async move {
+            let path = automation
+                .compute_path()
+                .ok_or_else(|| error("Strahler has not started yet"))?;
+            let mut scene = automation
+                .scene()
+                .ok_or_else(|| error("Strahler has not started yet"))?;
+            if let Some(size) = size {
+                scene.size = size as usize;
+            }
+            scene.validate().map_err(error)?;
+            let backend = crate::compute::BackendChoice::Auto
+                .resolve(&path)
+                .map_err(error)?;
+            let generated = crate::terrain::generate(
+                &scene.strokes(),
+                &scene.terrain_params(),
+                &backend,
+                &JobCtx::detached(),
+            )
+            .await
+            .map_err(error)?;
+            Ok(to_js(&generated.report))
+        })
+    });
+    set(&api, "generate", generate.as_ref());
+    generate.forget();
+
     set(&api, "version", &JsValue::from_str(crate::VERSION));
     set(&window, "strahler", &api);
+}
+
+/// `exportHeightmap`'s work: the terrain on the map encoded as `format`.
+fn export_bytes(
+    export_source: &Automation,
+    format: &str,
+    options: &JsValue,
+) -> Result<js_sys::Uint8Array, JsValue> {
+    let fmt = crate::dem::format::Format::from_key(format).ok_or_else(|| {
+        error(format!(
+            "unknown format {format:?}: use png, tif, r16, asc, hgt or obj"
+        ))
+    })?;
+    let o: ExportOptions = if options.is_undefined() || options.is_null() {
+        ExportOptions::default()
+    } else {
+        serde_json::from_str(&json_text(options)?).map_err(|e| {
+            error(format!(
+                "exportHeightmap options {{size, flipY, zScale}}: {e}"
+            ))
+        })?
+    };
+    let (field, cell) = export_source
+        .terrain()
+        .ok_or_else(|| error("there is no terrain yet"))?;
+    let out = crate::app::encode_heightmap(
+        &field,
+        cell,
+        fmt,
+        o.size,
+        o.flip_y,
+        o.z_scale.unwrap_or(1.0),
+    )
+    .map_err(error)?;
+    Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))
 }
 
 fn set(target: &JsValue, name: &str, value: &JsValue) {

@@ -204,14 +204,14 @@ async function runMode(url, mode, expectedChecksum) {
     check('placeBlock() blends the DEM block into the terrain', blend.blocks === 1 && blend.converged
       && blend.backend === (mode === 'webgpu' ? 'gpu' : 'cpu'), JSON.stringify(blend));
     check('the block is saved in the scene', (await page.evaluate(() => window.strahler.scene().blend.length)) === 1);
-    const exported = await page.evaluate(() => {
+    const exported = await page.evaluate(async () => {
       const head = (b) => Array.from(b.slice(0, 24));
-      const png = window.strahler.exportHeightmap('png');
-      const r16 = window.strahler.exportHeightmap('r16', { size: 257, flipY: true });
-      const tif = window.strahler.exportHeightmap('tif');
-      const obj = new TextDecoder().decode(window.strahler.exportHeightmap('obj', { size: 65 }));
+      const png = await window.strahler.exportHeightmap('png');
+      const r16 = await window.strahler.exportHeightmap('r16', { size: 257, flipY: true });
+      const tif = await window.strahler.exportHeightmap('tif');
+      const obj = new TextDecoder().decode(await window.strahler.exportHeightmap('obj', { size: 65 }));
       let bad = null;
-      try { window.strahler.exportHeightmap('bmp'); } catch (e) { bad = String(e); }
+      try { await window.strahler.exportHeightmap('bmp'); } catch (e) { bad = String(e); }
       return { png: head(png), r16: r16.length, tif: head(tif),
         objVertices: obj.split('\n').filter((l) => l.startsWith('v ')).length, bad,
         width: window.strahler.status().terrain.width };
@@ -225,6 +225,67 @@ async function runMode(url, mode, expectedChecksum) {
       || Buffer.from(exported.tif).subarray(0, 4).toString('hex') === '4d4d002a');
     check('exportHeightmap(obj, {size: 65}) has 65 x 65 vertices', exported.objVertices === 65 * 65);
     check('exportHeightmap() names an unknown format', exported.bad !== null && exported.bad.includes('unknown format'));
+    // The editor with the mouse: draw a river on the canvas, undo and redo it, download a
+    // 16-bit PNG through the export dialog, and find the scene again after a reload.
+    const rivers = () => page.evaluate(() => window.strahler.scene().rivers.length);
+    const riversBefore = await rivers();
+    const lastChecksum = () => page.evaluate(() => window.strahler.status().lastRun?.checksum);
+    const oldChecksum = await lastChecksum();
+    await page.mouse.click(900, 400);
+    await page.keyboard.press('r');
+    await page.mouse.move(1050, 250);
+    await page.mouse.down();
+    for (let k = 1; k <= 10; k += 1) await page.mouse.move(1050 - 15 * k, 250 + 5 * k);
+    await page.mouse.up();
+    await page.waitForFunction((n) => window.strahler.scene().rivers.length === n + 1, riversBefore, { timeout: 20_000 })
+      .catch(() => null);
+    check('a river drawn with the mouse on the canvas is added', (await rivers()) === riversBefore + 1);
+    await page.waitForFunction((old) => {
+      const s = window.strahler.status();
+      return s.job === null && s.lastRun !== null && s.lastRun.checksum !== old;
+    }, oldChecksum, { timeout: 120_000 }).catch(() => null);
+    check('the drawn river regenerates the terrain', (await lastChecksum()) !== oldChecksum);
+    await page.evaluate(() => window.strahler.undo());
+    await page.waitForFunction((n) => window.strahler.scene().rivers.length === n, riversBefore, { timeout: 20_000 })
+      .catch(() => null);
+    check('undo() removes the drawn river', (await rivers()) === riversBefore);
+    await page.evaluate(() => window.strahler.redo());
+    await page.waitForFunction((n) => window.strahler.scene().rivers.length === n + 1, riversBefore, { timeout: 20_000 })
+      .catch(() => null);
+    check('redo() brings it back', (await rivers()) === riversBefore + 1);
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
+    await page.mouse.click(900, 400);
+    await page.keyboard.press('e');
+    await page.waitForTimeout(500);
+    const [download] = await Promise.all([
+      page.waitForEvent('download', { timeout: 20_000 }).catch(() => null),
+      page.keyboard.press('Enter'),
+    ]);
+    let pngInfo = null;
+    if (download !== null) {
+      const saved = join(output, `${mode}-${download.suggestedFilename()}`);
+      await download.saveAs(saved);
+      const bytes = readFileSync(saved);
+      // IHDR: width, height, bit depth; tEXt strahler:z_range = "min,max".
+      const text = bytes.toString('latin1');
+      const at = text.indexOf('strahler:z_range');
+      const range = at >= 0 ? text.slice(at + 17, at + 60).split(/[^0-9.,-]/)[0].split(',').map(Number) : null;
+      pngInfo = { name: download.suggestedFilename(), width: bytes.readUInt32BE(16),
+        height: bytes.readUInt32BE(20), depth: bytes[24], range };
+    }
+    const terrainSize = await page.evaluate(() => window.strahler.status().terrain.width);
+    check('the export dialog downloads a 16-bit PNG of the terrain with real relief',
+      pngInfo !== null && pngInfo.name.endsWith('.png') && pngInfo.width === terrainSize
+        && pngInfo.height === terrainSize && pngInfo.depth === 16 && pngInfo.range !== null
+        && pngInfo.range[1] - pngInfo.range[0] > 100, JSON.stringify(pngInfo));
+    await page.keyboard.press('Escape');
+    const sceneBefore = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
+    await page.waitForTimeout(2500); // autosave runs every 2 s
+    await page.reload();
+    await page.waitForFunction(() => window.strahler?.status().ready === true, null, { timeout: 90_000 });
+    await page.waitForFunction(() => window.strahler.scene() !== null, null, { timeout: 30_000 });
+    const sceneAfter = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
+    check('a reload restores the autosaved scene', sceneAfter === sceneBefore, `${sceneBefore} vs ${sceneAfter}`);
     await page.screenshot({ path: join(output, `${mode}.png`) });
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
     if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);
