@@ -423,3 +423,55 @@ fn undo_and_redo_walk_the_edits() {
     let status = harness.state().automation().status();
     assert_eq!((status.undo, status.redo), (2, 0));
 }
+
+/// The Select tool: click a drawn river to select it, drag it to move it (the terrain
+/// regenerates), Delete removes it; each is an undo step.
+#[test]
+fn select_tool_moves_and_deletes_a_river() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+    harness.key_press(egui::Key::R);
+    harness.run_steps(2);
+    let (a, b) = (egui::pos2(1150.0, 250.0), egui::pos2(900.0, 300.0));
+    drag(&mut harness, a, b);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().strokes().len(), 2);
+    let drawn = harness.state().strokes()[1];
+
+    harness.key_press(egui::Key::S);
+    harness.run_steps(2);
+    assert_eq!(harness.state().tool(), strahler::app::Tool::Select);
+    let middle = a + (b - a) * 0.5;
+    drag(&mut harness, middle, middle + egui::vec2(0.0, 120.0));
+    wait_idle(&mut harness);
+    let moved = harness.state().strokes()[1];
+    assert!(
+        moved.estuary.y > drawn.estuary.y + 0.05 && moved.toward.y > drawn.toward.y + 0.05,
+        "{drawn:?} -> {moved:?}"
+    );
+    assert!((moved.estuary.x - drawn.estuary.x).abs() < 1e-3);
+    assert_eq!(
+        harness.state().strokes()[0],
+        strahler::app::default_stroke()
+    );
+
+    // Click it (selects), Delete removes it.
+    let spot = middle + egui::vec2(0.0, 120.0);
+    harness.hover_at(spot);
+    harness.step();
+    harness.drag_at(spot);
+    harness.drop_at(spot);
+    harness.run_steps(2);
+    harness.key_press(egui::Key::Delete);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().strokes().len(), 1);
+    harness.key_press_modifiers(egui::Modifiers::COMMAND, egui::Key::Z);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().strokes().len(), 2, "the delete is undone");
+    assert_eq!(harness.state().strokes()[1], moved);
+}

@@ -285,6 +285,10 @@ impl StrahlerApp {
         let cell = MAP_WIDTH_M / size.saturating_sub(1).max(1) as f32;
         self.automation
             .set_terrain(Arc::new(field.clone()), f64::from(cell));
+        if let Some((lo, hi)) = field.finite_range() {
+            let interval = super::layers::contour_interval(hi - lo);
+            self.overlay.contours = super::layers::contours(&field, interval);
+        }
         self.map.set_field(ctx, field, MAP_WIDTH_M / size as f32);
     }
 

@@ -237,7 +237,7 @@ impl StrahlerApp {
         match Mask::from_png(bytes, crate::dem::ReadLimits::default()) {
             Ok(mask) => {
                 self.set_mask(ctx, mask);
-                self.show_mask = true;
+                self.layers.mask = true;
                 self.notice = Some(format!("Mask imported from {name}"));
             }
             Err(err) => self.set_error(format!("{name}: {err}")),
@@ -292,7 +292,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 
     ui.horizontal_wrapped(|ui| {
         ui.selectable_value(&mut app.tool, Tool::Mask, "Paint mask (M)");
-        ui.checkbox(&mut app.show_mask, "show mask");
+        ui.checkbox(&mut app.layers.mask, "show mask");
     });
     if app.tool == Tool::Mask {
         egui::Grid::new("brush settings")
@@ -324,7 +324,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             .clicked()
         {
             app.mask_from_rivers(&ctx);
-            app.show_mask = true;
+            app.layers.mask = true;
         }
         if ui.button("Clear mask").clicked()
             && let Ok(mask) = Mask::new(app.settings.size, app.settings.size)

@@ -18,6 +18,8 @@ pub struct ExportDialog {
     pub size: Option<usize>,
     pub flip_y: bool,
     pub z_scale: f32,
+    /// Also download the skeleton's layers (rivers, ridges, constraints) as PNGs.
+    pub layers: bool,
 }
 
 impl Default for ExportDialog {
@@ -28,6 +30,7 @@ impl Default for ExportDialog {
             size: None,
             flip_y: false,
             z_scale: 1.0,
+            layers: false,
         }
     }
 }
@@ -108,6 +111,12 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
                             .speed(0.01),
                     );
                     ui.end_row();
+                    ui.label("Layers").on_hover_text(
+                        "Also rivers.png (Strahler order), ridges.png and constraints.png, \
+                         8-bit, at the generated terrain's size",
+                    );
+                    ui.checkbox(&mut d.layers, "");
+                    ui.end_row();
                 });
             if d.format == Format::Obj && d.size.unwrap_or(native) > 2049 {
                 ui.label(
@@ -142,6 +151,15 @@ fn export_now(app: &mut StrahlerApp) {
                 json.as_bytes(),
             )?;
             said.push_str(" and its .json");
+        }
+        if d.layers
+            && let Some(skeleton) = &app.skeleton
+        {
+            let pngs = crate::terrain::layer_pngs(skeleton).map_err(|e| e.to_string())?;
+            for (name, png) in &pngs {
+                super::files::save(&format!("strahler-{name}"), "image/png", png)?;
+            }
+            said.push_str(" with the layers");
         }
         Ok(said)
     });

@@ -33,6 +33,8 @@ pub enum Tool {
     Mask,
     /// Move a blended DEM block (drag it) or resize it (drag its corner handle).
     Block,
+    /// Select a river, sketch line or peak (click), move it (drag), delete it (Delete).
+    Select,
 }
 
 impl Tool {
@@ -57,10 +59,18 @@ pub struct Overlay {
     pub show_rivers: bool,
     pub show_ridges: bool,
     pub show_mask: bool,
+    pub show_relief: bool,
+    pub show_constraints: bool,
+    pub show_blocks: bool,
+    /// Contour segments (map units), drawn when `show_contours`.
+    pub contours: Vec<(Pos2, Pos2)>,
+    pub show_contours: bool,
     /// Brush radius in map units, drawn around the pointer with the mask tool.
     pub brush_radius: Option<f32>,
     /// Blended DEM blocks (map units) and whether each is the selected one.
     pub blocks: Vec<(Rect, bool)>,
+    /// The selected vector item's points, highlighted.
+    pub selected: Vec<Pos2>,
 }
 
 /// A drag with the block tool, in map units.
@@ -86,8 +96,12 @@ pub struct MapResponse {
     pub paint: Option<(Pos2, Pos2)>,
     /// The mask brush stroke ended this frame.
     pub paint_finished: bool,
-    /// A drag with the block tool.
+    /// A drag with the block or select tool.
     pub block_drag: Option<BlockDrag>,
+    /// A click with the select tool, in map units.
+    pub select_click: Option<Pos2>,
+    /// About 10 screen points in map units: how near a click must be to pick an item.
+    pub pick_tolerance: f32,
 }
 
 /// What the pointer is over.
@@ -116,6 +130,7 @@ pub struct MapView {
     /// Start of the block drag in progress (map units).
     block_from: Option<Pos2>,
     mask_texture: Option<TextureHandle>,
+    constraints_texture: Option<TextureHandle>,
 }
 
 impl MapView {
@@ -155,6 +170,17 @@ impl MapView {
         }
     }
 
+    /// The skeleton's cells as an overlay image.
+    pub fn set_constraints(&mut self, ctx: &egui::Context, image: egui::ColorImage) {
+        match &mut self.constraints_texture {
+            Some(texture) => texture.set(image, TextureOptions::NEAREST),
+            None => {
+                self.constraints_texture =
+                    Some(ctx.load_texture("constraints", image, TextureOptions::NEAREST));
+            }
+        }
+    }
+
     /// Back to the whole map, centred.
     pub fn reset(&mut self) {
         self.center = None;
@@ -177,13 +203,15 @@ impl MapView {
 
         let lines = tool.draws_lines();
         let painting = tool == Tool::Mask;
-        let blocks = tool == Tool::Block;
+        let blocks = matches!(tool, Tool::Block | Tool::Select);
         let drawing =
             (lines || painting || blocks) && response.dragged_by(egui::PointerButton::Primary);
         let mut block_drag = None;
         if blocks {
             if response.drag_started_by(egui::PointerButton::Primary) {
-                self.block_from = response.interact_pointer_pos().map(to_map);
+                // Where the button went down, not where the drag was recognised.
+                let origin = ui.input(|i| i.pointer.press_origin());
+                self.block_from = origin.or(response.interact_pointer_pos()).map(to_map);
             }
             if let Some(from) = self.block_from {
                 let finished = response.drag_stopped();
@@ -216,6 +244,9 @@ impl MapView {
         {
             self.press_at = Some(p);
         }
+        let select_click = (tool == Tool::Select && response.clicked())
+            .then(|| self.press_at.map(to_map))
+            .flatten();
         let clicked = (tool == Tool::Peak && response.clicked())
             .then(|| self.press_at.map(to_map))
             .flatten()
@@ -256,7 +287,21 @@ impl MapView {
         match &self.texture {
             Some(texture) => {
                 let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
-                painter.image(texture.id(), map_rect, uv, Color32::WHITE);
+                if overlay.show_relief {
+                    painter.image(texture.id(), map_rect, uv, Color32::WHITE);
+                } else {
+                    painter.rect_filled(map_rect, 0.0, Color32::from_gray(235));
+                }
+                if let (true, Some(points)) = (overlay.show_constraints, &self.constraints_texture)
+                {
+                    painter.image(points.id(), map_rect, uv, Color32::WHITE);
+                }
+                if overlay.show_contours {
+                    let line = Stroke::new(0.8, Color32::from_rgba_unmultiplied(60, 40, 20, 170));
+                    for (a, b) in &overlay.contours {
+                        painter.line_segment([to_screen(*a), to_screen(*b)], line);
+                    }
+                }
                 if let (true, Some(mask)) = (overlay.show_mask, &self.mask_texture) {
                     painter.image(mask.id(), map_rect, uv, Color32::WHITE);
                 }
@@ -311,7 +356,12 @@ impl MapView {
                 Stroke::new(1.0, Color32::WHITE),
             ));
         }
-        for (block, selected) in &overlay.blocks {
+        let blocks: &[(Rect, bool)] = if overlay.show_blocks {
+            &overlay.blocks
+        } else {
+            &[]
+        };
+        for (block, selected) in blocks {
             let r = Rect::from_min_max(to_screen(block.min), to_screen(block.max));
             let color = if *selected {
                 Color32::from_rgb(255, 235, 60)
@@ -322,6 +372,15 @@ impl MapView {
             if *selected {
                 // The resize handle at the south-east corner.
                 painter.rect_filled(Rect::from_center_size(r.max, Vec2::splat(10.0)), 1.0, color);
+            }
+        }
+        if !overlay.selected.is_empty() {
+            let halo = Stroke::new(5.0, Color32::from_rgba_unmultiplied(255, 255, 255, 200));
+            let screen: Vec<Pos2> = overlay.selected.iter().map(|p| to_screen(*p)).collect();
+            if let [only] = screen.as_slice() {
+                painter.circle_stroke(*only, 9.0, halo);
+            } else {
+                painter.add(egui::Shape::line(screen, halo));
             }
         }
         let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
@@ -351,6 +410,8 @@ impl MapView {
             paint,
             paint_finished,
             block_drag,
+            select_click,
+            pick_tolerance: 10.0 / scale,
         }
     }
 

@@ -9,8 +9,10 @@ mod detail;
 mod export;
 mod files;
 mod history;
+mod layers;
 mod map_view;
 mod relief;
+mod select;
 mod side_panel;
 mod status_bar;
 
@@ -84,7 +86,13 @@ pub struct StrahlerApp {
     /// The energy-reduction mask, at the terrain's size.
     mask: crate::wavelet::Mask,
     brush: crate::wavelet::Brush,
-    show_mask: bool,
+    /// Which map layers are drawn.
+    layers: layers::Layers,
+    /// The last generated skeleton (for the layer images of the export dialog).
+    skeleton: Option<crate::skeleton::Skeleton>,
+    /// The vector item the Select tool picked, and whether it is being dragged.
+    selected: Option<select::Item>,
+    moving: bool,
     /// The generated terrain before detail, and its rivers (for the mask from rivers).
     base: Option<crate::heightfield::Heightfield>,
     rivers: Vec<crate::river::GrownRiver>,
@@ -146,7 +154,10 @@ impl StrahlerApp {
             detail: Default::default(),
             mask: crate::wavelet::Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
             brush: Default::default(),
-            show_mask: true,
+            layers: Default::default(),
+            skeleton: None,
+            selected: None,
+            moving: false,
             base: None,
             rivers: Vec::new(),
             detail_job: None,
@@ -413,6 +424,10 @@ impl StrahlerApp {
             .iter()
             .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
             .collect();
+        let n = g.terrain.width();
+        let image = layers::constraints_image(&g.skeleton.kinds, n, g.terrain.height());
+        self.map.set_constraints(ctx, image);
+        self.skeleton = Some(g.skeleton.clone());
         self.rivers = g.rivers;
         self.base = Some(g.terrain);
         self.fit_mask(size);
@@ -584,12 +599,22 @@ impl eframe::App for StrahlerApp {
                 if i.key_pressed(egui::Key::B) {
                     self.tool = Tool::Block;
                 }
+                if i.key_pressed(egui::Key::S) {
+                    self.tool = Tool::Select;
+                }
             });
             if ctx.input(|i| i.key_pressed(egui::Key::U)) {
                 blend::upload(self);
             }
             if ctx.input(|i| i.key_pressed(egui::Key::E)) {
                 self.export.open = true;
+            }
+            if self.selected.is_some()
+                && ctx.input(|i| {
+                    i.key_pressed(egui::Key::Delete) || i.key_pressed(egui::Key::Backspace)
+                })
+            {
+                self.delete_selected();
             }
             let (undo, redo) = ctx.input_mut(|i| {
                 let redo = i.consume_key(
@@ -608,10 +633,20 @@ impl eframe::App for StrahlerApp {
         status_bar::show(ui, self);
         side_panel::show(ui, self);
         export::window(&ctx, self);
-        self.overlay.show_rivers = self.settings.show_rivers;
-        self.overlay.show_ridges = self.settings.show_ridges;
-        self.overlay.show_mask = self.show_mask || self.tool == Tool::Mask;
+        let l = self.layers;
+        self.overlay.show_rivers = l.rivers;
+        self.overlay.show_ridges = l.ridges;
+        self.overlay.show_mask = l.mask || self.tool == Tool::Mask;
+        self.overlay.show_relief = l.relief;
+        self.overlay.show_contours = l.contours;
+        self.overlay.show_constraints = l.constraints;
+        self.overlay.show_blocks = l.blocks || self.tool == Tool::Block;
         self.overlay.brush_radius = Some(self.brush.radius / self.mask.width().max(2) as f32);
+        self.overlay.selected = if self.tool == Tool::Select {
+            self.selected_points()
+        } else {
+            Vec::new()
+        };
         self.overlay.blocks = self
             .blend
             .blocks
@@ -663,7 +698,14 @@ impl eframe::App for StrahlerApp {
                 self.finish_mask_stroke(&ctx);
             }
             if let Some(drag) = response.block_drag {
-                self.drag_block(&ctx, drag);
+                if self.tool == Tool::Select {
+                    self.drag_item(drag, response.pick_tolerance);
+                } else {
+                    self.drag_block(&ctx, drag);
+                }
+            }
+            if let Some(at) = response.select_click {
+                self.select_at(at, response.pick_tolerance);
             }
             let d = |q: egui::Pos2| DVec2::new(f64::from(q.x), f64::from(q.y));
             if let Some((a, b)) = response.new_stroke {

@@ -37,8 +37,6 @@ pub struct FillSettings {
     pub backend: BackendChoice,
     /// Post-filters of the filled terrain.
     pub post: crate::diffusion::PostFilter,
-    pub show_rivers: bool,
-    pub show_ridges: bool,
 }
 
 impl Default for FillSettings {
@@ -58,8 +56,6 @@ impl Default for FillSettings {
             sweeps: 5500,
             backend: BackendChoice::Auto,
             post: Default::default(),
-            show_rivers: true,
-            show_ridges: false,
         }
     }
 }
@@ -107,6 +103,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
                 document_row(ui, app);
+                super::layers::section(ui, &mut app.layers);
                 ui.separator();
                 let before = app.settings.clone();
                 rivers_section(ui, app);
@@ -187,6 +184,10 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.horizontal_wrapped(|ui| {
         ui.selectable_value(&mut app.tool, Tool::Pan, "Pan (P)");
         ui.selectable_value(&mut app.tool, Tool::River, "Draw river (R)");
+        ui.selectable_value(&mut app.tool, Tool::Select, "Select (S)")
+            .on_hover_text(
+                "Click a river, sketch line or peak; drag to move it; Delete removes it",
+            );
     });
     ui.horizontal_wrapped(|ui| {
         ui.label("Sketch:").on_hover_text(
@@ -252,10 +253,6 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     if changed {
         app.dirty = true;
     }
-    ui.horizontal(|ui| {
-        ui.checkbox(&mut app.settings.show_rivers, "show rivers");
-        ui.checkbox(&mut app.settings.show_ridges, "show ridges");
-    });
 }
 
 fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {

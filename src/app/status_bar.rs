@@ -29,6 +29,9 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 super::Tool::Valley => "Tool: sketch valley (V) - drag from its mouth upwards",
                 super::Tool::Peak => "Tool: sketch peak (K) - click",
                 super::Tool::Mask => "Tool: paint mask (M) - drag; white keeps the detail smooth",
+                super::Tool::Select => {
+                    "Tool: select (S) - click an item, drag to move it, Delete removes it"
+                }
                 super::Tool::Block => {
                     "Tool: move blocks (B) - drag a block; drag its corner to resize"
                 }

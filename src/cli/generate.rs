@@ -6,11 +6,10 @@ use clap::Args;
 use glam::DVec2;
 
 use crate::compute::BackendChoice;
-use crate::dem::{self, GeoRef};
+use crate::dem::GeoRef;
 use crate::jobs::JobCtx;
 use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene};
-use crate::skeleton::CellKind;
 use crate::terrain;
 
 #[derive(Debug, Args)]
@@ -229,29 +228,9 @@ fn write_heightmap(
 
 fn write_layers(dir: &Path, g: &terrain::Generated) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    let n = g.skeleton.size;
-    let kinds = &g.skeleton.kinds;
-    let layers: [(&str, Vec<u8>); 3] = [
-        ("rivers.png", g.skeleton.river_order.clone()),
-        (
-            "ridges.png",
-            kinds
-                .iter()
-                .map(|k| if *k == CellKind::Ridge { 255 } else { 0 })
-                .collect(),
-        ),
-        (
-            "constraints.png",
-            kinds
-                .iter()
-                .map(|k| if *k == CellKind::Free { 0 } else { 255 })
-                .collect(),
-        ),
-    ];
-    for (name, values) in layers {
+    for (name, png) in terrain::layer_pngs(&g.skeleton)? {
         let path = dir.join(name);
-        std::fs::write(&path, dem::png16::write_grey8(n, n, &values)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        std::fs::write(&path, png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     Ok(())
 }

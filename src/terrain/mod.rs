@@ -125,6 +125,30 @@ pub struct Generated {
     pub report: TerrainReport,
 }
 
+/// The skeleton's layers as 8-bit PNGs: `rivers.png` (value = Strahler order),
+/// `ridges.png` (255 on ridge cells) and `constraints.png` (255 on every fixed cell).
+pub fn layer_pngs(
+    skeleton: &Skeleton,
+) -> Result<Vec<(&'static str, Vec<u8>)>, crate::dem::DemError> {
+    let n = skeleton.size;
+    let kinds = &skeleton.kinds;
+    let mask = |keep: &dyn Fn(&CellKind) -> bool| -> Vec<u8> {
+        kinds
+            .iter()
+            .map(|k| if keep(k) { 255 } else { 0 })
+            .collect()
+    };
+    let layers = [
+        ("rivers.png", skeleton.river_order.clone()),
+        ("ridges.png", mask(&|k| *k == CellKind::Ridge)),
+        ("constraints.png", mask(&|k| *k != CellKind::Free)),
+    ];
+    layers
+        .into_iter()
+        .map(|(name, values)| Ok((name, crate::dem::png16::write_grey8(n, n, &values)?)))
+        .collect()
+}
+
 /// A stage's seed: the scene seed mixed with the stage name (FNV-1a).
 pub fn stage_seed(seed: u64, stage: &str) -> u64 {
     stage.bytes().fold(seed ^ 0xcbf2_9ce4_8422_2325, |h, b| {
