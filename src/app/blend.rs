@@ -88,7 +88,9 @@ impl Default for BlendState {
 
 /// Heights of `field` in the window `[row, col, height, width]`.
 fn crop(field: &Heightfield, [row, col, h, w]: [usize; 4]) -> Option<Heightfield> {
-    if h == 0 || w == 0 || row + h > field.height() || col + w > field.width() {
+    let fits = row.checked_add(h).is_some_and(|r| r <= field.height())
+        && col.checked_add(w).is_some_and(|c| c <= field.width());
+    if h == 0 || w == 0 || !fits {
         return None;
     }
     let data = (row..row + h)
