@@ -475,3 +475,34 @@ fn select_tool_moves_and_deletes_a_river() {
     assert_eq!(harness.state().strokes().len(), 2, "the delete is undone");
     assert_eq!(harness.state().strokes()[1], moved);
 }
+
+/// With Preview on (the default), edits of a map larger than 512 x 512 regenerate at 512;
+/// Generate full size makes the real one; the mask keeps the full resolution throughout.
+#[test]
+fn large_maps_edit_at_preview_size_and_generate_full_size_on_demand() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+    let mut scene = harness.state().scene();
+    scene.size = 1024;
+    harness.state_mut().load_scene(&scene);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().terrain().unwrap().width(), 512, "a preview");
+    assert_eq!(harness.state().mask().width(), 1024);
+    assert_eq!(
+        harness.state().scene().size,
+        1024,
+        "the document keeps its size"
+    );
+
+    harness
+        .get_by_label("Generate full size (1024 x 1024)")
+        .click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert_eq!(harness.state().terrain().unwrap().width(), 1024);
+    assert_eq!(harness.state().mask().width(), 1024);
+}

@@ -63,6 +63,7 @@ pub fn encode(
 /// Shows the dialog when open.
 pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
     let mut open = app.export.open;
+    let preview = app.showing_preview();
     let mut save = false;
     egui::Window::new("Export heightmap")
         .open(&mut open)
@@ -118,6 +119,16 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
                     ui.checkbox(&mut d.layers, "");
                     ui.end_row();
                 });
+            if preview {
+                ui.label(
+                    RichText::new(format!(
+                        "The map shows a {native} x {native} preview: generate the full size \
+                         first (Diffusion section) to export {0} x {0}.",
+                        app.settings.size
+                    ))
+                    .weak(),
+                );
+            }
             if d.format == Format::Obj && d.size.unwrap_or(native) > 2049 {
                 ui.label(
                     RichText::new("OBJ meshes are limited to 2049 x 2049: pick a smaller size")

@@ -35,6 +35,10 @@ use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene};
 use crate::terrain::{Generated, TerrainError};
 
+/// Side of the preview terrain: with Preview on, edits of a larger map regenerate at this
+/// size and the full size is generated on demand.
+pub const PREVIEW_SIZE: usize = 512;
+
 /// Width of the map in metres (sets the cell size for shading and readouts).
 pub const MAP_WIDTH_M: f32 = 10_000.0;
 
@@ -88,6 +92,11 @@ pub struct StrahlerApp {
     brush: crate::wavelet::Brush,
     /// Which map layers are drawn.
     layers: layers::Layers,
+    /// Edits of a map larger than [`PREVIEW_SIZE`] regenerate at that size (fast); the full
+    /// size is generated on demand.
+    preview: bool,
+    /// The next generation runs at the full size even with Preview on.
+    full_size_requested: bool,
     /// The last generated skeleton (for the layer images of the export dialog).
     skeleton: Option<crate::skeleton::Skeleton>,
     /// The vector item the Select tool picked, and whether it is being dragged.
@@ -155,6 +164,8 @@ impl StrahlerApp {
             mask: crate::wavelet::Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
             brush: Default::default(),
             layers: Default::default(),
+            preview: true,
+            full_size_requested: false,
             skeleton: None,
             selected: None,
             moving: false,
@@ -351,6 +362,9 @@ impl StrahlerApp {
         let strokes = self.strokes.clone();
         let mut params = self.settings.terrain();
         params.sketch = self.sketch.clone();
+        if self.preview && !std::mem::take(&mut self.full_size_requested) {
+            params.size = params.size.min(PREVIEW_SIZE);
+        }
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "terrain",
@@ -362,6 +376,19 @@ impl StrahlerApp {
             Ok(handle) => self.terrain_job = Some(handle),
             Err(err) => self.set_error(err.to_string()),
         }
+    }
+
+    /// Generates the terrain at the full grid size (with Preview on, edits use a smaller one).
+    pub fn generate_full_size(&mut self, ctx: &egui::Context) {
+        self.full_size_requested = true;
+        self.start_generate(ctx);
+    }
+
+    /// Whether the map shows a preview smaller than the chosen grid size.
+    pub fn showing_preview(&self) -> bool {
+        self.base
+            .as_ref()
+            .is_some_and(|b| b.width() < self.settings.size)
     }
 
     /// Runs the CPU/GPU self-test in the background.
@@ -430,7 +457,9 @@ impl StrahlerApp {
         self.skeleton = Some(g.skeleton.clone());
         self.rivers = g.rivers;
         self.base = Some(g.terrain);
-        self.fit_mask(size);
+        // The mask stays at the full size, whatever size this run had (it is resampled for
+        // the detail stage), so a preview never blurs what the user painted.
+        self.fit_mask(self.settings.size);
         self.map.set_mask(ctx, Some(&self.mask));
         self.start_detail(ctx);
         self.automation

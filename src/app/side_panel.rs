@@ -270,6 +270,13 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     }
                 });
             ui.end_row();
+            ui.label("Preview").on_hover_text(format!(
+                "Edits of a map larger than {0} x {0} regenerate at {0} x {0}; Generate full \
+                 size makes the real one.",
+                super::PREVIEW_SIZE
+            ));
+            ui.checkbox(&mut app.preview, format!("edit at {}", super::PREVIEW_SIZE));
+            ui.end_row();
             ui.label("Seed");
             ui.horizontal(|ui| {
                 ui.add(DragValue::new(&mut s.seed));
@@ -389,6 +396,14 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.horizontal(|ui| {
         if ui.button("Generate terrain").clicked() {
             app.start_generate(&ctx);
+        }
+        if app.preview
+            && app.settings.size > super::PREVIEW_SIZE
+            && ui
+                .button(format!("Generate full size ({0} x {0})", app.settings.size))
+                .clicked()
+        {
+            app.generate_full_size(&ctx);
         }
         if let Some(job) = &app.terrain_job
             && ui.button("Cancel").clicked()
