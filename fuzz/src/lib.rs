@@ -9,6 +9,15 @@ pub mod dem;
 /// The limits the fuzzers read with: 1 Mi cells (4 MiB as `f32`), so every input stays cheap.
 pub const LIMITS: dem::ReadLimits = dem::ReadLimits { max_cells: 1 << 20 };
 
+/// Whether two fields hold the same bits (any NaN equals any NaN: no-data is no-data).
+pub fn same_bits(a: &heightfield::Heightfield, b: &heightfield::Heightfield) -> bool {
+    a.data().len() == b.data().len()
+        && a.data()
+            .iter()
+            .zip(b.data())
+            .all(|(x, y)| x.to_bits() == y.to_bits() || (x.is_nan() && y.is_nan()))
+}
+
 /// Checks what every successful read promises: the size is within the limits and the field
 /// has exactly `width * height` values.
 pub fn check(dem: &dem::Dem) {

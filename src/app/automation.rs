@@ -81,7 +81,6 @@ pub struct TerrainStatus {
     pub height: usize,
     pub zmin: f32,
     pub zmax: f32,
-    pub checksum: String,
 }
 
 /// The levels of detail on the map, as scripts see them.
@@ -251,7 +250,6 @@ impl Automation {
             height: field.height(),
             zmin,
             zmax,
-            checksum: field.checksum(),
         };
         let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
         shared.terrain = Some((field, cell));

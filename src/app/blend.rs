@@ -168,18 +168,14 @@ impl StrahlerApp {
 
     /// Fills the DEM's voids by harmonic diffusion (the diffusion stage's solver), as a job.
     pub(super) fn fill_dem_voids(&mut self, ctx: &egui::Context) {
-        let Some(loaded) = &self.blend.dem else {
-            return;
-        };
-        if loaded.dem.void_cells() == 0 {
+        if self.blend.dem.as_ref().is_none_or(|l| l.dem.void_cells() == 0) {
             return;
         }
-        let backend = match self.settings.backend.resolve(&self.path) {
-            Ok(backend) => backend,
-            Err(err) => {
-                self.set_error(err.to_string());
-                return;
-            }
+        let Some(backend) = self.backend() else {
+            return;
+        };
+        let Some(loaded) = &self.blend.dem else {
+            return;
         };
         let problem = diffusion::void_problem(&loaded.dem.field);
         let repaint = ctx.clone();
@@ -307,12 +303,8 @@ impl StrahlerApp {
             self.show_final(ctx, detailed);
             return;
         }
-        let backend = match self.settings.backend.resolve(&self.path) {
-            Ok(backend) => backend,
-            Err(err) => {
-                self.set_error(err.to_string());
-                return;
-            }
+        let Some(backend) = self.backend() else {
+            return;
         };
         let blocks = self.blend.blocks.clone();
         let repaint = ctx.clone();

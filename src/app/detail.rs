@@ -89,12 +89,8 @@ impl StrahlerApp {
             self.set_detailed(ctx, base);
             return;
         }
-        let backend = match self.settings.backend.resolve(&self.path) {
-            Ok(backend) => backend,
-            Err(err) => {
-                self.set_error(err.to_string());
-                return;
-            }
+        let Some(backend) = self.backend() else {
+            return;
         };
         let params = self.detail.params(stage_seed(self.settings.seed, "detail"));
         if let Err(err) = synthesis::check(&base, &params) {

@@ -351,12 +351,8 @@ impl StrahlerApp {
             );
             return;
         }
-        let backend = match self.settings.backend.resolve(&self.path) {
-            Ok(backend) => backend,
-            Err(err) => {
-                self.set_error(err.to_string());
-                return;
-            }
+        let Some(backend) = self.backend() else {
+            return;
         };
         self.automation.set_scene(self.scene());
         let strokes = self.strokes.clone();
@@ -403,6 +399,18 @@ impl StrahlerApp {
         match spawned {
             Ok(handle) => self.selftest_job = Some(handle),
             Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// The backend the Diffusion section asks for, or `None` after telling the user why
+    /// there is none (the GPU was requested but does not compute).
+    fn backend(&mut self) -> Option<crate::compute::Backend> {
+        match self.settings.backend.resolve(&self.path) {
+            Ok(backend) => Some(backend),
+            Err(err) => {
+                self.set_error(err.to_string());
+                None
+            }
         }
     }
 
@@ -560,45 +568,28 @@ impl StrahlerApp {
             self.selftest_job = None;
             self.selftest = Some(result.map_err(|err| err.to_string()));
         }
-        let job = self
-            .terrain_job
-            .as_ref()
-            .map(|j| (j.name().to_owned(), j.progress(), j.message()))
-            .or_else(|| {
-                self.detail_job
-                    .as_ref()
-                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
-            })
-            .or_else(|| {
-                self.blend
-                    .job
-                    .as_ref()
-                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
-            })
-            .or_else(|| {
-                self.blend
-                    .fill_job
-                    .as_ref()
-                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
-            })
-            .or_else(|| {
-                self.selftest_job
-                    .as_ref()
-                    .map(|j| (j.name().to_owned(), j.progress(), j.message()))
-            });
-        self.automation.update(|s| {
-            s.job = job.map(|(name, progress, message)| JobStatus {
-                name,
-                progress,
-                message,
-            })
-        });
+        // The first running job, in pipeline order, is the one scripts see.
+        let job = job_status(&self.terrain_job)
+            .or_else(|| job_status(&self.detail_job))
+            .or_else(|| job_status(&self.blend.job))
+            .or_else(|| job_status(&self.blend.fill_job))
+            .or_else(|| job_status(&self.selftest_job));
+        self.automation.update(|s| s.job = job);
         if self.busy() {
             // Keep the progress bar moving (10 Hz is enough, and leaves the CPU path its time);
             // results also trigger a repaint when they land.
             ctx.request_repaint_after(std::time::Duration::from_millis(100));
         }
     }
+}
+
+/// A running job's name, progress and message.
+fn job_status<T>(job: &Option<JobHandle<T>>) -> Option<JobStatus> {
+    job.as_ref().map(|j| JobStatus {
+        name: j.name().to_owned(),
+        progress: j.progress(),
+        message: j.message(),
+    })
 }
 
 impl eframe::App for StrahlerApp {
