@@ -168,7 +168,12 @@ impl StrahlerApp {
 
     /// Fills the DEM's voids by harmonic diffusion (the diffusion stage's solver), as a job.
     pub(super) fn fill_dem_voids(&mut self, ctx: &egui::Context) {
-        if self.blend.dem.as_ref().is_none_or(|l| l.dem.void_cells() == 0) {
+        if self
+            .blend
+            .dem
+            .as_ref()
+            .is_none_or(|l| l.dem.void_cells() == 0)
+        {
             return;
         }
         let Some(backend) = self.backend() else {
