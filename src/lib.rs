@@ -16,6 +16,7 @@
 //! - [`river`]: Tokunaga river networks grown by an L-system (seed paper 000, Sec. IV).
 //! - [`scene`]: the user's document (versioned JSON) from which everything is rebuilt.
 //! - [`wavelet`]: wavelet levels of detail with energy-reduction masks (seed paper 001).
+//! - [`view3d`]: the 3D view's chunked quadtree LoD renderer (seed papers 003 and 004).
 //! - [`jobs`]: background work with progress and cancellation that never blocks the UI.
 //! - [`app`]: the eframe application.
 
@@ -32,6 +33,7 @@ pub mod river;
 pub mod scene;
 pub mod skeleton;
 pub mod terrain;
+pub mod view3d;
 pub mod wavelet;
 
 #[cfg(not(target_arch = "wasm32"))]

@@ -3,41 +3,21 @@
 
 mod common;
 
-use std::time::{Duration, Instant};
-
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use strahler::app::{Automation, StrahlerApp};
+use strahler::app::StrahlerApp;
 
 fn harness() -> Harness<'static, StrahlerApp> {
-    Harness::builder()
-        .with_size(egui::vec2(1200.0, 900.0))
-        .wgpu()
-        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
+    common::app::harness(1200.0, 900.0)
 }
 
 /// A taller window, so the whole side panel (down to the compute check and the DEM panel)
 /// is on screen without scrolling.
 fn tall_harness() -> Harness<'static, StrahlerApp> {
-    Harness::builder()
-        .with_size(egui::vec2(1200.0, 1500.0))
-        .wgpu()
-        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
+    common::app::harness(1200.0, 1500.0)
 }
 
-/// Steps frames until the app has no job running (the UI keeps responding meanwhile).
-fn wait_idle(harness: &mut Harness<'static, StrahlerApp>) {
-    let start = Instant::now();
-    while harness.state().busy() {
-        assert!(
-            start.elapsed() < Duration::from_secs(120),
-            "job never finished"
-        );
-        harness.step();
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    harness.run_steps(3);
-}
+use common::app::wait_idle;
 
 #[test]
 fn first_screen_names_the_compute_path_and_shows_terrain() {

@@ -44,6 +44,10 @@ pub struct Status {
     /// Undo and redo steps available.
     pub undo: usize,
     pub redo: usize,
+    /// The view in the central area: "2d" (map) or "3d".
+    pub view: String,
+    /// The 3D view's last frame (triangles, chunks) and camera, once it has drawn one.
+    pub view3d: Option<super::View3dStatus>,
 }
 
 /// The uploaded DEM, as the DEM panel shows it.
@@ -144,6 +148,10 @@ pub enum Command {
     },
     Undo,
     Redo,
+    /// Show the map or the 3D view.
+    SetView(super::ViewKind),
+    /// Move the 3D camera (and show the 3D view).
+    SetCamera(super::CameraRequest),
     /// A scene file's bytes (open button or drop).
     OpenScene {
         name: String,

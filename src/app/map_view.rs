@@ -131,6 +131,8 @@ pub struct MapView {
     block_from: Option<Pos2>,
     mask_texture: Option<TextureHandle>,
     constraints_texture: Option<TextureHandle>,
+    /// Counts [`Self::set_field`] calls, so other views know when the terrain changed.
+    version: u64,
 }
 
 impl MapView {
@@ -144,10 +146,16 @@ impl MapView {
             }
         }
         self.field = Some(field);
+        self.version += 1;
     }
 
     pub fn field(&self) -> Option<&Heightfield> {
         self.field.as_ref()
+    }
+
+    /// Changes whenever the terrain shown changes.
+    pub fn version(&self) -> u64 {
+        self.version
     }
 
     /// Shows `mask` (magenta, opacity by value) over the terrain; `None` removes it.

@@ -15,6 +15,7 @@ mod relief;
 mod select;
 mod side_panel;
 mod status_bar;
+mod view3d;
 
 use std::sync::Arc;
 
@@ -22,6 +23,7 @@ pub use automation::{Automation, Command, JobStatus, Status};
 pub use export::encode as encode_heightmap;
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use side_panel::FillSettings;
+pub use view3d::{CameraRequest, View3d, View3dStatus, ViewKind};
 
 use egui::pos2;
 use glam::DVec2;
@@ -118,6 +120,9 @@ pub struct StrahlerApp {
     export: export::ExportDialog,
     /// Undo, redo and autosave of the scene.
     history: history::History,
+    /// Which view the central area shows, and the 3D view.
+    view: ViewKind,
+    view3d: view3d::View3d,
 }
 
 impl StrahlerApp {
@@ -179,6 +184,8 @@ impl StrahlerApp {
             blend: Default::default(),
             export: Default::default(),
             history: Default::default(),
+            view: ViewKind::Map,
+            view3d: Default::default(),
         };
         // A scene autosaved by an earlier visit comes back (web only).
         match history::restore() {
@@ -326,6 +333,26 @@ impl StrahlerApp {
 
     pub fn set_tool(&mut self, tool: Tool) {
         self.tool = tool;
+    }
+
+    /// The view in the central area.
+    pub fn view(&self) -> ViewKind {
+        self.view
+    }
+
+    pub fn set_view(&mut self, view: ViewKind) {
+        self.view = view;
+        self.automation.update(|s| s.view = view.key().into());
+    }
+
+    /// The 3D view's settings (tests and scripts change them like the user would).
+    pub fn view3d_settings_mut(&mut self) -> &mut crate::view3d::View3dSettings {
+        &mut self.view3d.settings
+    }
+
+    /// The 3D view's last frame and camera, once it has drawn one.
+    pub fn view3d_status(&self) -> Option<View3dStatus> {
+        self.view3d.status()
     }
 
     /// Whether a job is running or a regeneration is pending.
@@ -500,6 +527,11 @@ impl StrahlerApp {
                 Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
                 Command::Undo => self.undo(),
                 Command::Redo => self.redo(),
+                Command::SetView(view) => self.set_view(view),
+                Command::SetCamera(request) => {
+                    self.set_view(ViewKind::ThreeD);
+                    self.view3d.request_camera(request);
+                }
                 Command::MoveBlock { index, rect } => match self.blend.blocks.get_mut(index) {
                     Some(block) => {
                         block.rect = rect;
@@ -592,11 +624,42 @@ fn job_status<T>(job: &Option<JobHandle<T>>) -> Option<JobStatus> {
     })
 }
 
+impl StrahlerApp {
+    /// The bar above the central area that switches between the map and the 3D view.
+    fn view_switch(&mut self, ui: &mut egui::Ui) {
+        egui::Panel::top("views").show(ui, |ui| {
+            ui.horizontal(|ui| {
+                let mut view = self.view;
+                ui.selectable_value(&mut view, ViewKind::Map, "2D map (2)");
+                ui.selectable_value(&mut view, ViewKind::ThreeD, "3D view (3)");
+                if view != self.view {
+                    self.set_view(view);
+                }
+            });
+        });
+    }
+}
+
 impl eframe::App for StrahlerApp {
-    fn ui(&mut self, ui: &mut egui::Ui, _frame: &mut eframe::Frame) {
+    fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.poll_jobs(&ctx);
         if !ctx.egui_wants_keyboard_input() {
+            let (map, three_d) = ctx.input(|i| {
+                (
+                    i.key_pressed(egui::Key::Num2),
+                    i.key_pressed(egui::Key::Num3),
+                )
+            });
+            if map {
+                self.set_view(ViewKind::Map);
+            }
+            if three_d {
+                self.set_view(ViewKind::ThreeD);
+            }
+        }
+        // The map's tool keys; the 3D view uses letters to fly.
+        if !ctx.egui_wants_keyboard_input() && self.view == ViewKind::Map {
             ctx.input(|i| {
                 if i.key_pressed(egui::Key::R) {
                     self.tool = Tool::River;
@@ -629,6 +692,8 @@ impl eframe::App for StrahlerApp {
             if ctx.input(|i| i.key_pressed(egui::Key::E)) {
                 self.export.open = true;
             }
+        }
+        if !ctx.egui_wants_keyboard_input() {
             if self.selected.is_some()
                 && ctx.input(|i| {
                     i.key_pressed(egui::Key::Delete) || i.key_pressed(egui::Key::Backspace)
@@ -652,7 +717,24 @@ impl eframe::App for StrahlerApp {
         }
         status_bar::show(ui, self);
         side_panel::show(ui, self);
+        self.view_switch(ui);
         export::window(&ctx, self);
+        if self.view == ViewKind::ThreeD {
+            egui::Panel::right("view3d settings").show(ui, |ui| {
+                egui::ScrollArea::vertical().show(ui, |ui| self.view3d.settings_ui(ui));
+            });
+            egui::CentralPanel::no_frame().show(ui, |ui| {
+                let field = self.map.field().map(|f| (f, self.map.version()));
+                let rivers = self
+                    .skeleton
+                    .as_ref()
+                    .map(|s| (s.river_order.as_slice(), s.size));
+                self.view3d.show(ui, frame, field, rivers);
+            });
+            let status = self.view3d.status();
+            self.automation.update(|s| s.view3d = status);
+            return;
+        }
         let l = self.layers;
         self.overlay.show_rivers = l.rivers;
         self.overlay.show_ridges = l.ridges;

@@ -41,6 +41,10 @@ pub struct BenchArgs {
     /// Time Poisson blending instead (a block of half the side in each size).
     #[arg(long)]
     pub blend: bool,
+    /// Time the 3D view instead (texture preparation, chunk selection and GPU frames at four
+    /// camera distances; needs a GPU).
+    #[arg(long)]
+    pub view3d: bool,
 }
 
 /// Per-stage table of the hydrology pipeline at each size.
@@ -134,6 +138,12 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         return Err(format!("unknown --backend {:?}: use cpu, gpu or both", args.backend).into());
     }
     let path = super::compute_path(crate::compute::BackendChoice::Auto);
+    if args.view3d {
+        let gpu = path
+            .gpu()
+            .ok_or_else(|| format!("the 3D view benchmark needs a GPU: {path}"))?;
+        return super::bench_view3d::run(&args.sizes, gpu);
+    }
     let mut backends = Vec::new();
     if args.wavelet || args.blend {
         let mut list = Vec::new();

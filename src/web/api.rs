@@ -19,6 +19,10 @@
 //! - `undo()`, `redo()`: one step of the document's history.
 //! - `generate({size})`: a promise of the report `strahler generate --report` writes, for the
 //!   current scene at `size` (the map is not changed).
+//! - `setView('2d' | '3d')`: the map or the 3D view; `setCamera({distance, yaw, pitch})`:
+//!   the 3D orbit camera (distance in map widths, angles in degrees; shows the 3D view).
+//!   `status().view3d` then reports `{triangles, chunks, finestLevel, width, height, mode,
+//!   distance, yaw, pitch}` of the last frame.
 
 use wasm_bindgen::prelude::*;
 
@@ -251,6 +255,37 @@ pub(super) fn install(automation: &Automation) {
     set(&api, "generate", generate.as_ref());
     generate.forget();
 
+    let view_target = automation.clone();
+    let set_view = Closure::<dyn Fn(String) -> Result<(), JsValue>>::new(move |view: String| {
+        let view = match view.as_str() {
+            "2d" => crate::app::ViewKind::Map,
+            "3d" => crate::app::ViewKind::ThreeD,
+            other => return Err(error(format!("setView('2d' | '3d'), not '{other}'"))),
+        };
+        view_target.push(Command::SetView(view));
+        Ok(())
+    });
+    set(&api, "setView", set_view.as_ref());
+    set_view.forget();
+
+    let camera_target = automation.clone();
+    let set_camera =
+        Closure::<dyn Fn(JsValue) -> Result<(), JsValue>>::new(move |options: JsValue| {
+            let o: CameraOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
+                error(format!(
+                    "setCamera({{distance (map widths), yaw, pitch (degrees)}}): {e}"
+                ))
+            })?;
+            camera_target.push(Command::SetCamera(crate::app::CameraRequest {
+                distance: o.distance,
+                yaw: o.yaw,
+                pitch: o.pitch,
+            }));
+            Ok(())
+        });
+    set(&api, "setCamera", set_camera.as_ref());
+    set_camera.forget();
+
     set(&api, "version", &JsValue::from_str(crate::VERSION));
     set(&window, "strahler", &api);
 }
@@ -344,6 +379,15 @@ struct PlaceOptions {
     mirror: bool,
     #[serde(default = "one")]
     z_scale: f32,
+}
+
+/// `setCamera`'s argument.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct CameraOptions {
+    distance: Option<f32>,
+    yaw: Option<f32>,
+    pitch: Option<f32>,
 }
 
 fn one() -> f32 {

@@ -1,5 +1,7 @@
 //! Shared helpers for the integration tests.
 
+pub mod app;
+
 use strahler::gpu::GpuContext;
 
 /// A headless GPU for tests. On CI `STRAHLER_REQUIRE_GPU=1` is set and lavapipe is installed,

@@ -13,6 +13,7 @@
 import { execFileSync } from 'node:child_process';
 import { createReadStream, existsSync, mkdirSync, readFileSync, statSync, writeFileSync } from 'node:fs';
 import { createServer } from 'node:http';
+import { inflateSync } from 'node:zlib';
 import { extname, join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
 
@@ -279,6 +280,7 @@ async function runMode(url, mode, expectedChecksum) {
         && pngInfo.height === terrainSize && pngInfo.depth === 16 && pngInfo.range !== null
         && pngInfo.range[1] - pngInfo.range[0] > 100, JSON.stringify(pngInfo));
     await page.keyboard.press('Escape');
+    await check3d(page, mode);
     const sceneBefore = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
     await page.waitForTimeout(2500); // autosave runs every 2 s
     await page.reload();
@@ -296,6 +298,96 @@ async function runMode(url, mode, expectedChecksum) {
   } finally {
     await browser.close();
   }
+}
+
+// The 3D view (WebGPU, or WebGL2 on the CPU fallback): setView/setCamera, the LoD responding
+// to the camera, terrain actually drawn, a mouse drag turning the camera, F to fly.
+async function check3d(page, mode) {
+  const view3d = () => page.evaluate(() => window.strahler.status().view3d);
+  await page.evaluate(() => window.strahler.setView('3d'));
+  await page.waitForFunction(() => window.strahler.status().view3d !== null, null, { timeout: 30_000 })
+    .catch(() => null);
+  const first = await view3d();
+  check('setView(3d) shows the 3D view', (await page.evaluate(() => window.strahler.status().view)) === '3d'
+    && first !== null && first.triangles > 0 && first.chunks > 0, JSON.stringify(first));
+  const at = async (camera) => {
+    await page.evaluate((c) => window.strahler.setCamera(c), camera);
+    await page.waitForFunction((d) => Math.abs(window.strahler.status().view3d.distance - d) < 1e-3,
+      camera.distance, { timeout: 20_000 }).catch(() => null);
+    await page.waitForTimeout(300);
+    return view3d();
+  };
+  const near = await at({ distance: 0.05, yaw: 30, pitch: 20 });
+  const far = await at({ distance: 3, yaw: 30, pitch: 35 });
+  check('the LoD draws at least twice the triangles near the ground as from 3 map widths',
+    near.triangles >= 2 * far.triangles && near.finestLevel < far.finestLevel,
+    `${JSON.stringify(near)} ${JSON.stringify(far)}`);
+  const bad = await page.evaluate(() => {
+    try { window.strahler.setCamera({ distance: 'far' }); return null; } catch (e) { return String(e); }
+  });
+  check('setCamera() explains a bad argument', bad !== null && bad.includes('distance'), String(bad));
+  const overview = await at({ distance: 1.2, yaw: 0, pitch: 35 });
+  const shot = decodePng(await page.screenshot({ path: join(output, `${mode}-3d.png`) }));
+  // The middle of the 3D area shows lit terrain: many distinct colours, not one flat fill.
+  const colours = new Set();
+  for (let y = 300; y < 600; y += 6) {
+    for (let x = 450; x < 850; x += 6) {
+      const p = shot.pixel(x, y);
+      colours.add((p[0] >> 3) * 1024 + (p[1] >> 3) * 32 + (p[2] >> 3));
+    }
+  }
+  check('the 3D view draws shaded terrain', colours.size > 40, `${colours.size} colours`);
+  // A mouse drag on the view turns the camera.
+  await page.mouse.move(650, 450);
+  await page.mouse.down();
+  for (let k = 1; k <= 8; k += 1) await page.mouse.move(650 + 15 * k, 450);
+  await page.mouse.up();
+  await page.waitForTimeout(300);
+  const turned = await view3d();
+  check('dragging on the 3D view turns the camera', Math.abs(turned.yaw - overview.yaw) > 5,
+    `${overview.yaw} -> ${turned.yaw}`);
+  await page.keyboard.press('f');
+  await page.waitForFunction(() => window.strahler.status().view3d.mode === 'fly', null, { timeout: 5_000 })
+    .catch(() => null);
+  check('F switches to the fly camera', (await view3d()).mode === 'fly');
+  await page.evaluate(() => window.strahler.setView('2d'));
+}
+
+// A minimal PNG reader for screenshots (8-bit RGB/RGBA, not interlaced).
+function decodePng(buffer) {
+  const width = buffer.readUInt32BE(16);
+  const height = buffer.readUInt32BE(20);
+  const channels = buffer[25] === 6 ? 4 : 3;
+  const parts = [];
+  for (let at = 8; at < buffer.length;) {
+    const length = buffer.readUInt32BE(at);
+    const type = buffer.subarray(at + 4, at + 8).toString('latin1');
+    if (type === 'IDAT') parts.push(buffer.subarray(at + 8, at + 8 + length));
+    at += 12 + length;
+  }
+  const raw = inflateSync(Buffer.concat(parts));
+  const stride = width * channels;
+  const out = Buffer.alloc(stride * height);
+  for (let y = 0; y < height; y += 1) {
+    const filter = raw[y * (stride + 1)];
+    for (let i = 0; i < stride; i += 1) {
+      const x = raw[y * (stride + 1) + 1 + i];
+      const a = i >= channels ? out[y * stride + i - channels] : 0;
+      const b = y > 0 ? out[(y - 1) * stride + i] : 0;
+      const c = y > 0 && i >= channels ? out[(y - 1) * stride + i - channels] : 0;
+      let v = x;
+      if (filter === 1) v = x + a;
+      else if (filter === 2) v = x + b;
+      else if (filter === 3) v = x + ((a + b) >> 1);
+      else if (filter === 4) {
+        const p = a + b - c;
+        const pa = Math.abs(p - a); const pb = Math.abs(p - b); const pc = Math.abs(p - c);
+        v = x + (pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
+      }
+      out[y * stride + i] = v & 255;
+    }
+  }
+  return { width, height, pixel: (x, y) => out.subarray((y * width + x) * channels, (y * width + x) * channels + 3) };
 }
 
 if (!existsSync(join(dist, 'index.html'))) {
