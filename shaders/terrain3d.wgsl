@@ -209,14 +209,17 @@ fn fs_terrain(in: VertexOut) -> @location(0) vec4<f32> {
     let rock = smoothstep(0.55, 1.1, slope);
     mask = mix(mask, vec4<f32>(1.0, 0.0, 0.0, 0.0), rock);
     let p = in.world.xy;
-    let land = vec3<f32>(0.36, 0.29, 0.21) * (0.7 + 0.6 * texture_grain(p, 9.0));
-    let grass_1 = vec3<f32>(0.20, 0.36, 0.12) * (0.75 + 0.5 * texture_grain(p, 14.0));
-    let grass_2 = vec3<f32>(0.38, 0.42, 0.18) * (0.75 + 0.5 * texture_grain(p, 11.0));
-    let moss = vec3<f32>(0.27, 0.31, 0.22) * (0.7 + 0.6 * texture_grain(p, 6.0));
+    // Two grains shared by the four textures (cheap where the GPU is a CPU rasteriser).
+    let coarse = texture_grain(p, 12.0);
+    let fine = grain(p / 2.3);
+    let land = vec3<f32>(0.36, 0.29, 0.21) * (0.7 + 0.4 * coarse + 0.2 * fine);
+    let grass_1 = vec3<f32>(0.20, 0.36, 0.12) * (0.75 + 0.5 * coarse);
+    let grass_2 = vec3<f32>(0.38, 0.42, 0.18) * (0.75 + 0.3 * coarse + 0.2 * fine);
+    let moss = vec3<f32>(0.27, 0.31, 0.22) * (0.7 + 0.3 * coarse + 0.3 * fine);
     var albedo = mask.x * land + mask.y * grass_1 + mask.z * grass_2 + mask.w * moss;
 
     if (g.heights.w >= 0.0) {
-        let line = g.heights.w + 0.06 * (texture_grain(p, 40.0) - 0.5);
+        let line = g.heights.w + 0.06 * (grain(p / 40.0) - 0.5);
         let snow = smoothstep(line - 0.03, line + 0.03, t) * (1.0 - smoothstep(0.8, 1.3, slope));
         albedo = mix(albedo, vec3<f32>(0.92, 0.94, 0.97), snow);
     }

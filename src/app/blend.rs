@@ -663,13 +663,14 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
                     changed = true;
                 }
                 changed |= ui.checkbox(&mut block.mirror, "Mirror").changed();
-                ui.label("z x");
+                let label = ui.label("z x");
                 changed |= ui
                     .add(
                         DragValue::new(&mut block.z_scale)
                             .range(-10.0..=10.0)
                             .speed(0.02),
                     )
+                    .labelled_by(label.id)
                     .changed();
             });
         }

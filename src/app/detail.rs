@@ -258,7 +258,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             let out = synthesis::output_len(app.settings.size, app.detail.levels);
             ui.add(Slider::new(&mut app.detail.levels, 0..=3).text(format!("-> {out} x {out}")));
             ui.end_row();
-            ui.label("Scope").on_hover_text(
+            let label = ui.label("Scope").on_hover_text(
                 "Global (GSA): one line per band for the whole map. Local (LSA): a line per \
                  location from a window of coefficients, so rough and smooth areas keep their \
                  character.",
@@ -268,7 +268,9 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 .show_ui(ui, |ui| {
                     ui.selectable_value(&mut app.detail.scope, "global".to_owned(), "global");
                     ui.selectable_value(&mut app.detail.scope, "local".to_owned(), "local");
-                });
+                })
+                .response
+                .labelled_by(label.id);
             ui.end_row();
             if app.detail.scope == "local" {
                 ui.label("Window");
@@ -294,19 +296,23 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         egui::Grid::new("brush settings")
             .num_columns(2)
             .show(ui, |ui| {
-                ui.label("Brush size");
+                let label = ui.label("Brush size");
                 ui.add(
                     DragValue::new(&mut app.brush.radius)
                         .range(1.0..=256.0)
                         .suffix(" cells"),
-                );
+                )
+                .labelled_by(label.id);
                 ui.end_row();
-                ui.label("Hardness");
-                ui.add(Slider::new(&mut app.brush.hardness, 0.0..=1.0));
+                let label = ui.label("Hardness");
+                ui.add(Slider::new(&mut app.brush.hardness, 0.0..=1.0))
+                    .labelled_by(label.id);
                 ui.end_row();
-                ui.label("Grey value")
+                let label = ui
+                    .label("Grey value")
                     .on_hover_text("1 (white) removes all synthetic detail.");
-                ui.add(Slider::new(&mut app.brush.value, 0.0..=1.0));
+                ui.add(Slider::new(&mut app.brush.value, 0.0..=1.0))
+                    .labelled_by(label.id);
                 ui.end_row();
                 ui.label("Eraser");
                 ui.checkbox(&mut app.brush.eraser, "");

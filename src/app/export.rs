@@ -75,14 +75,16 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
             egui::Grid::new("export settings")
                 .num_columns(2)
                 .show(ui, |ui| {
-                    ui.label("Format");
+                    let label = ui.label("Format");
                     ComboBox::from_id_salt("export format")
                         .selected_text(d.format.label())
                         .show_ui(ui, |ui| {
                             for f in Format::EXPORTS {
                                 ui.selectable_value(&mut d.format, f, f.label());
                             }
-                        });
+                        })
+                        .response
+                        .labelled_by(label.id);
                     ui.end_row();
                     ui.label("Size");
                     let label = |s: Option<usize>| match s {
@@ -105,12 +107,13 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
                         egui::Checkbox::without_text(&mut d.flip_y),
                     );
                     ui.end_row();
-                    ui.label("Height scale");
+                    let label = ui.label("Height scale");
                     ui.add(
                         DragValue::new(&mut d.z_scale)
                             .range(0.001..=1000.0)
                             .speed(0.01),
-                    );
+                    )
+                    .labelled_by(label.id);
                     ui.end_row();
                     ui.label("Layers").on_hover_text(
                         "Also rivers.png (Strahler order), ridges.png and constraints.png, \

@@ -608,9 +608,16 @@ impl StrahlerApp {
             .or_else(|| job_status(&self.selftest_job));
         self.automation.update(|s| s.job = job);
         if self.busy() {
-            // Keep the progress bar moving (10 Hz is enough, and leaves the CPU path its time);
-            // results also trigger a repaint when they land.
-            ctx.request_repaint_after(std::time::Duration::from_millis(100));
+            // Keep the progress bar moving; results trigger a repaint when they land. In the
+            // browser jobs share the main thread with painting, and a frame can cost 250 ms
+            // where the page is composited in software (headless Chromium here), so the bar
+            // moves at 2 Hz there and leaves the job its time; natively jobs have threads.
+            let every = if cfg!(target_arch = "wasm32") {
+                500
+            } else {
+                100
+            };
+            ctx.request_repaint_after(std::time::Duration::from_millis(every));
         }
     }
 }

@@ -203,16 +203,19 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     for (i, stroke) in app.strokes.iter_mut().enumerate() {
         ui.horizontal(|ui| {
             ui.label(format!("#{}", i + 1));
-            ui.label("φ").on_hover_text(
+            let label = ui.label("φ").on_hover_text(
                 "Generator index phi (1 to 6): higher grows more feather-like networks (Table 1).",
             );
             changed |= ui
                 .add(DragValue::new(&mut stroke.phi).range(1..=6))
+                .labelled_by(label.id)
                 .changed();
-            ui.label("depth")
+            let label = ui
+                .label("depth")
                 .on_hover_text("MaxDepth of eq. 3 (1 to 16).");
             changed |= ui
                 .add(DragValue::new(&mut stroke.max_depth).range(1..=16))
+                .labelled_by(label.id)
                 .changed();
             if ui
                 .small_button("x")
@@ -261,14 +264,16 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     egui::Grid::new("terrain settings")
         .num_columns(2)
         .show(ui, |ui| {
-            ui.label("Grid size");
+            let label = ui.label("Grid size");
             ComboBox::from_id_salt("grid size")
                 .selected_text(format!("{0} x {0}", s.size))
                 .show_ui(ui, |ui| {
                     for size in SIZES {
                         ui.selectable_value(&mut s.size, size, format!("{size} x {size}"));
                     }
-                });
+                })
+                .response
+                .labelled_by(label.id);
             ui.end_row();
             ui.label("Preview").on_hover_text(format!(
                 "Edits of a map larger than {0} x {0} regenerate at {0} x {0}; Generate full \
@@ -277,9 +282,9 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ));
             ui.checkbox(&mut app.preview, format!("edit at {}", super::PREVIEW_SIZE));
             ui.end_row();
-            ui.label("Seed");
+            let label = ui.label("Seed");
             ui.horizontal(|ui| {
-                ui.add(DragValue::new(&mut s.seed));
+                ui.add(DragValue::new(&mut s.seed)).labelled_by(label.id);
                 if ui.button("New seed").clicked() {
                     s.seed = s
                         .seed
@@ -289,32 +294,42 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 }
             });
             ui.end_row();
-            ui.label("θ (°)")
+            let label = ui
+                .label("θ (°)")
                 .on_hover_text("Branching angle theta: exterior links turn theta or 2 theta.");
-            ui.add(DragValue::new(&mut s.theta).range(5.0..=60.0).speed(0.5));
+            ui.add(DragValue::new(&mut s.theta).range(5.0..=60.0).speed(0.5))
+                .labelled_by(label.id);
             ui.end_row();
-            ui.label("River slope")
+            let label = ui
+                .label("River slope")
                 .on_hover_text("Metres of height per metre of channel (Sec. IV-C).");
-            ui.add(DragValue::new(&mut s.slope).range(0.0..=0.2).speed(0.001));
+            ui.add(DragValue::new(&mut s.slope).range(0.0..=0.2).speed(0.001))
+                .labelled_by(label.id);
             ui.end_row();
-            ui.label("α").on_hover_text(
+            let label = ui.label("α").on_hover_text(
                 "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
             );
-            ui.add(DragValue::new(&mut s.alpha).range(0.0..=1.0).speed(0.005));
+            ui.add(DragValue::new(&mut s.alpha).range(0.0..=1.0).speed(0.005))
+                .labelled_by(label.id);
             ui.end_row();
-            ui.label("Noise (m)")
+            let label = ui
+                .label("Noise (m)")
                 .on_hover_text("Amplitude of the fractal Perlin noise F(P) of eq. 5 on ridges.");
-            ui.add(DragValue::new(&mut s.noise).range(0.0..=500.0).speed(1.0));
+            ui.add(DragValue::new(&mut s.noise).range(0.0..=500.0).speed(1.0))
+                .labelled_by(label.id);
             ui.end_row();
-            ui.label("MD/MDI passes").on_hover_text(
+            let label = ui.label("MD/MDI passes").on_hover_text(
                 "Midpoint displacement and its inverse (Sec. V-B): each pass widens rivers and \
                  ridges by a cell of flank. 0 turns enrichment off.",
             );
-            ui.add(DragValue::new(&mut s.passes).range(0..=16));
+            ui.add(DragValue::new(&mut s.passes).range(0..=16))
+                .labelled_by(label.id);
             ui.end_row();
-            ui.label("L (cells)")
+            let label = ui
+                .label("L (cells)")
                 .on_hover_text("Distance limit L: no point is added farther from the skeleton.");
-            ui.add(DragValue::new(&mut s.distance_limit).range(1..=64));
+            ui.add(DragValue::new(&mut s.distance_limit).range(1..=64))
+                .labelled_by(label.id);
             ui.end_row();
         });
 }
@@ -339,7 +354,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.end_row();
 
             if app.settings.multigrid {
-                ui.label("Tolerance").on_hover_text(
+                let label = ui.label("Tolerance").on_hover_text(
                     "Stop when one more Jacobi sweep would move no cell by more than this \
                      fraction of the height range (and the estimated error is small too).",
                 );
@@ -348,19 +363,22 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                         .range(1e-8..=1e-2)
                         .speed(1e-7)
                         .custom_formatter(|v, _| format!("{v:.0e}")),
-                );
+                )
+                .labelled_by(label.id);
             } else {
-                ui.label("Sweeps")
+                let label = ui
+                    .label("Sweeps")
                     .on_hover_text("Jacobi iterations of eq. 7 (the paper runs 5500).");
                 ui.add(
                     DragValue::new(&mut app.settings.sweeps)
                         .range(0..=100_000)
                         .speed(20),
-                );
+                )
+                .labelled_by(label.id);
             }
             ui.end_row();
 
-            ui.label("Smoothing").on_hover_text(
+            let label = ui.label("Smoothing").on_hover_text(
                 "Gaussian smoothing of the filled terrain, sigma in cells (0 = off). Rivers and \
                  a margin around them are never touched, so they drain as designed.",
             );
@@ -369,9 +387,10 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     .range(0.0..=crate::diffusion::post::MAX_SIGMA)
                     .speed(0.05)
                     .suffix(" cells"),
-            );
+            )
+            .labelled_by(label.id);
             ui.end_row();
-            ui.label("Added fBm").on_hover_text(
+            let label = ui.label("Added fBm").on_hover_text(
                 "Fractal Perlin noise added to the filled terrain (amplitude in metres; 0 = off), \
                  faded out near the rivers.",
             );
@@ -380,16 +399,19 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     .range(0.0..=500.0)
                     .speed(0.2)
                     .suffix(" m"),
-            );
+            )
+            .labelled_by(label.id);
             ui.end_row();
-            ui.label("Compute on");
+            let label = ui.label("Compute on");
             ComboBox::from_id_salt("backend")
                 .selected_text(app.settings.backend.label())
                 .show_ui(ui, |ui| {
                     for choice in BackendChoice::ALL {
                         ui.selectable_value(&mut app.settings.backend, choice, choice.label());
                     }
-                });
+                })
+                .response
+                .labelled_by(label.id);
             ui.end_row();
         });
 

@@ -18,7 +18,9 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 .or_else(|| app.selftest_job.as_ref().map(|j| (j.name(), j.progress())))
             {
                 ui.separator();
-                ui.spinner();
+                // A still bar, not a spinner: a spinner repaints every frame, which on the
+                // CPU path takes time from the job itself.
+                ui.add(egui::ProgressBar::new(job.1).desired_width(60.0));
                 ui.label(format!("{} {:.0}%", job.0, job.1 * 100.0));
             }
             ui.separator();

@@ -16,6 +16,8 @@
 //! Updates of a pass are computed from the state before it and then applied, so the result
 //! does not depend on visiting order. O(passes x skeleton cells).
 
+use std::ops::Range;
+
 use super::{CellKind, Skeleton};
 
 /// Enrichment settings.
@@ -39,30 +41,76 @@ impl Default for EnrichParams {
 /// Enriches `sk` in place and returns the number of cells added. `alpha` is the flank slope
 /// (metres per metre), `cell_m` the cell size in metres.
 pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64) -> usize {
-    let n = sk.size;
-    // Distance (passes) from the original skeleton and the flank side: +1 river, -1 ridge.
-    let mut dist: Vec<u32> = sk
-        .kinds
-        .iter()
-        .map(|k| if *k == CellKind::Free { u32::MAX } else { 0 })
-        .collect();
-    let mut side: Vec<i8> = sk
-        .kinds
-        .iter()
-        .map(|k| match k {
-            CellKind::River | CellKind::Valley => 1,
-            CellKind::Ridge => -1,
-            _ => 0,
-        })
-        .collect();
-    let known = |kinds: &[CellKind], i: usize| kinds[i] != CellKind::Free;
-    let diagonal_m = std::f64::consts::SQRT_2 * cell_m;
-    let mut added = 0;
+    let mut enrichment = Enrichment::new(sk, params, alpha, cell_m);
     for _ in 0..params.passes {
-        // MDI: an unknown cell is a corner of the 3 x 3 squares centred on its known diagonal
-        // neighbours; it takes the mean of those squares' interpolations (gathered, so the
-        // result does not depend on visiting order).
-        let mut updates: Vec<(usize, f64, i8, u32)> = Vec::new();
+        enrichment.mdi();
+        enrichment.md();
+    }
+    enrichment.added()
+}
+
+/// [`enrich`] one half-pass at a time, so a job can yield between them (each is one O(cells)
+/// scan of the grid).
+pub struct Enrichment<'a> {
+    sk: &'a mut Skeleton,
+    params: EnrichParams,
+    alpha: f64,
+    cell_m: f64,
+    /// Distance (passes) from the original skeleton.
+    dist: Vec<u32>,
+    /// Flank side: +1 river, -1 ridge.
+    side: Vec<i8>,
+    added: usize,
+}
+
+impl<'a> Enrichment<'a> {
+    pub fn new(sk: &'a mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64) -> Self {
+        let dist = sk
+            .kinds
+            .iter()
+            .map(|k| if *k == CellKind::Free { u32::MAX } else { 0 })
+            .collect();
+        let side = sk
+            .kinds
+            .iter()
+            .map(|k| match k {
+                CellKind::River | CellKind::Valley => 1,
+                CellKind::Ridge => -1,
+                _ => 0,
+            })
+            .collect();
+        Self {
+            sk,
+            params: *params,
+            alpha,
+            cell_m,
+            dist,
+            side,
+            added: 0,
+        }
+    }
+
+    /// Cells added so far.
+    pub fn added(&self) -> usize {
+        self.added
+    }
+
+    /// MDI: an unknown cell is a corner of the 3 x 3 squares centred on its known diagonal
+    /// neighbours; it takes the mean of those squares' interpolations (gathered, so the
+    /// result does not depend on visiting order).
+    pub fn mdi(&mut self) {
+        let updates = self.mdi_updates(0..self.sk.size);
+        self.apply(&updates);
+    }
+
+    /// The MDI updates of the rows `rows` (computed from the state before the half-pass;
+    /// nothing changes until [`Self::apply`]).
+    pub fn mdi_updates(&self, rows: Range<usize>) -> Vec<Update> {
+        let (sk, params, dist, side) = (&*self.sk, &self.params, &self.dist, &self.side);
+        let n = sk.size;
+        let known = |i: usize| sk.kinds[i] != CellKind::Free;
+        let diagonal_m = std::f64::consts::SQRT_2 * self.cell_m;
+        let mut updates: Vec<Update> = Vec::new();
         let square_mean = |c: usize| {
             let (mut total, mut count) = (0.0f64, 0u32);
             for j in [
@@ -76,23 +124,23 @@ pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64)
                 c + n,
                 c + n + 1,
             ] {
-                if known(&sk.kinds, j) {
+                if known(j) {
                     total += f64::from(sk.heights[j]);
                     count += 1;
                 }
             }
             total / f64::from(count.max(1))
         };
-        for y in 2..n.saturating_sub(2) {
+        for y in rows.start.max(2)..rows.end.min(n.saturating_sub(2)) {
             for x in 2..n.saturating_sub(2) {
                 let k = y * n + x;
-                if known(&sk.kinds, k) {
+                if known(k) {
                     continue;
                 }
                 let (mut total, mut count, mut sides, mut d) = (0.0f64, 0u32, 0i32, u32::MAX);
                 for c in [k - n - 1, k - n + 1, k + n - 1, k + n + 1] {
-                    if known(&sk.kinds, c) && side[c] != 0 && dist[c] < params.distance_limit {
-                        total += square_mean(c) + f64::from(side[c]) * alpha * diagonal_m;
+                    if known(c) && side[c] != 0 && dist[c] < params.distance_limit {
+                        total += square_mean(c) + f64::from(side[c]) * self.alpha * diagonal_m;
                         count += 1;
                         sides += i32::from(side[c]);
                         d = d.min(dist[c] + 1);
@@ -103,14 +151,25 @@ pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64)
                 }
             }
         }
-        added += apply(sk, &mut dist, &mut side, &updates);
+        updates
+    }
 
-        // MD: midpoints between two known neighbours and centres between four known corners.
-        updates.clear();
-        for y in 1..n.saturating_sub(1) {
+    /// MD: midpoints between two known neighbours and centres between four known corners.
+    pub fn md(&mut self) {
+        let updates = self.md_updates(0..self.sk.size);
+        self.apply(&updates);
+    }
+
+    /// The MD updates of the rows `rows` (see [`Self::mdi_updates`]).
+    pub fn md_updates(&self, rows: Range<usize>) -> Vec<Update> {
+        let (sk, params, dist, side) = (&*self.sk, &self.params, &self.dist, &self.side);
+        let n = sk.size;
+        let known = |i: usize| sk.kinds[i] != CellKind::Free;
+        let mut updates: Vec<Update> = Vec::new();
+        for y in rows.start.max(1)..rows.end.min(n.saturating_sub(1)) {
             for x in 1..n.saturating_sub(1) {
                 let f = y * n + x;
-                if known(&sk.kinds, f) {
+                if known(f) {
                     continue;
                 }
                 let pairs = [
@@ -121,7 +180,7 @@ pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64)
                 ];
                 let (mut total, mut count, mut sides, mut d) = (0.0f64, 0u32, 0i32, u32::MAX);
                 for (a, b) in pairs {
-                    if known(&sk.kinds, a) && known(&sk.kinds, b) {
+                    if known(a) && known(b) {
                         total += f64::from(sk.heights[a]) + f64::from(sk.heights[b]);
                         count += 2;
                         sides += i32::from(side[a]) + i32::from(side[b]);
@@ -133,25 +192,23 @@ pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64)
                 }
             }
         }
-        added += apply(sk, &mut dist, &mut side, &updates);
+        updates
     }
-    added
+
+    /// Applies a half-pass's updates (all of its rows' at once).
+    pub fn apply(&mut self, updates: &[Update]) {
+        for &(i, value, s, d) in updates {
+            self.sk.heights[i] = value as f32;
+            self.sk.kinds[i] = CellKind::Enriched;
+            self.side[i] = s;
+            self.dist[i] = d;
+        }
+        self.added += updates.len();
+    }
 }
 
-fn apply(
-    sk: &mut Skeleton,
-    dist: &mut [u32],
-    side: &mut [i8],
-    updates: &[(usize, f64, i8, u32)],
-) -> usize {
-    for &(i, value, s, d) in updates {
-        sk.heights[i] = value as f32;
-        sk.kinds[i] = CellKind::Enriched;
-        side[i] = s;
-        dist[i] = d;
-    }
-    updates.len()
-}
+/// One added cell: index, height, flank side, distance (passes) from the skeleton.
+pub type Update = (usize, f64, i8, u32);
 
 #[cfg(test)]
 mod tests {

@@ -239,8 +239,37 @@ pub async fn generate(
     ctx.checkpoint(0.25, "enriching the skeleton (MD/MDI)")
         .await?;
     let cell_m = params.ridges.map_width_m / n as f64;
-    let enriched_cells =
-        skeleton::enrich::enrich(&mut skeleton, &params.enrich, params.ridges.alpha, cell_m);
+    // Half-passes are O(cells) scans: gather them in bands of rows and yield between bands
+    // (the browser keeps painting); each half-pass is applied at once.
+    let mut enrichment = skeleton::enrich::Enrichment::new(
+        &mut skeleton,
+        &params.enrich,
+        params.ridges.alpha,
+        cell_m,
+    );
+    // About half a million cells a band (256 rows at 2048^2, the whole grid up to 724^2).
+    let band = ((1usize << 19) / n.max(1)).max(1);
+    for pass in 0..params.enrich.passes {
+        for md in [false, true] {
+            let mut updates = Vec::new();
+            for start in (0..n).step_by(band) {
+                let rows = start..(start + band).min(n);
+                updates.extend(if md {
+                    enrichment.md_updates(rows)
+                } else {
+                    enrichment.mdi_updates(rows)
+                });
+                let half = if md { "MD" } else { "MDI" };
+                ctx.checkpoint(
+                    0.25,
+                    &format!("enriching the skeleton: {half} pass {}", pass + 1),
+                )
+                .await?;
+            }
+            enrichment.apply(&updates);
+        }
+    }
+    let enriched_cells = enrichment.added();
     lap("enrich", &mut stages);
 
     let problem = skeleton.constraints();

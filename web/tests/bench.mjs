@@ -1,0 +1,127 @@
+// Browser benchmark of the Trunk build (dist/) in headless Chromium: the editor's targets,
+// measured on the WebGPU path and on the CPU fallback, printed as a table.
+//
+//   first terrain  ms from navigation start to the first terrain on the map, wasm cached
+//                  (the page is loaded once before, then reloaded)
+//   edit -> map    ms from an edit (a new seed) to the regenerated 512^2 preview on the map,
+//                  median of 5 (and the slowest); `diffuse` is the diffusion stage's own time
+//   2048^2 frames  animation-frame intervals while `generate({size: 2048})` runs on the page:
+//                  median, 95th percentile and longest, and how long the generation took
+//
+// Usage: node web/tests/bench.mjs [DIST_DIR]   (env: CHROMIUM, BROWSER_MODES)
+
+import { existsSync } from 'node:fs';
+import { join, resolve } from 'node:path';
+import { chromium } from 'playwright-core';
+import { COMMON_FLAGS, WEBGPU_FLAGS, serve } from './harness.mjs';
+
+const here = new URL('.', import.meta.url).pathname;
+const dist = resolve(process.argv[2] ?? join(here, '..', '..', 'dist'));
+const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
+
+// Runs in the page before its scripts: records when the first terrain appears.
+function watchFirstTerrain() {
+  const poll = () => {
+    if (window.strahler?.status().lastRun) window.__firstTerrain = performance.now();
+    else setTimeout(poll, 5);
+  };
+  poll();
+}
+
+async function measure(url, mode) {
+  const browser = await chromium.launch({
+    executablePath: chromiumPath,
+    args: [...COMMON_FLAGS, ...(mode === 'webgpu' ? WEBGPU_FLAGS : [])],
+  });
+  try {
+    const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+    await page.addInitScript(watchFirstTerrain);
+    await page.goto(url);
+    await page.waitForFunction(() => window.__firstTerrain !== undefined, null, { timeout: 120_000 });
+    await page.reload();
+    await page.waitForFunction(() => window.__firstTerrain !== undefined, null, { timeout: 120_000 });
+    const first = await page.evaluate(() => window.__firstTerrain);
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
+
+    const edits = await page.evaluate(async () => {
+      const idle = (old) => new Promise((done) => {
+        const poll = () => {
+          const s = window.strahler.status();
+          if (s.job === null && s.lastRun && s.lastRun.checksum !== old) done(s.lastRun);
+          else setTimeout(poll, 2);
+        };
+        poll();
+      });
+      const out = [];
+      for (let seed = 11; seed < 16; seed += 1) {
+        const old = window.strahler.status().lastRun.checksum;
+        const scene = window.strahler.scene();
+        scene.seed = seed;
+        const start = performance.now();
+        window.strahler.loadScene(scene);
+        const run = await idle(old);
+        out.push({ wall: performance.now() - start, job: run.millis, size: run.width ?? null });
+      }
+      return out;
+    });
+    const walls = edits.map((e) => e.wall).sort((a, b) => a - b);
+    const jobs = edits.map((e) => e.job).sort((a, b) => a - b);
+
+    const frames = await page.evaluate(async () => {
+      const gaps = [];
+      let last = performance.now();
+      let running = true;
+      const tick = (now) => {
+        gaps.push(now - last);
+        last = now;
+        if (running) requestAnimationFrame(tick);
+      };
+      requestAnimationFrame(tick);
+      const start = performance.now();
+      await window.strahler.generate({ size: 2048 });
+      const total = performance.now() - start;
+      running = false;
+      return { gaps, total };
+    });
+    const gaps = frames.gaps.slice(1).sort((a, b) => a - b);
+    const pick = (q) => gaps[Math.min(gaps.length - 1, Math.floor(q * gaps.length))];
+    return {
+      mode,
+      first,
+      edit: walls[Math.floor(walls.length / 2)],
+      editMax: walls[walls.length - 1],
+      job: jobs[Math.floor(jobs.length / 2)],
+      generate: frames.total,
+      frames: gaps.length,
+      median: pick(0.5),
+      p95: pick(0.95),
+      longest: gaps[gaps.length - 1],
+    };
+  } finally {
+    await browser.close();
+  }
+}
+
+if (!existsSync(join(dist, 'index.html'))) {
+  console.error(`no ${join(dist, 'index.html')}: run \`trunk build --release\` first`);
+  process.exit(2);
+}
+const server = await serve(dist);
+const url = `http://127.0.0.1:${server.address().port}/`;
+const rows = [];
+try {
+  for (const mode of (process.env.BROWSER_MODES ?? 'webgpu,cpu').split(',')) {
+    rows.push(await measure(url, mode));
+  }
+} finally {
+  server.close();
+}
+const f = (v) => v.toFixed(0).padStart(7);
+console.log('editor in headless Chromium, milliseconds');
+console.log('path    first terrain  edit->map (max) diffuse | 2048^2: generate  frames  median    p95  longest');
+for (const r of rows) {
+  console.log(`${r.mode.padEnd(7)} ${f(r.first)}       ${f(r.edit)} (${f(r.editMax).trim()}) ${f(r.job)}   |`
+    + `        ${f(r.generate)} ${String(r.frames).padStart(7)} ${f(r.median)} ${f(r.p95)} ${f(r.longest)}`);
+}
+console.log('targets (editor issue): first terrain <= 3000; a 512^2 preview <= 300 on the CPU path '
+  + '(150 natively); frames < 50 while a 2048^2 terrain is generated');
