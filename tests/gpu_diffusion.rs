@@ -216,3 +216,34 @@ fn gpu_multigrid_reaches_the_harmonic_solution_of_a_non_square_field() {
         }
     }
 }
+
+/// A terrain larger than what the GPU holds in one storage binding is computed on the CPU
+/// (the report says so) instead of failing: here a device pretending to hold only 64 KiB.
+#[test]
+fn a_field_the_gpu_cannot_hold_is_generated_on_the_cpu() {
+    let Some(ctx) = common::gpu() else { return };
+    let mut small = ctx.clone();
+    small.caps.max_storage_buffer_binding_size = 64 * 1024;
+    small.caps.max_buffer_size = 64 * 1024;
+    let params = strahler::terrain::TerrainParams {
+        size: 256,
+        ..Default::default()
+    };
+    let strokes = [strahler::app::default_stroke()];
+    let generate = |backend: &Backend| {
+        pollster::block_on(strahler::terrain::generate(
+            &strokes,
+            &params,
+            backend,
+            &JobCtx::detached(),
+        ))
+        .expect("the terrain is generated")
+    };
+    let fallback = generate(&Backend::Gpu(Arc::new(small)));
+    assert_eq!(fallback.report.diffusion.backend, "cpu");
+    let cpu = generate(&Backend::Cpu);
+    assert_eq!(fallback.terrain.checksum(), cpu.terrain.checksum());
+    // A device that holds it computes it there.
+    let gpu = generate(&Backend::Gpu(Arc::new(ctx)));
+    assert_eq!(gpu.report.diffusion.backend, "gpu");
+}

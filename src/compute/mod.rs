@@ -31,6 +31,23 @@ impl Backend {
             Backend::Gpu(_) => "gpu",
         }
     }
+
+    /// The backend that can hold a `width` x `height` field: a GPU whose storage bindings are
+    /// too small for it (see [`crate::gpu::Capabilities::fits_field`]) hands the field to the
+    /// CPU, so large terrains work on every device, just slower (the report then says `cpu`).
+    pub fn fitting(&self, width: usize, height: usize) -> Backend {
+        match self {
+            Backend::Gpu(gpu) if !gpu.caps.fits_field(width, height) => {
+                log::warn!(
+                    "a {width} x {height} field exceeds this GPU's storage binding ({} bytes): \
+                     computing it on the CPU",
+                    gpu.caps.max_storage_bytes()
+                );
+                Backend::Cpu
+            }
+            other => other.clone(),
+        }
+    }
 }
 
 /// What the user asked for.

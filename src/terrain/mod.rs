@@ -193,6 +193,8 @@ pub async fn generate(
         return Err(TerrainError::Size(params.size));
     }
     let n = params.size;
+    // A field the GPU cannot hold in one binding is computed on the CPU.
+    let backend = &backend.fitting(n, n);
     let mut stages = Vec::new();
     let mut clock = Instant::now();
     let mut lap = |name: &'static str, stages: &mut Vec<StageTime>| {
