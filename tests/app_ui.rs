@@ -486,3 +486,18 @@ fn large_maps_edit_at_preview_size_and_generate_full_size_on_demand() {
     assert_eq!(harness.state().terrain().unwrap().width(), 1024);
     assert_eq!(harness.state().mask().width(), 1024);
 }
+
+#[test]
+fn the_export_dialog_opens_with_e_and_closes_with_escape() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    wait_idle(&mut harness);
+    harness.key_press(egui::Key::E);
+    harness.run_steps(2);
+    harness.get_by_label("Download (Enter)");
+    harness.key_press(egui::Key::Escape);
+    harness.run_steps(2);
+    assert!(harness.query_by_label("Download (Enter)").is_none());
+}

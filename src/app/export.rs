@@ -63,6 +63,11 @@ pub fn encode(
 /// Shows the dialog when open.
 pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
     let mut open = app.export.open;
+    // Escape closes the dialog, as users expect of one.
+    if open && ctx.input_mut(|i| i.consume_key(egui::Modifiers::NONE, egui::Key::Escape)) {
+        app.export.open = false;
+        return;
+    }
     let preview = app.showing_preview();
     let mut save = false;
     egui::Window::new("Export heightmap")
