@@ -51,6 +51,15 @@ impl FixedMask {
         &self.words
     }
 
+    /// The fixed bits of cells `i..i + 64` (bit `k` for cell `i + k`; cells past the end
+    /// read as free).
+    #[inline]
+    pub fn bits64(&self, i: usize) -> u64 {
+        let (word, shift) = (i >> 5, i & 31);
+        let at = |k: usize| u128::from(self.words.get(word + k).copied().unwrap_or(0));
+        ((at(0) | at(1) << 32 | at(2) << 64) >> shift) as u64
+    }
+
     #[inline]
     pub fn is_fixed_index(&self, i: usize) -> bool {
         (self.words[i >> 5] >> (i & 31)) & 1 == 1
