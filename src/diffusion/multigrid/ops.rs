@@ -157,7 +157,7 @@ fn relax_interior(
             }
         }
         // Cells x0 + k of this colour: k even when x0 has the colour's parity.
-        let colour = if (x0 + first) % 2 == 0 {
+        let colour = if (x0 + first).is_multiple_of(2) {
             0x5555_5555_5555_5555u64
         } else {
             0xAAAA_AAAA_AAAA_AAAAu64
