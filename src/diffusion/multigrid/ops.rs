@@ -156,22 +156,30 @@ fn relax_interior(
                 }
             }
         }
-        // Cells x0 + k of this colour: k even when x0 has the colour's parity.
-        let colour = if (x0 + first).is_multiple_of(2) {
-            0x5555_5555_5555_5555u64
-        } else {
-            0xAAAA_AAAA_AAAA_AAAAu64
-        };
+        // Store on the cells of this colour (k even when x0 has the colour's parity), then
+        // put the few fixed cells back.
         let length = if n == CHUNK {
             u64::MAX
         } else {
             (1u64 << n) - 1
         };
-        let mut update = colour & !fixed.bits64(base + x0) & length;
-        while update != 0 {
-            let k = update.trailing_zeros() as usize;
+        let fixed_bits = fixed.bits64(base + x0) & length;
+        let mut kept = [0.0f32; CHUNK];
+        let mut set = fixed_bits;
+        while set != 0 {
+            let k = set.trailing_zeros() as usize;
+            kept[k] = row[x0 + k];
+            set &= set - 1;
+        }
+        let start = usize::from(!(x0 + first).is_multiple_of(2));
+        for k in (start..n).step_by(2) {
             row[x0 + k] = mean[k];
-            update &= update - 1;
+        }
+        let mut set = fixed_bits;
+        while set != 0 {
+            let k = set.trailing_zeros() as usize;
+            row[x0 + k] = kept[k];
+            set &= set - 1;
         }
         x0 += n;
     }
@@ -462,14 +470,40 @@ fn prolong_row(
     let (yn, yf, wy) = axis(y, ch);
     let near_row = &coarse[yn * cw..(yn + 1) * cw];
     let far_row = &coarse[yf * cw..(yf + 1) * cw];
-    for (x, cell) in row.iter_mut().enumerate() {
-        if fixed.is_fixed_index(y * w + x) {
-            continue;
+    // A chunk of 64 cells at a time: the interpolation for every cell (no mask test in the
+    // loop), then applied to all of them, with the few fixed cells put back exactly.
+    const CHUNK: usize = 64;
+    let mut values = [0.0f32; CHUNK];
+    for x0 in (0..w).step_by(CHUNK) {
+        let n = (w - x0).min(CHUNK);
+        for (k, value) in values.iter_mut().enumerate().take(n) {
+            let (xn, xf, wx) = axis(x0 + k, cw);
+            let near = near_row[xn] * (1.0 - wx) + near_row[xf] * wx;
+            let far = far_row[xn] * (1.0 - wx) + far_row[xf] * wx;
+            *value = near * (1.0 - wy) + far * wy;
         }
-        let (xn, xf, wx) = axis(x, cw);
-        let near = near_row[xn] * (1.0 - wx) + near_row[xf] * wx;
-        let far = far_row[xn] * (1.0 - wx) + far_row[xf] * wx;
-        apply(cell, near * (1.0 - wy) + far * wy);
+        let length = if n == CHUNK {
+            u64::MAX
+        } else {
+            (1u64 << n) - 1
+        };
+        let fixed_bits = fixed.bits64(y * w + x0) & length;
+        let mut kept = [0.0f32; CHUNK];
+        let mut set = fixed_bits;
+        while set != 0 {
+            let k = set.trailing_zeros() as usize;
+            kept[k] = row[x0 + k];
+            set &= set - 1;
+        }
+        for (cell, &value) in row[x0..x0 + n].iter_mut().zip(&values[..n]) {
+            apply(cell, value);
+        }
+        let mut set = fixed_bits;
+        while set != 0 {
+            let k = set.trailing_zeros() as usize;
+            row[x0 + k] = kept[k];
+            set &= set - 1;
+        }
     }
 }
 
