@@ -87,39 +87,27 @@ pub struct Conditioning {
 /// from the map border in order of height; a cell reached from a higher one is raised just
 /// above it (the next representable `f32`), so every cell then has a strictly descending
 /// path to the border and no pit remains. Only depressions are touched (rivers, which
-/// already descend to their estuaries, are not). O(cells log cells).
+/// already descend to their estuaries, are not). O(cells log range) with a radix heap.
 pub fn fill_depressions(field: &mut Heightfield) -> Conditioning {
-    use std::cmp::Reverse;
-    use std::collections::BinaryHeap;
-
-    #[derive(PartialEq)]
-    struct Height(f32);
-    impl Eq for Height {}
-    impl PartialOrd for Height {
-        fn partial_cmp(&self, other: &Self) -> Option<std::cmp::Ordering> {
-            Some(self.cmp(other))
-        }
-    }
-    impl Ord for Height {
-        fn cmp(&self, other: &Self) -> std::cmp::Ordering {
-            self.0.total_cmp(&other.0)
-        }
-    }
+    use super::radix_heap::{RadixHeap, ordered_key};
 
     let (w, h) = (field.width() as i64, field.height() as i64);
     let z = field.data_mut();
     let mut closed = vec![false; z.len()];
-    let mut heap = BinaryHeap::new();
+    // Heights pop in non-decreasing order (a raised cell sits just above the level that
+    // reached it), so a monotone radix heap replaces the binary heap of the paper.
+    let mut heap = RadixHeap::new();
     for i in 0..(w * h) {
         let (x, y) = (i % w, i / w);
         if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
             closed[i as usize] = true;
-            heap.push((Reverse(Height(z[i as usize])), i as usize));
+            heap.push(ordered_key(z[i as usize]), i as u32);
         }
     }
     let mut result = Conditioning::default();
-    while let Some((Reverse(Height(level)), i)) = heap.pop() {
-        let (x, y) = (i as i64 % w, i as i64 / w);
+    while let Some((_, i)) = heap.pop() {
+        let level = z[i as usize];
+        let (x, y) = (i64::from(i) % w, i64::from(i) / w);
         for (dx, dy, _) in NEIGHBOURS {
             let (nx, ny) = (x + dx, y + dy);
             if nx < 0 || ny < 0 || nx >= w || ny >= h {
@@ -136,7 +124,7 @@ pub fn fill_depressions(field: &mut Heightfield) -> Conditioning {
                 result.max_raise = result.max_raise.max(raised - z[j]);
                 z[j] = raised;
             }
-            heap.push((Reverse(Height(z[j])), j));
+            heap.push(ordered_key(z[j]), j as u32);
         }
     }
     result

@@ -5,6 +5,7 @@
 //! so editing one stage's parameters never reshuffles another's randomness.
 
 pub mod drainage;
+mod radix_heap;
 
 use serde::Serialize;
 use thiserror::Error;
