@@ -250,18 +250,29 @@ pub async fn generate(
         params.ridges.alpha,
         cell_m,
     );
-    // About half a million cells a band (256 rows at 2048^2, the whole grid up to 724^2).
-    let band = ((1usize << 19) / n.max(1)).max(1);
+    // Bands of at most half a million cells (256 rows at 2048^2), at least one per thread:
+    // natively a group of bands is gathered in parallel, on the web one band at a time.
+    let threads = crate::compute::parallel::threads();
+    let band = ((1usize << 19) / n.max(1)).min(n.div_ceil(threads)).max(1);
+    let bands: Vec<std::ops::Range<usize>> = (0..n)
+        .step_by(band)
+        .map(|start| start..(start + band).min(n))
+        .collect();
     for pass in 0..params.enrich.passes {
         for md in [false, true] {
             let mut updates = Vec::new();
-            for start in (0..n).step_by(band) {
-                let rows = start..(start + band).min(n);
-                updates.extend(if md {
-                    enrichment.md_updates(rows)
-                } else {
-                    enrichment.mdi_updates(rows)
+            for group in bands.chunks(threads) {
+                let mut parts = vec![Vec::new(); group.len()];
+                let items: Vec<_> = group.iter().cloned().zip(parts.iter_mut()).collect();
+                let gather = &enrichment;
+                crate::compute::parallel::for_each_item(items, |(rows, out)| {
+                    *out = if md {
+                        gather.md_updates(rows)
+                    } else {
+                        gather.mdi_updates(rows)
+                    };
                 });
+                updates.extend(parts.into_iter().flatten());
                 let half = if md { "MD" } else { "MDI" };
                 ctx.checkpoint(
                     0.25,
