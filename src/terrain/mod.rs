@@ -287,6 +287,7 @@ pub async fn generate(
     lap("enrich", &mut stages);
 
     let problem = skeleton.constraints();
+    ctx.checkpoint(0.3, "diffusing").await?;
     let filled = diffusion::fill(backend, &problem, params.solver, ctx).await?;
     lap("diffuse", &mut stages);
 
