@@ -211,6 +211,29 @@ pub fn water_mask(order: &[u8], size: usize) -> Vec<u8> {
     out
 }
 
+/// Nearest-sample reduction of a square mask to at most `max_side` texels per side.
+pub fn reduce_mask(mask: &[u8], side: usize, max_side: usize) -> (Vec<u8>, usize) {
+    if side <= max_side {
+        return (mask[..side * side].to_vec(), side);
+    }
+    let factor = side.div_ceil(max_side);
+    let out_side = side.div_ceil(factor);
+    let out = (0..out_side * out_side)
+        .map(|k| {
+            let (x, y) = ((k % out_side) * factor, (k / out_side) * factor);
+            // Keep thin rivers: any water cell in the block counts.
+            let mut v = 0;
+            for yy in y..(y + factor).min(side) {
+                for xx in x..(x + factor).min(side) {
+                    v = v.max(mask[yy * side + xx]);
+                }
+            }
+            v
+        })
+        .collect();
+    (out, out_side)
+}
+
 /// IEEE 754 half-precision bits of `v` (round to nearest; overflow to infinity, tiny
 /// values to zero): the `Rg16Float` texture format.
 pub fn f16_bits(v: f32) -> u16 {

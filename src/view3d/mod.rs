@@ -7,8 +7,10 @@
 //! - [`camera`]: orbit and fly cameras (pure math).
 //! - [`lod`]: the chunk quadtree and eq. 7 selection (pure, CPU).
 //! - [`maps`]: the textures the shader reads, prepared on the CPU from the heightfield.
+//! - [`mesh`]: the grid (with its skirt) every chunk is drawn with.
 //! - [`renderer`]: wgpu pipelines drawing the chunks into an offscreen colour + depth target,
 //!   on WebGPU, WebGL2 (vertex buffers and textures only, no storage buffers) and natively.
+//! - [`target`]: that target, and reading it back.
 //!
 //! Nothing here depends on egui; `app::view3d` shows the target and turns input into camera
 //! moves.
@@ -16,7 +18,9 @@
 pub mod camera;
 pub mod lod;
 pub mod maps;
+pub mod mesh;
 pub mod renderer;
+pub mod target;
 
 pub use camera::{Camera, CameraMode};
 pub use maps::TerrainMaps;

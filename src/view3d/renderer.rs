@@ -13,15 +13,14 @@ use glam::Mat4;
 use serde::Serialize;
 use wgpu::util::DeviceExt;
 
-use super::lod::{self, CHUNK_QUADS, LodParams, Selection, ViewPoint};
+use super::lod::{self, LodParams, Selection, ViewPoint};
+use super::mesh::grid_mesh;
+use super::target::{COLOR_FORMAT, DEPTH_FORMAT, Target};
 use super::{Camera, TerrainMaps, View3dSettings};
-use crate::gpu::{GpuContext, GpuError, read_bytes};
+use crate::gpu::{GpuContext, GpuError};
 
 const SHADER: &str = include_str!("../../shaders/terrain3d.wgsl");
 
-/// Colour target format (egui shows it as an image).
-pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
-const DEPTH_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Depth32Float;
 /// Background (the shader's sky colour, gamma-encoded).
 pub const CLEAR: [f64; 3] = [0.7681, 0.8469, 0.9301];
 
@@ -52,13 +51,6 @@ struct TerrainTextures {
     maps: TerrainMaps,
 }
 
-struct Target {
-    color: wgpu::Texture,
-    color_view: wgpu::TextureView,
-    depth_view: wgpu::TextureView,
-    size: [u32; 2],
-}
-
 /// GPU resources of the 3D view.
 pub struct Renderer {
     terrain_pipeline: wgpu::RenderPipeline,
@@ -75,44 +67,6 @@ pub struct Renderer {
     target: Option<Target>,
     /// Largest texture side of the device.
     max_texture_side: usize,
-}
-
-/// The shared chunk grid: `n x n` vertices `(i, j, 0)` then the skirt ring `(i, j, 1)`
-/// along the four edges; triangles of the grid and of the skirt quads.
-fn grid_mesh() -> (Vec<[f32; 3]>, Vec<u32>) {
-    let n = CHUNK_QUADS as u32 + 1;
-    let mut vertices: Vec<[f32; 3]> = (0..n * n)
-        .map(|k| [(k % n) as f32, (k / n) as f32, 0.0])
-        .collect();
-    let mut indices = Vec::new();
-    for j in 0..n - 1 {
-        for i in 0..n - 1 {
-            let a = j * n + i;
-            let (b, c, d) = (a + 1, a + n, a + n + 1);
-            indices.extend_from_slice(&[a, c, b, b, c, d]);
-        }
-    }
-    // Each edge as a list of top vertices in order; its skirt hangs below.
-    let edges: [Vec<u32>; 4] = [
-        (0..n).collect(),
-        (0..n).map(|i| (n - 1) * n + i).collect(),
-        (0..n).map(|j| j * n).collect(),
-        (0..n).map(|j| j * n + n - 1).collect(),
-    ];
-    for edge in edges {
-        let base = vertices.len() as u32;
-        for &top in &edge {
-            let [x, y, _] = vertices[top as usize];
-            vertices.push([x, y, 1.0]);
-        }
-        for k in 0..n - 1 {
-            let (t0, t1) = (edge[k as usize], edge[k as usize + 1]);
-            let (s0, s1) = (base + k, base + k + 1);
-            // Both windings: the pipeline does not cull, skirts face either way.
-            indices.extend_from_slice(&[t0, s0, t1, t1, s0, s1]);
-        }
-    }
-    (vertices, indices)
 }
 
 impl Renderer {
@@ -335,7 +289,7 @@ impl Renderer {
         );
         let (mask, side) = match water {
             Some((mask, side)) if side > 0 && mask.len() >= side * side => {
-                reduce_mask(mask, side, self.max_texture_side)
+                super::maps::reduce_mask(mask, side, self.max_texture_side)
             }
             _ => (vec![0u8], 1),
         };
@@ -382,50 +336,15 @@ impl Renderer {
         self.target.as_ref().map(|t| &t.color_view)
     }
 
-    /// Whether the colour target was (re)created for `size` by the last
-    /// [`Self::ensure_target`] call.
+    /// Makes the target `size` pixels (within the device's limit); true when it was
+    /// (re)created, so a texture registered elsewhere must be updated.
     pub fn ensure_target(&mut self, device: &wgpu::Device, size: [u32; 2]) -> bool {
-        let size = [
-            size[0].clamp(1, self.max_texture_side as u32),
-            size[1].clamp(1, self.max_texture_side as u32),
-        ];
+        let side = self.max_texture_side as u32;
+        let size = [size[0].clamp(1, side), size[1].clamp(1, side)];
         if self.target.as_ref().is_some_and(|t| t.size == size) {
             return false;
         }
-        let make = |label, format, usage| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d {
-                    width: size[0],
-                    height: size[1],
-                    depth_or_array_layers: 1,
-                },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let color = make(
-            "terrain3d colour",
-            COLOR_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC,
-        );
-        let depth = make(
-            "terrain3d depth",
-            DEPTH_FORMAT,
-            wgpu::TextureUsages::RENDER_ATTACHMENT,
-        );
-        self.target = Some(Target {
-            color_view: color.create_view(&Default::default()),
-            depth_view: depth.create_view(&Default::default()),
-            color,
-            size,
-        });
+        self.target = Some(Target::new(device, size));
         true
     }
 
@@ -586,43 +505,7 @@ impl Renderer {
             .target
             .as_ref()
             .ok_or_else(|| GpuError::Readback("nothing rendered yet".into()))?;
-        let [w, h] = target.size;
-        let padded = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("terrain3d readback"),
-            size: u64::from(padded * h),
-            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("terrain3d readback"),
-            });
-        encoder.copy_texture_to_buffer(
-            target.color.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        ctx.queue.submit([encoder.finish()]);
-        let bytes = read_bytes(ctx, &buffer, u64::from(padded * h)).await?;
-        let rows = bytes
-            .chunks_exact(padded as usize)
-            .flat_map(|row| row[..(w * 4) as usize].to_vec())
-            .collect();
-        Ok((rows, [w, h]))
+        target.read_color(ctx).await
     }
 }
 
@@ -637,41 +520,4 @@ pub fn clip_planes(camera: &Camera, maps: &TerrainMaps, exaggeration: f32) -> (f
     let relief = (maps.zmax - maps.zmin) * exaggeration;
     let far = eye.truncate().length() + 3.0 * ex.max(ey) + eye.z.abs() + relief;
     (near, far.max(near * 10.0))
-}
-
-/// Nearest-sample reduction of a square mask to at most `max_side` texels per side.
-fn reduce_mask(mask: &[u8], side: usize, max_side: usize) -> (Vec<u8>, usize) {
-    if side <= max_side {
-        return (mask[..side * side].to_vec(), side);
-    }
-    let factor = side.div_ceil(max_side);
-    let out_side = side.div_ceil(factor);
-    let out = (0..out_side * out_side)
-        .map(|k| {
-            let (x, y) = ((k % out_side) * factor, (k / out_side) * factor);
-            // Keep thin rivers: any water cell in the block counts.
-            let mut v = 0;
-            for yy in y..(y + factor).min(side) {
-                for xx in x..(x + factor).min(side) {
-                    v = v.max(mask[yy * side + xx]);
-                }
-            }
-            v
-        })
-        .collect();
-    (out, out_side)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn the_grid_mesh_has_the_skirt_and_valid_indices() {
-        let (vertices, indices) = grid_mesh();
-        let n = CHUNK_QUADS + 1;
-        assert_eq!(vertices.len(), n * n + 4 * n);
-        assert_eq!(indices.len() / 3, lod::TRIANGLES_PER_CHUNK);
-        assert!(indices.iter().all(|&i| (i as usize) < vertices.len()));
-    }
 }

@@ -117,7 +117,8 @@ pub async fn solve(
     let scale = super::fixed_height_range(problem).max(f32::MIN_POSITIVE);
     let mut levels = hierarchy::for_problem(problem, rhs);
     // Building the levels is one O(cells) step: let the browser paint after it.
-    ctx.checkpoint(0.0, "multigrid: full-multigrid start").await?;
+    ctx.checkpoint(0.0, "multigrid: full-multigrid start")
+        .await?;
 
     let mut slicer = Slicer {
         ctx,

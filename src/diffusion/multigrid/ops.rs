@@ -156,31 +156,14 @@ fn relax_interior(
                 }
             }
         }
-        // Store on the cells of this colour (k even when x0 has the colour's parity), then
-        // put the few fixed cells back.
-        let length = if n == CHUNK {
-            u64::MAX
-        } else {
-            (1u64 << n) - 1
-        };
-        let fixed_bits = fixed.bits64(base + x0) & length;
-        let mut kept = [0.0f32; CHUNK];
-        let mut set = fixed_bits;
-        while set != 0 {
-            let k = set.trailing_zeros() as usize;
-            kept[k] = row[x0 + k];
-            set &= set - 1;
-        }
+        // Store on the cells of this colour (k even when x0 has the colour's parity); the
+        // fixed ones are put back.
         let start = usize::from(!(x0 + first).is_multiple_of(2));
-        for k in (start..n).step_by(2) {
-            row[x0 + k] = mean[k];
-        }
-        let mut set = fixed_bits;
-        while set != 0 {
-            let k = set.trailing_zeros() as usize;
-            row[x0 + k] = kept[k];
-            set &= set - 1;
-        }
+        keeping_fixed(&mut row[x0..x0 + n], fixed, base + x0, |cells| {
+            for k in (start..cells.len()).step_by(2) {
+                cells[k] = mean[k];
+            }
+        });
         x0 += n;
     }
 }
@@ -482,28 +465,39 @@ fn prolong_row(
             let far = far_row[xn] * (1.0 - wx) + far_row[xf] * wx;
             *value = near * (1.0 - wy) + far * wy;
         }
-        let length = if n == CHUNK {
-            u64::MAX
-        } else {
-            (1u64 << n) - 1
-        };
-        let fixed_bits = fixed.bits64(y * w + x0) & length;
-        let mut kept = [0.0f32; CHUNK];
-        let mut set = fixed_bits;
-        while set != 0 {
-            let k = set.trailing_zeros() as usize;
-            kept[k] = row[x0 + k];
-            set &= set - 1;
-        }
-        for (cell, &value) in row[x0..x0 + n].iter_mut().zip(&values[..n]) {
-            apply(cell, value);
-        }
-        let mut set = fixed_bits;
-        while set != 0 {
-            let k = set.trailing_zeros() as usize;
-            row[x0 + k] = kept[k];
-            set &= set - 1;
-        }
+        keeping_fixed(&mut row[x0..x0 + n], fixed, y * w + x0, |cells| {
+            for (cell, &value) in cells.iter_mut().zip(&values) {
+                apply(cell, value);
+            }
+        });
+    }
+}
+
+/// Runs `write` on `cells` (at most 64, the grid cells from index `first`), then puts the
+/// fixed ones back exactly as they were: the write loop needs no per-cell mask test.
+#[inline(always)]
+fn keeping_fixed(
+    cells: &mut [f32],
+    fixed: &FixedMask,
+    first: usize,
+    write: impl FnOnce(&mut [f32]),
+) {
+    let n = cells.len().min(64);
+    let length = if n == 64 { u64::MAX } else { (1u64 << n) - 1 };
+    let fixed_bits = fixed.bits64(first) & length;
+    let mut kept = [0.0f32; 64];
+    let mut set = fixed_bits;
+    while set != 0 {
+        let k = set.trailing_zeros() as usize;
+        kept[k] = cells[k];
+        set &= set - 1;
+    }
+    write(cells);
+    let mut set = fixed_bits;
+    while set != 0 {
+        let k = set.trailing_zeros() as usize;
+        cells[k] = kept[k];
+        set &= set - 1;
     }
 }
 
