@@ -98,9 +98,7 @@ impl View3d {
     /// Back to the overview.
     pub fn reset_camera(&mut self) {
         if let Some(maps) = self.renderer.as_ref().and_then(Renderer::maps) {
-            let (w, h) = maps.extent();
-            let mid = 0.5 * (maps.zmin + maps.zmax) * self.settings.exaggeration;
-            self.camera = Some(Camera::overview(w, h, mid));
+            self.camera = Some(overview(maps, self.settings.exaggeration));
         }
     }
 
@@ -354,6 +352,12 @@ impl View3d {
     }
 }
 
+/// The whole map from the south, looking at its mid height.
+fn overview(maps: &TerrainMaps, exaggeration: f32) -> Camera {
+    let (w, h) = maps.extent();
+    Camera::overview(w, h, 0.5 * (maps.zmin + maps.zmax) * exaggeration)
+}
+
 /// Applies a script's camera request (distance in map widths, degrees); orbit mode.
 fn apply(camera: &mut Camera, request: CameraRequest, map_width: f32) {
     camera.set_mode(CameraMode::Orbit, camera.distance);
@@ -400,9 +404,7 @@ fn steer(
             camera.set_mode(next, clearance * 2.0);
         }
         if reset {
-            let mid = 0.5 * (maps.zmin + maps.zmax) * settings.exaggeration;
-            let (w, h) = maps.extent();
-            *camera = Camera::overview(w, h, mid);
+            *camera = overview(maps, settings.exaggeration);
         }
         if snow {
             settings.snow = !settings.snow;

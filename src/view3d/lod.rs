@@ -270,6 +270,11 @@ fn bounds(chunk: &Chunk, view: &ViewPoint, tree: &ChunkTree) -> (Vec3, Vec3) {
 /// Eq. 7: triangles per radian of `chunk` seen from `view`.
 pub fn fineness(chunk: &Chunk, view: &ViewPoint, tree: &ChunkTree) -> f32 {
     let (lo, hi) = bounds(chunk, view, tree);
+    fineness_in(chunk, view, lo, hi)
+}
+
+/// [`fineness`] of a chunk whose world box is `lo..hi`.
+fn fineness_in(chunk: &Chunk, view: &ViewPoint, lo: Vec3, hi: Vec3) -> f32 {
     let nearest = view.eye.clamp(lo, hi);
     let x = view.eye.distance(nearest).max(1e-3);
     let d = (chunk.side() * view.cell).max(1e-3);
@@ -316,15 +321,16 @@ pub fn select(tree: &ChunkTree, view: &ViewPoint, params: &LodParams) -> Selecti
         let mut next = Vec::new();
         let pending = current.len();
         for (i, chunk) in current.into_iter().enumerate() {
-            if let Some(vp) = &view.view_proj {
-                let (lo, hi) = bounds(&chunk, view, tree);
-                if outside_frustum(vp, lo, hi) {
-                    continue;
-                }
+            let (lo, hi) = bounds(&chunk, view, tree);
+            if view
+                .view_proj
+                .is_some_and(|vp| outside_frustum(&vp, lo, hi))
+            {
+                continue;
             }
             let left = pending - i - 1;
             let refine = chunk.level > finest
-                && fineness(&chunk, view, tree) <= params.tau
+                && fineness_in(&chunk, view, lo, hi) <= params.tau
                 && out.len() + next.len() + left + 4 <= budget;
             if refine {
                 next.extend(tree.children(&chunk, params.detail_amplitude));
