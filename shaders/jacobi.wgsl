@@ -5,11 +5,17 @@
 // one bit each in `fixed_bits` (cell i = bit i % 32 of word i / 32), are copied unchanged.
 // The host ping-pongs `src` and `dst` between dispatches. Mirrors `src/diffusion/cpu.rs`.
 
+// The buffers may hold only a band of rows (`src/diffusion/gpu/bands.rs`): rows row0.. of the
+// field, of which this dispatch computes own_start..own_end; coordinates stay global.
 struct Params {
     width: u32,
     height: u32,
+    row0: u32,
+    own_start: u32,
+    own_end: u32,
     _pad0: u32,
     _pad1: u32,
+    _pad2: u32,
 }
 
 @group(0) @binding(0) var<uniform> params: Params;
@@ -20,13 +26,13 @@ struct Params {
 @compute @workgroup_size(16, 16, 1)
 fn jacobi_sweep(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = gid.x;
-    let y = gid.y;
+    let y = params.own_start + gid.y;
     let w = params.width;
     let h = params.height;
-    if (x >= w || y >= h) {
+    if (x >= w || y >= params.own_end) {
         return;
     }
-    let i = y * w + x;
+    let i = (y - params.row0) * w + x;
     if (((fixed_bits[i >> 5u] >> (i & 31u)) & 1u) == 1u) {
         dst[i] = src[i];
         return;

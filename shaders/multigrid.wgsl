@@ -3,6 +3,11 @@
 // with (A u)_i = n_i u_i - sum of the n_i in-grid 4-neighbours (zero flux at the border).
 // Neighbours are visited left, right, up, down and sums formed in the same order as on the CPU.
 //
+// A level may be tiled into bands of rows (`src/diffusion/gpu/bands.rs`): the buffers then hold
+// rows fine_row0.. (coarse_row0..) of the level, coordinates stay global (borders at row 0 and
+// fine_h - 1), and a dispatch covers the band's owned rows own_start..own_end. Untiled, both
+// row offsets are 0 and the band is the whole level.
+//
 // Entry points (all 16 x 16 workgroups):
 //   relax             one colour of a red-black Gauss-Seidel sweep on the fine level
 //   restrict_residual coarse b = sum of the fine residual over the 2 x 2 children
@@ -18,6 +23,12 @@ struct Params {
     coarse_h: u32,
     colour: u32,
     has_rhs: u32,
+    // Global row of the first row held by the fine (coarse) buffers.
+    fine_row0: u32,
+    coarse_row0: u32,
+    // Fine rows this dispatch computes (restriction: their parents).
+    own_start: u32,
+    own_end: u32,
     _pad0: u32,
     _pad1: u32,
 }
@@ -30,6 +41,15 @@ struct Params {
 // [0]: max |r_i| / n_i on the finest level; [1]: max |u| of the level below (the last
 // coarse-grid correction), both as f32 bits.
 @group(0) @binding(5) var<storage, read_write> result: array<atomic<u32>, 2>;
+
+// Buffer index of global cell (x, y) on the fine and on the coarse level.
+fn fine_index(x: u32, y: u32) -> u32 {
+    return (y - p.fine_row0) * p.fine_w + x;
+}
+
+fn coarse_index(x: u32, y: u32) -> u32 {
+    return (y - p.coarse_row0) * p.coarse_w + x;
+}
 
 fn is_fixed(i: u32) -> bool {
     return ((fixed_bits[i >> 5u] >> (i & 31u)) & 1u) == 1u;
@@ -45,7 +65,7 @@ fn rhs(i: u32) -> f32 {
 // Sum and count of the in-grid neighbours of (x, y) on the fine level.
 fn neighbours(x: u32, y: u32) -> vec2<f32> {
     let w = p.fine_w;
-    let i = y * w + x;
+    let i = fine_index(x, y);
     var sum = 0.0;
     var count = 0.0;
     if (x > 0u) {
@@ -71,7 +91,7 @@ fn neighbours(x: u32, y: u32) -> vec2<f32> {
 // exact in floating point, so the residual keeps full precision near convergence.
 fn differences(x: u32, y: u32) -> f32 {
     let w = p.fine_w;
-    let i = y * w + x;
+    let i = fine_index(x, y);
     let c = u[i];
     var sum = 0.0;
     if (x > 0u) {
@@ -90,7 +110,7 @@ fn differences(x: u32, y: u32) -> f32 {
 }
 
 fn residual_at(x: u32, y: u32) -> f32 {
-    let i = y * p.fine_w + x;
+    let i = fine_index(x, y);
     if (is_fixed(i)) {
         return 0.0;
     }
@@ -99,15 +119,15 @@ fn residual_at(x: u32, y: u32) -> f32 {
 
 @compute @workgroup_size(16, 16, 1)
 fn relax(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let y = gid.y;
-    if (y >= p.fine_h) {
+    let y = p.own_start + gid.y;
+    if (y >= p.own_end) {
         return;
     }
     let x = 2u * gid.x + ((y + p.colour) & 1u);
     if (x >= p.fine_w) {
         return;
     }
-    let i = y * p.fine_w + x;
+    let i = fine_index(x, y);
     if (is_fixed(i)) {
         return;
     }
@@ -120,8 +140,8 @@ fn relax(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(16, 16, 1)
 fn restrict_residual(@builtin(global_invocation_id) gid: vec3<u32>) {
     let cx = gid.x;
-    let cy = gid.y;
-    if (cx >= p.coarse_w || cy >= p.coarse_h) {
+    let cy = p.own_start / 2u + gid.y;
+    if (cx >= p.coarse_w || 2u * cy >= p.own_end) {
         return;
     }
     var sum = 0.0;
@@ -130,7 +150,7 @@ fn restrict_residual(@builtin(global_invocation_id) gid: vec3<u32>) {
             sum += residual_at(x, y);
         }
     }
-    coarse[cy * p.coarse_w + cx] = sum;
+    coarse[coarse_index(cx, cy)] = sum;
 }
 
 // (near, far) coarse indices along one axis; the far one weighs 1/4 (clamped at the border).
@@ -148,22 +168,21 @@ fn axis(x: u32, n: u32) -> vec2<u32> {
 }
 
 fn interpolate(x: u32, y: u32) -> f32 {
-    let cw = p.coarse_w;
-    let ax = axis(x, cw);
+    let ax = axis(x, p.coarse_w);
     let ay = axis(y, p.coarse_h);
-    let near = coarse[ay.x * cw + ax.x] * 0.75 + coarse[ay.x * cw + ax.y] * 0.25;
-    let far = coarse[ay.y * cw + ax.x] * 0.75 + coarse[ay.y * cw + ax.y] * 0.25;
+    let near = coarse[coarse_index(ax.x, ay.x)] * 0.75 + coarse[coarse_index(ax.y, ay.x)] * 0.25;
+    let far = coarse[coarse_index(ax.x, ay.y)] * 0.75 + coarse[coarse_index(ax.y, ay.y)] * 0.25;
     return near * 0.75 + far * 0.25;
 }
 
 @compute @workgroup_size(16, 16, 1)
 fn prolong_add(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = gid.x;
-    let y = gid.y;
-    if (x >= p.fine_w || y >= p.fine_h) {
+    let y = p.own_start + gid.y;
+    if (x >= p.fine_w || y >= p.own_end) {
         return;
     }
-    let i = y * p.fine_w + x;
+    let i = fine_index(x, y);
     if (!is_fixed(i)) {
         u[i] += interpolate(x, y);
     }
@@ -172,11 +191,11 @@ fn prolong_add(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(16, 16, 1)
 fn prolong_replace(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = gid.x;
-    let y = gid.y;
-    if (x >= p.fine_w || y >= p.fine_h) {
+    let y = p.own_start + gid.y;
+    if (x >= p.fine_w || y >= p.own_end) {
         return;
     }
-    let i = y * p.fine_w + x;
+    let i = fine_index(x, y);
     if (!is_fixed(i)) {
         u[i] = interpolate(x, y);
     }
@@ -185,11 +204,11 @@ fn prolong_replace(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(16, 16, 1)
 fn residual_max(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = gid.x;
-    let y = gid.y;
-    if (x >= p.fine_w || y >= p.fine_h) {
+    let y = p.own_start + gid.y;
+    if (x >= p.fine_w || y >= p.own_end) {
         return;
     }
-    let i = y * p.fine_w + x;
+    let i = fine_index(x, y);
     if (is_fixed(i)) {
         return;
     }
@@ -202,9 +221,9 @@ fn residual_max(@builtin(global_invocation_id) gid: vec3<u32>) {
 @compute @workgroup_size(16, 16, 1)
 fn correction_max(@builtin(global_invocation_id) gid: vec3<u32>) {
     let x = gid.x;
-    let y = gid.y;
-    if (x >= p.fine_w || y >= p.fine_h) {
+    let y = p.own_start + gid.y;
+    if (x >= p.fine_w || y >= p.own_end) {
         return;
     }
-    atomicMax(&result[1], bitcast<u32>(abs(u[y * p.fine_w + x])));
+    atomicMax(&result[1], bitcast<u32>(abs(u[fine_index(x, y)])));
 }

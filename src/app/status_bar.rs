@@ -71,7 +71,8 @@ fn compute_details(ui: &mut egui::Ui, path: &ComputePath) {
                 c.max_storage_bytes() >> 20
             ));
             ui.label(format!(
-                "Largest square field: {0} x {0}",
+                "Largest square field in one binding: {0} x {0} (the diffusion solvers tile \
+                 larger ones)",
                 c.max_square_field()
             ));
         }

@@ -30,6 +30,10 @@ pub struct BenchArgs {
     /// Largest side on which the Jacobi baseline runs (it is slow by design).
     #[arg(long, default_value_t = 1024)]
     pub jacobi_max_size: usize,
+    /// Give the GPU only this many MiB per storage binding, as a small device would: fields
+    /// larger than that run tiled in bands of rows (the diffusion table only).
+    #[arg(long)]
+    pub max_binding_mib: Option<u64>,
     /// Time the hydrology pipeline stage by stage instead (four rivers, phi 2 to 4, on the
     /// CPU), beside the paper's Table 3.
     #[arg(long)]
@@ -162,9 +166,23 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         backends.push(Backend::Cpu);
     }
     if want_gpu {
-        match path.gpu() {
-            Some(gpu) => backends.push(Backend::Gpu(gpu.clone())),
-            None => println!("no GPU backend: {path}"),
+        match (path.gpu(), args.max_binding_mib) {
+            (Some(_), Some(mib)) => {
+                let bytes = mib.max(1) << 20;
+                let small =
+                    pollster::block_on(crate::gpu::GpuContext::headless_with_limits(|limits| {
+                        limits.max_storage_buffer_binding_size =
+                            limits.max_storage_buffer_binding_size.min(bytes);
+                        limits.max_buffer_size = limits.max_buffer_size.min(bytes);
+                    }))?;
+                println!(
+                    "GPU storage bindings limited to {} bytes: larger fields run in bands",
+                    small.caps.max_storage_bytes()
+                );
+                backends.push(Backend::Gpu(std::sync::Arc::new(small)));
+            }
+            (Some(gpu), None) => backends.push(Backend::Gpu(gpu.clone())),
+            (None, _) => println!("no GPU backend: {path}"),
         }
     }
     println!(

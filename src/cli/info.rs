@@ -80,7 +80,7 @@ fn render_text(r: &InfoReport) -> String {
                     mib(c.max_storage_buffer_binding_size),
                 ),
                 (
-                    "largest square f32 field",
+                    "square f32 field in one binding",
                     format!("{0} x {0}", c.max_square_field()),
                 ),
                 (

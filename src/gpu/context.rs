@@ -25,6 +25,16 @@ pub enum GpuError {
         bytes: u64,
         limit: u64,
     },
+    #[error(
+        "a {width}x{height} field cannot be split into bands this GPU holds: its storage limit of \
+         {limit} bytes is under {rows} rows of {width} cells"
+    )]
+    CannotTile {
+        width: usize,
+        height: usize,
+        rows: usize,
+        limit: u64,
+    },
     #[error("the GPU reported an error: {0}")]
     Validation(String),
     #[error("reading results back from the GPU failed: {0}")]
@@ -93,6 +103,14 @@ impl GpuContext {
     /// Creates a device without a window. Backends come from `WGPU_BACKEND` if set, else the
     /// primary ones (Vulkan, Metal, DX12); on this project's CI that finds Mesa's lavapipe.
     pub async fn headless() -> Result<Self, GpuError> {
+        Self::headless_with_limits(|_| {}).await
+    }
+
+    /// [`GpuContext::headless`] with the device's limits changed by `adjust` first, e.g. a
+    /// small storage binding to exercise the tiled kernels as a small GPU would.
+    pub async fn headless_with_limits(
+        adjust: impl FnOnce(&mut wgpu::Limits),
+    ) -> Result<Self, GpuError> {
         let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
         // OpenGL rarely offers compute and only adds driver noise when probed headless.
         descriptor.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
@@ -107,7 +125,11 @@ impl GpuContext {
             .await
             .map_err(|err| GpuError::NoAdapter(err.to_string()))?;
         let (device, queue) = adapter
-            .request_device(&device_descriptor(&adapter))
+            .request_device(&{
+                let mut descriptor = device_descriptor(&adapter);
+                adjust(&mut descriptor.required_limits);
+                descriptor
+            })
             .await
             .map_err(|err| GpuError::RequestDevice(err.to_string()))?;
         // wgpu's default handler panics on an uncaptured error; stages capture theirs with
@@ -131,14 +153,22 @@ impl GpuContext {
         Ok(context)
     }
 
+    /// Fails with [`GpuError::NoCompute`] unless the device runs compute shaders (kernels
+    /// that tile large fields into bands need nothing more).
+    pub fn check_compute(&self) -> Result<(), GpuError> {
+        if self.caps.compute {
+            Ok(())
+        } else {
+            Err(GpuError::NoCompute {
+                backend: self.adapter.backend.clone(),
+            })
+        }
+    }
+
     /// Fails with [`GpuError::NoCompute`] or [`GpuError::TooLarge`] unless a `width` x
     /// `height` `f32` field can be processed in one binding.
     pub fn check_field(&self, width: usize, height: usize) -> Result<(), GpuError> {
-        if !self.caps.compute {
-            return Err(GpuError::NoCompute {
-                backend: self.adapter.backend.clone(),
-            });
-        }
+        self.check_compute()?;
         if !self.caps.fits_field(width, height) {
             return Err(GpuError::TooLarge {
                 width,

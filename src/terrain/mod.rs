@@ -194,8 +194,6 @@ pub async fn generate(
         return Err(TerrainError::Size(params.size));
     }
     let n = params.size;
-    // A field the GPU cannot hold in one binding is computed on the CPU.
-    let backend = &backend.fitting(n, n);
     let mut stages = Vec::new();
     let mut clock = Instant::now();
     let mut lap = |name: &'static str, stages: &mut Vec<StageTime>| {
@@ -300,8 +298,10 @@ pub async fn generate(
             .iter()
             .map(|k| matches!(k, CellKind::River | CellKind::Valley))
             .collect();
+        // The post-filters need the field in one binding: larger ones run on the CPU (the
+        // solver itself tiles them on the GPU).
         terrain = diffusion::post_filter(
-            backend,
+            &backend.fitting(n, n),
             &terrain,
             &protected,
             &params.post,

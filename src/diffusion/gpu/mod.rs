@@ -2,6 +2,7 @@
 //! the multigrid solver (`shaders/multigrid.wgsl`). Both mirror the CPU code operation for
 //! operation, so results agree to rounding.
 
+mod bands;
 mod jacobi;
 mod multigrid;
 mod post;

@@ -8,14 +8,20 @@
 //! awaited without blocking the browser; between cycles the job reports progress and honours
 //! cancel. Memory: per level the unknowns, the right-hand side (not on the finest level of a
 //! Laplace problem) and the fixed-cell bits.
+//!
+//! A level larger than one storage binding is tiled into bands of rows ([`super::bands`]):
+//! each operator is then one dispatch per band, and the ghost rows are exchanged after each
+//! pass that writes the unknowns. Cost: the same O(cells) per cycle plus two row copies per
+//! band boundary and pass; the answer is the same bits as untiled.
 
 use wgpu::util::DeviceExt;
 
+use super::bands::{self, Band};
 use super::{WORKGROUP, bind, pipeline};
 use crate::diffusion::multigrid::hierarchy::{self, Level};
 use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
 use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
-use crate::gpu::{GpuContext, GpuError, read_bytes, read_f32_buffer};
+use crate::gpu::{GpuContext, GpuError, read_bytes};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
@@ -30,6 +36,10 @@ struct Params {
     coarse_h: u32,
     colour: u32,
     has_rhs: u32,
+    fine_row0: u32,
+    coarse_row0: u32,
+    own_start: u32,
+    own_end: u32,
     _pad: [u32; 2],
 }
 
@@ -42,17 +52,42 @@ struct Pipelines {
     correction_max: wgpu::ComputePipeline,
 }
 
-/// One level's buffers and the bind groups of every operator that touches it.
-struct GpuLevel {
-    w: u32,
-    h: u32,
+/// One band of a level: its rows, its unknowns and the bind groups of every operator that
+/// writes its rows.
+struct GpuBand {
+    rows: Band,
     u: wgpu::Buffer,
     /// Relax with colour 0 and 1.
     relax: [wgpu::BindGroup; 2],
-    /// Operators between this level and the next coarser one (absent on the coarsest).
+    /// Operators between this band and the next coarser level (absent on the coarsest).
     restrict: Option<wgpu::BindGroup>,
     prolong_add: Option<wgpu::BindGroup>,
     prolong_replace: Option<wgpu::BindGroup>,
+}
+
+impl GpuBand {
+    /// Workgroups covering the owned rows, `columns` wide.
+    fn groups(&self, columns: u32) -> (u32, u32) {
+        (
+            columns.div_ceil(WORKGROUP),
+            (self.rows.owned.len() as u32).div_ceil(WORKGROUP),
+        )
+    }
+
+    /// Workgroups covering the coarse parents of the owned rows.
+    fn coarse_groups(&self, coarse_w: u32) -> (u32, u32) {
+        let rows = self.rows.owned.end.div_ceil(2) - self.rows.owned.start / 2;
+        (
+            coarse_w.div_ceil(WORKGROUP),
+            (rows as u32).div_ceil(WORKGROUP),
+        )
+    }
+}
+
+struct GpuLevel {
+    w: u32,
+    h: u32,
+    bands: Vec<GpuBand>,
 }
 
 impl GpuLevel {
@@ -60,8 +95,21 @@ impl GpuLevel {
         (self.w * self.h) as usize
     }
 
-    fn groups(&self) -> (u32, u32) {
-        (self.w.div_ceil(WORKGROUP), self.h.div_ceil(WORKGROUP))
+    fn is_tiled(&self) -> bool {
+        self.bands.len() > 1
+    }
+
+    /// The bands' rows and their unknowns' buffers, in order.
+    fn unknowns(&self) -> (Vec<Band>, Vec<&wgpu::Buffer>) {
+        self.bands.iter().map(|b| (b.rows.clone(), &b.u)).unzip()
+    }
+
+    /// Brings every ghost row up to date after a pass wrote the unknowns.
+    fn exchange(&self, encoder: &mut wgpu::CommandEncoder) {
+        if self.is_tiled() {
+            let (rows, buffers) = self.unknowns();
+            bands::exchange_ghost_rows(encoder, &rows, &buffers, self.w as usize);
+        }
     }
 }
 
@@ -72,12 +120,23 @@ pub(in crate::diffusion) async fn multigrid(
     ctx: &JobCtx,
 ) -> Result<Solved, DiffusionError> {
     let (w, h) = (problem.width(), problem.height());
-    gpu.check_field(w, h)?;
+    gpu.check_compute()?;
     if problem.fixed().count() == 0 {
         return Err(DiffusionError::NoFixedCells);
     }
     let scale = fixed_height_range(problem).max(f32::MIN_POSITIVE);
     let device = &gpu.device;
+
+    let cpu_levels = hierarchy::for_problem(problem, None);
+    let dims: Vec<(usize, usize)> = cpu_levels.iter().map(Level::dims).collect();
+    let plan = bands::plan(&dims, gpu.caps.max_storage_bytes())?;
+    if plan[0].len() > 1 {
+        log::info!(
+            "a {w} x {h} field exceeds one storage binding ({} bytes): multigrid in {} bands",
+            gpu.caps.max_storage_bytes(),
+            plan[0].len()
+        );
+    }
 
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -92,8 +151,7 @@ pub(in crate::diffusion) async fn multigrid(
         residual_max: pipeline(device, &module, "residual_max"),
         correction_max: pipeline(device, &module, "correction_max"),
     };
-    let cpu_levels = hierarchy::for_problem(problem, None);
-    let (levels, checks, result) = upload(gpu, &pipes, &cpu_levels);
+    let (levels, checks, result) = upload(gpu, &pipes, &cpu_levels, plan);
     drop(cpu_levels);
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()).into());
@@ -108,12 +166,9 @@ pub(in crate::diffusion) async fn multigrid(
     relax(&mut encoder, &pipes, &levels[last], COARSEST_SWEEPS);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (0..last).rev() {
-        dispatch(
-            &mut encoder,
-            &pipes.prolong_replace,
-            levels[l].prolong_replace.as_ref(),
-            levels[l].groups(),
-        );
+        prolong(&mut encoder, &pipes.prolong_replace, &levels[l], |b| {
+            b.prolong_replace.as_ref()
+        });
         v_cycle(&mut encoder, &pipes, &levels, l, params, &mut stats, finest);
     }
     gpu.queue.submit([encoder.finish()]);
@@ -132,7 +187,8 @@ pub(in crate::diffusion) async fn multigrid(
         let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
         stop.record(residual, correction);
     }
-    let data = read_f32_buffer(gpu, &levels[0].u, finest).await?;
+    let (rows, buffers) = levels[0].unknowns();
+    let data = bands::read_owned_rows(gpu, &rows, &buffers, w).await?;
     ctx.set_progress(1.0, "multigrid: done");
     Ok(Solved {
         field: Heightfield::from_vec(w, h, data).map_err(|e| GpuError::Readback(e.to_string()))?,
@@ -146,19 +202,20 @@ pub(in crate::diffusion) async fn multigrid(
     })
 }
 
-/// Bind groups of the two reductions read after each cycle.
+/// Bind groups of the two reductions read after each cycle, one per band.
 struct Checks {
-    residual: wgpu::BindGroup,
-    /// Over level 1's correction; absent when the finest level is the coarsest.
-    correction: Option<wgpu::BindGroup>,
+    residual: Vec<wgpu::BindGroup>,
+    /// Over level 1's correction; empty when the finest level is the coarsest.
+    correction: Vec<wgpu::BindGroup>,
 }
 
-/// Creates every level's buffers and bind groups; returns them with the reductions' bind
-/// groups and their result buffer.
+/// Creates every band's buffers and bind groups; returns the levels with the reductions'
+/// bind groups and their result buffer.
 fn upload(
     gpu: &GpuContext,
     pipes: &Pipelines,
     cpu: &[Level],
+    plan: Vec<Vec<Band>>,
 ) -> (Vec<GpuLevel>, Checks, wgpu::Buffer) {
     let device = &gpu.device;
     let storage = |label: &str, data: &[u8], extra: wgpu::BufferUsages| {
@@ -172,143 +229,211 @@ fn upload(
     // Bound where a Laplace problem's finest level has no right-hand side (never read).
     let dummy = storage("no rhs", &[0u8; 16], wgpu::BufferUsages::empty());
     let result = storage("residual and correction max", &[0u8; 8], copy);
-    let us: Vec<_> = cpu
+    let rows = |values: &[f32], w: usize, band: &Band| -> Vec<u8> {
+        bytemuck::cast_slice(&values[band.stored.start * w..band.stored.end * w]).to_vec()
+    };
+    // Per level and band: unknowns, right-hand side (if any), fixed bits.
+    let us: Vec<Vec<wgpu::Buffer>> = cpu
         .iter()
-        .map(|l| storage("u", bytemuck::cast_slice(&l.u), copy))
+        .zip(&plan)
+        .map(|(l, bands)| {
+            bands
+                .iter()
+                .map(|b| storage("u", &rows(&l.u, l.w, b), copy))
+                .collect()
+        })
         .collect();
-    let bs: Vec<Option<wgpu::Buffer>> = cpu
+    let bs: Vec<Vec<Option<wgpu::Buffer>>> = cpu
         .iter()
-        .map(|l| (!l.b.is_empty()).then(|| storage("b", bytemuck::cast_slice(&l.b), copy)))
+        .zip(&plan)
+        .map(|(l, bands)| {
+            bands
+                .iter()
+                .map(|b| (!l.b.is_empty()).then(|| storage("b", &rows(&l.b, l.w, b), copy)))
+                .collect()
+        })
         .collect();
-    let fixed: Vec<_> = cpu
+    let fixed: Vec<Vec<wgpu::Buffer>> = cpu
         .iter()
-        .map(|l| {
-            storage(
-                "fixed",
-                bytemuck::cast_slice(l.fixed.words()),
-                wgpu::BufferUsages::empty(),
-            )
+        .zip(&plan)
+        .map(|(l, bands)| {
+            bands
+                .iter()
+                .map(|b| {
+                    let words = bands::fixed_words(&l.fixed, b);
+                    storage(
+                        "fixed",
+                        bytemuck::cast_slice(&words),
+                        wgpu::BufferUsages::empty(),
+                    )
+                })
+                .collect()
         })
         .collect();
 
-    let mut residual_group = None;
-    let mut correction_group = None;
+    let mut residual = Vec::new();
+    let mut correction = Vec::new();
     let mut levels = Vec::with_capacity(cpu.len());
     for (l, level) in cpu.iter().enumerate() {
         let coarse = cpu.get(l + 1);
-        let make_params = |colour: u32| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("multigrid params"),
-                contents: bytemuck::bytes_of(&Params {
-                    fine_w: level.w as u32,
-                    fine_h: level.h as u32,
-                    coarse_w: coarse.map_or(0, |c| c.w as u32),
-                    coarse_h: coarse.map_or(0, |c| c.h as u32),
-                    colour,
-                    has_rhs: u32::from(bs[l].is_some()),
-                    _pad: [0; 2],
-                }),
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
-        };
-        let params = [make_params(0), make_params(1)];
-        let b = bs[l].as_ref().unwrap_or(&dummy);
-        let relax = [0, 1].map(|c| {
-            bind(
-                device,
-                &pipes.relax,
-                &[(0, &params[c]), (1, &fixed[l]), (2, &us[l]), (3, b)],
-            )
-        });
-        let (restrict, prolong_add, prolong_replace) = match coarse {
-            Some(_) => {
-                let coarse_b = bs[l + 1].as_ref().unwrap_or(&dummy);
-                let base = [(0, &params[0]), (1, &fixed[l]), (2, &us[l])];
-                (
-                    Some(bind(
-                        device,
-                        &pipes.restrict,
-                        &[base[0], base[1], base[2], (3, b), (4, coarse_b)],
-                    )),
-                    Some(bind(
-                        device,
-                        &pipes.prolong_add,
-                        &[base[0], base[1], base[2], (4, &us[l + 1])],
-                    )),
-                    Some(bind(
-                        device,
-                        &pipes.prolong_replace,
-                        &[base[0], base[1], base[2], (4, &us[l + 1])],
-                    )),
+        let mut gpu_bands = Vec::with_capacity(plan[l].len());
+        for (k, band) in plan[l].iter().enumerate() {
+            let ck = plan.get(l + 1).map(|c| bands::coarse_band(c, k));
+            let make_params = |colour: u32| {
+                device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("multigrid params"),
+                    contents: bytemuck::bytes_of(&Params {
+                        fine_w: level.w as u32,
+                        fine_h: level.h as u32,
+                        coarse_w: coarse.map_or(0, |c| c.w as u32),
+                        coarse_h: coarse.map_or(0, |c| c.h as u32),
+                        colour,
+                        has_rhs: u32::from(bs[l][k].is_some()),
+                        fine_row0: band.stored.start as u32,
+                        coarse_row0: ck.map_or(0, |ck| plan[l + 1][ck].stored.start as u32),
+                        own_start: band.owned.start as u32,
+                        own_end: band.owned.end as u32,
+                        _pad: [0; 2],
+                    }),
+                    usage: wgpu::BufferUsages::UNIFORM,
+                })
+            };
+            let params = [make_params(0), make_params(1)];
+            let (u, f) = (&us[l][k], &fixed[l][k]);
+            let b = bs[l][k].as_ref().unwrap_or(&dummy);
+            let relax = [0, 1].map(|c| {
+                bind(
+                    device,
+                    &pipes.relax,
+                    &[(0, &params[c]), (1, f), (2, u), (3, b)],
                 )
+            });
+            let (restrict, prolong_add, prolong_replace) = match ck {
+                Some(ck) => {
+                    let coarse_b = bs[l + 1][ck].as_ref().unwrap_or(&dummy);
+                    let coarse_u = &us[l + 1][ck];
+                    let base = [(0, &params[0]), (1, f), (2, u)];
+                    let with = |pipeline, extra| {
+                        Some(bind(device, pipeline, &[base[0], base[1], base[2], extra]))
+                    };
+                    (
+                        Some(bind(
+                            device,
+                            &pipes.restrict,
+                            &[base[0], base[1], base[2], (3, b), (4, coarse_b)],
+                        )),
+                        with(&pipes.prolong_add, (4, coarse_u)),
+                        with(&pipes.prolong_replace, (4, coarse_u)),
+                    )
+                }
+                None => (None, None, None),
+            };
+            if l == 1 {
+                correction.push(bind(
+                    device,
+                    &pipes.correction_max,
+                    &[(0, &params[0]), (2, u), (5, &result)],
+                ));
             }
-            None => (None, None, None),
-        };
-        if l == 1 {
-            correction_group = Some(bind(
-                device,
-                &pipes.correction_max,
-                &[(0, &params[0]), (2, &us[1]), (5, &result)],
-            ));
-        }
-        if l == 0 {
-            residual_group = Some(bind(
-                device,
-                &pipes.residual_max,
-                &[
-                    (0, &params[0]),
-                    (1, &fixed[0]),
-                    (2, &us[0]),
-                    (3, b),
-                    (5, &result),
-                ],
-            ));
+            if l == 0 {
+                residual.push(bind(
+                    device,
+                    &pipes.residual_max,
+                    &[(0, &params[0]), (1, f), (2, u), (3, b), (5, &result)],
+                ));
+            }
+            gpu_bands.push(GpuBand {
+                rows: band.clone(),
+                u: u.clone(),
+                relax,
+                restrict,
+                prolong_add,
+                prolong_replace,
+            });
         }
         levels.push(GpuLevel {
             w: level.w as u32,
             h: level.h as u32,
-            u: us[l].clone(),
-            relax,
-            restrict,
-            prolong_add,
-            prolong_replace,
+            bands: gpu_bands,
         });
     }
-    let checks = Checks {
-        residual: residual_group.expect("the hierarchy has a finest level"),
-        correction: correction_group,
-    };
-    (levels, checks, result)
+    (
+        levels,
+        Checks {
+            residual,
+            correction,
+        },
+        result,
+    )
 }
 
-fn dispatch(
+/// One dispatch of `pipeline` per band of `level` with the group `group` picks, over the
+/// band's owned rows.
+fn prolong(
     encoder: &mut wgpu::CommandEncoder,
     pipeline: &wgpu::ComputePipeline,
-    group: Option<&wgpu::BindGroup>,
-    (x, y): (u32, u32),
+    level: &GpuLevel,
+    group: impl Fn(&GpuBand) -> Option<&wgpu::BindGroup>,
 ) {
-    let Some(group) = group else { return };
-    let mut pass = encoder.begin_compute_pass(&Default::default());
-    pass.set_pipeline(pipeline);
-    pass.set_bind_group(0, group, &[]);
-    pass.dispatch_workgroups(x, y, 1);
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(pipeline);
+        for band in &level.bands {
+            let Some(group) = group(band) else { continue };
+            let (x, y) = band.groups(level.w);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    }
+    level.exchange(encoder);
 }
 
-/// `sweeps` red-black sweeps on `level`: each colour's threads cover half the columns.
+/// Coarse right-hand side of `levels[l + 1]` from the residual of `levels[l]`, band by band.
+fn restrict(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, fine: &GpuLevel, coarse_w: u32) {
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    pass.set_pipeline(&pipes.restrict);
+    for band in &fine.bands {
+        let Some(group) = &band.restrict else {
+            continue;
+        };
+        let (x, y) = band.coarse_groups(coarse_w);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+/// `sweeps` red-black sweeps on `level`: each colour's threads cover half the columns. An
+/// untiled level runs all of them in one pass; a tiled one exchanges ghost rows after each
+/// colour.
 fn relax(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel, sweeps: u32) {
     if sweeps == 0 {
         return;
     }
-    let groups = (
-        level.w.div_ceil(2).div_ceil(WORKGROUP),
-        level.h.div_ceil(WORKGROUP),
-    );
-    let mut pass = encoder.begin_compute_pass(&Default::default());
-    pass.set_pipeline(&pipes.relax);
+    let columns = level.w.div_ceil(2);
+    let colour_pass = |pass: &mut wgpu::ComputePass, colour: usize| {
+        for band in &level.bands {
+            let (x, y) = band.groups(columns);
+            pass.set_bind_group(0, &band.relax[colour], &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+    };
+    if !level.is_tiled() {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipes.relax);
+        for _ in 0..sweeps {
+            colour_pass(&mut pass, 0);
+            colour_pass(&mut pass, 1);
+        }
+        return;
+    }
     for _ in 0..sweeps {
-        for colour in &level.relax {
-            pass.set_bind_group(0, colour, &[]);
-            pass.dispatch_workgroups(groups.0, groups.1, 1);
+        for colour in 0..2 {
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&pipes.relax);
+                colour_pass(&mut pass, colour);
+            }
+            level.exchange(encoder);
         }
     }
 }
@@ -327,23 +452,17 @@ fn v_cycle(
     for l in top..last {
         relax(encoder, pipes, &levels[l], params.pre_sweeps);
         stats.add(levels[l].cells(), finest, params.pre_sweeps);
-        dispatch(
-            encoder,
-            &pipes.restrict,
-            levels[l].restrict.as_ref(),
-            levels[l + 1].groups(),
-        );
-        encoder.clear_buffer(&levels[l + 1].u, 0, None);
+        restrict(encoder, pipes, &levels[l], levels[l + 1].w);
+        for band in &levels[l + 1].bands {
+            encoder.clear_buffer(&band.u, 0, None);
+        }
     }
     relax(encoder, pipes, &levels[last], COARSEST_SWEEPS);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (top..last).rev() {
-        dispatch(
-            encoder,
-            &pipes.prolong_add,
-            levels[l].prolong_add.as_ref(),
-            levels[l].groups(),
-        );
+        prolong(encoder, &pipes.prolong_add, &levels[l], |b| {
+            b.prolong_add.as_ref()
+        });
         relax(encoder, pipes, &levels[l], params.post_sweeps);
         stats.add(levels[l].cells(), finest, params.post_sweeps);
     }
@@ -360,19 +479,22 @@ async fn read_checks(
 ) -> Result<(f32, f32), DiffusionError> {
     gpu.queue.write_buffer(result, 0, &[0u8; 8]);
     let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    dispatch(
-        &mut encoder,
-        &pipes.residual_max,
-        Some(&checks.residual),
-        levels[0].groups(),
-    );
-    if let Some(level) = levels.get(1) {
-        dispatch(
-            &mut encoder,
-            &pipes.correction_max,
-            checks.correction.as_ref(),
-            level.groups(),
-        );
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipes.residual_max);
+        for (band, group) in levels[0].bands.iter().zip(&checks.residual) {
+            let (x, y) = band.groups(levels[0].w);
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
+        }
+        if let Some(level) = levels.get(1) {
+            pass.set_pipeline(&pipes.correction_max);
+            for (band, group) in level.bands.iter().zip(&checks.correction) {
+                let (x, y) = band.groups(level.w);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
     }
     gpu.queue.submit([encoder.finish()]);
     let bytes = read_bytes(gpu, result, 8).await?;
