@@ -116,14 +116,38 @@ impl Heightfield {
     /// Two runs of the same scene and seed must give the same checksum on every platform
     /// (native and wasm); tests and the browser self-test compare these strings.
     pub fn checksum(&self) -> String {
-        let mut hash: u64 = 0xcbf2_9ce4_8422_2325;
-        for v in &self.data {
+        let mut sum = Checksum::default();
+        sum.add(&self.data);
+        sum.hex()
+    }
+}
+
+/// The FNV-1a state behind [`Heightfield::checksum`], for hashing a field in parts (a job
+/// that yields between them): adding the cells in order in any number of slices gives the
+/// same checksum.
+#[derive(Clone, Copy, Debug)]
+pub struct Checksum(u64);
+
+impl Default for Checksum {
+    fn default() -> Self {
+        Self(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Checksum {
+    /// Hashes the exact bits of `values`, little-endian bytes.
+    pub fn add(&mut self, values: &[f32]) {
+        for v in values {
             for byte in v.to_bits().to_le_bytes() {
-                hash ^= u64::from(byte);
-                hash = hash.wrapping_mul(0x0000_0100_0000_01b3);
+                self.0 ^= u64::from(byte);
+                self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
             }
         }
-        format!("{hash:016x}")
+    }
+
+    /// 16 hex digits.
+    pub fn hex(&self) -> String {
+        format!("{:016x}", self.0)
     }
 }
 
@@ -161,5 +185,18 @@ mod tests {
         b.data_mut()[63] = f32::from_bits(1.0f32.to_bits() + 1);
         assert_eq!(a.checksum(), a.clone().checksum());
         assert_ne!(a.checksum(), b.checksum());
+    }
+
+    #[test]
+    fn a_checksum_in_parts_is_the_whole_checksum() {
+        let data: Vec<f32> = (0..1000).map(|i| (i as f32).sqrt()).collect();
+        let field = Heightfield::from_vec(40, 25, data.clone()).unwrap();
+        let mut parts = Checksum::default();
+        for part in data.chunks(77) {
+            parts.add(part);
+        }
+        assert_eq!(parts.hex(), field.checksum());
+        // The FNV-1a offset basis: the checksum of nothing.
+        assert_eq!(Checksum::default().hex(), "cbf29ce484222325");
     }
 }

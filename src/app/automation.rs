@@ -48,6 +48,9 @@ pub struct Status {
     pub view: String,
     /// The 3D view's last frame (triangles, chunks) and camera, once it has drawn one.
     pub view3d: Option<super::View3dStatus>,
+    /// Milliseconds of CPU the app's last frame took (its update and painting, not the
+    /// browser's compositing), as eframe measures it.
+    pub frame_cpu_ms: Option<f32>,
 }
 
 /// The uploaded DEM, as the DEM panel shows it.

@@ -282,17 +282,29 @@ impl StrahlerApp {
         self.start_blend(ctx);
     }
 
-    /// Shows `field` on the map and publishes it for export.
+    /// Publishes `field` for export and draws it for the map in the background (the map
+    /// shows it when [`super::picture`] is done).
     pub(super) fn show_final(&mut self, ctx: &egui::Context, field: Heightfield) {
         let size = field.width();
         let cell = MAP_WIDTH_M / size.saturating_sub(1).max(1) as f32;
-        self.automation
-            .set_terrain(Arc::new(field.clone()), f64::from(cell));
-        if let Some((lo, hi)) = field.finite_range() {
-            let interval = super::layers::contour_interval(hi - lo);
-            self.overlay.contours = super::layers::contours(&field, interval);
+        let field = Arc::new(field);
+        self.automation.set_terrain(field.clone(), f64::from(cell));
+        let cell_size = MAP_WIDTH_M / size as f32;
+        // Replacing the handle cancels a picture of an older terrain.
+        match super::picture::spawn(ctx, field.clone(), cell_size) {
+            Ok(job) => self.picture_job = Some(job),
+            Err(err) => {
+                log::warn!("{err}: drawing the map on the UI thread");
+                self.picture_job = None;
+                self.show_picture(ctx, super::picture::draw_now(field, cell_size));
+            }
         }
-        self.map.set_field(ctx, field, MAP_WIDTH_M / size as f32);
+    }
+
+    /// Puts a finished picture on the map.
+    pub(super) fn show_picture(&mut self, ctx: &egui::Context, picture: super::picture::Picture) {
+        self.overlay.contours = picture.contours;
+        self.map.set_field(ctx, picture.field, picture.relief);
     }
 
     /// Runs the blend stage (a job), or shows the detailed terrain when there are no blocks.

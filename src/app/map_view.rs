@@ -8,7 +8,6 @@ use egui::{
     Color32, Pos2, Rect, Sense, Stroke, StrokeKind, TextureHandle, TextureOptions, Vec2, pos2,
 };
 
-use super::relief::shaded_relief;
 use crate::heightfield::Heightfield;
 
 /// Zoom limits relative to "the map fits the panel".
@@ -120,7 +119,7 @@ pub struct MapView {
     /// Relative zoom: 1 = the map fits the panel.
     zoom: f32,
     texture: Option<TextureHandle>,
-    field: Option<Heightfield>,
+    field: Option<std::sync::Arc<Heightfield>>,
     /// Start of the river stroke being drawn.
     stroke_start: Option<Pos2>,
     /// Where the pointer last went down on the map (screen), for clicks.
@@ -137,8 +136,12 @@ pub struct MapView {
 
 impl MapView {
     /// Shows `field` from now on, keeping the current view.
-    pub fn set_field(&mut self, ctx: &egui::Context, field: Heightfield, cell_size: f32) {
-        let image = shaded_relief(&field, cell_size);
+    pub fn set_field(
+        &mut self,
+        ctx: &egui::Context,
+        field: std::sync::Arc<Heightfield>,
+        image: egui::ColorImage,
+    ) {
         match &mut self.texture {
             Some(texture) => texture.set(image, TextureOptions::LINEAR),
             None => {
@@ -150,7 +153,7 @@ impl MapView {
     }
 
     pub fn field(&self) -> Option<&Heightfield> {
-        self.field.as_ref()
+        self.field.as_deref()
     }
 
     /// Changes whenever the terrain shown changes.
@@ -425,7 +428,7 @@ impl MapView {
 
     /// Height at a map position (nearest cell), `None` outside the map or without terrain.
     fn height_at(&self, map: Pos2) -> Option<f32> {
-        let field = self.field.as_ref()?;
+        let field = self.field.as_deref()?;
         if !(0.0..=1.0).contains(&map.x) || !(0.0..=1.0).contains(&map.y) {
             return None;
         }

@@ -11,6 +11,7 @@ mod files;
 mod history;
 mod layers;
 mod map_view;
+mod picture;
 mod relief;
 mod select;
 mod side_panel;
@@ -78,7 +79,7 @@ pub struct StrahlerApp {
     overlay: Overlay,
     /// Something that shapes the terrain changed: regenerate at the next frame.
     dirty: bool,
-    terrain_job: Option<JobHandle<Result<Generated, TerrainError>>>,
+    terrain_job: Option<JobHandle<Result<Arrived, TerrainError>>>,
     terrain_summary: Option<String>,
     selftest_job: Option<JobHandle<Result<SelfTest, DiffusionError>>>,
     last_run: Option<(usize, RunSummary)>,
@@ -108,6 +109,8 @@ pub struct StrahlerApp {
     base: Option<crate::heightfield::Heightfield>,
     rivers: Vec<crate::river::GrownRiver>,
     detail_job: Option<JobHandle<detail::DetailResult>>,
+    /// Drawing the final terrain's relief and contours for the map.
+    picture_job: Option<picture::PictureJob>,
     /// The detail settings or the mask changed: re-run the detail stage at the next frame.
     detail_dirty: bool,
     detail_summary: Option<String>,
@@ -177,6 +180,7 @@ impl StrahlerApp {
             base: None,
             rivers: Vec::new(),
             detail_job: None,
+            picture_job: None,
             detail_dirty: false,
             detail_summary: None,
             mask_overlay_stale: false,
@@ -362,6 +366,7 @@ impl StrahlerApp {
             || self.detail_job.is_some()
             || self.blend.job.is_some()
             || self.blend.fill_job.is_some()
+            || self.picture_job.is_some()
             || self.dirty
             || self.detail_dirty
             || self.blend.dirty
@@ -391,7 +396,10 @@ impl StrahlerApp {
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "terrain",
-            move |job| async move { crate::terrain::generate(&strokes, &params, &backend, &job).await },
+            move |job| async move {
+                let generated = crate::terrain::generate(&strokes, &params, &backend, &job).await?;
+                Arrived::prepare(generated, &job).await
+            },
             move || repaint.request_repaint(),
         );
         match spawned {
@@ -449,9 +457,13 @@ impl StrahlerApp {
     }
 
     /// Puts a generated terrain on the map with its overlay and publishes its summary.
-    fn show_terrain(&mut self, ctx: &egui::Context, g: Generated) {
+    fn show_terrain(&mut self, ctx: &egui::Context, arrived: Arrived) {
+        let Arrived {
+            generated: g,
+            constraints,
+            summary,
+        } = arrived;
         let size = g.terrain.width();
-        let summary = RunSummary::of_terrain(&g);
         let r = &g.report;
         self.terrain_summary = Some(format!(
             "{} river nodes, Strahler order {}, {} ridges; {:.1}% of river cells drain along \
@@ -486,10 +498,8 @@ impl StrahlerApp {
             .iter()
             .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
             .collect();
-        let n = g.terrain.width();
-        let image = layers::constraints_image(&g.skeleton.kinds, n, g.terrain.height());
-        self.map.set_constraints(ctx, image);
-        self.skeleton = Some(g.skeleton.clone());
+        self.map.set_constraints(ctx, constraints);
+        self.skeleton = Some(g.skeleton);
         self.rivers = g.rivers;
         self.base = Some(g.terrain);
         // The mask stays at the full size, whatever size this run had (it is resampled for
@@ -595,6 +605,13 @@ impl StrahlerApp {
             self.blend.job = None;
             self.show_blend(ctx, result);
         }
+        if let Some(result) = self.picture_job.as_ref().and_then(JobHandle::try_take) {
+            self.picture_job = None;
+            // A cancelled picture was replaced by a newer one.
+            if let Ok(picture) = result {
+                self.show_picture(ctx, picture);
+            }
+        }
         self.take_filled_dem(ctx);
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
@@ -605,6 +622,7 @@ impl StrahlerApp {
             .or_else(|| job_status(&self.detail_job))
             .or_else(|| job_status(&self.blend.job))
             .or_else(|| job_status(&self.blend.fill_job))
+            .or_else(|| job_status(&self.picture_job))
             .or_else(|| job_status(&self.selftest_job));
         self.automation.update(|s| s.job = job);
         if self.busy() {
@@ -647,10 +665,39 @@ impl StrahlerApp {
     }
 }
 
+/// A generated terrain with what the UI shows of it besides the map picture, prepared in the
+/// terrain job (O(cells), so not on the UI thread).
+struct Arrived {
+    generated: Generated,
+    /// The skeleton's cells as an overlay image.
+    constraints: egui::ColorImage,
+    summary: RunSummary,
+}
+
+impl Arrived {
+    async fn prepare(
+        generated: Generated,
+        job: &crate::jobs::JobCtx,
+    ) -> Result<Self, TerrainError> {
+        job.tick(1.0, "preparing the map").await?;
+        let (w, h) = (generated.terrain.width(), generated.terrain.height());
+        let constraints = layers::constraints_image(&generated.skeleton.kinds, w, h);
+        job.tick(1.0, "preparing the map").await?;
+        let summary = RunSummary::of_terrain(&generated);
+        Ok(Self {
+            generated,
+            constraints,
+            summary,
+        })
+    }
+}
+
 impl eframe::App for StrahlerApp {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         let ctx = ui.ctx().clone();
         self.poll_jobs(&ctx);
+        let frame_cpu_ms = frame.info().cpu_usage.map(|s| s * 1e3);
+        self.automation.update(|s| s.frame_cpu_ms = frame_cpu_ms);
         if !ctx.egui_wants_keyboard_input() {
             let (map, three_d) = ctx.input(|i| {
                 (

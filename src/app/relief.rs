@@ -1,8 +1,11 @@
 //! Turning heights into a picture: hypsometric tint times hillshade.
 
+use std::ops::Range;
+
 use egui::{Color32, ColorImage};
 
 use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx};
 
 /// Elevation colour stops from low to high (fraction of the range, sRGB).
 const TINT: [(f32, [u8; 3]); 5] = [
@@ -18,40 +21,81 @@ const TINT: [(f32, [u8; 3]); 5] = [
 /// so slopes are true slopes. Non-finite (no-data) cells are transparent.
 /// O(cells).
 pub fn shaded_relief(field: &Heightfield, cell_size: f32) -> ColorImage {
+    let mut pixels = Vec::with_capacity(field.width() * field.height());
+    let shading = Shading::of(field, cell_size);
+    shading.rows(field, 0..field.height(), &mut pixels);
+    ColorImage::new([field.width(), field.height()], pixels)
+}
+
+/// [`shaded_relief`] in bands of rows (about 2^16 cells each) with [`JobCtx::tick`] between
+/// them, so a job on the browser's main thread lets it paint: the same picture.
+pub async fn shaded_relief_stepped(
+    field: &Heightfield,
+    cell_size: f32,
+    ctx: &JobCtx,
+) -> Result<ColorImage, Cancelled> {
     let (w, h) = (field.width(), field.height());
-    let (lo, hi) = field.finite_range().unwrap_or((0.0, 1.0));
-    let span = (hi - lo).max(1e-6);
-    let (sun_x, sun_y, sun_z) = {
-        let (az, alt) = (315f32.to_radians(), 45f32.to_radians());
-        // x east, y south (rows grow southwards), z up.
-        (alt.cos() * az.sin(), -alt.cos() * az.cos(), alt.sin())
-    };
-    let at = |x: usize, y: usize| field.data()[y * w + x];
     let mut pixels = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
-            let z = at(x, y);
-            if !z.is_finite() {
-                pixels.push(Color32::TRANSPARENT);
-                continue;
-            }
-            let finite_or = |v: f32| if v.is_finite() { v } else { z };
-            let (xl, xr) = (x.saturating_sub(1), (x + 1).min(w - 1));
-            let (yu, yd) = (y.saturating_sub(1), (y + 1).min(h - 1));
-            let dzdx = (finite_or(at(xr, y)) - finite_or(at(xl, y)))
-                / (((xr - xl).max(1)) as f32 * cell_size);
-            let dzdy = (finite_or(at(x, yd)) - finite_or(at(x, yu)))
-                / (((yd - yu).max(1)) as f32 * cell_size);
-            // Surface normal (-dz/dx, -dz/dy, 1), normalised.
-            let norm = (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
-            let light = ((-dzdx * sun_x - dzdy * sun_y + sun_z) / norm).clamp(0.0, 1.0);
-            let shade = 0.35 + 0.65 * light;
-            let [r, g, b] = tint((z - lo) / span);
-            let mul = |c: f32| (c * shade).round().clamp(0.0, 255.0) as u8;
-            pixels.push(Color32::from_rgb(mul(r), mul(g), mul(b)));
+    let shading = Shading::of(field, cell_size);
+    let rows = ((1usize << 16) / w.max(1)).max(1);
+    for start in (0..h).step_by(rows) {
+        shading.rows(field, start..(start + rows).min(h), &mut pixels);
+        ctx.tick(0.5, "drawing the map").await?;
+    }
+    Ok(ColorImage::new([w, h], pixels))
+}
+
+/// What every pixel of one relief shares: the height range, the sun and the cell size.
+struct Shading {
+    lo: f32,
+    span: f32,
+    sun: (f32, f32, f32),
+    cell_size: f32,
+}
+
+impl Shading {
+    fn of(field: &Heightfield, cell_size: f32) -> Self {
+        let (lo, hi) = field.finite_range().unwrap_or((0.0, 1.0));
+        let (az, alt) = (315f32.to_radians(), 45f32.to_radians());
+        Self {
+            lo,
+            span: (hi - lo).max(1e-6),
+            // x east, y south (rows grow southwards), z up.
+            sun: (alt.cos() * az.sin(), -alt.cos() * az.cos(), alt.sin()),
+            cell_size,
         }
     }
-    ColorImage::new([w, h], pixels)
+
+    /// Appends the pixels of `rows` to `pixels`.
+    fn rows(&self, field: &Heightfield, rows: Range<usize>, pixels: &mut Vec<Color32>) {
+        let (w, h) = (field.width(), field.height());
+        let (sun_x, sun_y, sun_z) = self.sun;
+        let cell_size = self.cell_size;
+        let at = |x: usize, y: usize| field.data()[y * w + x];
+        for y in rows {
+            for x in 0..w {
+                let z = at(x, y);
+                if !z.is_finite() {
+                    pixels.push(Color32::TRANSPARENT);
+                    continue;
+                }
+                let finite_or = |v: f32| if v.is_finite() { v } else { z };
+                let (xl, xr) = (x.saturating_sub(1), (x + 1).min(w - 1));
+                let (yu, yd) = (y.saturating_sub(1), (y + 1).min(h - 1));
+                let dzdx = (finite_or(at(xr, y)) - finite_or(at(xl, y)))
+                    / (((xr - xl).max(1)) as f32 * cell_size);
+                let dzdy = (finite_or(at(x, yd)) - finite_or(at(x, yu)))
+                    / (((yd - yu).max(1)) as f32 * cell_size);
+                // Surface normal (-dz/dx, -dz/dy, 1), normalised.
+                let norm = (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
+                let light = ((-dzdx * sun_x - dzdy * sun_y + sun_z) / norm).clamp(0.0, 1.0);
+                let shade = 0.35 + 0.65 * light;
+                let [r, g, b] = tint((z - self.lo) / self.span);
+                let mul = |c: f32| (c * shade).round().clamp(0.0, 255.0) as u8;
+                pixels.push(Color32::from_rgb(mul(r), mul(g), mul(b)));
+            }
+        }
+    }
 }
 
 fn tint(t: f32) -> [f32; 3] {
@@ -90,5 +134,17 @@ mod tests {
     fn no_data_is_transparent() {
         let f = Heightfield::from_vec(2, 1, vec![f32::NAN, 1.0]).unwrap();
         assert_eq!(shaded_relief(&f, 1.0).pixels[0], Color32::TRANSPARENT);
+    }
+
+    #[test]
+    fn the_stepped_relief_is_the_same_picture() {
+        let (w, h) = (300, 517);
+        let data: Vec<f32> = (0..w * h)
+            .map(|i| ((i % w) as f32 * 0.05).sin() * 40.0 + (i / w) as f32 * 0.3)
+            .collect();
+        let field = Heightfield::from_vec(w, h, data).unwrap();
+        let stepped =
+            pollster::block_on(shaded_relief_stepped(&field, 5.0, &JobCtx::detached())).unwrap();
+        assert_eq!(stepped, shaded_relief(&field, 5.0));
     }
 }

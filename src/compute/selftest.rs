@@ -63,7 +63,7 @@ impl RunSummary {
             sweeps: d.sweeps,
             relative_residual: d.relative_residual,
             converged: d.converged,
-            checksum: g.terrain.checksum(),
+            checksum: g.report.checksum.clone(),
             max_update: d.relative_residual * (max - min),
             min,
             max,

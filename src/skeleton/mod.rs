@@ -9,6 +9,7 @@ use glam::DVec2;
 
 use crate::diffusion::{Constraints, FixedMask};
 use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx};
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
 use noise::Perlin;
@@ -135,15 +136,18 @@ pub fn bresenham(a: (i64, i64), b: (i64, i64), mut visit: impl FnMut(i64, i64)) 
 /// cell keeps a lower neighbour downstream (drainage by construction), and a cell claimed by
 /// a river and a ridge stays a river; two rivers keep the lower height. Rivers are drawn
 /// 4-connected (a diagonal Bresenham step gets its corner cell too) so that water cannot leak
-/// between two diagonal river cells. O(length of all segments in cells).
-pub fn rasterise(
+/// between two diagonal river cells. O(length of all segments in cells). The job may yield
+/// every [`SEGMENTS_PER_TICK`] segments ([`JobCtx::tick`]).
+pub async fn rasterise(
     rivers: &[RiverNetwork],
     orders: &[Vec<u32>],
     ridges: &[RidgeSegment],
     n: usize,
     noise: &NoiseParams,
     seed: u64,
-) -> Skeleton {
+    ctx: &JobCtx,
+) -> Result<Skeleton, Cancelled> {
+    const STAGE: &str = "rasterising the skeleton";
     let mut sk = Skeleton {
         size: n,
         heights: vec![0.0; n * n],
@@ -152,7 +156,10 @@ pub fn rasterise(
     };
     let inside = |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < n && (y as usize) < n;
     let perlin = Perlin::new(seed);
-    for ridge in ridges {
+    for (k, ridge) in ridges.iter().enumerate() {
+        if k % SEGMENTS_PER_TICK == 0 {
+            ctx.tick(0.2, STAGE).await?;
+        }
         let (a, b) = (
             to_cell(DVec2::from(ridge.a), n),
             to_cell(DVec2::from(ridge.b), n),
@@ -181,7 +188,10 @@ pub fn rasterise(
         });
     }
     for (net, order) in rivers.iter().zip(orders) {
-        for (p, c) in net.link_pairs() {
+        for (k, (p, c)) in net.link_pairs().enumerate() {
+            if k % SEGMENTS_PER_TICK == 0 {
+                ctx.tick(0.2, STAGE).await?;
+            }
             let (a, b) = (to_cell(net.nodes[p], n), to_cell(net.nodes[c], n));
             let (ha, hb) = (f64::from(net.height[p]), f64::from(net.height[c]));
             let len = (((b.0 - a.0).pow(2) + (b.1 - a.1).pow(2)) as f64)
@@ -214,8 +224,11 @@ pub fn rasterise(
             });
         }
     }
-    sk
+    Ok(sk)
 }
+
+/// Segments rasterised between two looks at the clock.
+const SEGMENTS_PER_TICK: usize = 512;
 
 #[cfg(test)]
 mod tests {

@@ -224,7 +224,9 @@ pub async fn generate(
         n,
         &params.noise,
         stage_seed(params.seed, "skeleton"),
-    );
+        ctx,
+    )
+    .await?;
     skeleton::sketch::rasterise(
         &mut skeleton,
         &params.sketch,
@@ -248,10 +250,16 @@ pub async fn generate(
         params.ridges.alpha,
         cell_m,
     );
-    // Bands of at most half a million cells (256 rows at 2048^2), at least one per thread:
-    // natively a group of bands is gathered in parallel, on the web one band at a time.
+    // Natively bands of at most half a million cells (256 rows at 2048^2), at least one per
+    // thread, a group of bands gathered in parallel; on the web one band of 2^17 cells at a
+    // time (a few tens of milliseconds), so the page keeps painting.
     let threads = crate::compute::parallel::threads();
-    let band = ((1usize << 19) / n.max(1)).min(n.div_ceil(threads)).max(1);
+    let band_cells = if cfg!(target_arch = "wasm32") {
+        1usize << 17
+    } else {
+        1usize << 19
+    };
+    let band = (band_cells / n.max(1)).min(n.div_ceil(threads)).max(1);
     let bands: Vec<std::ops::Range<usize>> = (0..n)
         .step_by(band)
         .map(|start| start..(start + band).min(n))
@@ -279,6 +287,7 @@ pub async fn generate(
                 .await?;
             }
             enrichment.apply(&updates);
+            ctx.tick(0.25, "enriching the skeleton").await?;
         }
     }
     let enriched_cells = enrichment.added();
@@ -310,14 +319,22 @@ pub async fn generate(
         .await?;
         lap("post", &mut stages);
     }
-    let conditioning = if drainage::has_pits(&terrain) {
-        drainage::fill_depressions(&mut terrain)
-    } else {
-        drainage::Conditioning::default()
-    };
-    let drainage = drainage::measure(&terrain, &skeleton.kinds);
+    let (conditioning, drainage) =
+        drainage::condition_and_measure(&mut terrain, &skeleton.kinds, ctx).await?;
     lap("drainage", &mut stages);
 
+    // The report's O(cells) scans, with the job's ticks between them.
+    let skeleton_cells = skeleton.fixed_cells();
+    ctx.tick(0.99, "terrain report").await?;
+    let height_range = terrain
+        .finite_range()
+        .map_or([0.0, 0.0], |(lo, hi)| [lo, hi]);
+    let mut checksum = crate::heightfield::Checksum::default();
+    for part in terrain.data().chunks(1 << 16) {
+        ctx.tick(0.99, "terrain report").await?;
+        checksum.add(part);
+    }
+    let checksum = checksum.hex();
     let report = TerrainReport {
         size: n,
         seed: params.seed,
@@ -333,7 +350,7 @@ pub async fn generate(
         ridges: RidgeReport {
             edges: ridges.len(),
         },
-        skeleton_cells: skeleton.fixed_cells(),
+        skeleton_cells,
         enriched_cells,
         diffusion: DiffusionReport {
             backend: filled.backend,
@@ -346,10 +363,8 @@ pub async fn generate(
         },
         drainage,
         conditioning,
-        height_range: terrain
-            .finite_range()
-            .map_or([0.0, 0.0], |(lo, hi)| [lo, hi]),
-        checksum: terrain.checksum(),
+        height_range,
+        checksum,
     };
     ctx.set_progress(1.0, "terrain ready");
     Ok(Generated {

@@ -35,7 +35,6 @@ impl RadixHeap {
         }
     }
 
-    #[cfg(test)]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }

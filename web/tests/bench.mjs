@@ -6,7 +6,9 @@
 //   edit -> map    ms from an edit (a new seed) to the regenerated 512^2 preview on the map,
 //                  median of 5 (and the slowest); `diffuse` is the diffusion stage's own time
 //   2048^2 frames  animation-frame intervals while `generate({size: 2048})` runs on the page:
-//                  median, 95th percentile and longest, and how long the generation took
+//                  median, 95th percentile and longest, and how long the generation took;
+//                  main-thread tasks over 50 ms meanwhile (PerformanceObserver 'longtask':
+//                  the page's own work, without the browser's compositing) and the longest
 //
 // Usage: node web/tests/bench.mjs [DIST_DIR]   (env: CHROMIUM, BROWSER_MODES)
 
@@ -68,6 +70,13 @@ async function measure(url, mode) {
     const jobs = edits.map((e) => e.job).sort((a, b) => a - b);
 
     const frames = await page.evaluate(async () => {
+      // Main-thread tasks over 50 ms (what the page's own work blocks), beside the frame gaps
+      // (which also hold the browser's painting).
+      const tasks = [];
+      const observer = new PerformanceObserver((list) => {
+        for (const entry of list.getEntries()) tasks.push(entry.duration);
+      });
+      observer.observe({ type: 'longtask' });
       const gaps = [];
       let last = performance.now();
       let running = true;
@@ -81,7 +90,10 @@ async function measure(url, mode) {
       await window.strahler.generate({ size: 2048 });
       const total = performance.now() - start;
       running = false;
-      return { gaps, total };
+      // Long-task entries arrive asynchronously: give the last ones time to land.
+      await new Promise((done) => setTimeout(done, 500));
+      observer.disconnect();
+      return { gaps, total, tasks };
     });
     const gaps = frames.gaps.slice(1).sort((a, b) => a - b);
     const pick = (q) => gaps[Math.min(gaps.length - 1, Math.floor(q * gaps.length))];
@@ -96,6 +108,8 @@ async function measure(url, mode) {
       median: pick(0.5),
       p95: pick(0.95),
       longest: gaps[gaps.length - 1],
+      longTasks: frames.tasks.length,
+      longestTask: Math.max(0, ...frames.tasks),
     };
   } finally {
     await browser.close();
@@ -118,10 +132,12 @@ try {
 }
 const f = (v) => v.toFixed(0).padStart(7);
 console.log('editor in headless Chromium, milliseconds');
-console.log('path    first terrain  edit->map (max) diffuse | 2048^2: generate  frames  median    p95  longest');
+console.log('path    first terrain  edit->map (max) diffuse | 2048^2: generate  frames  median    p95  longest'
+  + ' | tasks > 50 ms  longest');
 for (const r of rows) {
   console.log(`${r.mode.padEnd(7)} ${f(r.first)}       ${f(r.edit)} (${f(r.editMax).trim()}) ${f(r.job)}   |`
-    + `        ${f(r.generate)} ${String(r.frames).padStart(7)} ${f(r.median)} ${f(r.p95)} ${f(r.longest)}`);
+    + `        ${f(r.generate)} ${String(r.frames).padStart(7)} ${f(r.median)} ${f(r.p95)} ${f(r.longest)}`
+    + ` | ${String(r.longTasks).padStart(13)} ${f(r.longestTask)}`);
 }
 console.log('targets (editor issue): first terrain <= 3000; a 512^2 preview <= 300 on the CPU path '
   + '(150 natively); frames < 50 while a 2048^2 terrain is generated');

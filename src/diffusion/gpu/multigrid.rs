@@ -127,7 +127,7 @@ pub(in crate::diffusion) async fn multigrid(
     let scale = fixed_height_range(problem).max(f32::MIN_POSITIVE);
     let device = &gpu.device;
 
-    let cpu_levels = hierarchy::for_problem(problem, None);
+    let cpu_levels = hierarchy::for_problem(problem, None, ctx).await?;
     let dims: Vec<(usize, usize)> = cpu_levels.iter().map(Level::dims).collect();
     let plan = bands::plan(&dims, gpu.caps.max_storage_bytes())?;
     if plan[0].len() > 1 {

@@ -28,15 +28,10 @@ mod stopping;
 
 pub(crate) use stopping::Stopping;
 
-use web_time::{Duration, Instant};
-
 use super::{Constraints, DiffusionError};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 use hierarchy::Level;
-
-/// Rows of work between two looks at the clock (the web yields when a slice is used up).
-const SLICE: Duration = Duration::from_millis(20);
 
 /// Solver settings.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -84,21 +79,16 @@ pub struct Solved {
     pub converged: bool,
 }
 
-/// Tracks time since the last yield and checkpoints when a slice is used up.
+/// The job and what it reports at each [`JobCtx::tick`] between operators.
 struct Slicer<'a> {
     ctx: &'a JobCtx,
-    since: Instant,
     progress: f32,
     message: String,
 }
 
 impl Slicer<'_> {
     async fn tick(&mut self) -> Result<(), DiffusionError> {
-        if self.since.elapsed() >= SLICE {
-            self.ctx.checkpoint(self.progress, &self.message).await?;
-            self.since = Instant::now();
-        }
-        Ok(())
+        Ok(self.ctx.tick(self.progress, &self.message).await?)
     }
 }
 
@@ -115,14 +105,13 @@ pub async fn solve(
     }
     check_rhs(problem, rhs)?;
     let scale = super::fixed_height_range(problem).max(f32::MIN_POSITIVE);
-    let mut levels = hierarchy::for_problem(problem, rhs);
+    let mut levels = hierarchy::for_problem(problem, rhs, ctx).await?;
     // Building the levels is one O(cells) step: let the browser paint after it.
     ctx.checkpoint(0.0, "multigrid: full-multigrid start")
         .await?;
 
     let mut slicer = Slicer {
         ctx,
-        since: Instant::now(),
         progress: 0.0,
         message: "multigrid: full-multigrid start".to_owned(),
     };
@@ -138,6 +127,7 @@ pub async fn solve(
         let (fine, coarse) = (&mut fine[l], &coarse[0]);
         let dims = fine.dims();
         ops::prolong_replace(&mut fine.u, &fine.fixed, dims, &coarse.u, coarse.dims());
+        slicer.tick().await?;
         last_correction = v_cycle(&mut levels, l, params, &mut stats, w * h, &mut slicer).await?;
     }
 
@@ -148,7 +138,6 @@ pub async fn solve(
         slicer.progress = stop.progress();
         slicer.message = format!("multigrid {}", stop.describe());
         ctx.checkpoint(slicer.progress, &slicer.message).await?;
-        slicer.since = Instant::now();
         let correction = v_cycle(&mut levels, 0, params, &mut stats, w * h, &mut slicer).await?;
         let residual = ops::max_scaled_residual(&levels[0].u, b, &levels[0].fixed, w, h);
         stop.record(residual, correction);
@@ -254,6 +243,7 @@ async fn v_cycle(
         }
         let dims = fine.dims();
         ops::prolong_add(&mut fine.u, &fine.fixed, dims, &coarse.u, coarse.dims());
+        slicer.tick().await?;
         let b = (!fine.b.is_empty()).then_some(fine.b.as_slice());
         for _ in 0..params.post_sweeps {
             ops::relax_red_black(&mut fine.u, b, &fine.fixed, fine.w, fine.h);

@@ -1,0 +1,63 @@
+//! The map's picture of the final terrain: its shaded relief and contour lines, drawn as a
+//! job. Both are O(cells) (the relief about 0.4 s at 2048^2 in the browser), so they must not
+//! hold the UI thread when a large terrain arrives; natively the job has a thread, in the
+//! browser it draws in bands of rows and yields between them.
+
+use std::sync::Arc;
+
+use egui::{ColorImage, Pos2};
+
+use super::layers;
+use super::relief::shaded_relief_stepped;
+use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobHandle, SpawnError};
+
+/// A terrain with what the map draws of it.
+pub struct Picture {
+    pub field: Arc<Heightfield>,
+    pub relief: ColorImage,
+    /// Contour segments (map units), every "nice" interval for the height range.
+    pub contours: Vec<(Pos2, Pos2)>,
+}
+
+pub type PictureJob = JobHandle<Result<Picture, Cancelled>>;
+
+/// Draws `field` (cells `cell_size` metres apart) in the background; `ctx` repaints when the
+/// picture is ready.
+pub fn spawn(
+    ctx: &egui::Context,
+    field: Arc<Heightfield>,
+    cell_size: f32,
+) -> Result<PictureJob, SpawnError> {
+    let repaint = ctx.clone();
+    crate::jobs::spawn(
+        "map picture",
+        move |job| async move {
+            let relief = shaded_relief_stepped(&field, cell_size, &job).await?;
+            let contours = contours(&field);
+            Ok(Picture {
+                field,
+                relief,
+                contours,
+            })
+        },
+        move || repaint.request_repaint(),
+    )
+}
+
+/// Contour lines of `field` at a "nice" interval for its height range.
+fn contours(field: &Heightfield) -> Vec<(Pos2, Pos2)> {
+    match field.finite_range() {
+        Some((lo, hi)) => layers::contours(field, layers::contour_interval(hi - lo)),
+        None => Vec::new(),
+    }
+}
+
+/// The same picture drawn at once, for when no job can be started.
+pub fn draw_now(field: Arc<Heightfield>, cell_size: f32) -> Picture {
+    Picture {
+        relief: super::relief::shaded_relief(&field, cell_size),
+        contours: contours(&field),
+        field,
+    }
+}
