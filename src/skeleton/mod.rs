@@ -176,10 +176,7 @@ pub async fn rasterise(
                 return;
             }
             let t = ((((x - a.0).pow(2) + (y - a.1).pow(2)) as f64).sqrt() / len).min(1.0);
-            let (u, v) = (x as f64 / n as f64, y as f64 / n as f64);
-            let f =
-                noise.amplitude * perlin.fbm(u, v, noise.frequency, noise.octaves, noise.roughness);
-            let h = f64::from(ridge.height_a) + t * f64::from(ridge.height_b - ridge.height_a) + f;
+            let h = f64::from(ridge.height_a) + t * f64::from(ridge.height_b - ridge.height_a);
             let h = h as f32;
             if sk.kinds[i] == CellKind::Free || h > sk.heights[i] {
                 sk.heights[i] = h;
@@ -187,6 +184,7 @@ pub async fn rasterise(
             sk.kinds[i] = CellKind::Ridge;
         });
     }
+    add_ridge_noise(&mut sk, noise, &perlin, ctx).await?;
     for (net, order) in rivers.iter().zip(orders) {
         for (k, (p, c)) in net.link_pairs().enumerate() {
             if k % SEGMENTS_PER_TICK == 0 {
@@ -229,6 +227,45 @@ pub async fn rasterise(
 
 /// Segments rasterised between two looks at the clock.
 const SEGMENTS_PER_TICK: usize = 512;
+
+/// Adds eq. 5's `F(P)` (fractal Perlin noise, `noise.amplitude` metres) to every ridge cell.
+/// The noise depends on the cell only, so it is added once per cell after the linear heights
+/// of all segments were rasterised (the highest segment wins, as before), not once per
+/// segment crossing the cell. O(cells) scan plus O(ridge cells x octaves) noise, in bands of
+/// rows gathered on all threads natively, with the job's ticks between groups of bands.
+async fn add_ridge_noise(
+    sk: &mut Skeleton,
+    noise: &NoiseParams,
+    perlin: &Perlin,
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
+    if noise.amplitude == 0.0 {
+        return Ok(());
+    }
+    let n = sk.size;
+    let band_len = ((1usize << 16) / n.max(1)).max(1) * n;
+    let group_len = band_len * crate::compute::parallel::threads();
+    let Skeleton { heights, kinds, .. } = sk;
+    for (g, group) in heights.chunks_mut(group_len).enumerate() {
+        let kinds = &kinds[g * group_len..];
+        crate::compute::parallel::for_each_band(group, band_len, |k, band| {
+            for (j, h) in band.iter_mut().enumerate() {
+                let at = k * band_len + j;
+                if kinds[at] != CellKind::Ridge {
+                    continue;
+                }
+                let i = g * group_len + at;
+                let (u, v) = ((i % n) as f64 / n as f64, (i / n) as f64 / n as f64);
+                let f = noise.amplitude
+                    * perlin.fbm(u, v, noise.frequency, noise.octaves, noise.roughness);
+                *h = (f64::from(*h) + f) as f32;
+            }
+        });
+        ctx.tick(0.2, "rasterising the skeleton: ridge noise")
+            .await?;
+    }
+    Ok(())
+}
 
 #[cfg(test)]
 mod tests {
