@@ -287,9 +287,22 @@ impl StrahlerApp {
     pub(super) fn show_final(&mut self, ctx: &egui::Context, field: Heightfield) {
         let size = field.width();
         let cell = MAP_WIDTH_M / size.saturating_sub(1).max(1) as f32;
+        // The terrain job drew the picture when it knew its terrain would be final (no
+        // detail levels, no blocks): one frame sooner on the map.
+        if let Some(picture) = self
+            .ready_picture
+            .take()
+            .filter(|p| p.field.width() == size && p.field.height() == field.height())
+        {
+            self.automation
+                .set_terrain(picture.field.clone(), f64::from(cell));
+            self.picture_job = None;
+            self.show_picture(ctx, picture);
+            return;
+        }
         let field = Arc::new(field);
         self.automation.set_terrain(field.clone(), f64::from(cell));
-        let cell_size = MAP_WIDTH_M / size as f32;
+        let cell_size = super::picture::cell_size(size);
         // Replacing the handle cancels a picture of an older terrain.
         match super::picture::spawn(ctx, field.clone(), cell_size) {
             Ok(job) => self.picture_job = Some(job),

@@ -111,6 +111,8 @@ pub struct StrahlerApp {
     detail_job: Option<JobHandle<detail::DetailResult>>,
     /// Drawing the final terrain's relief and contours for the map.
     picture_job: Option<picture::PictureJob>,
+    /// A picture the terrain job drew, while its terrain is passed on to be shown.
+    ready_picture: Option<picture::Picture>,
     /// The detail settings or the mask changed: re-run the detail stage at the next frame.
     detail_dirty: bool,
     detail_summary: Option<String>,
@@ -181,6 +183,7 @@ impl StrahlerApp {
             rivers: Vec::new(),
             detail_job: None,
             picture_job: None,
+            ready_picture: None,
             detail_dirty: false,
             detail_summary: None,
             mask_overlay_stale: false,
@@ -393,12 +396,14 @@ impl StrahlerApp {
         if self.preview && !std::mem::take(&mut self.full_size_requested) {
             params.size = params.size.min(PREVIEW_SIZE);
         }
+        // Without detail levels and blocks the terrain is the final one: the job draws it too.
+        let is_final = self.detail.levels == 0 && self.blend.blocks.is_empty();
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "terrain",
             move |job| async move {
                 let generated = crate::terrain::generate(&strokes, &params, &backend, &job).await?;
-                Arrived::prepare(generated, &job).await
+                Arrived::prepare(generated, is_final, &job).await
             },
             move || repaint.request_repaint(),
         );
@@ -462,6 +467,7 @@ impl StrahlerApp {
             generated: g,
             constraints,
             summary,
+            picture,
         } = arrived;
         let size = g.terrain.width();
         let r = &g.report;
@@ -506,7 +512,10 @@ impl StrahlerApp {
         // the detail stage), so a preview never blurs what the user painted.
         self.fit_mask(self.settings.size);
         self.map.set_mask(ctx, Some(&self.mask));
+        // Used by `show_final` if the terrain goes straight to the map (no detail job).
+        self.ready_picture = picture;
         self.start_detail(ctx);
+        self.ready_picture = None;
         self.automation
             .update(|s| s.last_run = Some(summary.clone()));
         self.last_run = Some((size, summary));
@@ -672,11 +681,14 @@ struct Arrived {
     /// The skeleton's cells as an overlay image.
     constraints: egui::ColorImage,
     summary: RunSummary,
+    /// The map's picture of the terrain, when it is the final one.
+    picture: Option<picture::Picture>,
 }
 
 impl Arrived {
     async fn prepare(
         generated: Generated,
+        is_final: bool,
         job: &crate::jobs::JobCtx,
     ) -> Result<Self, TerrainError> {
         job.tick(1.0, "preparing the map").await?;
@@ -684,10 +696,17 @@ impl Arrived {
         let constraints = layers::constraints_image(&generated.skeleton.kinds, w, h);
         job.tick(1.0, "preparing the map").await?;
         let summary = RunSummary::of_terrain(&generated);
+        let picture = if is_final {
+            let field = std::sync::Arc::new(generated.terrain.clone());
+            Some(picture::draw(field, picture::cell_size(w), job).await?)
+        } else {
+            None
+        };
         Ok(Self {
             generated,
             constraints,
             summary,
+            picture,
         })
     }
 }

@@ -10,7 +10,7 @@ use egui::{ColorImage, Pos2};
 use super::layers;
 use super::relief::shaded_relief_stepped;
 use crate::heightfield::Heightfield;
-use crate::jobs::{Cancelled, JobHandle, SpawnError};
+use crate::jobs::{Cancelled, JobCtx, JobHandle, SpawnError};
 
 /// A terrain with what the map draws of it.
 pub struct Picture {
@@ -32,17 +32,29 @@ pub fn spawn(
     let repaint = ctx.clone();
     crate::jobs::spawn(
         "map picture",
-        move |job| async move {
-            let relief = shaded_relief_stepped(&field, cell_size, &job).await?;
-            let contours = contours(&field);
-            Ok(Picture {
-                field,
-                relief,
-                contours,
-            })
-        },
+        move |job| async move { draw(field, cell_size, &job).await },
         move || repaint.request_repaint(),
     )
+}
+
+/// Draws `field` within a job (yielding between bands of rows).
+pub async fn draw(
+    field: Arc<Heightfield>,
+    cell_size: f32,
+    job: &JobCtx,
+) -> Result<Picture, Cancelled> {
+    let relief = shaded_relief_stepped(&field, cell_size, job).await?;
+    let contours = contours(&field);
+    Ok(Picture {
+        field,
+        relief,
+        contours,
+    })
+}
+
+/// Metres between cells of a `width`-cell terrain as the map draws it.
+pub fn cell_size(width: usize) -> f32 {
+    super::MAP_WIDTH_M / width.max(1) as f32
 }
 
 /// Contour lines of `field` at a "nice" interval for its height range.

@@ -27,10 +27,8 @@ pub async fn read_f32_buffer(
     len: usize,
 ) -> Result<Vec<f32>, GpuError> {
     let bytes = read_bytes(ctx, source, (len * 4) as u64).await?;
-    Ok(bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect())
+    // One copy into aligned f32s (every target here is little-endian, as GPU buffers are).
+    Ok(bytemuck::pod_collect_to_vec(&bytes))
 }
 
 /// Copies the first `bytes` bytes of `source` (with `COPY_SRC`) back to the CPU.

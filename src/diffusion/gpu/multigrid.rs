@@ -151,11 +151,20 @@ pub(in crate::diffusion) async fn multigrid(
         residual_max: pipeline(device, &module, "residual_max"),
         correction_max: pipeline(device, &module, "correction_max"),
     };
-    let (levels, checks, result) = upload(gpu, &pipes, &cpu_levels, plan);
-    drop(cpu_levels);
+    let pending = std::cell::RefCell::new(Vec::new());
+    let (levels, checks, result) = upload(gpu, &pipes, &cpu_levels, plan, &pending);
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()).into());
     }
+    // The heights go up in slices of 1 MiB with the job's ticks between them: one 64 MiB
+    // copy would hold the browser's main thread.
+    for (buffer, data) in pending.take() {
+        for (k, part) in data.chunks(1 << 20).enumerate() {
+            gpu.queue.write_buffer(&buffer, (k << 20) as u64, part);
+            ctx.tick(0.0, "multigrid: uploading the levels").await?;
+        }
+    }
+    drop(cpu_levels);
 
     let finest = w * h;
     let mut stats = Work::default();
@@ -209,13 +218,18 @@ struct Checks {
     correction: Vec<wgpu::BindGroup>,
 }
 
+/// Buffers created empty and the bytes still to be written into them.
+type Pending<'a> = std::cell::RefCell<Vec<(wgpu::Buffer, &'a [u8])>>;
+
 /// Creates every band's buffers and bind groups; returns the levels with the reductions'
-/// bind groups and their result buffer.
-fn upload(
+/// bind groups and their result buffer. The unknowns and right-hand sides are created empty
+/// and listed in `pending` with their contents, for the caller to write.
+fn upload<'a>(
     gpu: &GpuContext,
     pipes: &Pipelines,
-    cpu: &[Level],
+    cpu: &'a [Level],
     plan: Vec<Vec<Band>>,
+    pending: &Pending<'a>,
 ) -> (Vec<GpuLevel>, Checks, wgpu::Buffer) {
     let device = &gpu.device;
     let storage = |label: &str, data: &[u8], extra: wgpu::BufferUsages| {
@@ -226,11 +240,21 @@ fn upload(
         })
     };
     let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+    let field = |label: &str, data: &'a [u8]| {
+        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: data.len() as u64,
+            usage: wgpu::BufferUsages::STORAGE | copy,
+            mapped_at_creation: false,
+        });
+        pending.borrow_mut().push((buffer.clone(), data));
+        buffer
+    };
     // Bound where a Laplace problem's finest level has no right-hand side (never read).
     let dummy = storage("no rhs", &[0u8; 16], wgpu::BufferUsages::empty());
     let result = storage("residual and correction max", &[0u8; 8], copy);
-    let rows = |values: &[f32], w: usize, band: &Band| -> Vec<u8> {
-        bytemuck::cast_slice(&values[band.stored.start * w..band.stored.end * w]).to_vec()
+    let rows = |values: &'a [f32], w: usize, band: &Band| -> &'a [u8] {
+        bytemuck::cast_slice(&values[band.stored.start * w..band.stored.end * w])
     };
     // Per level and band: unknowns, right-hand side (if any), fixed bits.
     let us: Vec<Vec<wgpu::Buffer>> = cpu
@@ -239,7 +263,7 @@ fn upload(
         .map(|(l, bands)| {
             bands
                 .iter()
-                .map(|b| storage("u", &rows(&l.u, l.w, b), copy))
+                .map(|b| field("u", rows(&l.u, l.w, b)))
                 .collect()
         })
         .collect();
@@ -249,7 +273,7 @@ fn upload(
         .map(|(l, bands)| {
             bands
                 .iter()
-                .map(|b| (!l.b.is_empty()).then(|| storage("b", &rows(&l.b, l.w, b), copy)))
+                .map(|b| (!l.b.is_empty()).then(|| field("b", rows(&l.b, l.w, b))))
                 .collect()
         })
         .collect();
