@@ -130,23 +130,36 @@ pub(in crate::diffusion) async fn jacobi(
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("jacobi sweeps"),
         });
-        for s in done..done + batch {
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("jacobi sweep"),
-                    timestamp_writes: None,
-                });
-                pass.set_pipeline(&pipeline);
-                for band in &jacobi_bands {
-                    pass.set_bind_group(0, &band.groups[(s % 2) as usize], &[]);
-                    pass.dispatch_workgroups(
-                        (w as u32).div_ceil(WORKGROUP),
-                        (band.rows.owned.len() as u32).div_ceil(WORKGROUP),
-                        1,
-                    );
-                }
+        let sweep = |pass: &mut wgpu::ComputePass, s: u32| {
+            for band in &jacobi_bands {
+                pass.set_bind_group(0, &band.groups[(s % 2) as usize], &[]);
+                pass.dispatch_workgroups(
+                    (w as u32).div_ceil(WORKGROUP),
+                    (band.rows.owned.len() as u32).div_ceil(WORKGROUP),
+                    1,
+                );
             }
-            bands::exchange_ghost_rows(&mut encoder, &rows, &written(s), w);
+        };
+        let pass_descriptor = wgpu::ComputePassDescriptor {
+            label: Some("jacobi sweeps"),
+            timestamp_writes: None,
+        };
+        if rows.len() == 1 {
+            // Untiled: the whole batch in one pass, no ghost rows to exchange.
+            let mut pass = encoder.begin_compute_pass(&pass_descriptor);
+            pass.set_pipeline(&pipeline);
+            for s in done..done + batch {
+                sweep(&mut pass, s);
+            }
+        } else {
+            for s in done..done + batch {
+                {
+                    let mut pass = encoder.begin_compute_pass(&pass_descriptor);
+                    pass.set_pipeline(&pipeline);
+                    sweep(&mut pass, s);
+                }
+                bands::exchange_ghost_rows(&mut encoder, &rows, &written(s), w);
+            }
         }
         gpu.queue.submit([encoder.finish()]);
         if let Some(err) = scope.pop().await {
