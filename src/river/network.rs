@@ -40,11 +40,19 @@ impl RiverNetwork {
 
 /// Segments already drawn (by every network of the scene), bucketed on a grid so that a new
 /// link is tested against its neighbourhood only: O(1) per link for evenly spread networks.
+/// Buckets are singly linked lists in flat arrays (no allocation per bucket).
 pub struct SegmentIndex {
     cell: f64,
     side: usize,
-    buckets: Vec<Vec<(DVec2, DVec2)>>,
+    /// First entry of every bucket ([`NONE`] when empty).
+    head: Vec<u32>,
+    /// `(segment, next entry of the same bucket)`.
+    entries: Vec<(u32, u32)>,
+    segments: Vec<(DVec2, DVec2)>,
 }
+
+/// The end of a bucket's list.
+const NONE: u32 = u32::MAX;
 
 impl SegmentIndex {
     /// An index for links of about `link_length` map units.
@@ -53,31 +61,55 @@ impl SegmentIndex {
         Self {
             cell: 1.0 / side as f64,
             side,
-            buckets: vec![Vec::new(); side * side],
+            head: vec![NONE; side * side],
+            entries: Vec::new(),
+            segments: Vec::new(),
         }
     }
 
-    fn cells(&self, a: DVec2, b: DVec2) -> impl Iterator<Item = usize> + '_ {
-        let lo = a.min(b);
-        let hi = a.max(b);
-        let clamp = |v: f64| ((v / self.cell).floor().max(0.0) as usize).min(self.side - 1);
+    /// The buckets under the bounding box of `a -> b` (clamped to the map).
+    fn cells(&self, a: DVec2, b: DVec2) -> impl Iterator<Item = usize> + use<> {
+        let (lo, hi) = (a.min(b), a.max(b));
+        let (cell, side) = (self.cell, self.side);
+        let clamp = move |v: f64| ((v / cell).floor().max(0.0) as usize).min(side - 1);
         let (x0, x1, y0, y1) = (clamp(lo.x), clamp(hi.x), clamp(lo.y), clamp(hi.y));
-        (y0..=y1).flat_map(move |y| (x0..=x1).map(move |x| y * self.side + x))
+        (y0..=y1).flat_map(move |y| (x0..=x1).map(move |x| y * side + x))
+    }
+
+    /// Whether `hit` holds for a stored segment in the buckets of `a -> b`.
+    fn any_near(&self, a: DVec2, b: DVec2, hit: impl Fn(DVec2, DVec2) -> bool) -> bool {
+        self.cells(a, b).any(|c| {
+            let mut e = self.head[c];
+            while e != NONE {
+                let (s, next) = self.entries[e as usize];
+                let (p, q) = self.segments[s as usize];
+                if hit(p, q) {
+                    return true;
+                }
+                e = next;
+            }
+            false
+        })
     }
 
     /// Whether `a -> b` crosses a stored segment, ignoring those that merely touch `a`.
     pub fn crosses(&self, a: DVec2, b: DVec2) -> bool {
-        self.cells(a, b).any(|c| {
-            self.buckets[c]
-                .iter()
-                .any(|&(p, q)| !touches(a, p, q) && segments_intersect(a, b, p, q))
+        self.any_near(a, b, |p, q| {
+            !touches(a, p, q) && segments_intersect(a, b, p, q)
         })
     }
 
+    /// Whether `a -> b` meets a stored segment at all (touching counts).
+    pub fn intersects(&self, a: DVec2, b: DVec2) -> bool {
+        self.any_near(a, b, |p, q| segments_intersect(a, b, p, q))
+    }
+
     pub fn insert(&mut self, a: DVec2, b: DVec2) {
-        let cells: Vec<usize> = self.cells(a, b).collect();
-        for c in cells {
-            self.buckets[c].push((a, b));
+        let s = self.segments.len() as u32;
+        self.segments.push((a, b));
+        for c in self.cells(a, b) {
+            self.entries.push((s, self.head[c]));
+            self.head[c] = (self.entries.len() - 1) as u32;
         }
     }
 }

@@ -3,6 +3,7 @@
 
 pub mod enrich;
 pub mod noise;
+mod raster;
 pub mod sketch;
 
 use glam::DVec2;
@@ -12,7 +13,8 @@ use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
-use noise::Perlin;
+use noise::{FbmGrid, Perlin};
+use raster::{Band, Line};
 
 /// What a skeleton cell is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -132,12 +134,15 @@ pub fn bresenham(a: (i64, i64), b: (i64, i64), mut visit: impl FnMut(i64, i64)) 
 /// Rasterises rivers and ridges on an `n` x `n` grid.
 ///
 /// Heights along each segment follow eq. 5: linear from start to end, plus `F(P)` on ridges
-/// (fractal Perlin noise, `noise.amplitude` metres). Rivers get no noise, so every river
-/// cell keeps a lower neighbour downstream (drainage by construction), and a cell claimed by
-/// a river and a ridge stays a river; two rivers keep the lower height. Rivers are drawn
-/// 4-connected (a diagonal Bresenham step gets its corner cell too) so that water cannot leak
-/// between two diagonal river cells. O(length of all segments in cells). The job may yield
-/// every [`SEGMENTS_PER_TICK`] segments ([`JobCtx::tick`]).
+/// (fractal Perlin noise, `noise.amplitude` metres, once per ridge cell). Rivers get no noise,
+/// so every river cell keeps a lower neighbour downstream (drainage by construction), and a
+/// cell claimed by a river and a ridge stays a river; two rivers keep the lower height, two
+/// ridges the higher. Rivers are drawn 4-connected (a diagonal Bresenham step gets its corner
+/// cell too) so that water cannot leak between two diagonal river cells.
+///
+/// Drawn in bands of rows ([`raster`]): one per thread natively, bands of 2^17 cells one at a
+/// time on the web with the job's ticks between them. O(length of all segments in cells +
+/// segments x bands each spans + ridge cells x octaves).
 pub async fn rasterise(
     rivers: &[RiverNetwork],
     orders: &[Vec<u32>],
@@ -147,124 +152,77 @@ pub async fn rasterise(
     seed: u64,
     ctx: &JobCtx,
 ) -> Result<Skeleton, Cancelled> {
-    const STAGE: &str = "rasterising the skeleton";
     let mut sk = Skeleton {
         size: n,
         heights: vec![0.0; n * n],
         kinds: vec![CellKind::Free; n * n],
         river_order: vec![0; n * n],
     };
-    let inside = |x: i64, y: i64| x >= 0 && y >= 0 && (x as usize) < n && (y as usize) < n;
+    let ridge_lines: Vec<Line> = ridges
+        .iter()
+        .map(|r| Line {
+            a: to_cell(DVec2::from(r.a), n),
+            b: to_cell(DVec2::from(r.b), n),
+            start: f64::from(r.height_a),
+            rise: f64::from(r.height_b - r.height_a),
+            order: 0,
+        })
+        .collect();
+    let river_lines: Vec<Line> = rivers
+        .iter()
+        .zip(orders)
+        .flat_map(|(net, order)| {
+            net.link_pairs().map(|(p, c)| Line {
+                a: to_cell(net.nodes[p], n),
+                b: to_cell(net.nodes[c], n),
+                start: f64::from(net.height[p]),
+                rise: f64::from(net.height[c]) - f64::from(net.height[p]),
+                order: order[c].min(255) as u8,
+            })
+        })
+        .collect();
+    let threads = crate::compute::parallel::threads();
+    let band_rows = if cfg!(target_arch = "wasm32") {
+        ((1usize << 17) / n.max(1)).max(1)
+    } else {
+        n.div_ceil(threads).max(1)
+    };
+    let (ridges_of, rivers_of) = (
+        raster::by_band(&ridge_lines, n, band_rows),
+        raster::by_band(&river_lines, n, band_rows),
+    );
     let perlin = Perlin::new(seed);
-    for (k, ridge) in ridges.iter().enumerate() {
-        if k % SEGMENTS_PER_TICK == 0 {
-            ctx.tick(0.2, STAGE).await?;
-        }
-        let (a, b) = (
-            to_cell(DVec2::from(ridge.a), n),
-            to_cell(DVec2::from(ridge.b), n),
-        );
-        let len = (((b.0 - a.0).pow(2) + (b.1 - a.1).pow(2)) as f64)
-            .sqrt()
-            .max(1.0);
-        bresenham(a, b, |x, y| {
-            if !inside(x, y) {
-                return;
+    let fbm = FbmGrid::new(&perlin, n, noise.frequency, noise.octaves, noise.roughness);
+    let band_cells = band_rows * n;
+    let bands: Vec<Band<'_>> = sk
+        .heights
+        .chunks_mut(band_cells)
+        .zip(sk.kinds.chunks_mut(band_cells))
+        .zip(sk.river_order.chunks_mut(band_cells))
+        .enumerate()
+        .map(|(k, ((heights, kinds), river_order))| Band {
+            n,
+            first_row: k * band_rows,
+            heights,
+            kinds,
+            river_order,
+        })
+        .collect();
+    let mut bands = bands.into_iter().enumerate().peekable();
+    while bands.peek().is_some() {
+        let step: Vec<_> = bands.by_ref().take(threads).collect();
+        crate::compute::parallel::for_each_item(step, |(k, mut band)| {
+            for &i in &ridges_of[k] {
+                band.ridge(&ridge_lines[i as usize]);
             }
-            let i = y as usize * n + x as usize;
-            if sk.kinds[i] == CellKind::River {
-                return;
+            for &i in &rivers_of[k] {
+                band.river(&river_lines[i as usize]);
             }
-            let t = ((((x - a.0).pow(2) + (y - a.1).pow(2)) as f64).sqrt() / len).min(1.0);
-            let h = f64::from(ridge.height_a) + t * f64::from(ridge.height_b - ridge.height_a);
-            let h = h as f32;
-            if sk.kinds[i] == CellKind::Free || h > sk.heights[i] {
-                sk.heights[i] = h;
-            }
-            sk.kinds[i] = CellKind::Ridge;
+            band.ridge_noise(noise.amplitude, &fbm);
         });
-    }
-    add_ridge_noise(&mut sk, noise, &perlin, ctx).await?;
-    for (net, order) in rivers.iter().zip(orders) {
-        for (k, (p, c)) in net.link_pairs().enumerate() {
-            if k % SEGMENTS_PER_TICK == 0 {
-                ctx.tick(0.2, STAGE).await?;
-            }
-            let (a, b) = (to_cell(net.nodes[p], n), to_cell(net.nodes[c], n));
-            let (ha, hb) = (f64::from(net.height[p]), f64::from(net.height[c]));
-            let len = (((b.0 - a.0).pow(2) + (b.1 - a.1).pow(2)) as f64)
-                .sqrt()
-                .max(1.0);
-            let mut previous: Option<(i64, i64)> = None;
-            let put = |x: i64, y: i64, sk: &mut Skeleton| {
-                if !inside(x, y) {
-                    return;
-                }
-                let i = y as usize * n + x as usize;
-                let t = ((((x - a.0).pow(2) + (y - a.1).pow(2)) as f64).sqrt() / len).min(1.0);
-                let h = (ha + t * (hb - ha)) as f32;
-                if sk.kinds[i] != CellKind::River || h < sk.heights[i] {
-                    sk.heights[i] = h;
-                }
-                sk.kinds[i] = CellKind::River;
-                sk.river_order[i] = sk.river_order[i].max(order[c].min(255) as u8);
-            };
-            bresenham(a, b, |x, y| {
-                if let Some((px, py)) = previous
-                    && px != x
-                    && py != y
-                {
-                    // Close the diagonal step with the corner cell (4-connected rivers).
-                    put(x, py, &mut sk);
-                }
-                put(x, y, &mut sk);
-                previous = Some((x, y));
-            });
-        }
+        ctx.tick(0.2, "rasterising the skeleton").await?;
     }
     Ok(sk)
-}
-
-/// Segments rasterised between two looks at the clock.
-const SEGMENTS_PER_TICK: usize = 512;
-
-/// Adds eq. 5's `F(P)` (fractal Perlin noise, `noise.amplitude` metres) to every ridge cell.
-/// The noise depends on the cell only, so it is added once per cell after the linear heights
-/// of all segments were rasterised (the highest segment wins, as before), not once per
-/// segment crossing the cell. O(cells) scan plus O(ridge cells x octaves) noise, in bands of
-/// rows gathered on all threads natively, with the job's ticks between groups of bands.
-async fn add_ridge_noise(
-    sk: &mut Skeleton,
-    noise: &NoiseParams,
-    perlin: &Perlin,
-    ctx: &JobCtx,
-) -> Result<(), Cancelled> {
-    if noise.amplitude == 0.0 {
-        return Ok(());
-    }
-    let n = sk.size;
-    let band_len = ((1usize << 16) / n.max(1)).max(1) * n;
-    let group_len = band_len * crate::compute::parallel::threads();
-    let Skeleton { heights, kinds, .. } = sk;
-    for (g, group) in heights.chunks_mut(group_len).enumerate() {
-        let kinds = &kinds[g * group_len..];
-        crate::compute::parallel::for_each_band(group, band_len, |k, band| {
-            for (j, h) in band.iter_mut().enumerate() {
-                let at = k * band_len + j;
-                if kinds[at] != CellKind::Ridge {
-                    continue;
-                }
-                let i = g * group_len + at;
-                let (u, v) = ((i % n) as f64 / n as f64, (i / n) as f64 / n as f64);
-                let f = noise.amplitude
-                    * perlin.fbm(u, v, noise.frequency, noise.octaves, noise.roughness);
-                *h = (f64::from(*h) + f) as f32;
-            }
-        });
-        ctx.tick(0.2, "rasterising the skeleton: ridge noise")
-            .await?;
-    }
-    Ok(())
 }
 
 #[cfg(test)]

@@ -150,6 +150,41 @@ pub fn layer_pngs(
         .collect()
 }
 
+/// MD/MDI enrichment of the skeleton (Sec. V-B) as the pipeline runs it: each half-pass
+/// gathered in bands of rows (in parallel natively), the job yielding between bands so the
+/// browser keeps painting, then applied at once. Returns the cells added.
+pub async fn enrich(
+    skeleton: &mut skeleton::Skeleton,
+    params: &TerrainParams,
+    ctx: &JobCtx,
+) -> Result<usize, Cancelled> {
+    let n = skeleton.size;
+    let cell_m = params.ridges.map_width_m / n as f64;
+    let mut enrichment =
+        skeleton::enrich::Enrichment::new(skeleton, &params.enrich, params.ridges.alpha, cell_m);
+    // Natively bands of at most half a million cells (256 rows at 2048^2), one per thread in
+    // each step; on the web one band of 2^17 cells per step (a few milliseconds), so the page
+    // keeps painting.
+    let threads = crate::compute::parallel::threads();
+    let band_cells = if cfg!(target_arch = "wasm32") {
+        1usize << 17
+    } else {
+        1usize << 19
+    };
+    let band_rows = (band_cells / n.max(1)).min(n.div_ceil(threads));
+    for pass in 0..params.enrich.passes {
+        for md in [false, true] {
+            let mut half = skeleton::enrich::HalfPass::new(md, n, band_rows, threads);
+            let name = if md { "MD" } else { "MDI" };
+            let message = format!("enriching the skeleton: {name} pass {}", pass + 1);
+            while half.step(&mut enrichment) {
+                ctx.tick(0.25, &message).await?;
+            }
+        }
+    }
+    Ok(enrichment.added())
+}
+
 /// A stage's seed: the scene seed mixed with the stage name (FNV-1a).
 pub fn stage_seed(seed: u64, stage: &str) -> u64 {
     stage.bytes().fold(seed ^ 0xcbf2_9ce4_8422_2325, |h, b| {
@@ -241,56 +276,7 @@ pub async fn generate(
 
     ctx.checkpoint(0.25, "enriching the skeleton (MD/MDI)")
         .await?;
-    let cell_m = params.ridges.map_width_m / n as f64;
-    // Half-passes are O(cells) scans: gather them in bands of rows and yield between bands
-    // (the browser keeps painting); each half-pass is applied at once.
-    let mut enrichment = skeleton::enrich::Enrichment::new(
-        &mut skeleton,
-        &params.enrich,
-        params.ridges.alpha,
-        cell_m,
-    );
-    // Natively bands of at most half a million cells (256 rows at 2048^2), at least one per
-    // thread, a group of bands gathered in parallel; on the web one band of 2^17 cells at a
-    // time (a few tens of milliseconds), so the page keeps painting.
-    let threads = crate::compute::parallel::threads();
-    let band_cells = if cfg!(target_arch = "wasm32") {
-        1usize << 17
-    } else {
-        1usize << 19
-    };
-    let band = (band_cells / n.max(1)).min(n.div_ceil(threads)).max(1);
-    let bands: Vec<std::ops::Range<usize>> = (0..n)
-        .step_by(band)
-        .map(|start| start..(start + band).min(n))
-        .collect();
-    for pass in 0..params.enrich.passes {
-        for md in [false, true] {
-            let mut updates = Vec::new();
-            for group in bands.chunks(threads) {
-                let mut parts = vec![Vec::new(); group.len()];
-                let items: Vec<_> = group.iter().cloned().zip(parts.iter_mut()).collect();
-                let gather = &enrichment;
-                crate::compute::parallel::for_each_item(items, |(rows, out)| {
-                    *out = if md {
-                        gather.md_updates(rows)
-                    } else {
-                        gather.mdi_updates(rows)
-                    };
-                });
-                updates.extend(parts.into_iter().flatten());
-                let half = if md { "MD" } else { "MDI" };
-                ctx.checkpoint(
-                    0.25,
-                    &format!("enriching the skeleton: {half} pass {}", pass + 1),
-                )
-                .await?;
-            }
-            enrichment.apply(&updates);
-            ctx.tick(0.25, "enriching the skeleton").await?;
-        }
-    }
-    let enriched_cells = enrichment.added();
+    let enriched_cells = enrich(&mut skeleton, params, ctx).await?;
     lap("enrich", &mut stages);
 
     let problem = skeleton.constraints();
