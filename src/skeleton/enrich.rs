@@ -536,6 +536,13 @@ impl HalfPass {
         }
     }
 
+    /// Starts over as an MDI (`md` false) or MD half-pass, keeping the buffers.
+    pub fn restart(&mut self, md: bool) {
+        self.md = md;
+        self.next = 0;
+        self.waiting_len = 0;
+    }
+
     /// Gathers the next bands and applies the step before's. Returns false once the whole
     /// half-pass is applied.
     pub fn step(&mut self, enrichment: &mut Enrichment<'_>) -> bool {

@@ -131,44 +131,37 @@ pub fn bresenham(a: (i64, i64), b: (i64, i64), mut visit: impl FnMut(i64, i64)) 
     }
 }
 
-/// Rasterises rivers and ridges on an `n` x `n` grid.
+impl Skeleton {
+    /// An `n` x `n` skeleton with no cell set.
+    pub fn empty(n: usize) -> Self {
+        Self {
+            size: n,
+            heights: vec![0.0; n * n],
+            kinds: vec![CellKind::Free; n * n],
+            river_order: vec![0; n * n],
+        }
+    }
+}
+
+/// Draws the river links (`orders`: every node's Strahler order, for the layers) into `sk`,
+/// in bands of rows as `bands` says.
 ///
-/// Heights along each segment follow eq. 5: linear from start to end, plus `F(P)` on ridges
-/// (fractal Perlin noise, `noise.amplitude` metres, once per ridge cell). Rivers get no noise,
-/// so every river cell keeps a lower neighbour downstream (drainage by construction), and a
-/// cell claimed by a river and a ridge stays a river; two rivers keep the lower height, two
-/// ridges the higher. Rivers are drawn 4-connected (a diagonal Bresenham step gets its corner
-/// cell too) so that water cannot leak between two diagonal river cells.
-///
-/// Drawn in bands of rows ([`raster`]): one per thread natively, bands of 2^17 cells one at a
-/// time on the web with the job's ticks between them. O(length of all segments in cells +
-/// segments x bands each spans + ridge cells x octaves).
-pub async fn rasterise(
+/// Heights along each link follow eq. 5 without noise: linear from start to end, so every
+/// river cell keeps a lower neighbour downstream (drainage by construction). A cell claimed by
+/// a river and a ridge stays a river, two rivers keep the lower height, so drawing the ridges
+/// ([`rasterise_ridges`]) before or after gives the same skeleton. Rivers are drawn
+/// 4-connected (a diagonal Bresenham step gets its corner cell too) so that water cannot leak
+/// between two diagonal river cells. O(length of the links in cells + links x bands each
+/// spans).
+pub async fn rasterise_rivers(
+    sk: &mut Skeleton,
     rivers: &[RiverNetwork],
     orders: &[Vec<u32>],
-    ridges: &[RidgeSegment],
-    n: usize,
-    noise: &NoiseParams,
-    seed: u64,
+    bands: Bands,
     ctx: &JobCtx,
-) -> Result<Skeleton, Cancelled> {
-    let mut sk = Skeleton {
-        size: n,
-        heights: vec![0.0; n * n],
-        kinds: vec![CellKind::Free; n * n],
-        river_order: vec![0; n * n],
-    };
-    let ridge_lines: Vec<Line> = ridges
-        .iter()
-        .map(|r| Line {
-            a: to_cell(DVec2::from(r.a), n),
-            b: to_cell(DVec2::from(r.b), n),
-            start: f64::from(r.height_a),
-            rise: f64::from(r.height_b - r.height_a),
-            order: 0,
-        })
-        .collect();
-    let river_lines: Vec<Line> = rivers
+) -> Result<(), Cancelled> {
+    let n = sk.size;
+    let lines: Vec<Line> = rivers
         .iter()
         .zip(orders)
         .flat_map(|(net, order)| {
@@ -181,20 +174,103 @@ pub async fn rasterise(
             })
         })
         .collect();
-    let threads = crate::compute::parallel::threads();
-    let band_rows = if cfg!(target_arch = "wasm32") {
-        ((1usize << 17) / n.max(1)).max(1)
-    } else {
-        n.div_ceil(threads).max(1)
-    };
-    let (ridges_of, rivers_of) = (
-        raster::by_band(&ridge_lines, n, band_rows),
-        raster::by_band(&river_lines, n, band_rows),
-    );
+    in_bands(
+        sk,
+        &lines,
+        bands,
+        ctx,
+        |band, line| band.river(line),
+        |_| {},
+    )
+    .await
+}
+
+/// Draws the ridge segments into `sk` (after or before the rivers) with eq. 5's heights, in
+/// bands of rows for the platform ([`Bands::for_platform`]): linear from start to end, the
+/// highest ridge winning a cell, plus `F(P)` (fractal Perlin noise, `noise.amplitude` metres)
+/// once per ridge cell. O(length of the segments in cells + segments x bands each spans +
+/// ridge cells x octaves).
+pub async fn rasterise_ridges(
+    sk: &mut Skeleton,
+    ridges: &[RidgeSegment],
+    noise: &NoiseParams,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
+    let n = sk.size;
+    let lines: Vec<Line> = ridges
+        .iter()
+        .map(|r| Line {
+            a: to_cell(DVec2::from(r.a), n),
+            b: to_cell(DVec2::from(r.b), n),
+            start: f64::from(r.height_a),
+            rise: f64::from(r.height_b - r.height_a),
+            order: 0,
+        })
+        .collect();
     let perlin = Perlin::new(seed);
     let fbm = FbmGrid::new(&perlin, n, noise.frequency, noise.octaves, noise.roughness);
-    let band_cells = band_rows * n;
-    let bands: Vec<Band<'_>> = sk
+    let bands = Bands::for_platform(n);
+    in_bands(
+        sk,
+        &lines,
+        bands,
+        ctx,
+        |band, line| band.ridge(line),
+        |band| band.ridge_noise(noise.amplitude, &fbm),
+    )
+    .await
+}
+
+/// How a rasterisation splits the grid: bands of `rows` rows, `per_step` of them drawn at once
+/// (on as many threads) between two looks at the job's clock.
+#[derive(Clone, Copy, Debug)]
+pub struct Bands {
+    pub rows: usize,
+    pub per_step: usize,
+}
+
+impl Bands {
+    /// One band per thread natively; bands of 2^17 cells one at a time on the web, so the page
+    /// keeps painting.
+    pub fn for_platform(n: usize) -> Self {
+        let threads = crate::compute::parallel::threads();
+        if cfg!(target_arch = "wasm32") {
+            Self {
+                rows: ((1usize << 17) / n.max(1)).max(1),
+                per_step: 1,
+            }
+        } else {
+            Self {
+                rows: n.div_ceil(threads).max(1),
+                per_step: threads,
+            }
+        }
+    }
+
+    /// The whole grid as one band, on the calling thread.
+    pub fn whole(n: usize) -> Self {
+        Self {
+            rows: n.max(1),
+            per_step: 1,
+        }
+    }
+}
+
+/// Draws `lines` into `sk` band by band ([`raster`]): every band draws the lines that reach
+/// its rows, clipped to them, then `finish`es.
+async fn in_bands(
+    sk: &mut Skeleton,
+    lines: &[Line],
+    bands: Bands,
+    ctx: &JobCtx,
+    draw: impl Fn(&mut Band<'_>, &Line) + Sync,
+    finish: impl Fn(&mut Band<'_>) + Sync,
+) -> Result<(), Cancelled> {
+    let n = sk.size;
+    let lines_of = raster::by_band(lines, n, bands.rows);
+    let band_cells = bands.rows * n;
+    let parts: Vec<Band<'_>> = sk
         .heights
         .chunks_mut(band_cells)
         .zip(sk.kinds.chunks_mut(band_cells))
@@ -202,27 +278,24 @@ pub async fn rasterise(
         .enumerate()
         .map(|(k, ((heights, kinds), river_order))| Band {
             n,
-            first_row: k * band_rows,
+            first_row: k * bands.rows,
             heights,
             kinds,
             river_order,
         })
         .collect();
-    let mut bands = bands.into_iter().enumerate().peekable();
-    while bands.peek().is_some() {
-        let step: Vec<_> = bands.by_ref().take(threads).collect();
+    let mut parts = parts.into_iter().enumerate().peekable();
+    while parts.peek().is_some() {
+        let step: Vec<_> = parts.by_ref().take(bands.per_step).collect();
         crate::compute::parallel::for_each_item(step, |(k, mut band)| {
-            for &i in &ridges_of[k] {
-                band.ridge(&ridge_lines[i as usize]);
+            for &i in &lines_of[k] {
+                draw(&mut band, &lines[i as usize]);
             }
-            for &i in &rivers_of[k] {
-                band.river(&river_lines[i as usize]);
-            }
-            band.ridge_noise(noise.amplitude, &fbm);
+            finish(&mut band);
         });
         ctx.tick(0.2, "rasterising the skeleton").await?;
     }
-    Ok(sk)
+    Ok(())
 }
 
 #[cfg(test)]

@@ -150,6 +150,48 @@ pub fn layer_pngs(
         .collect()
 }
 
+/// The ridges (Sec. V-A) and a skeleton with the rivers drawn in it. Natively the rivers are
+/// drawn on a second thread while the Voronoi diagram is built (the ridges need only the
+/// rivers, and drawing the ridges after the rivers gives the same skeleton); on the web one
+/// after the other, in bands with the job's ticks.
+async fn ridges_and_rivers_drawn(
+    networks: &[river::RiverNetwork],
+    orders: &[Vec<u32>],
+    params: &TerrainParams,
+    ctx: &JobCtx,
+) -> Result<(Vec<ridge::RidgeSegment>, skeleton::Skeleton), TerrainError> {
+    let n = params.size;
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        let (ridges, drawn) = std::thread::scope(|scope| {
+            let drawing = scope.spawn(|| {
+                let mut sk = skeleton::Skeleton::empty(n);
+                let bands = skeleton::Bands::whole(n);
+                pollster::block_on(skeleton::rasterise_rivers(
+                    &mut sk, networks, orders, bands, ctx,
+                ))
+                .map(|()| sk)
+            });
+            let ridges = ridge::extract(networks, &params.ridges);
+            // A panic while drawing is a bug; pass it on rather than hide it.
+            let drawn = drawing
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            (ridges, drawn)
+        });
+        Ok((ridges?, drawn?))
+    }
+    #[cfg(target_arch = "wasm32")]
+    {
+        let ridges = ridge::extract(networks, &params.ridges)?;
+        ctx.checkpoint(0.15, "drawing the rivers").await?;
+        let mut sk = skeleton::Skeleton::empty(n);
+        let bands = skeleton::Bands::for_platform(n);
+        skeleton::rasterise_rivers(&mut sk, networks, orders, bands, ctx).await?;
+        Ok((ridges, sk))
+    }
+}
+
 /// MD/MDI enrichment of the skeleton (Sec. V-B) as the pipeline runs it: each half-pass
 /// gathered in bands of rows (in parallel natively), the job yielding between bands so the
 /// browser keeps painting, then applied at once. Returns the cells added.
@@ -172,9 +214,11 @@ pub async fn enrich(
         1usize << 19
     };
     let band_rows = (band_cells / n.max(1)).min(n.div_ceil(threads));
+    // One set of update buffers for all half-passes.
+    let mut half = skeleton::enrich::HalfPass::new(false, n, band_rows, threads);
     for pass in 0..params.enrich.passes {
         for md in [false, true] {
-            let mut half = skeleton::enrich::HalfPass::new(md, n, band_rows, threads);
+            half.restart(md);
             let name = if md { "MD" } else { "MDI" };
             let message = format!("enriching the skeleton: {name} pass {}", pass + 1);
             while half.step(&mut enrichment) {
@@ -247,16 +291,14 @@ pub async fn generate(
 
     ctx.checkpoint(0.1, "extracting ridges").await?;
     let networks: Vec<_> = rivers.iter().map(|r| r.network.clone()).collect();
-    let ridges = ridge::extract(&networks, &params.ridges)?;
+    let orders: Vec<Vec<u32>> = networks.iter().map(river::stats::strahler_orders).collect();
+    let (ridges, mut skeleton) = ridges_and_rivers_drawn(&networks, &orders, params, ctx).await?;
     lap("ridges", &mut stages);
 
     ctx.checkpoint(0.2, "rasterising the skeleton").await?;
-    let orders: Vec<Vec<u32>> = networks.iter().map(river::stats::strahler_orders).collect();
-    let mut skeleton = skeleton::rasterise(
-        &networks,
-        &orders,
+    skeleton::rasterise_ridges(
+        &mut skeleton,
         &ridges,
-        n,
         &params.noise,
         stage_seed(params.seed, "skeleton"),
         ctx,
