@@ -75,7 +75,8 @@ pub fn extract(
     // Every node's downstream neighbour, numbered across all networks (NO_PARENT at estuaries).
     let mut parent = Vec::with_capacity(total);
     let finest = rivers.iter().map(|r| r.link_length).fold(1.0f64, f64::min);
-    let mut index = SegmentIndex::new(finest.max(1e-3));
+    let links = rivers.iter().map(RiverNetwork::links).sum();
+    let mut index = SegmentIndex::new(finest.max(1e-3), links);
     for net in rivers {
         let offset = points.len() as u32;
         for (i, p) in net.nodes.iter().enumerate() {

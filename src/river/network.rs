@@ -55,9 +55,12 @@ pub struct SegmentIndex {
 const NONE: u32 = u32::MAX;
 
 impl SegmentIndex {
-    /// An index for links of about `link_length` map units.
-    pub fn new(link_length: f64) -> Self {
-        let side = ((1.0 / link_length.max(1e-4)) as usize).clamp(1, 1024);
+    /// An index for about `links` links of about `link_length` map units: buckets no smaller
+    /// than a link (a link spans at most four) and about one link per bucket, so the grid
+    /// stays small (a grid of link-sized buckets held a few percent of links, in megabytes).
+    pub fn new(link_length: f64, links: usize) -> Self {
+        let finest = (1.0 / link_length.max(1e-4)) as usize;
+        let side = finest.min((links as f64).sqrt() as usize).clamp(1, 1024);
         Self {
             cell: 1.0 / side as f64,
             side,
@@ -153,7 +156,8 @@ pub fn admit(drawings: &[RiverNetwork], slope: f64, map_width_m: f64) -> Vec<Riv
         .iter()
         .map(|d| d.link_length)
         .fold(1.0f64, f64::min);
-    let mut index = SegmentIndex::new(finest);
+    let drawn = drawings.iter().map(RiverNetwork::links).sum();
+    let mut index = SegmentIndex::new(finest, drawn);
     let orders: Vec<Vec<u32>> = drawings.iter().map(super::stats::strahler_orders).collect();
     let children: Vec<Vec<Vec<usize>>> = drawings
         .iter()
