@@ -76,6 +76,7 @@ const FAR: u8 = u8::MAX;
 impl<'a> Enrichment<'a> {
     pub fn new(sk: &'a mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64) -> Self {
         let n = sk.size;
+        assert!(n <= 1 << 16, "updates hold 16-bit cell coordinates");
         let mut enrichment = Self {
             sk,
             params: *params,
@@ -573,8 +574,8 @@ impl HalfPass {
     }
 }
 
-/// One added cell: its column and row, height, flank side, distance (passes) from the
-/// skeleton.
+/// One added cell: its column and row (grids are at most 8192 cells wide), height, flank
+/// side, distance (passes) from the skeleton.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Update {
     pub x: u16,
