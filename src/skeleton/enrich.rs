@@ -166,13 +166,7 @@ impl<'a> Enrichment<'a> {
                         sides += centre as i32 * i32::from(row.side[cx]);
                         d = d.min(if centre == 1 { row.dist[cx] } else { FAR });
                     }
-                    updates.push(Update {
-                        x: x as u16,
-                        y: y as u16,
-                        height: (total / f64::from(count)) as f32,
-                        side: sides.signum() as i8,
-                        dist: d,
-                    });
+                    updates.push(Update::mean(x, y, total, count, sides, d));
                 }
             }
         }
@@ -280,13 +274,7 @@ impl<'a> Enrichment<'a> {
                         d = d.min(if both == 1 { far } else { FAR });
                     }
                     if u32::from(d) <= limit {
-                        updates.push(Update {
-                            x: x as u16,
-                            y: y as u16,
-                            height: (total / f64::from(count)) as f32,
-                            side: sides.signum() as i8,
-                            dist: d,
-                        });
+                        updates.push(Update::mean(x, y, total, count, sides, d));
                     }
                 }
             }
@@ -583,6 +571,20 @@ pub struct Update {
     pub height: f32,
     pub side: i8,
     pub dist: u8,
+}
+
+impl Update {
+    /// Cell `(x, y)` at the mean `total / count` of what it is interpolated from, on the side
+    /// the summed flank sides lean to, at distance `dist`.
+    fn mean(x: usize, y: usize, total: f64, count: u32, sides: i32, dist: u8) -> Self {
+        Self {
+            x: x as u16,
+            y: y as u16,
+            height: (total / f64::from(count)) as f32,
+            side: sides.signum() as i8,
+            dist,
+        }
+    }
 }
 
 #[cfg(test)]
