@@ -51,27 +51,27 @@ impl Coordinate {
 }
 
 /// [`Perlin::fbm`] at the cells of an `n` x `n` grid, cell `(x, y)` sampled at
-/// `(x / n, y / n)`. A column's and a row's coordinates are the same for every cell in them,
-/// so they are computed once per octave (O(n x octaves)) and each sample only hashes and
-/// blends; the values are the same as [`Perlin::fbm`]'s.
+/// `(x / n, y / n)`. A column's coordinate is the same for every cell in it (and equals the
+/// row's of the same index), so the coordinates are computed once per octave (O(n x
+/// octaves)) and each sample only hashes and blends; the values are the same as
+/// [`Perlin::fbm`]'s.
 #[derive(Clone, Debug)]
 pub struct FbmGrid<'p> {
     perlin: &'p Perlin,
     n: usize,
-    /// Per octave, the amplitude; the coordinates of every column and row (octave-major).
+    /// Per octave, the amplitude and the coordinates of indices `0..n` (octave-major).
     amplitudes: Vec<f64>,
+    axis: Vec<Coordinate>,
     norm: f64,
-    columns: Vec<Coordinate>,
-    rows: Vec<Coordinate>,
 }
 
 impl<'p> FbmGrid<'p> {
     pub fn new(perlin: &'p Perlin, n: usize, frequency: f64, octaves: u32, roughness: f64) -> Self {
-        let (mut amplitudes, mut coordinates) = (Vec::new(), Vec::new());
+        let (mut amplitudes, mut axis) = (Vec::new(), Vec::new());
         let (mut norm, mut amp, mut freq) = (0.0, 1.0, frequency);
         for _ in 0..octaves.clamp(1, 16) {
             amplitudes.push(amp);
-            coordinates.extend((0..n).map(|i| Coordinate::new(i as f64 / n as f64 * freq)));
+            axis.extend((0..n).map(|i| Coordinate::new(i as f64 / n as f64 * freq)));
             norm += amp;
             amp *= roughness;
             freq *= 2.0;
@@ -80,9 +80,8 @@ impl<'p> FbmGrid<'p> {
             perlin,
             n,
             amplitudes,
+            axis,
             norm,
-            rows: coordinates.clone(),
-            columns: coordinates,
         }
     }
 
@@ -91,7 +90,7 @@ impl<'p> FbmGrid<'p> {
         let mut sum = 0.0;
         for (o, amp) in self.amplitudes.iter().enumerate() {
             let at = o * self.n;
-            sum += amp * self.perlin.lattice(self.columns[at + x], self.rows[at + y]);
+            sum += amp * self.perlin.lattice(self.axis[at + x], self.axis[at + y]);
         }
         if self.norm > 0.0 {
             sum / self.norm

@@ -192,9 +192,10 @@ async fn ridges_and_rivers_drawn(
     }
 }
 
-/// MD/MDI enrichment of the skeleton (Sec. V-B) as the pipeline runs it: each half-pass
-/// gathered in bands of rows (in parallel natively), the job yielding between bands so the
-/// browser keeps painting, then applied at once. Returns the cells added.
+/// MD/MDI enrichment of the skeleton (Sec. V-B) as the pipeline runs it: each half-pass in
+/// steps of bands of rows ([`skeleton::enrich::HalfPass`], gathered and applied on all threads
+/// natively), the job yielding between steps so the browser keeps painting. Returns the cells
+/// added.
 pub async fn enrich(
     skeleton: &mut skeleton::Skeleton,
     params: &TerrainParams,
