@@ -593,12 +593,7 @@ mod tests {
 
     fn line_skeleton(kind: CellKind, height: f32) -> Skeleton {
         let n = 21;
-        let mut sk = Skeleton {
-            size: n,
-            heights: vec![0.0; n * n],
-            kinds: vec![CellKind::Free; n * n],
-            river_order: vec![0; n * n],
-        };
+        let mut sk = Skeleton::empty(n);
         for x in 0..n {
             sk.kinds[10 * n + x] = kind;
             sk.heights[10 * n + x] = height;
@@ -732,12 +727,7 @@ mod tests {
         // Crossing rivers and ridges at every angle, with varied heights, on a grid small
         // enough for the reference.
         let n = 67;
-        let mut sk = Skeleton {
-            size: n,
-            heights: vec![0.0; n * n],
-            kinds: vec![CellKind::Free; n * n],
-            river_order: vec![0; n * n],
-        };
+        let mut sk = Skeleton::empty(n);
         let mut state = 7u64;
         let mut next = |m: i64| {
             state = state
