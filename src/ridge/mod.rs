@@ -23,6 +23,18 @@ pub struct RidgeSegment {
     pub b: [f64; 2],
     pub height_a: f32,
     pub height_b: f32,
+    /// Eq. 4's `alpha * d` at each end: how far the ridge stands above its three nearest river
+    /// nodes (metres). Bounds the noise eq. 5 adds, so a ridge never sinks below its rivers.
+    pub relief_a: f32,
+    pub relief_b: f32,
+}
+
+/// A Voronoi vertex (a ridge node) with its eq. 4 height and relief `alpha * d`.
+#[derive(Clone, Copy, Debug, Default)]
+struct RidgeNode {
+    at: DVec2,
+    height: f32,
+    relief: f32,
 }
 
 /// Ridge parameters.
@@ -98,7 +110,7 @@ pub fn extract(
             .map_err(|e| RidgeError::Voronoi(e.to_string()))?;
 
     // Voronoi vertices with their eq. 4 heights, by Delaunay face.
-    let mut vertices = vec![(DVec2::ZERO, 0.0f32); triangulation.num_all_faces()];
+    let mut vertices = vec![RidgeNode::default(); triangulation.num_all_faces()];
     for face in triangulation.inner_faces() {
         let c = face.circumcenter();
         let corners = face.vertices();
@@ -108,7 +120,12 @@ pub fn extract(
             .fold(f32::MIN, f32::max);
         let p = corners[0].position();
         let d = ((c.x - p.x).powi(2) + (c.y - p.y).powi(2)).sqrt() * params.map_width_m;
-        vertices[face.fix().index()] = (DVec2::new(c.x, c.y), top + (params.alpha * d) as f32);
+        let relief = (params.alpha * d) as f32;
+        vertices[face.fix().index()] = RidgeNode {
+            at: DVec2::new(c.x, c.y),
+            height: top + relief,
+            relief,
+        };
     }
     let is_link = |s: usize, t: usize| parent[s] == t as u32 || parent[t] == s as u32;
     let mut candidates = Vec::new();
@@ -121,9 +138,8 @@ pub fn extract(
         if is_link(s.fix().index(), t.fix().index()) {
             continue;
         }
-        let ((a, ha), (b, hb)) = (vertices[f0.fix().index()], vertices[f1.fix().index()]);
         // Rivers lie inside the map, so only the clipped part can cross them.
-        if let Some(segment) = clip(a, b, ha, hb) {
+        if let Some(segment) = clip(vertices[f0.fix().index()], vertices[f1.fix().index()]) {
             candidates.push(segment);
         }
     }
@@ -147,8 +163,10 @@ pub fn extract(
 /// `parent` of an estuary in [`extract`].
 const NO_PARENT: u32 = u32::MAX;
 
-/// Clips `a -> b` to the unit square (Liang-Barsky), interpolating the heights linearly.
-fn clip(a: DVec2, b: DVec2, ha: f32, hb: f32) -> Option<RidgeSegment> {
+/// Clips `a -> b` to the unit square (Liang-Barsky), interpolating heights and reliefs
+/// linearly.
+fn clip(from: RidgeNode, to: RidgeNode) -> Option<RidgeSegment> {
+    let (a, b) = (from.at, to.at);
     let d = b - a;
     let (mut t0, mut t1) = (0.0f64, 1.0f64);
     for (p, q) in [(-d.x, a.x), (d.x, 1.0 - a.x), (-d.y, a.y), (d.y, 1.0 - a.y)] {
@@ -173,12 +191,14 @@ fn clip(a: DVec2, b: DVec2, ha: f32, hb: f32) -> Option<RidgeSegment> {
         (a + d * t0).clamp(DVec2::ZERO, DVec2::ONE),
         (a + d * t1).clamp(DVec2::ZERO, DVec2::ONE),
     );
-    let h = |t: f64| ha + (hb - ha) * t as f32;
+    let lerp = |u: f32, v: f32, t: f64| u + (v - u) * t as f32;
     Some(RidgeSegment {
         a: [pa.x, pa.y],
         b: [pb.x, pb.y],
-        height_a: h(t0),
-        height_b: h(t1),
+        height_a: lerp(from.height, to.height, t0),
+        height_b: lerp(from.height, to.height, t1),
+        relief_a: lerp(from.relief, to.relief, t0),
+        relief_b: lerp(from.relief, to.relief, t1),
     })
 }
 
@@ -238,9 +258,16 @@ mod tests {
 
     #[test]
     fn clipping_keeps_the_inside_part_with_interpolated_heights() {
-        let s = clip(DVec2::new(-1.0, 0.5), DVec2::new(1.0, 0.5), 0.0, 100.0).unwrap();
+        let node = |x: f64, y: f64, height: f32, relief: f32| RidgeNode {
+            at: DVec2::new(x, y),
+            height,
+            relief,
+        };
+        let s = clip(node(-1.0, 0.5, 0.0, 10.0), node(1.0, 0.5, 100.0, 30.0)).unwrap();
         assert_eq!(s.a, [0.0, 0.5]);
         assert!((s.height_a - 50.0).abs() < 1e-4);
-        assert!(clip(DVec2::new(2.0, 2.0), DVec2::new(3.0, 3.0), 0.0, 1.0).is_none());
+        assert!((s.relief_a - 20.0).abs() < 1e-4);
+        assert_eq!((s.height_b, s.relief_b), (100.0, 30.0));
+        assert!(clip(node(2.0, 2.0, 0.0, 0.0), node(3.0, 3.0, 1.0, 0.0)).is_none());
     }
 }

@@ -13,6 +13,13 @@
 //!
 //! The distance limit L (in cells): no point is added farther than L cells from the original
 //! skeleton, since interpolating from far points adds errors (the paper stops when d > L).
+//!
+//! Banks: an added cell beside a channel (river or valley cell, 8-neighbourhood) is never
+//! lower than that channel cell. In a dense network a square's mean can mix a tributary with
+//! the lower main stream a few cells away, and a flank cell below the tributary would drain
+//! it sideways (the "no dams across rivers, no sideways drainage"); raising such a
+//! cell to its highest channel neighbour is the smallest change that keeps every channel
+//! cell's steepest descent on its channel.
 //! Updates of a pass are computed from the state before it and then applied, so the result
 //! does not depend on visiting order. O(passes x skeleton cells).
 
@@ -67,6 +74,10 @@ pub struct Enrichment<'a> {
     known: CellBits,
     /// Cells MDI may use as square centres: known, on a flank (side != 0), nearer than L.
     centres: CellBits,
+    /// Channel cells (river, valley): fixed from the skeleton on.
+    channels: CellBits,
+    /// Cells with a channel cell among their 8 neighbours (see the module's "Banks").
+    banks: CellBits,
     added: usize,
 }
 
@@ -86,6 +97,8 @@ impl<'a> Enrichment<'a> {
             side: vec![0; n * n],
             known: CellBits::new(n),
             centres: CellBits::new(n),
+            channels: CellBits::new(n),
+            banks: CellBits::new(n),
             added: 0,
         };
         // The per-cell state from the skeleton, in a band of rows per thread.
@@ -95,7 +108,43 @@ impl<'a> Enrichment<'a> {
         crate::compute::parallel::for_each_item(enrichment.rows_mut(&bands), |mut rows| {
             rows.fill(limit);
         });
+        enrichment.find_banks();
         enrichment
+    }
+
+    /// Marks the cells beside a channel cell. O(cells / 64).
+    fn find_banks(&mut self) {
+        let (n, words) = (self.sk.size, self.known.words);
+        for y in 0..n {
+            for w in 0..words {
+                let mut near = 0;
+                for r in y.saturating_sub(1)..(y + 2).min(n) {
+                    let row = self.channels.row(r);
+                    near |= west(row, w) | row[w] | east(row, w);
+                }
+                self.banks.bits[y * words + w] = near;
+            }
+        }
+    }
+
+    /// `u` raised to the highest channel cell beside it, if any (the module's "Banks"). Every
+    /// update is at least one cell inside the map, so its 3 x 3 neighbourhood is too.
+    #[inline(always)]
+    fn above_banks(&self, mut u: Update) -> Update {
+        let (x, y) = (usize::from(u.x), usize::from(u.y));
+        if bit(self.banks.row(y), x) == 0 {
+            return u;
+        }
+        let n = self.sk.size;
+        for r in y - 1..y + 2 {
+            let mut near = three_bits(self.channels.row(r), x - 1);
+            while near != 0 {
+                let c = x - 1 + near.trailing_zeros() as usize;
+                near &= near - 1;
+                u.height = u.height.max(self.sk.heights[r * n + c]);
+            }
+        }
+        u
     }
 
     /// Cells added so far.
@@ -166,7 +215,7 @@ impl<'a> Enrichment<'a> {
                         sides += centre as i32 * i32::from(row.side[cx]);
                         d = d.min(if centre == 1 { row.dist[cx] } else { FAR });
                     }
-                    updates.push(Update::mean(x, y, total, count, sides, d));
+                    updates.push(self.above_banks(Update::mean(x, y, total, count, sides, d)));
                 }
             }
         }
@@ -274,7 +323,7 @@ impl<'a> Enrichment<'a> {
                         d = d.min(if both == 1 { far } else { FAR });
                     }
                     if u32::from(d) <= limit {
-                        updates.push(Update::mean(x, y, total, count, sides, d));
+                        updates.push(self.above_banks(Update::mean(x, y, total, count, sides, d)));
                     }
                 }
             }
@@ -312,6 +361,7 @@ impl<'a> Enrichment<'a> {
         let mut dist = split_rows(&mut self.dist, n, bands).into_iter();
         let mut known = split_rows(&mut self.known.bits, words, bands).into_iter();
         let mut centres = split_rows(&mut self.centres.bits, words, bands).into_iter();
+        let mut channels = split_rows(&mut self.channels.bits, words, bands).into_iter();
         bands
             .iter()
             .filter_map(|band| {
@@ -325,6 +375,7 @@ impl<'a> Enrichment<'a> {
                     dist: dist.next()?,
                     known: known.next()?,
                     centres: centres.next()?,
+                    channels: channels.next()?,
                 })
             })
             .collect()
@@ -342,6 +393,7 @@ struct Rows<'s> {
     dist: &'s mut [u8],
     known: &'s mut [u64],
     centres: &'s mut [u64],
+    channels: &'s mut [u64],
 }
 
 impl Rows<'_> {
@@ -369,6 +421,9 @@ impl Rows<'_> {
             let row = y * words..(y + 1) * words;
             fill_bits(&mut self.known[row.clone()], kinds, |k| {
                 *k != CellKind::Free
+            });
+            fill_bits(&mut self.channels[row.clone()], kinds, |k| {
+                matches!(k, CellKind::River | CellKind::Valley)
             });
             fill_bits(&mut self.centres[row], sides, |s| {
                 *s != 0 && distance_limit > 0
@@ -478,6 +533,19 @@ impl CentreRow {
             dist: vec![FAR; n],
         }
     }
+}
+
+/// Bits `x .. x + 3` of a bit row (those past its end as 0), as the low bits of a word.
+#[inline]
+fn three_bits(row: &[u64], x: usize) -> u64 {
+    let (w, b) = (x / 64, x % 64);
+    let mut bits = row[w] >> b;
+    if b > 61
+        && let Some(next) = row.get(w + 1)
+    {
+        bits |= next << (64 - b);
+    }
+    bits & 0b111
 }
 
 /// Bit `x` of a bit row, as 0 or 1.
@@ -632,6 +700,55 @@ mod tests {
         assert!(ridge.heights[11 * n + 10] < 100.0, "ridge shoulder falls");
     }
 
+    /// A tributary two cells from a main stream 30 m lower: the squares between them mix both,
+    /// but no added cell may sit below a river cell beside it, or the tributary would drain
+    /// sideways into its flank.
+    #[test]
+    fn flanks_never_sink_below_the_river_beside_them() {
+        let n = 21;
+        let mut sk = Skeleton::empty(n);
+        for x in 0..n {
+            for (y, base) in [(8, 40.0), (11, 10.0)] {
+                sk.kinds[y * n + x] = CellKind::River;
+                sk.heights[y * n + x] = base + 0.1 * x as f32;
+            }
+        }
+        let rivers = sk.clone();
+        let added = enrich(&mut sk, &EnrichParams::default(), 0.1, 10.0);
+        assert!(added > 0);
+        let mut beside_tributary = 0;
+        for y in 1..n - 1 {
+            for x in 1..n - 1 {
+                let i = y * n + x;
+                if sk.kinds[i] != CellKind::Enriched {
+                    continue;
+                }
+                for j in [
+                    i - n - 1,
+                    i - n,
+                    i - n + 1,
+                    i - 1,
+                    i + 1,
+                    i + n - 1,
+                    i + n,
+                    i + n + 1,
+                ] {
+                    if rivers.kinds[j] == CellKind::River {
+                        assert!(
+                            sk.heights[i] >= rivers.heights[j],
+                            "cell ({x}, {y}) at {} below the river beside it at {}",
+                            sk.heights[i],
+                            rivers.heights[j]
+                        );
+                        beside_tributary += usize::from(j / n == 8 && y > 8);
+                    }
+                }
+            }
+        }
+        // The cells between the rivers were enriched (the case the rule is for).
+        assert!(beside_tributary > 20, "{beside_tributary}");
+    }
+
     /// The half-passes as the paper states them, one cell at a time, with each square's mean
     /// computed for every corner that reads it (the reference for the row-wise version).
     fn reference(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64) {
@@ -708,7 +825,23 @@ mod tests {
                             }
                         }
                         if count > 0 {
-                            updates.push((k, (total / f64::from(count)) as f32, sides.signum(), d));
+                            // Banks: not below a channel cell beside it.
+                            let mut h = (total / f64::from(count)) as f32;
+                            for j in [
+                                k - n - 1,
+                                k - n,
+                                k - n + 1,
+                                k - 1,
+                                k + 1,
+                                k + n - 1,
+                                k + n,
+                                k + n + 1,
+                            ] {
+                                if matches!(sk.kinds[j], CellKind::River | CellKind::Valley) {
+                                    h = h.max(sk.heights[j]);
+                                }
+                            }
+                            updates.push((k, h, sides.signum(), d));
                         }
                     }
                 }

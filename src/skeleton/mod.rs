@@ -14,7 +14,7 @@ use crate::jobs::{Cancelled, JobCtx};
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
 use noise::{FbmGrid, Perlin};
-use raster::{Band, Line};
+use raster::{Band, Line, RidgeNoise};
 
 /// What a skeleton cell is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -170,26 +170,19 @@ pub async fn rasterise_rivers(
                 b: to_cell(net.nodes[c], n),
                 start: f64::from(net.height[p]),
                 rise: f64::from(net.height[c]) - f64::from(net.height[p]),
+                relief: [0.0; 2],
                 order: order[c].min(255) as u8,
             })
         })
         .collect();
-    in_bands(
-        sk,
-        &lines,
-        bands,
-        ctx,
-        |band, line| band.river(line),
-        |_| {},
-    )
-    .await
+    in_bands(sk, &lines, bands, ctx, |band, line| band.river(line)).await
 }
 
 /// Draws the ridge segments into `sk` (after or before the rivers) with eq. 5's heights, in
-/// bands of rows for the platform ([`Bands::for_platform`]): linear from start to end, the
-/// highest ridge winning a cell, plus `F(P)` (fractal Perlin noise, `noise.amplitude` metres)
-/// once per ridge cell. O(length of the segments in cells + segments x bands each spans +
-/// ridge cells x octaves).
+/// bands of rows for the platform ([`Bands::for_platform`]): linear from start to end plus
+/// `F(P)` (fractal Perlin noise of `noise.amplitude` metres, limited to half the ridge's
+/// relief above its rivers: [`RidgeNoise`]), the highest ridge winning a cell. O(length of the
+/// segments in cells x octaves + segments x bands each spans).
 pub async fn rasterise_ridges(
     sk: &mut Skeleton,
     ridges: &[RidgeSegment],
@@ -205,20 +198,20 @@ pub async fn rasterise_ridges(
             b: to_cell(DVec2::from(r.b), n),
             start: f64::from(r.height_a),
             rise: f64::from(r.height_b - r.height_a),
+            relief: [f64::from(r.relief_a), f64::from(r.relief_b)],
             order: 0,
         })
         .collect();
     let perlin = Perlin::new(seed);
     let fbm = FbmGrid::new(&perlin, n, noise.frequency, noise.octaves, noise.roughness);
+    let noise = RidgeNoise {
+        amplitude: noise.amplitude,
+        fbm: &fbm,
+    };
     let bands = Bands::for_platform(n);
-    in_bands(
-        sk,
-        &lines,
-        bands,
-        ctx,
-        |band, line| band.ridge(line),
-        |band| band.ridge_noise(noise.amplitude, &fbm),
-    )
+    in_bands(sk, &lines, bands, ctx, |band, line| {
+        band.ridge(line, &noise)
+    })
     .await
 }
 
@@ -258,14 +251,13 @@ impl Bands {
 }
 
 /// Draws `lines` into `sk` band by band ([`raster`]): every band draws the lines that reach
-/// its rows, clipped to them, then `finish`es.
+/// its rows, clipped to them.
 async fn in_bands(
     sk: &mut Skeleton,
     lines: &[Line],
     bands: Bands,
     ctx: &JobCtx,
     draw: impl Fn(&mut Band<'_>, &Line) + Sync,
-    finish: impl Fn(&mut Band<'_>) + Sync,
 ) -> Result<(), Cancelled> {
     let n = sk.size;
     let lines_of = raster::by_band(lines, n, bands.rows);
@@ -291,7 +283,6 @@ async fn in_bands(
             for &i in &lines_of[k] {
                 draw(&mut band, &lines[i as usize]);
             }
-            finish(&mut band);
         });
         ctx.tick(0.2, "rasterising the skeleton").await?;
     }

@@ -1,11 +1,11 @@
 //! Drawing rivers and ridges into the skeleton in bands of rows (seed paper 000, eq. 5).
 //!
 //! Every cell's result is independent of the order segments are drawn in (a ridge cell keeps
-//! the highest ridge through it, a river cell the lowest river, rivers win over ridges, and
-//! eq. 5's noise depends on the cell only), so bands of rows can be drawn on their own: each
-//! band draws the segments that reach its rows, clipped to them, then adds the ridge noise of
-//! its cells. Bands run on all threads natively and one at a time on the web, with the job's
-//! ticks between them.
+//! the highest ridge through it, noise included, a river cell the lowest river, rivers win
+//! over ridges, and eq. 5's noise depends on the cell and the segment only), so bands of rows
+//! can be drawn on their own: each band draws the segments that reach its rows, clipped to
+//! them. Bands run on all threads natively and one at a time on the web, with the job's ticks
+//! between them.
 
 use super::noise::FbmGrid;
 use super::{CellKind, bresenham};
@@ -18,15 +18,23 @@ pub(super) struct Line {
     pub b: (i64, i64),
     pub start: f64,
     pub rise: f64,
+    /// A ridge's height above its rivers (eq. 4's `alpha * d`) at `a` and at `b`, interpolated
+    /// like the height (zero for rivers).
+    pub relief: [f64; 2],
     /// Strahler order of a river link (0 for ridges).
     pub order: u8,
 }
 
 impl Line {
-    /// Eq. 5's linear part at cell `(x, y)` of this segment.
-    fn height(&self, x: i64, y: i64, length: f64) -> f64 {
+    /// How far cell `(x, y)` is along the segment, in [0, 1].
+    fn t(&self, x: i64, y: i64, length: f64) -> f64 {
         let d = (((x - self.a.0).pow(2) + (y - self.a.1).pow(2)) as f64).sqrt();
-        self.start + (d / length).min(1.0) * self.rise
+        (d / length).min(1.0)
+    }
+
+    /// Eq. 5's linear part at `t` along the segment.
+    fn height(&self, t: f64) -> f64 {
+        self.start + t * self.rise
     }
 
     fn length(&self) -> f64 {
@@ -37,6 +45,33 @@ impl Line {
     /// The rows the segment covers.
     fn rows(&self) -> (i64, i64) {
         (self.a.1.min(self.b.1), self.a.1.max(self.b.1))
+    }
+}
+
+/// Eq. 5's `F(P)` on ridges: fBm of `amplitude` metres. Where it would lower a ridge, its
+/// amplitude is limited to half the ridge's relief there (eq. 4's `alpha * d`, interpolated
+/// along the segment), so a ridge sinks at most halfway to the river nodes it separates; above
+/// the linear part it keeps its full amplitude. Without the limit, the closely packed rivers
+/// of a dense network (a few metres of relief between them) get ridge cells below the river
+/// and drain sideways into them. The two lobes meet at `F = 0`, so the noise stays continuous.
+#[derive(Clone, Copy)]
+pub(super) struct RidgeNoise<'f> {
+    pub amplitude: f64,
+    pub fbm: &'f FbmGrid<'f>,
+}
+
+impl RidgeNoise<'_> {
+    /// `F(P)` at cell `(x, y)` (inside the map) of a ridge `relief` metres above its rivers.
+    fn at(&self, x: i64, y: i64, relief: f64) -> f64 {
+        if self.amplitude == 0.0 {
+            return 0.0;
+        }
+        let f = self.fbm.at(x as usize, y as usize);
+        if f >= 0.0 {
+            self.amplitude * f
+        } else {
+            self.amplitude.min(0.5 * relief.max(0.0)) * f
+        }
     }
 }
 
@@ -77,15 +112,19 @@ impl Band<'_> {
             .then(|| y as usize * self.n + x as usize)
     }
 
-    /// A ridge segment: the highest ridge wins a cell, rivers keep theirs.
-    pub fn ridge(&mut self, line: &Line) {
+    /// A ridge segment with eq. 5's heights, noise included: the highest ridge wins a cell,
+    /// rivers keep theirs.
+    pub fn ridge(&mut self, line: &Line, noise: &RidgeNoise<'_>) {
         let length = line.length();
+        let [relief_a, relief_b] = line.relief;
         bresenham(line.a, line.b, |x, y| {
             let Some(i) = self.index(x, y) else { return };
             if self.kinds[i] == CellKind::River {
                 return;
             }
-            let h = line.height(x, y, length) as f32;
+            let t = line.t(x, y, length);
+            let relief = relief_a + t * (relief_b - relief_a);
+            let h = (line.height(t) + noise.at(x, y, relief)) as f32;
             if self.kinds[i] == CellKind::Free || h > self.heights[i] {
                 self.heights[i] = h;
             }
@@ -99,7 +138,7 @@ impl Band<'_> {
         let length = line.length();
         let mut put = |x: i64, y: i64| {
             let Some(i) = self.index(x, y) else { return };
-            let h = line.height(x, y, length) as f32;
+            let h = line.height(line.t(x, y, length)) as f32;
             if self.kinds[i] != CellKind::River || h < self.heights[i] {
                 self.heights[i] = h;
             }
@@ -118,19 +157,60 @@ impl Band<'_> {
             previous = Some((x, y));
         });
     }
+}
 
-    /// Eq. 5's `F(P)` (fractal Perlin noise, `amplitude` metres) on every ridge cell, once per
-    /// cell after all segments' linear heights (the highest segment's).
-    pub fn ridge_noise(&mut self, amplitude: f64, fbm: &FbmGrid<'_>) {
-        if amplitude == 0.0 {
-            return;
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::skeleton::noise::Perlin;
+
+    /// Eq. 5's noise on a low ridge (2 to 4 m above its rivers) with 25 m of amplitude: it may
+    /// lower the ridge by half its relief at most, and keeps its full amplitude upwards.
+    #[test]
+    fn ridge_noise_lowers_a_ridge_by_at_most_half_its_relief() {
+        let n = 256;
+        let perlin = Perlin::new(3);
+        let fbm = FbmGrid::new(&perlin, n, 8.0, 5, 0.5);
+        let noise = RidgeNoise {
+            amplitude: 25.0,
+            fbm: &fbm,
+        };
+        let (mut heights, mut kinds, mut order) = (
+            vec![0.0; n * n],
+            vec![CellKind::Free; n * n],
+            vec![0; n * n],
+        );
+        let mut band = Band {
+            n,
+            first_row: 0,
+            heights: &mut heights,
+            kinds: &mut kinds,
+            river_order: &mut order,
+        };
+        let y = 100;
+        let line = Line {
+            a: (0, y),
+            b: (n as i64 - 1, y),
+            start: 50.0,
+            rise: 10.0,
+            relief: [2.0, 4.0],
+            order: 0,
+        };
+        band.ridge(&line, &noise);
+        let (mut lowered, mut raised_beyond) = (0, 0);
+        for x in 0..n {
+            let i = y as usize * n + x;
+            assert_eq!(kinds[i], CellKind::Ridge);
+            let t = x as f64 / (n - 1) as f64;
+            let (linear, relief) = (50.0 + 10.0 * t, 2.0 + 2.0 * t);
+            let h = f64::from(heights[i]);
+            assert!(h >= linear - 0.5 * relief - 1e-4, "x {x}: {h} vs {linear}");
+            lowered += usize::from(h < linear - 0.1);
+            raised_beyond += usize::from(h > linear + relief);
         }
-        let n = self.n;
-        for (j, (h, k)) in self.heights.iter_mut().zip(self.kinds.iter()).enumerate() {
-            if *k == CellKind::Ridge {
-                let f = amplitude * fbm.at(j % n, self.first_row + j / n);
-                *h = (f64::from(*h) + f) as f32;
-            }
-        }
+        assert!(
+            lowered > 20 && raised_beyond > 20,
+            "{lowered} {raised_beyond}"
+        );
     }
 }

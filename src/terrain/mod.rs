@@ -464,6 +464,30 @@ mod tests {
         }
     }
 
+    /// The benchmark's dense networks (about 34500 nodes): rivers a cell or two apart, where
+    /// a ridge stands a few metres above its rivers (less than eq. 5's noise) and MDI's squares
+    /// mix neighbouring rivers. Before the noise was bounded by the ridges' relief and the
+    /// flanks by their banks, 13% of the river cells drained sideways here.
+    #[test]
+    fn dense_networks_drain_along_their_rivers() {
+        let strokes = [
+            stroke((0.5, 1.0), (0.5, 0.55), 2, 16),
+            stroke((0.0, 0.3), (0.35, 0.25), 3, 16),
+            stroke((1.0, 0.35), (0.65, 0.3), 4, 14),
+            stroke((0.5, 0.0), (0.5, 0.25), 3, 16),
+        ];
+        let g = run(&strokes, 512, 4);
+        let d = &g.report.drainage;
+        assert!(
+            g.report.rivers.nodes > 30_000,
+            "{} nodes",
+            g.report.rivers.nodes
+        );
+        assert!(d.river_fraction >= 0.99, "river drainage {:?}", d);
+        assert!(d.outlet_fraction >= 0.99, "outlets {:?}", d);
+        assert!(d.pit_fraction <= 1e-4, "pits {:?}", d);
+    }
+
     #[test]
     fn same_scene_and_seed_same_bits() {
         let s = [stroke((0.5, 1.0), (0.4, 0.3), 3, 7)];
