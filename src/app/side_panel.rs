@@ -312,9 +312,11 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.add(DragValue::new(&mut s.alpha).range(0.0..=1.0).speed(0.005))
                 .labelled_by(label.id);
             ui.end_row();
-            let label = ui
-                .label("Noise (m)")
-                .on_hover_text("Amplitude of the fractal Perlin noise F(P) of eq. 5 on ridges.");
+            let label = ui.label("Noise (m)").on_hover_text(
+                "Amplitude of the fractal Perlin noise F(P) of eq. 5 on ridges. Downwards it \
+                     takes at most half of a ridge's height above its rivers (alpha * d of \
+                     eq. 4), so low ridges between close rivers stay above them.",
+            );
             ui.add(DragValue::new(&mut s.noise).range(0.0..=500.0).speed(1.0))
                 .labelled_by(label.id);
             ui.end_row();
