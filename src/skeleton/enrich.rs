@@ -13,15 +13,15 @@
 //!
 //! The distance limit L (in cells): no point is added farther than L cells from the original
 //! skeleton, since interpolating from far points adds errors (the paper stops when d > L).
+//! Updates of a pass are computed from the state before it and then applied, so the result
+//! does not depend on visiting order. O(passes x skeleton cells).
 //!
 //! Banks: an added cell beside a channel (river or valley cell, 8-neighbourhood) is never
 //! lower than that channel cell. In a dense network a square's mean can mix a tributary with
-//! the lower main stream a few cells away, and a flank cell below the tributary would drain
-//! it sideways (the "no dams across rivers, no sideways drainage"); raising such a
-//! cell to its highest channel neighbour is the smallest change that keeps every channel
-//! cell's steepest descent on its channel.
-//! Updates of a pass are computed from the state before it and then applied, so the result
-//! does not depend on visiting order. O(passes x skeleton cells).
+//! the lower main stream a few cells away, and a flank cell below the tributary would take
+//! the tributary's water sideways (drainage by construction: no dam across a river, no
+//! descent off it); raising such a cell to its highest channel neighbour is the smallest
+//! change that keeps every channel cell's steepest descent on its channel.
 
 use std::ops::Range;
 

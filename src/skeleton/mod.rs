@@ -180,9 +180,9 @@ pub async fn rasterise_rivers(
 
 /// Draws the ridge segments into `sk` (after or before the rivers) with eq. 5's heights, in
 /// bands of rows for the platform ([`Bands::for_platform`]): linear from start to end plus
-/// `F(P)` (fractal Perlin noise of `noise.amplitude` metres, limited to half the ridge's
-/// relief above its rivers: [`RidgeNoise`]), the highest ridge winning a cell. O(length of the
-/// segments in cells x octaves + segments x bands each spans).
+/// `F(P)` (fractal Perlin noise of `noise.amplitude` metres, which may lower a ridge by at
+/// most half its relief above its rivers: [`RidgeNoise`]), the highest ridge winning a cell.
+/// O(length of the segments in cells x octaves + segments x bands each spans).
 pub async fn rasterise_ridges(
     sk: &mut Skeleton,
     ridges: &[RidgeSegment],
