@@ -47,16 +47,23 @@ impl Default for EnrichParams {
 
 /// Enriches `sk` in place and returns the number of cells added. `alpha` is the flank slope
 /// (metres per metre), `cell_m` the cell size in metres.
+/// Each half-pass is gathered over the whole grid and then applied ([`HalfPass`] with one
+/// band); the pipeline runs the same half-passes in steps of bands (`terrain::enrich`).
 pub fn enrich(sk: &mut Skeleton, params: &EnrichParams, alpha: f64, cell_m: f64) -> usize {
+    let n = sk.size;
     let mut enrichment = Enrichment::new(sk, params, alpha, cell_m);
+    let mut half = HalfPass::new(false, n, n, 1);
     for _ in 0..params.passes {
-        enrichment.mdi();
-        enrichment.md();
+        for md in [false, true] {
+            half.restart(md);
+            while half.step(&mut enrichment) {}
+        }
     }
     enrichment.added()
 }
 
-/// [`enrich`] one half-pass at a time, so a job can yield between them.
+/// The state of an enrichment in progress; [`HalfPass`] gathers and applies its half-passes in
+/// steps, so a job can yield between them.
 ///
 /// Which cells a half-pass touches is found 64 cells at a time on bit rows (known cells, MDI
 /// square centres), so the work per half-pass is O(cells / 64) for the scan plus O(1) per
@@ -153,28 +160,15 @@ impl<'a> Enrichment<'a> {
     }
 
     /// MDI: an unknown cell is a corner of the 3 x 3 squares centred on its known diagonal
-    /// neighbours; it takes the mean of those squares' interpolations (gathered, so the
-    /// result does not depend on visiting order).
-    pub fn mdi(&mut self) {
-        let updates = self.mdi_updates(0..self.sk.size);
-        self.apply(&updates);
-    }
-
-    /// The MDI updates of the rows `rows` (computed from the state before the half-pass;
-    /// nothing changes until [`Self::apply`]).
+    /// neighbours; it takes the mean of those squares' interpolations. Writes the updates of
+    /// the rows `rows` into `updates` (cleared first, so a caller can reuse the buffer),
+    /// computed from the state before the half-pass: nothing changes until
+    /// [`Self::apply_bands`], so the result does not depend on visiting order.
     ///
     /// Each square centre's interpolation (the mean of its known cells plus the flank
     /// displacement) is computed once and shared by the up to four corners that read it:
     /// rows of centres are kept in a ring of three, since the corners of row `y` read the
     /// centres of rows `y - 1` and `y + 1`.
-    pub fn mdi_updates(&self, rows: Range<usize>) -> Vec<Update> {
-        let mut updates = Vec::new();
-        self.mdi_updates_into(rows, &mut updates);
-        updates
-    }
-
-    /// [`Self::mdi_updates`] into `updates` (cleared first), so a caller can reuse the
-    /// buffer from one half-pass to the next.
     pub fn mdi_updates_into(&self, rows: Range<usize>, updates: &mut Vec<Update>) {
         let n = self.sk.size;
         updates.clear();
@@ -267,19 +261,8 @@ impl<'a> Enrichment<'a> {
     }
 
     /// MD: midpoints between two known neighbours and centres between four known corners.
-    pub fn md(&mut self) {
-        let updates = self.md_updates(0..self.sk.size);
-        self.apply(&updates);
-    }
-
-    /// The MD updates of the rows `rows` (see [`Self::mdi_updates`]).
-    pub fn md_updates(&self, rows: Range<usize>) -> Vec<Update> {
-        let mut updates = Vec::new();
-        self.md_updates_into(rows, &mut updates);
-        updates
-    }
-
-    /// [`Self::md_updates`] into `updates` (cleared first).
+    /// Writes the updates of the rows `rows` into `updates` as
+    /// [`Self::mdi_updates_into`] does.
     pub fn md_updates_into(&self, rows: Range<usize>, updates: &mut Vec<Update>) {
         let (sk, n) = (&*self.sk, self.sk.size);
         let limit = self.params.distance_limit;
@@ -328,16 +311,6 @@ impl<'a> Enrichment<'a> {
                 }
             }
         }
-    }
-
-    /// Applies a half-pass's updates (all of its rows' at once).
-    pub fn apply(&mut self, updates: &[Update]) {
-        let n = self.sk.size;
-        let limit = self.params.distance_limit;
-        for mut rows in self.rows_mut(std::slice::from_ref(&(0..n))) {
-            rows.apply(updates, limit);
-        }
-        self.added += updates.len();
     }
 
     /// Applies the updates `parts[k]` of the rows `bands[k]` (ascending, disjoint), on all
