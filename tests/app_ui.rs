@@ -17,6 +17,16 @@ fn tall_harness() -> Harness<'static, StrahlerApp> {
     common::app::harness(1200.0, 1500.0)
 }
 
+/// The app on the CPU path (no GPU renderer): the tests below that do not exercise the GPU
+/// run everywhere, never skipped.
+fn cpu_harness() -> Harness<'static, StrahlerApp> {
+    common::app::cpu_harness(1200.0, 900.0)
+}
+
+fn tall_cpu_harness() -> Harness<'static, StrahlerApp> {
+    common::app::cpu_harness(1200.0, 1500.0)
+}
+
 use common::app::wait_idle;
 
 #[test]
@@ -67,10 +77,7 @@ fn compute_check_reports_agreement() {
 
 #[test]
 fn fill_can_be_cancelled_and_the_ui_keeps_the_old_terrain() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     let before = harness.state().terrain().unwrap().checksum();
     harness.state_mut().settings_mut().multigrid = false;
@@ -85,10 +92,7 @@ fn fill_can_be_cancelled_and_the_ui_keeps_the_old_terrain() {
 
 #[test]
 fn solver_switch_shows_the_matching_parameter_and_runs_jacobi() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     harness.get_by_label("Tolerance");
     assert!(harness.query_by_label("Sweeps").is_none());
@@ -106,10 +110,7 @@ fn solver_switch_shows_the_matching_parameter_and_runs_jacobi() {
 
 #[test]
 fn drawing_a_river_with_the_mouse_adds_a_network_and_regenerates() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     let before = harness.state().terrain().unwrap().checksum();
     assert_eq!(harness.state().strokes().len(), 1);
@@ -165,10 +166,7 @@ fn drag(harness: &mut Harness<'static, StrahlerApp>, from: egui::Pos2, to: egui:
 
 #[test]
 fn sketch_tools_add_peaks_ridges_and_valleys_with_keys_and_clicks() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
 
     // Peak tool by its key, then a click on the map.
@@ -207,10 +205,7 @@ fn sketch_tools_add_peaks_ridges_and_valleys_with_keys_and_clicks() {
 
 #[test]
 fn painting_the_mask_over_detail_removes_it_there_and_keeps_it_elsewhere() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     // One new level of detail on a 256 map (as a user sets the slider).
     let mut scene = harness.state().scene();
@@ -265,10 +260,7 @@ fn painting_the_mask_over_detail_removes_it_there_and_keeps_it_elsewhere() {
 /// with the Block tool and see it re-solved; the block travels with the scene.
 #[test]
 fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = tall_harness();
+    let mut harness = tall_cpu_harness();
     wait_idle(&mut harness);
     let mut scene = harness.state().scene();
     scene.size = 256;
@@ -291,8 +283,8 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     );
     assert_eq!(harness.state().terrain(), Some(&before));
 
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/dems/volcano_maungawhau.tif");
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/volcano_maungawhau.tif");
     automation.push(strahler::app::Command::LoadDem {
         name: "volcano_maungawhau.tif".into(),
         bytes: std::fs::read(path).unwrap(),
@@ -348,10 +340,7 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
 /// (and the buttons) walk the history and the terrain follows.
 #[test]
 fn undo_and_redo_walk_the_edits() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     let first = harness.state().terrain().unwrap().checksum();
     assert_eq!(harness.state().strokes().len(), 1);
@@ -365,7 +354,7 @@ fn undo_and_redo_walk_the_edits() {
     );
     wait_idle(&mut harness);
     assert_eq!(harness.state().strokes().len(), 2);
-    let seed = harness.state().settings().seed;
+    let seed = harness.state().scene().seed;
     harness.get_by_label("New seed").click();
     harness.run_steps(2);
     wait_idle(&mut harness);
@@ -376,7 +365,7 @@ fn undo_and_redo_walk_the_edits() {
     harness.run_steps(2);
     wait_idle(&mut harness);
     assert_eq!(
-        harness.state().settings().seed,
+        harness.state().scene().seed,
         seed,
         "the seed change is undone"
     );
@@ -408,10 +397,7 @@ fn undo_and_redo_walk_the_edits() {
 /// regenerates), Delete removes it; each is an undo step.
 #[test]
 fn select_tool_moves_and_deletes_a_river() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     harness.key_press(egui::Key::R);
     harness.run_steps(2);
@@ -460,10 +446,7 @@ fn select_tool_moves_and_deletes_a_river() {
 /// Generate full size makes the real one; the mask keeps the full resolution throughout.
 #[test]
 fn large_maps_edit_at_preview_size_and_generate_full_size_on_demand() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     let mut scene = harness.state().scene();
     scene.size = 1024;
@@ -489,10 +472,7 @@ fn large_maps_edit_at_preview_size_and_generate_full_size_on_demand() {
 
 #[test]
 fn the_export_dialog_opens_with_e_and_closes_with_escape() {
-    if common::gpu().is_none() {
-        return;
-    }
-    let mut harness = harness();
+    let mut harness = cpu_harness();
     wait_idle(&mut harness);
     harness.key_press(egui::Key::E);
     harness.run_steps(2);
@@ -500,4 +480,37 @@ fn the_export_dialog_opens_with_e_and_closes_with_escape() {
     harness.key_press(egui::Key::Escape);
     harness.run_steps(2);
     assert!(harness.query_by_label("Download (Enter)").is_none());
+}
+
+/// The scene is the document: a scene with every field set to a value other than its
+/// default goes into the app and comes back out equal (nothing dropped, nothing rounded).
+#[test]
+fn every_scene_field_round_trips_through_the_app() {
+    use strahler::scene::Scene;
+    let text = include_str!("data/scenes/every_field.json");
+    let scene = Scene::from_json(text).expect("a valid scene");
+    let defaults = Scene::default();
+    // Every section differs from the defaults, so a dropped field shows.
+    assert_ne!(scene.size, defaults.size);
+    assert_ne!(scene.cell_size, defaults.cell_size);
+    assert_ne!(scene.vertical_scale, defaults.vertical_scale);
+    assert_ne!(scene.seed, defaults.seed);
+    assert_ne!(scene.params.theta, defaults.params.theta);
+    assert_ne!(scene.params.river_slope, defaults.params.river_slope);
+    assert_ne!(scene.params.alpha, defaults.params.alpha);
+    assert_ne!(scene.params.noise, defaults.params.noise);
+    assert_ne!(scene.params.enrich, defaults.params.enrich);
+    assert_ne!(scene.params.post, defaults.params.post);
+    assert_ne!(scene.detail, defaults.detail);
+    assert!(scene.erosion.is_some() && !scene.blend.is_empty());
+    assert!(!scene.sketch.ridges.is_empty() && !scene.sketch.peaks.is_empty());
+
+    let mut harness = cpu_harness();
+    wait_idle(&mut harness);
+    harness.state_mut().load_scene(&scene);
+    harness.run_steps(2);
+    assert_eq!(harness.state().scene(), scene);
+    // Saved (as the Save button writes it) and read back: still equal.
+    let saved = Scene::from_json(&harness.state().scene().to_json()).unwrap();
+    assert_eq!(saved, scene);
 }

@@ -69,10 +69,10 @@ fn unknown_subcommands_are_refused_with_help() {
     assert!(err.contains("unrecognized subcommand"), "{err}");
 }
 
-/// A DEM shipped beside the repository (see `../shared/data/dems/README.md`).
-fn shared_dem(name: &str) -> std::path::PathBuf {
+/// A DEM shipped with the tests (see `tests/data/README.md`).
+fn test_dem(name: &str) -> std::path::PathBuf {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/dems")
+        .join("tests/data")
         .join(name);
     assert!(path.exists(), "missing test DEM {}", path.display());
     path
@@ -91,7 +91,7 @@ fn read_tif(path: &std::path::Path) -> strahler::dem::Dem {
 
 #[test]
 fn fill_closes_every_void_and_keeps_known_cells() {
-    let input = shared_dem("luxembourg_full.tif");
+    let input = test_dem("srtm_n44e005_voids.tif");
     let dir = out_dir();
     let (out, report) = (dir.join("filled.tif"), dir.join("report.json"));
     for backend in ["cpu", "auto"] {
@@ -124,7 +124,7 @@ fn fill_closes_every_void_and_keeps_known_cells() {
         }
         let report: serde_json::Value =
             serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
-        assert_eq!(report["free_cells"], 3942);
+        assert_eq!(report["free_cells"], 1038);
         assert_eq!(report["method"], "multigrid");
         assert_eq!(report["converged"], true);
         assert!(report["relative_residual"].as_f64().unwrap() <= 1e-6);
@@ -133,7 +133,7 @@ fn fill_closes_every_void_and_keeps_known_cells() {
 
 #[test]
 fn fill_reads_int16_lzw_with_gdal_nodata_and_runs_exact_jacobi_sweeps() {
-    let input = shared_dem("original/luxembourg_elev_int16_lzw.tif");
+    let input = test_dem("srtm_n44e005_voids_int16_lzw.tif");
     let dir = out_dir();
     let (out, report) = (dir.join("jacobi.tif"), dir.join("jacobi.json"));
     let result = strahler(&[
@@ -157,7 +157,7 @@ fn fill_reads_int16_lzw_with_gdal_nodata_and_runs_exact_jacobi_sweeps() {
     );
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
-    assert_eq!(report["free_cells"], 3942, "-32768 cells are the voids");
+    assert_eq!(report["free_cells"], 1038, "-32768 cells are the voids");
     assert_eq!(report["sweeps"], 25);
     assert_eq!(report["method"], "jacobi");
     assert!(read_tif(&out).field.data().iter().all(|v| v.is_finite()));
@@ -180,7 +180,7 @@ fn fill_explains_bad_input() {
     assert!(err.contains("bad.tif") && err.contains("GeoTIFF"), "{err}");
     assert!(!out.exists(), "no output on failure");
 
-    let input = shared_dem("olinda.tif");
+    let input = test_dem("olinda.tif");
     let result = strahler(&[
         "fill",
         input.to_str().unwrap(),
@@ -344,7 +344,7 @@ fn generate_reads_a_scene_file_and_names_bad_fields() {
 #[test]
 fn analyze_prints_the_variance_table_and_fits_for_tif_and_png() {
     for name in ["olinda.tif", "olinda.png"] {
-        let input = shared_dem(name);
+        let input = test_dem(name);
         let out = strahler(&["analyze", input.to_str().unwrap()]);
         assert!(
             out.status.success(),
@@ -359,7 +359,7 @@ fn analyze_prints_the_variance_table_and_fits_for_tif_and_png() {
     }
     let json = strahler(&[
         "analyze",
-        shared_dem("volcano_maungawhau.tif").to_str().unwrap(),
+        test_dem("volcano_maungawhau.tif").to_str().unwrap(),
         "--json",
     ]);
     let report: serde_json::Value = serde_json::from_slice(&json.stdout).expect("JSON");
@@ -371,7 +371,7 @@ fn analyze_prints_the_variance_table_and_fits_for_tif_and_png() {
 #[test]
 fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
     let dir = out_dir();
-    let input = shared_dem("olinda.tif");
+    let input = test_dem("olinda.tif");
     let mask_path = dir.join("mask.png");
     let mask = strahler::wavelet::Mask::from_values(2, 1, vec![1.0, 1.0]).unwrap();
     std::fs::write(&mask_path, mask.to_png().unwrap()).unwrap();
@@ -448,14 +448,14 @@ fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
     assert!(String::from_utf8_lossy(&bad.stderr).contains("1 to 3"));
     let voids = strahler(&[
         "amplify",
-        shared_dem("luxembourg_full.tif").to_str().unwrap(),
+        test_dem("srtm_n44e005_voids.tif").to_str().unwrap(),
         "--backend",
         "cpu",
         "--out",
-        dir.join("lux.tif").to_str().unwrap(),
+        dir.join("voids.tif").to_str().unwrap(),
     ]);
     assert!(String::from_utf8_lossy(&voids.stderr).contains("no-data"));
-    assert!(!dir.join("lux.tif").exists());
+    assert!(!dir.join("voids.tif").exists());
 }
 
 /// `strahler convert` between every format: lossless ones bit-exactly, quantised ones within
@@ -464,7 +464,7 @@ fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
 fn convert_round_trips_every_format() {
     let dir = out_dir().join("convert");
     std::fs::create_dir_all(&dir).unwrap();
-    let src = shared_dem("olinda.tif");
+    let src = test_dem("olinda.tif");
     let original = read_tif(&src);
     let run = |args: &[&str]| {
         let out = strahler(args);
@@ -540,21 +540,21 @@ fn convert_round_trips_every_format() {
     );
 
     // Voids: kept as NaN unless --fill-voids.
-    let lux = shared_dem("luxembourg_full.tif");
-    run(&["convert", &lux.to_string_lossy(), &path("lux.asc")]);
+    let voids = test_dem("srtm_n44e005_voids.tif");
+    run(&["convert", &voids.to_string_lossy(), &path("voids.asc")]);
     let kept = strahler::dem::asc::read(
-        &std::fs::read(dir.join("lux.asc")).unwrap(),
+        &std::fs::read(dir.join("voids.asc")).unwrap(),
         Default::default(),
     )
     .unwrap();
-    assert_eq!(kept.void_cells(), 3942);
+    assert_eq!(kept.void_cells(), 1038);
     run(&[
         "convert",
-        &lux.to_string_lossy(),
-        &path("lux_filled.tif"),
+        &voids.to_string_lossy(),
+        &path("voids_filled.tif"),
         "--fill-voids",
     ]);
-    assert_eq!(read_tif(&dir.join("lux_filled.tif")).void_cells(), 0);
+    assert_eq!(read_tif(&dir.join("voids_filled.tif")).void_cells(), 0);
 }
 
 #[test]
@@ -589,7 +589,7 @@ fn convert_explains_bad_input() {
     }
     let out = strahler(&[
         "convert",
-        &shared_dem("olinda.tif").to_string_lossy(),
+        &test_dem("olinda.tif").to_string_lossy(),
         &dir.join("o.xyz").to_string_lossy(),
     ]);
     assert!(String::from_utf8_lossy(&out.stderr).contains("unknown output format"));
@@ -599,8 +599,8 @@ fn convert_explains_bad_input() {
 fn blend_solves_a_block_and_keeps_the_rest() {
     let dir = out_dir().join("blend");
     std::fs::create_dir_all(&dir).unwrap();
-    let target = shared_dem("olinda.tif");
-    let reference = shared_dem("volcano_maungawhau.tif");
+    let target = test_dem("olinda.tif");
+    let reference = test_dem("volcano_maungawhau.tif");
     let out_path = dir.join("blended.tif");
     let report = dir.join("blend.json");
     let out = strahler(&[
@@ -687,16 +687,16 @@ fn files_written_by_gdal_read_correctly() {
     let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/gdal");
     let limits = strahler::dem::ReadLimits::default();
     // AAIGrid of a float raster with NaN voids: GDAL writes `nan` tokens.
-    let original = read_tif(&shared_dem("luxembourg_full.tif"));
-    let bytes = std::fs::read(data.join("luxembourg_full_gdal.asc")).unwrap();
+    let original = read_tif(&test_dem("srtm_n44e005_voids.tif"));
+    let bytes = std::fs::read(data.join("srtm_n44e005_voids_gdal.asc")).unwrap();
     let asc = strahler::dem::asc::read(&bytes, limits).unwrap();
-    assert_eq!((asc.field.width(), asc.field.height()), (95, 90));
-    assert_eq!(asc.void_cells(), 3942);
+    assert_eq!((asc.field.width(), asc.field.height()), (120, 112));
+    assert_eq!(asc.void_cells(), 1038);
     for (a, b) in asc.field.data().iter().zip(original.field.data()) {
         assert!(a == b || (a.is_nan() && b.is_nan()), "{a} vs {b}");
     }
     let (sx, _) = asc.georef.cell_size().unwrap();
-    assert!((sx - 1.0 / 120.0).abs() < 1e-9);
+    assert!((sx - 1.0 / 1200.0).abs() < 1e-9);
     let tie = asc.georef.tiepoint.clone().unwrap();
     let orig_tie = original.georef.tiepoint.clone().unwrap();
     assert!((tie[3] - orig_tie[3]).abs() < 1e-9 && (tie[4] - orig_tie[4]).abs() < 1e-9);
@@ -705,7 +705,7 @@ fn files_written_by_gdal_read_correctly() {
     let hgt = strahler::dem::hgt::read("N49E006.hgt", &bytes, limits).unwrap();
     assert_eq!((hgt.field.width(), hgt.field.height()), (1201, 1201));
     let (lo, hi) = hgt.field.finite_range().unwrap();
-    assert_eq!((lo, hi), (155.0, 443.0), "gdalinfo -stats says 155..443");
+    assert_eq!((lo, hi), (742.0, 1684.0), "gdalinfo -stats says 742..1684");
     assert_eq!(hgt.georef.crs_label().as_deref(), Some("EPSG:4326"));
     let tie = hgt.georef.tiepoint.clone().unwrap();
     // gdalinfo: Origin = (5.999583333333334, 50.000416666666666).

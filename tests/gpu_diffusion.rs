@@ -136,7 +136,7 @@ fn too_large_a_field_is_a_clear_error() {
 fn cpu_result_is_the_same_bits_every_time() {
     // Same problem, same result bits: the browser self-test compares this checksum with the
     // one the native build prints, so the CPU path must be exactly deterministic.
-    let problem = demo::valley_and_peaks(strahler::compute::selftest::SIZE);
+    let problem = demo::valley_and_peaks(strahler::diffusion::selftest::SIZE);
     let a = run(&Backend::Cpu, &problem, 50);
     let b = run(&Backend::Cpu, &problem, 50);
     assert_eq!(a.checksum(), b.checksum());

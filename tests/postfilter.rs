@@ -178,7 +178,7 @@ fn smoothing_lowers_the_roughness_and_fbm_adds_relief_of_its_amplitude() {
     let rms = (diff.iter().map(|d| f64::from(d * d)).sum::<f64>() / diff.len() as f64).sqrt();
     assert!(max <= 10.0 + 1e-3 && rms > 1.0, "max {max}, rms {rms}");
     // Off is the identity.
-    assert_eq!(run(PostFilter::default()), plain.terrain);
+    assert_eq!(run(PostFilter::default()), *plain.terrain);
 }
 
 #[test]

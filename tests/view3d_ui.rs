@@ -21,8 +21,14 @@ impl eframe::App for ViewOnly {
     fn ui(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let n = self.field.width();
-            self.view
-                .show(ui, frame, Some((&self.field, 1)), Some((&self.rivers, n)));
+            let cell = 10_000.0 / (n - 1) as f32;
+            self.view.show(
+                ui,
+                frame,
+                Some((&self.field, 1)),
+                Some((&self.rivers, n)),
+                cell,
+            );
         });
     }
 }

@@ -20,11 +20,11 @@ fn amplify(source: &Heightfield, params: &AmplifyParams, mask: Option<&Mask>) ->
 
 fn dem(name: &str) -> Heightfield {
     let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../shared/data/dems")
+        .join("tests/data")
         .join(name);
     let bytes = std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     dem::geotiff::read(&bytes, ReadLimits::default())
-        .expect("shared DEM")
+        .expect("test DEM")
         .field
 }
 
@@ -145,7 +145,7 @@ fn real_dem_slopes_survive_amplification_globally_and_locally() {
     for name in [
         "olinda.tif",
         "volcano_maungawhau.tif",
-        "luxembourg_crop.tif",
+        "srtm_n44e005_crop.tif",
     ] {
         let source = dem(name);
         let before = slopes(&source);
@@ -313,7 +313,7 @@ fn absurd_parameters_and_voids_are_named_errors() {
         ..Default::default()
     };
     assert!(run(too_big, &big).contains("above the limit"));
-    let voids = dem("luxembourg_full.tif");
+    let voids = dem("srtm_n44e005_voids.tif");
     assert!(run(AmplifyParams::default(), &voids).contains("no-data"));
     assert_eq!(
         synthesis::check(&source, &AmplifyParams::default()).map(|_| ()),

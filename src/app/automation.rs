@@ -8,7 +8,7 @@ use std::sync::{Arc, Mutex, PoisonError};
 use serde::Serialize;
 
 use crate::compute::ComputePath;
-use crate::compute::selftest::RunSummary;
+use crate::diffusion::selftest::RunSummary;
 use crate::gpu::{AdapterSummary, Capabilities};
 use crate::river::Stroke;
 use crate::scene::Scene;
@@ -178,6 +178,10 @@ struct Shared {
     /// The terrain on the map and its cell size in metres, for `exportHeightmap`.
     terrain: Option<(Arc<crate::heightfield::Heightfield>, f64)>,
     commands: Vec<Command>,
+    /// Commands queued so far, and how many of them the app has applied (and published the
+    /// scene after): a script's mutation resolves once `applied` reaches its number.
+    queued: u64,
+    applied: u64,
     repaint: Option<Repaint>,
 }
 
@@ -223,26 +227,47 @@ impl Automation {
             .clone()
     }
 
-    /// Queues a command for the app and wakes its frame loop.
-    pub fn push(&self, command: Command) {
-        let repaint = {
+    /// Queues a command for the app and wakes its frame loop. Returns the command's number:
+    /// it has been applied once [`Automation::applied`] reaches it.
+    pub fn push(&self, command: Command) -> u64 {
+        let (number, repaint) = {
             let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
             shared.commands.push(command);
-            shared.repaint.clone()
+            shared.queued += 1;
+            (shared.queued, shared.repaint.clone())
         };
         if let Some(repaint) = repaint {
             repaint();
         }
+        number
     }
 
-    pub(crate) fn take_commands(&self) -> Vec<Command> {
-        std::mem::take(
-            &mut self
-                .inner
-                .lock()
-                .unwrap_or_else(PoisonError::into_inner)
-                .commands,
-        )
+    /// How many commands have been queued.
+    pub fn queued(&self) -> u64 {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .queued
+    }
+
+    /// How many queued commands the app has applied.
+    pub fn applied(&self) -> u64 {
+        self.inner
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .applied
+    }
+
+    /// The queued commands, and the number of the last of them.
+    pub(crate) fn take_commands(&self) -> (Vec<Command>, u64) {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        (std::mem::take(&mut shared.commands), shared.queued)
+    }
+
+    /// The app applied every command up to `number` and published the scene.
+    pub(crate) fn mark_applied(&self, number: u64) {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        shared.applied = shared.applied.max(number);
     }
 
     /// The terrain on the map and its cell size in metres.

@@ -16,16 +16,14 @@ use egui::{Color32, DragValue, ProgressBar, Rect, RichText, Sense, Stroke, Strok
 
 use super::automation::{BlendStatus, DemStatus};
 use super::map_view::{BlockDrag, Tool};
-use super::{MAP_WIDTH_M, StrahlerApp};
-use crate::blend::{self, BlendBlock, BlendError, BlockSolve};
+use super::StrahlerApp;
+use crate::blend::BlendBlock;
 use crate::dem::format::{self, Format, ImportOptions};
 use crate::dem::{Dem, DemError, ReadLimits};
 use crate::diffusion::{self, DiffusionError, Method, MultigridParams};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobHandle;
-
-/// A finished blend job: the blended terrain, each block's solve, the time and backend.
-pub type BlendResult = Result<(Heightfield, Vec<BlockSolve>, f64, &'static str), BlendError>;
+use crate::pipeline::Output;
 
 /// The uploaded DEM.
 pub struct LoadedDem {
@@ -51,14 +49,10 @@ pub struct BlendState {
     /// The reference window on the DEM: row, col, height, width.
     pub selection: [usize; 4],
     select_from: Option<(usize, usize)>,
-    pub blocks: Vec<BlendBlock>,
+    /// The block selected in the list or on the map (an index into the scene's `blend`).
     pub selected: Option<usize>,
     grab: Option<(usize, Grab)>,
-    /// The terrain the blocks are blended into (generated terrain plus detail).
-    pub detailed: Option<Heightfield>,
-    pub job: Option<JobHandle<BlendResult>>,
     pub fill_job: Option<JobHandle<Result<Heightfield, DiffusionError>>>,
-    pub dirty: bool,
     pub summary: Option<String>,
     /// Native builds: the path typed into the Open field.
     #[cfg(not(target_arch = "wasm32"))]
@@ -72,13 +66,9 @@ impl Default for BlendState {
             z_range: (0.0, 1000.0),
             selection: [0, 0, 0, 0],
             select_from: None,
-            blocks: Vec::new(),
             selected: None,
             grab: None,
-            detailed: None,
-            job: None,
             fill_job: None,
-            dirty: false,
             summary: None,
             #[cfg(not(target_arch = "wasm32"))]
             path_input: String::new(),
@@ -233,10 +223,9 @@ impl StrahlerApp {
         let [row, col, h, w] = window;
         let name = format!("{} [{row},{col} {h}x{w}]", loaded.name);
         let n = self
-            .blend
-            .detailed
+            .output
             .as_ref()
-            .map_or(self.settings.size, Heightfield::width)
+            .map_or(self.scene.size, |o| o.field.width())
             .max(2);
         let rect = rect.unwrap_or_else(|| {
             let (tw, th) = if quarter_turns % 2 == 1 {
@@ -262,56 +251,17 @@ impl StrahlerApp {
                     self.set_error(format!("Block {field}: {problem}"));
                     return;
                 }
-                self.blend.blocks.push(block);
-                self.blend.selected = Some(self.blend.blocks.len() - 1);
+                self.scene.blend.push(block);
+                self.blend.selected = Some(self.scene.blend.len() - 1);
                 self.blocks_changed(ctx);
             }
             Err(err) => self.set_error(format!("Block: {err}")),
         }
     }
 
-    /// After any block edit: publish the scene and re-solve.
+    /// After any block edit: re-run the pipeline (the cache re-solves only the blocks).
     pub(super) fn blocks_changed(&mut self, _ctx: &egui::Context) {
-        self.automation.set_scene(self.scene());
-        self.blend.dirty = true;
-    }
-
-    /// The terrain before blending is ready (base or base + detail): blend the blocks into it.
-    pub(super) fn set_detailed(&mut self, ctx: &egui::Context, field: Heightfield) {
-        self.blend.detailed = Some(field);
-        self.start_blend(ctx);
-    }
-
-    /// Publishes `field` for export and draws it for the map in the background (the map
-    /// shows it when [`super::picture`] is done).
-    pub(super) fn show_final(&mut self, ctx: &egui::Context, field: Heightfield) {
-        let size = field.width();
-        let cell = MAP_WIDTH_M / size.saturating_sub(1).max(1) as f32;
-        // The terrain job drew the picture when it knew its terrain would be final (no
-        // detail levels, no blocks): one frame sooner on the map.
-        if let Some(picture) = self
-            .ready_picture
-            .take()
-            .filter(|p| p.field.width() == size && p.field.height() == field.height())
-        {
-            self.automation
-                .set_terrain(picture.field.clone(), f64::from(cell));
-            self.picture_job = None;
-            self.show_picture(ctx, picture);
-            return;
-        }
-        let field = Arc::new(field);
-        self.automation.set_terrain(field.clone(), f64::from(cell));
-        let cell_size = super::picture::cell_size(size);
-        // Replacing the handle cancels a picture of an older terrain.
-        match super::picture::spawn(ctx, field.clone(), cell_size) {
-            Ok(job) => self.picture_job = Some(job),
-            Err(err) => {
-                log::warn!("{err}: drawing the map on the UI thread");
-                self.picture_job = None;
-                self.show_picture(ctx, super::picture::draw_now(field, cell_size));
-            }
-        }
+        self.dirty = true;
     }
 
     /// Puts a finished picture on the map.
@@ -320,88 +270,40 @@ impl StrahlerApp {
         self.map.set_field(ctx, picture.field, picture.relief);
     }
 
-    /// Runs the blend stage (a job), or shows the detailed terrain when there are no blocks.
-    pub(super) fn start_blend(&mut self, ctx: &egui::Context) {
-        self.blend.dirty = false;
-        let Some(detailed) = self.blend.detailed.clone() else {
-            return;
-        };
-        if self.blend.blocks.is_empty() {
-            self.blend.job = None;
+    /// Publishes the blend stage of a finished run (or its absence).
+    pub(super) fn show_blend_status(&mut self, output: &Output) {
+        let Some(b) = &output.blend else {
             self.blend.summary = None;
             self.automation.update(|s| s.blend = None);
-            self.show_final(ctx, detailed);
-            return;
-        }
-        let Some(backend) = self.backend() else {
             return;
         };
-        let blocks = self.blend.blocks.clone();
-        let repaint = ctx.clone();
-        let spawned = crate::jobs::spawn(
-            "blend",
-            move |job| async move {
-                let clock = web_time::Instant::now();
-                let mut field = detailed;
-                let solves = blend::apply_blocks(&backend, &mut field, &blocks, &job).await?;
-                Ok((
-                    field,
-                    solves,
-                    clock.elapsed().as_secs_f64() * 1e3,
-                    backend.key(),
-                ))
-            },
-            move || repaint.request_repaint(),
-        );
-        match spawned {
-            Ok(handle) => self.blend.job = Some(handle),
-            Err(err) => self.set_error(err.to_string()),
-        }
-    }
-
-    /// Puts a finished blend on the map.
-    pub(super) fn show_blend(&mut self, ctx: &egui::Context, result: BlendResult) {
-        let (field, solves, millis, backend) = match result {
-            Ok(done) => done,
-            Err(BlendError::Diffusion(DiffusionError::Cancelled(_))) => return,
-            Err(err) => {
-                self.set_error(format!("Blend failed: {err}"));
-                // The terrain without blocks stays usable.
-                if let Some(detailed) = self.blend.detailed.clone() {
-                    self.show_final(ctx, detailed);
-                }
-                return;
-            }
-        };
-        let converged = solves.iter().all(|s| s.converged);
+        let converged = b.solves.iter().all(|s| s.converged);
         let rects = self
+            .scene
             .blend
-            .blocks
             .iter()
-            .map(|b| {
-                let r = b.rect_on(field.width(), field.height());
+            .map(|block| {
+                let r = block.rect_on(b.field.width(), b.field.height());
                 [r.row, r.col, r.height, r.width]
             })
             .collect();
         self.blend.summary = Some(format!(
             "{} block{} blended on the {} in {:.0} ms{}",
-            solves.len(),
-            if solves.len() == 1 { "" } else { "s" },
-            backend.to_uppercase(),
-            millis,
+            b.solves.len(),
+            if b.solves.len() == 1 { "" } else { "s" },
+            b.backend.to_uppercase(),
+            b.millis,
             if converged { "" } else { " (NOT converged)" }
         ));
         self.automation.update(|s| {
             s.blend = Some(BlendStatus {
-                blocks: solves.len(),
-                backend: backend.to_owned(),
-                millis,
+                blocks: b.solves.len(),
+                backend: b.backend.to_owned(),
+                millis: b.millis,
                 converged,
                 rects,
             })
         });
-        self.show_final(ctx, field);
-        self.error = None;
     }
 
     /// A finished void fill replaces the DEM's heights.
@@ -433,8 +335,8 @@ impl StrahlerApp {
             // Pick the topmost block under the drag's start; its corner handle resizes.
             let handle = 12.0 / 600.0;
             let hit = self
+                .scene
                 .blend
-                .blocks
                 .iter()
                 .enumerate()
                 .rev()
@@ -455,7 +357,7 @@ impl StrahlerApp {
             }
         }
         if let Some((i, grab)) = self.blend.grab
-            && let Some(block) = self.blend.blocks.get_mut(i)
+            && let Some(block) = self.scene.blend.get_mut(i)
         {
             let (dx, dy) = (f64::from(drag.delta.x), f64::from(drag.delta.y));
             let [x0, y0, x1, y1] = block.rect;
@@ -466,7 +368,7 @@ impl StrahlerApp {
                     [x0 + dx, y0 + dy, x1 + dx, y1 + dy]
                 }
                 Grab::Resize => {
-                    let min = 4.0 / self.settings.size.max(8) as f64;
+                    let min = 4.0 / self.scene.size.max(8) as f64;
                     [
                         x0,
                         y0,
@@ -659,7 +561,7 @@ fn preview(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 
 /// The placed blocks: select, turn, mirror, scale, remove.
 fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
-    if app.blend.blocks.is_empty() {
+    if app.scene.blend.is_empty() {
         return;
     }
     ui.horizontal_wrapped(|ui| {
@@ -667,7 +569,7 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
     });
     let mut changed = false;
     let mut remove = None;
-    for (i, block) in app.blend.blocks.iter_mut().enumerate() {
+    for (i, block) in app.scene.blend.iter_mut().enumerate() {
         let selected = app.blend.selected == Some(i);
         ui.horizontal(|ui| {
             if ui.selectable_label(selected, &block.name).clicked() {
@@ -701,15 +603,12 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
         }
     }
     if let Some(i) = remove {
-        app.blend.blocks.remove(i);
+        app.scene.blend.remove(i);
         app.blend.selected = None;
         changed = true;
     }
     if changed {
         app.blocks_changed(ctx);
-    }
-    if let Some(job) = &app.blend.job {
-        ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }
     if let Some(text) = &app.blend.summary {
         ui.label(text);

@@ -2,18 +2,16 @@
 //! of the generated terrain, and the energy-reduction mask the user paints, derives from the
 //! rivers, imports and exports.
 //!
-//! The generated terrain is kept as the base; a change of the detail settings or a finished
-//! brush stroke re-runs only this stage (a job, like the pipeline), never the hydrology.
+//! The settings and the mask live in the scene; a change of either re-runs the pipeline,
+//! whose stage cache recomputes only detail and what follows, never the hydrology.
 
-use egui::{ComboBox, DragValue, ProgressBar, RichText, Slider};
+use egui::{ComboBox, DragValue, RichText, Slider};
 
 use super::StrahlerApp;
 use super::automation::DetailStatus;
 use super::map_view::Tool;
-use crate::heightfield::Heightfield;
-use crate::jobs::JobHandle;
-use crate::terrain::stage_seed;
-use crate::wavelet::{self, Amplified, AmplifyFailure, Mask, synthesis};
+use crate::pipeline::Output;
+use crate::wavelet::{Mask, synthesis};
 
 /// What a dropped file is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -28,10 +26,6 @@ pub enum ImportTarget {
 
 /// A dropped file's name, what it is for, and its contents.
 pub type Dropped = (String, ImportTarget, Result<Vec<u8>, String>);
-
-/// A finished detail job: the amplified terrain, how long it took and on what.
-pub type DetailResult =
-    Result<(Amplified, synthesis::DetailRms, f64, &'static str), AmplifyFailure>;
 
 impl StrahlerApp {
     /// The mask, resampled to the `size x size` terrain when the size changed.
@@ -52,15 +46,16 @@ impl StrahlerApp {
     /// Replaces the mask (e.g. imported), resampled to the terrain, and re-runs the detail.
     pub fn set_mask(&mut self, ctx: &egui::Context, mask: Mask) {
         self.mask = mask;
-        self.fit_mask(self.settings.size);
+        self.fit_mask(self.scene.size);
         self.mask_changed(ctx);
     }
 
-    /// After any mask edit: refresh the overlay, publish the scene, re-run the detail stage.
+    /// After any mask edit: refresh the overlay, store the mask in the scene (the pipeline
+    /// re-runs detail and what follows; the cache keeps the stages before).
     fn mask_changed(&mut self, ctx: &egui::Context) {
         self.map.set_mask(ctx, Some(&self.mask));
-        self.automation.set_scene(self.scene());
-        self.detail_dirty = true;
+        self.scene.detail.set_mask(Some(&self.mask));
+        self.dirty = true;
     }
 
     /// Paints one piece of a brush stroke (map units).
@@ -75,112 +70,55 @@ impl StrahlerApp {
         self.mask_changed(ctx);
     }
 
-    /// Shows the base terrain plus detail: starts the detail job, or shows the base as is
-    /// when detail is off.
-    pub(super) fn start_detail(&mut self, ctx: &egui::Context) {
-        self.detail_dirty = false;
-        let Some(base) = self.base.clone() else {
-            return;
-        };
-        if self.detail.levels == 0 {
-            self.detail_job = None;
+    /// Publishes the detail stage of a finished run (or its absence).
+    pub(super) fn show_detail_status(&mut self, output: &Output) {
+        let Some(d) = &output.detail else {
             self.automation.update(|s| s.detail = None);
             self.detail_summary = None;
-            self.set_detailed(ctx, base);
-            return;
-        }
-        let Some(backend) = self.backend() else {
             return;
         };
-        let params = self.detail.params(stage_seed(self.settings.seed, "detail"));
-        if let Err(err) = synthesis::check(&base, &params) {
-            self.set_error(format!("Detail: {err}"));
-            return;
-        }
-        // A GPU that cannot hold the output falls back to the CPU rather than failing.
-        let backend = match &backend {
-            crate::compute::Backend::Gpu(gpu) => {
-                let n = synthesis::output_len(base.width(), params.levels);
-                if gpu.check_field(n, n).is_ok() {
-                    backend
-                } else {
-                    crate::compute::Backend::Cpu
-                }
-            }
-            crate::compute::Backend::Cpu => backend,
-        };
-        let mask = (!self.mask.is_clear()).then(|| self.mask.clone());
-        let repaint = ctx.clone();
-        let spawned = crate::jobs::spawn(
-            "detail",
-            move |job| async move {
-                let clock = web_time::Instant::now();
-                let out =
-                    wavelet::amplify_on(&backend, &base, &params, mask.as_ref(), &job).await?;
-                let millis = clock.elapsed().as_secs_f64() * 1e3;
-                // O(output cells): measured here, off the UI thread.
-                let rms = synthesis::detail_rms(&base, &out.field, params.levels, mask.as_ref());
-                Ok((out, rms, millis, backend.key()))
-            },
-            move || repaint.request_repaint(),
-        );
-        match spawned {
-            Ok(handle) => self.detail_job = Some(handle),
-            Err(err) => self.set_error(err.to_string()),
-        }
-    }
-
-    /// Puts a finished detail result on the map.
-    pub(super) fn show_detail(&mut self, ctx: &egui::Context, result: DetailResult) {
-        let (amplified, rms, millis, backend) = match result {
-            Ok(done) => done,
-            Err(AmplifyFailure::Cancelled(_)) => return,
-            Err(err) => {
-                self.set_error(format!("Detail failed: {err}"));
-                return;
-            }
-        };
-        let field: Heightfield = amplified.field;
         let status = DetailStatus {
-            levels: self.detail.levels,
-            width: field.width(),
-            height: field.height(),
-            backend: backend.to_owned(),
-            millis,
-            rms_unmasked: rms.unmasked,
-            rms_masked: rms.masked,
+            levels: self.scene.detail.levels,
+            width: d.field.width(),
+            height: d.field.height(),
+            backend: d.backend.to_owned(),
+            millis: d.millis,
+            rms_unmasked: d.rms.unmasked,
+            rms_masked: d.rms.masked,
             mask_cells: self.mask.values().iter().filter(|&&v| v > 0.0).count(),
         };
         self.detail_summary = Some(format!(
             "Detail: {} x {} on the {} in {:.0} ms; RMS {:.2} m{}",
             status.width,
             status.height,
-            backend.to_uppercase(),
-            millis,
-            rms.unmasked,
-            rms.masked
+            d.backend.to_uppercase(),
+            d.millis,
+            d.rms.unmasked,
+            d.rms
+                .masked
                 .map(|m| format!(", {m:.2} m under the mask"))
                 .unwrap_or_default()
         ));
         self.automation.update(|s| s.detail = Some(status));
-        self.set_detailed(ctx, field);
-        self.error = None;
     }
 
     /// The river networks as a starting mask (rivers stay smooth).
     pub(super) fn mask_from_rivers(&mut self, ctx: &egui::Context) {
-        let orders: Vec<Vec<u32>> = self
-            .rivers
+        let Some(output) = &self.output else {
+            self.set_error("Generate a terrain first: the mask follows its rivers.".into());
+            return;
+        };
+        let grown = &output.hydrology.rivers;
+        let orders: Vec<Vec<u32>> = grown
             .iter()
             .map(|r| crate::river::stats::strahler_orders(&r.network))
             .collect();
-        let rivers: Vec<_> = self
-            .rivers
+        let rivers: Vec<_> = grown
             .iter()
             .zip(&orders)
             .map(|(r, o)| (&r.network, o.as_slice()))
             .collect();
-        let n = self.settings.size;
+        let n = self.scene.size;
         let radius = (n as f32 / 256.0).max(1.0);
         match Mask::from_rivers(n, n, &rivers, radius) {
             Ok(mask) => self.set_mask(ctx, mask),
@@ -250,13 +188,13 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
          fitted line of log2 variance per level. The mask removes that detail where it is white.",
         );
     let ctx = ui.ctx().clone();
-    let before = app.detail.clone();
+    let before = app.scene.detail.clone();
     egui::Grid::new("detail settings")
         .num_columns(2)
         .show(ui, |ui| {
             ui.label("New levels");
-            let out = synthesis::output_len(app.settings.size, app.detail.levels);
-            ui.add(Slider::new(&mut app.detail.levels, 0..=3).text(format!("-> {out} x {out}")));
+            let out = synthesis::output_len(app.scene.size, app.scene.detail.levels);
+            ui.add(Slider::new(&mut app.scene.detail.levels, 0..=3).text(format!("-> {out} x {out}")));
             ui.end_row();
             let label = ui.label("Scope").on_hover_text(
                 "Global (GSA): one line per band for the whole map. Local (LSA): a line per \
@@ -264,28 +202,27 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  character.",
             );
             ComboBox::from_id_salt("detail scope")
-                .selected_text(app.detail.scope.clone())
+                .selected_text(app.scene.detail.scope.clone())
                 .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut app.detail.scope, "global".to_owned(), "global");
-                    ui.selectable_value(&mut app.detail.scope, "local".to_owned(), "local");
+                    ui.selectable_value(&mut app.scene.detail.scope, "global".to_owned(), "global");
+                    ui.selectable_value(&mut app.scene.detail.scope, "local".to_owned(), "local");
                 })
                 .response
                 .labelled_by(label.id);
             ui.end_row();
-            if app.detail.scope == "local" {
+            if app.scene.detail.scope == "local" {
                 ui.label("Window");
-                let mut half = (app.detail.window / 2) as u32;
+                let mut half = (app.scene.detail.window / 2) as u32;
                 ui.add(Slider::new(&mut half, 0..=8).custom_formatter(|v, _| {
                     let w = 2 * v as usize + 1;
                     format!("{w} x {w}")
                 }));
-                app.detail.window = 2 * half as usize + 1;
+                app.scene.detail.window = 2 * half as usize + 1;
                 ui.end_row();
             }
         });
-    if app.detail != before {
-        app.detail_dirty = true;
-        app.automation.set_scene(app.scene());
+    if app.scene.detail != before {
+        app.dirty = true;
     }
 
     ui.horizontal_wrapped(|ui| {
@@ -329,7 +266,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             app.layers.mask = true;
         }
         if ui.button("Clear mask").clicked()
-            && let Ok(mask) = Mask::new(app.settings.size, app.settings.size)
+            && let Ok(mask) = Mask::new(app.scene.size, app.scene.size)
         {
             app.set_mask(&ctx, mask);
         }
@@ -355,18 +292,10 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         }
         ui.label(RichText::new("or drop a PNG on the map with the mask tool active").weak());
     });
-    if let Some(job) = &app.detail_job {
-        ui.add(ProgressBar::new(job.progress()).text(job.message()));
-    }
     if let Some(text) = &app.detail_summary {
         ui.label(text);
     }
     if let Some(text) = &app.notice {
         ui.label(RichText::new(text).weak());
     }
-}
-
-/// Takes a finished detail job's result, if any.
-pub(super) fn take(job: &Option<JobHandle<DetailResult>>) -> Option<DetailResult> {
-    job.as_ref().and_then(JobHandle::try_take)
 }

@@ -132,7 +132,7 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
                     RichText::new(format!(
                         "The map shows a {native} x {native} preview: generate the full size \
                          first (Diffusion section) to export {0} x {0}.",
-                        app.settings.size
+                        app.scene.size
                     ))
                     .weak(),
                 );
@@ -154,13 +154,20 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
 }
 
 fn export_now(app: &mut StrahlerApp) {
-    let Some(field) = app.map.field() else {
+    let Some(output) = &app.output else {
         app.set_error("Nothing to export yet: draw a river first.".into());
         return;
     };
     let d = &app.export;
-    let cell = super::MAP_WIDTH_M as f64 / field.width().saturating_sub(1).max(1) as f64;
-    let result = encode(field, cell, d.format, d.size, d.flip_y, d.z_scale).and_then(|out| {
+    let result = encode(
+        &output.field,
+        output.cell_m,
+        d.format,
+        d.size,
+        d.flip_y,
+        d.z_scale * app.scene.vertical_scale as f32,
+    )
+    .and_then(|out| {
         let name = format!("strahler-heightmap.{}", d.format.extension());
         let mut said = super::files::save(&name, d.format.mime(), &out.bytes)?;
         if let Some(json) = &out.sidecar {
@@ -171,10 +178,15 @@ fn export_now(app: &mut StrahlerApp) {
             )?;
             said.push_str(" and its .json");
         }
-        if d.layers
-            && let Some(skeleton) = &app.skeleton
-        {
-            let pngs = crate::terrain::layer_pngs(skeleton).map_err(|e| e.to_string())?;
+        if d.layers {
+            let mut pngs = crate::terrain::layer_pngs(&output.hydrology.skeleton)
+                .map_err(|e| e.to_string())?;
+            if let Some(eroded) = &output.erosion {
+                pngs.extend(
+                    crate::erosion::layer_pngs(eroded, &output.hydrology.terrain)
+                        .map_err(|e| e.to_string())?,
+                );
+            }
             for (name, png) in &pngs {
                 super::files::save(&format!("strahler-{name}"), "image/png", png)?;
             }

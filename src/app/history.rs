@@ -60,7 +60,7 @@ impl StrahlerApp {
     /// Called each frame after the commands: notes edits and commits them when the pointer
     /// is up; autosaves on the web.
     pub(super) fn track_history(&mut self, ctx: &egui::Context) {
-        if self.dirty || self.detail_dirty || self.blend.dirty {
+        if self.dirty {
             self.history.pending = true;
         }
         let pointer_down = ctx.input(|i| i.pointer.any_down());

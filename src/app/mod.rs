@@ -6,6 +6,7 @@
 mod automation;
 mod blend;
 mod detail;
+mod erosion;
 mod export;
 mod files;
 mod history;
@@ -23,27 +24,24 @@ use std::sync::Arc;
 pub use automation::{Automation, Command, JobStatus, Status};
 pub use export::encode as encode_heightmap;
 pub use map_view::{Hover, MapView, Overlay, Tool};
-pub use side_panel::FillSettings;
+pub use side_panel::SolverSettings;
 pub use view3d::{CameraRequest, View3d, View3dStatus, ViewKind};
 
 use egui::pos2;
 use glam::DVec2;
 
-use crate::compute::selftest::{RunSummary, SelfTest};
+use crate::diffusion::selftest::{RunSummary, SelfTest};
 use crate::compute::{ComputePath, CpuReason};
 use crate::diffusion::DiffusionError;
 use crate::gpu::{GpuContext, device_descriptor};
 use crate::jobs::JobHandle;
+use crate::pipeline::{Output, Pipeline, PipelineError, RunOptions};
 use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene};
-use crate::terrain::{Generated, TerrainError};
 
 /// Side of the preview terrain: with Preview on, edits of a larger map regenerate at this
 /// size and the full size is generated on demand.
 pub const PREVIEW_SIZE: usize = 512;
-
-/// Width of the map in metres (sets the cell size for shading and readouts).
-pub const MAP_WIDTH_M: f32 = 10_000.0;
 
 /// The river the first screen starts with: from the middle of the south edge, northwards.
 pub fn default_stroke() -> Stroke {
@@ -52,6 +50,14 @@ pub fn default_stroke() -> Stroke {
         toward: DVec2::new(0.5, 0.35),
         phi: 3,
         max_depth: 8,
+    }
+}
+
+/// The first screen's document: the default scene with the default river.
+pub fn default_scene() -> Scene {
+    Scene {
+        rivers: vec![RiverStroke::from(default_stroke())],
+        ..Scene::default()
     }
 }
 
@@ -72,14 +78,20 @@ pub struct StrahlerApp {
     path: ComputePath,
     automation: Automation,
     map: MapView,
-    settings: FillSettings,
-    strokes: Vec<Stroke>,
-    sketch: crate::skeleton::sketch::Sketch,
+    /// The document: everything the terrain is built from. The UI and `window.strahler`
+    /// edit it; the pipeline reads it.
+    scene: Scene,
+    /// How the diffusion stage solves and on what (run options, not part of the document).
+    settings: SolverSettings,
+    /// The pipeline's stage cache (an edit recomputes only the stages it touched).
+    pipeline: Pipeline,
     tool: Tool,
     overlay: Overlay,
-    /// Something that shapes the terrain changed: regenerate at the next frame.
+    /// Something that shapes the terrain changed: re-run the pipeline at the next frame.
     dirty: bool,
-    terrain_job: Option<JobHandle<Result<Arrived, TerrainError>>>,
+    terrain_job: Option<JobHandle<Result<Arrived, PipelineError>>>,
+    /// The last run shown on the map.
+    output: Option<Output>,
     terrain_summary: Option<String>,
     selftest_job: Option<JobHandle<Result<SelfTest, DiffusionError>>>,
     last_run: Option<(usize, RunSummary)>,
@@ -88,9 +100,7 @@ pub struct StrahlerApp {
     /// A passing message (a file saved, a mask imported).
     notice: Option<String>,
     hover: Option<Hover>,
-    /// Wavelet levels of detail settings (the scene's `detail`, without the mask bytes).
-    detail: crate::scene::DetailSettings,
-    /// The energy-reduction mask, at the terrain's size.
+    /// The energy-reduction mask, decoded, at the scene's size (the scene keeps it as PNG).
     mask: crate::wavelet::Mask,
     brush: crate::wavelet::Brush,
     /// Which map layers are drawn.
@@ -100,22 +110,15 @@ pub struct StrahlerApp {
     preview: bool,
     /// The next generation runs at the full size even with Preview on.
     full_size_requested: bool,
-    /// The last generated skeleton (for the layer images of the export dialog).
-    skeleton: Option<crate::skeleton::Skeleton>,
     /// The vector item the Select tool picked, and whether it is being dragged.
     selected: Option<select::Item>,
     moving: bool,
-    /// The generated terrain before detail, and its rivers (for the mask from rivers).
-    base: Option<crate::heightfield::Heightfield>,
-    rivers: Vec<crate::river::GrownRiver>,
-    detail_job: Option<JobHandle<detail::DetailResult>>,
-    /// Drawing the final terrain's relief and contours for the map.
-    picture_job: Option<picture::PictureJob>,
-    /// A picture the terrain job drew, while its terrain is passed on to be shown.
-    ready_picture: Option<picture::Picture>,
-    /// The detail settings or the mask changed: re-run the detail stage at the next frame.
-    detail_dirty: bool,
     detail_summary: Option<String>,
+    /// The Erosion section's before/after toggle, and the pictures it switches between
+    /// (after erosion, before it).
+    show_before_erosion: bool,
+    pictures: Option<(picture::Picture, Option<picture::Picture>)>,
+    showing_before: bool,
     /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
     mask_overlay_stale: bool,
     /// A dropped file being read (the browser reads files asynchronously).
@@ -136,7 +139,7 @@ impl StrahlerApp {
     pub fn new(cc: &eframe::CreationContext<'_>, automation: Automation) -> Self {
         let (path, adapter, caps) = match &cc.wgpu_render_state {
             Some(state) => {
-                let gpu = GpuContext::from_render_state(state);
+                let gpu = GpuContext::from_device(&state.adapter, &state.device, &state.queue);
                 let (adapter, caps) = (gpu.adapter.clone(), gpu.caps.clone());
                 (ComputePath::from_context(gpu), Some(adapter), Some(caps))
             }
@@ -156,13 +159,14 @@ impl StrahlerApp {
             path,
             automation,
             map: MapView::default(),
-            settings: FillSettings::default(),
-            strokes: vec![default_stroke()],
-            sketch: Default::default(),
+            scene: default_scene(),
+            settings: SolverSettings::default(),
+            pipeline: Pipeline::new(),
             tool: Tool::default(),
             overlay: Overlay::default(),
             dirty: false,
             terrain_job: None,
+            output: None,
             terrain_summary: None,
             selftest_job: None,
             last_run: None,
@@ -170,22 +174,17 @@ impl StrahlerApp {
             error: None,
             notice: None,
             hover: None,
-            detail: Default::default(),
             mask: crate::wavelet::Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
             brush: Default::default(),
             layers: Default::default(),
             preview: true,
             full_size_requested: false,
-            skeleton: None,
             selected: None,
             moving: false,
-            base: None,
-            rivers: Vec::new(),
-            detail_job: None,
-            picture_job: None,
-            ready_picture: None,
-            detail_dirty: false,
             detail_summary: None,
+            show_before_erosion: false,
+            pictures: None,
+            showing_before: false,
             mask_overlay_stale: false,
             import_job: None,
             blend: Default::default(),
@@ -205,7 +204,7 @@ impl StrahlerApp {
             }
             None => {}
         }
-        app.fit_mask(app.settings.size);
+        app.fit_mask(app.scene.size);
         let first = app.scene();
         app.history.start(first);
         app.start_generate(&cc.egui_ctx);
@@ -225,68 +224,42 @@ impl StrahlerApp {
         self.map.field()
     }
 
-    /// The diffusion controls.
-    pub fn settings(&self) -> &FillSettings {
+    /// The diffusion solver and backend.
+    pub fn settings(&self) -> &SolverSettings {
         &self.settings
     }
 
-    /// The diffusion controls (tests and automation change them like the user would).
-    pub fn settings_mut(&mut self) -> &mut FillSettings {
+    /// The diffusion solver and backend (tests and automation change them like the user
+    /// would); a change re-runs the pipeline.
+    pub fn settings_mut(&mut self) -> &mut SolverSettings {
+        self.dirty = true;
         &mut self.settings
     }
 
     /// The user's river strokes.
-    pub fn strokes(&self) -> &[Stroke] {
-        &self.strokes
+    pub fn strokes(&self) -> Vec<Stroke> {
+        self.scene.strokes()
     }
 
-    /// The document: strokes and settings as a [`Scene`].
+    /// The document, as saved and autosaved.
     pub fn scene(&self) -> Scene {
-        let s = &self.settings;
-        let mut scene = Scene {
-            size: s.size,
-            cell_size: f64::from(MAP_WIDTH_M) / s.size as f64,
-            seed: s.seed,
-            rivers: self
-                .strokes
-                .iter()
-                .copied()
-                .map(RiverStroke::from)
-                .collect(),
-            sketch: crate::scene::SketchSettings::from_sketch(&self.sketch),
-            detail: self.detail.clone(),
-            blend: self.blend.blocks.clone(),
-            ..Default::default()
-        };
-        scene.detail.set_mask(Some(&self.mask));
-        scene.params.theta = s.theta;
-        scene.params.river_slope = s.slope;
-        scene.params.alpha = s.alpha;
-        scene.params.noise.amplitude = s.noise;
-        scene.params.enrich.passes = s.passes;
-        scene.params.enrich.distance_limit = s.distance_limit;
-        scene.params.post = s.post;
-        scene
+        self.scene.clone()
+    }
+
+    /// The document, to edit it like the user would (a change re-runs the pipeline).
+    pub fn scene_mut(&mut self) -> &mut Scene {
+        self.dirty = true;
+        &mut self.scene
+    }
+
+    /// The last finished run on the map (its stages, layers and report).
+    pub fn output(&self) -> Option<&Output> {
+        self.output.as_ref()
     }
 
     /// Replaces the document (a validated scene) and regenerates.
     pub fn load_scene(&mut self, scene: &Scene) {
-        let s = &mut self.settings;
-        s.size = scene.size;
-        s.seed = scene.seed;
-        s.theta = scene.params.theta;
-        s.slope = scene.params.river_slope;
-        s.alpha = scene.params.alpha;
-        s.noise = scene.params.noise.amplitude;
-        s.passes = scene.params.enrich.passes;
-        s.distance_limit = scene.params.enrich.distance_limit;
-        s.post = scene.params.post;
-        self.strokes = scene.strokes();
-        self.sketch = scene.sketch.to_sketch();
-        self.detail = crate::scene::DetailSettings {
-            mask_png: None,
-            ..scene.detail.clone()
-        };
+        self.scene = scene.clone();
         match scene.detail.mask() {
             Ok(Some(mask)) => self.mask = mask,
             Ok(None) => {
@@ -298,7 +271,6 @@ impl StrahlerApp {
         }
         self.fit_mask(scene.size);
         self.mask_overlay_stale = true;
-        self.blend.blocks = scene.blend.clone();
         self.blend.selected = None;
         self.dirty = true;
     }
@@ -319,13 +291,13 @@ impl StrahlerApp {
     }
 
     /// The sketched ridges, valleys and peaks.
-    pub fn sketch(&self) -> &crate::skeleton::sketch::Sketch {
-        &self.sketch
+    pub fn sketch(&self) -> &crate::scene::SketchSettings {
+        &self.scene.sketch
     }
 
     /// Adds a river stroke (map units, estuary first) and regenerates.
     pub fn add_stroke(&mut self, stroke: Stroke) {
-        self.strokes.push(stroke);
+        self.scene.rivers.push(RiverStroke::from(stroke));
         self.dirty = true;
     }
 
@@ -366,20 +338,17 @@ impl StrahlerApp {
     pub fn busy(&self) -> bool {
         self.terrain_job.is_some()
             || self.selftest_job.is_some()
-            || self.detail_job.is_some()
-            || self.blend.job.is_some()
             || self.blend.fill_job.is_some()
-            || self.picture_job.is_some()
             || self.dirty
-            || self.detail_dirty
-            || self.blend.dirty
     }
 
-    /// Generates the terrain from the strokes and settings, cancelling a running job (a newer
-    /// edit always wins).
+    /// Runs the pipeline on the scene, cancelling a running job (a newer edit always wins).
+    /// The job works on a copy of the stage cache (the outputs are shared, not copied) and
+    /// hands the updated cache back with its result.
     pub fn start_generate(&mut self, ctx: &egui::Context) {
         self.dirty = false;
-        if self.strokes.is_empty() {
+        self.automation.set_scene(self.scene());
+        if self.scene.rivers.is_empty() {
             self.terrain_job = None;
             self.set_error(
                 "Draw a river to make terrain: choose Draw river and drag on the map.".into(),
@@ -389,21 +358,21 @@ impl StrahlerApp {
         let Some(backend) = self.backend() else {
             return;
         };
-        self.automation.set_scene(self.scene());
-        let strokes = self.strokes.clone();
-        let mut params = self.settings.terrain();
-        params.sketch = self.sketch.clone();
+        let scene = self.scene.clone();
+        let mut options = RunOptions {
+            size: scene.size,
+            solver: self.settings.method(),
+        };
         if self.preview && !std::mem::take(&mut self.full_size_requested) {
-            params.size = params.size.min(PREVIEW_SIZE);
+            options.size = options.size.min(PREVIEW_SIZE);
         }
-        // Without detail levels and blocks the terrain is the final one: the job draws it too.
-        let is_final = self.detail.levels == 0 && self.blend.blocks.is_empty();
+        let mut pipeline = self.pipeline.clone();
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "terrain",
             move |job| async move {
-                let generated = crate::terrain::generate(&strokes, &params, &backend, &job).await?;
-                Arrived::prepare(generated, is_final, &job).await
+                let output = pipeline.run(&scene, &options, &backend, &job).await?;
+                Ok(Arrived::prepare(pipeline, output, &job).await?)
             },
             move || repaint.request_repaint(),
         );
@@ -422,9 +391,9 @@ impl StrahlerApp {
 
     /// Whether the map shows a preview smaller than the chosen grid size.
     pub fn showing_preview(&self) -> bool {
-        self.base
+        self.output
             .as_ref()
-            .is_some_and(|b| b.width() < self.settings.size)
+            .is_some_and(|o| o.hydrology.terrain.width() < self.scene.size)
     }
 
     /// Runs the CPU/GPU self-test in the background.
@@ -433,7 +402,7 @@ impl StrahlerApp {
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "self-test",
-            move |job| async move { crate::compute::selftest::run(&path, &job).await },
+            move |job| async move { crate::diffusion::selftest::run(&path, &job).await },
             move || repaint.request_repaint(),
         );
         match spawned {
@@ -461,16 +430,20 @@ impl StrahlerApp {
         self.error = Some(message);
     }
 
-    /// Puts a generated terrain on the map with its overlay and publishes its summary.
-    fn show_terrain(&mut self, ctx: &egui::Context, arrived: Arrived) {
+    /// Puts a finished run on the map with its overlays and publishes its summaries.
+    fn show_output(&mut self, ctx: &egui::Context, arrived: Arrived) {
         let Arrived {
-            generated: g,
+            pipeline,
+            output,
             constraints,
             summary,
             picture,
+            before,
         } = arrived;
+        self.pipeline = pipeline;
+        let g = &output.hydrology;
         let size = g.terrain.width();
-        let r = &g.report;
+        let r = &output.report.terrain;
         self.terrain_summary = Some(format!(
             "{} river nodes, Strahler order {}, {} ridges; {:.1}% of river cells drain along \
              the river, {} pits",
@@ -505,26 +478,34 @@ impl StrahlerApp {
             .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
             .collect();
         self.map.set_constraints(ctx, constraints);
-        self.skeleton = Some(g.skeleton);
-        self.rivers = g.rivers;
-        self.base = Some(g.terrain);
-        // The mask stays at the full size, whatever size this run had (it is resampled for
-        // the detail stage), so a preview never blurs what the user painted.
-        self.fit_mask(self.settings.size);
+        // The mask stays at the full size, whatever size this run had (the detail stage
+        // resamples it), so a preview never blurs what the user painted.
+        self.fit_mask(self.scene.size);
         self.map.set_mask(ctx, Some(&self.mask));
-        // Used by `show_final` if the terrain goes straight to the map (no detail job).
-        self.ready_picture = picture;
-        self.start_detail(ctx);
-        self.ready_picture = None;
+        self.show_detail_status(&output);
+        self.show_blend_status(&output);
+        self.automation
+            .set_terrain(output.field.clone(), output.cell_m);
+        self.showing_before = self.show_before_erosion && before.is_some();
+        let shown = if self.showing_before {
+            before.clone()
+        } else {
+            None
+        };
+        self.show_picture(ctx, shown.unwrap_or_else(|| picture.clone()));
+        self.pictures = Some((picture, before));
         self.automation
             .update(|s| s.last_run = Some(summary.clone()));
         self.last_run = Some((size, summary));
+        self.output = Some(output);
         self.error = None;
     }
 
     /// Takes finished results and publishes job progress. Called once per frame.
     fn poll_jobs(&mut self, ctx: &egui::Context) {
-        for command in self.automation.take_commands() {
+        let (commands, applied) = self.automation.take_commands();
+        let scripted = !commands.is_empty();
+        for command in commands {
             match command {
                 Command::AddRiver(stroke) => self.add_stroke(stroke),
                 Command::LoadScene(scene) => self.load_scene(&scene),
@@ -551,7 +532,7 @@ impl StrahlerApp {
                     self.set_view(ViewKind::ThreeD);
                     self.view3d.request_camera(request);
                 }
-                Command::MoveBlock { index, rect } => match self.blend.blocks.get_mut(index) {
+                Command::MoveBlock { index, rect } => match self.scene.blend.get_mut(index) {
                     Some(block) => {
                         block.rect = rect;
                         if let Err((field, problem)) = block.validate() {
@@ -564,6 +545,11 @@ impl StrahlerApp {
                 },
             }
         }
+        if scripted {
+            // Scripts see their edits in `scene()` once their promise resolves.
+            self.automation.set_scene(self.scene());
+        }
+        self.automation.mark_applied(applied);
         self.track_history(ctx);
         if self.dirty {
             self.start_generate(ctx);
@@ -571,18 +557,14 @@ impl StrahlerApp {
         if let Some(result) = self.terrain_job.as_ref().and_then(JobHandle::try_take) {
             self.terrain_job = None;
             match result {
-                Ok(generated) => self.show_terrain(ctx, generated),
-                Err(TerrainError::Cancelled(_))
-                | Err(TerrainError::Diffusion(DiffusionError::Cancelled(_))) => {}
+                Ok(arrived) => self.show_output(ctx, arrived),
+                Err(err) if err.is_cancelled() => {}
                 Err(err) => self.set_error(format!("Terrain failed: {err}")),
             }
         }
         if self.mask_overlay_stale {
             self.mask_overlay_stale = false;
             self.map.set_mask(ctx, Some(&self.mask));
-        }
-        if self.detail_dirty && self.terrain_job.is_none() && !self.dirty {
-            self.start_detail(ctx);
         }
         if let Some((name, target, bytes)) = self.import_job.as_ref().and_then(JobHandle::try_take)
         {
@@ -598,29 +580,6 @@ impl StrahlerApp {
                 Err(err) => self.set_error(format!("{name}: {err}")),
             }
         }
-        if let Some(result) = detail::take(&self.detail_job) {
-            self.detail_job = None;
-            self.show_detail(ctx, result);
-        }
-        if self.blend.dirty
-            && self.terrain_job.is_none()
-            && self.detail_job.is_none()
-            && !self.dirty
-            && !self.detail_dirty
-        {
-            self.start_blend(ctx);
-        }
-        if let Some(result) = self.blend.job.as_ref().and_then(JobHandle::try_take) {
-            self.blend.job = None;
-            self.show_blend(ctx, result);
-        }
-        if let Some(result) = self.picture_job.as_ref().and_then(JobHandle::try_take) {
-            self.picture_job = None;
-            // A cancelled picture was replaced by a newer one.
-            if let Ok(picture) = result {
-                self.show_picture(ctx, picture);
-            }
-        }
         self.take_filled_dem(ctx);
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
@@ -628,10 +587,7 @@ impl StrahlerApp {
         }
         // The first running job, in pipeline order, is the one scripts see.
         let job = job_status(&self.terrain_job)
-            .or_else(|| job_status(&self.detail_job))
-            .or_else(|| job_status(&self.blend.job))
             .or_else(|| job_status(&self.blend.fill_job))
-            .or_else(|| job_status(&self.picture_job))
             .or_else(|| job_status(&self.selftest_job));
         self.automation.update(|s| s.job = job);
         if self.busy() {
@@ -659,6 +615,21 @@ fn job_status<T>(job: &Option<JobHandle<T>>) -> Option<JobStatus> {
 }
 
 impl StrahlerApp {
+    /// Shows the terrain before or after erosion, as the Erosion section's toggle asks.
+    fn switch_before_after(&mut self, ctx: &egui::Context) {
+        let want = self.show_before_erosion && self.scene.erosion.is_some();
+        if want == self.showing_before {
+            return;
+        }
+        let picture = match &self.pictures {
+            Some((_, Some(before))) if want => before.clone(),
+            Some((after, _)) if !want => after.clone(),
+            _ => return,
+        };
+        self.showing_before = want;
+        self.show_picture(ctx, picture);
+    }
+
     /// The bar above the central area that switches between the map and the 3D view.
     fn view_switch(&mut self, ui: &mut egui::Ui) {
         egui::Panel::top("views").show(ui, |ui| {
@@ -674,39 +645,49 @@ impl StrahlerApp {
     }
 }
 
-/// A generated terrain with what the UI shows of it besides the map picture, prepared in the
-/// terrain job (O(cells), so not on the UI thread).
+/// A finished run with what the UI shows of it, prepared in the job (O(cells), so not on
+/// the UI thread), and the updated stage cache.
 struct Arrived {
-    generated: Generated,
+    pipeline: Pipeline,
+    output: Output,
     /// The skeleton's cells as an overlay image.
     constraints: egui::ColorImage,
     summary: RunSummary,
-    /// The map's picture of the terrain, when it is the final one.
-    picture: Option<picture::Picture>,
+    /// The map's picture of the final terrain.
+    picture: picture::Picture,
+    /// With erosion: the picture of the terrain before it.
+    before: Option<picture::Picture>,
 }
 
 impl Arrived {
     async fn prepare(
-        generated: Generated,
-        is_final: bool,
+        pipeline: Pipeline,
+        output: Output,
         job: &crate::jobs::JobCtx,
-    ) -> Result<Self, TerrainError> {
+    ) -> Result<Self, PipelineError> {
         job.tick(1.0, "preparing the map").await?;
-        let (w, h) = (generated.terrain.width(), generated.terrain.height());
-        let constraints = layers::constraints_image(&generated.skeleton.kinds, w, h);
+        let g = &output.hydrology;
+        let (w, h) = (g.terrain.width(), g.terrain.height());
+        let constraints = layers::constraints_image(&g.skeleton.kinds, w, h);
         job.tick(1.0, "preparing the map").await?;
-        let summary = RunSummary::of_terrain(&generated);
-        let picture = if is_final {
-            let field = std::sync::Arc::new(generated.terrain.clone());
-            Some(picture::draw(field, picture::cell_size(w), job).await?)
-        } else {
-            None
+        let summary = crate::terrain::run_summary(g);
+        let picture = picture::draw(output.field.clone(), output.cell_m as f32, job).await?;
+        let before = match &output.erosion {
+            Some(_) => {
+                let cell = output.cell_m * output.field.width() as f64
+                    / output.hydrology.terrain.width() as f64;
+                let field = output.hydrology.terrain.clone();
+                Some(picture::draw(field, cell as f32, job).await?)
+            }
+            None => None,
         };
         Ok(Self {
-            generated,
+            pipeline,
+            output,
             constraints,
             summary,
             picture,
+            before,
         })
     }
 }
@@ -790,6 +771,7 @@ impl eframe::App for StrahlerApp {
         }
         status_bar::show(ui, self);
         side_panel::show(ui, self);
+        self.switch_before_after(&ctx);
         self.view_switch(ui);
         export::window(&ctx, self);
         if self.view == ViewKind::ThreeD {
@@ -798,11 +780,12 @@ impl eframe::App for StrahlerApp {
             });
             egui::CentralPanel::no_frame().show(ui, |ui| {
                 let field = self.map.field().map(|f| (f, self.map.version()));
-                let rivers = self
-                    .skeleton
-                    .as_ref()
-                    .map(|s| (s.river_order.as_slice(), s.size));
-                self.view3d.show(ui, frame, field, rivers);
+                let rivers = self.output.as_ref().map(|o| {
+                    let s = &o.hydrology.skeleton;
+                    (s.river_order.as_slice(), s.size)
+                });
+                let cell = self.output.as_ref().map_or(1.0, |o| o.cell_m as f32);
+                self.view3d.show(ui, frame, field, rivers, cell);
             });
             let status = self.view3d.status();
             self.automation.update(|s| s.view3d = status);
@@ -823,8 +806,8 @@ impl eframe::App for StrahlerApp {
             Vec::new()
         };
         self.overlay.blocks = self
+            .scene
             .blend
-            .blocks
             .iter()
             .enumerate()
             .map(|(i, b)| {
@@ -838,18 +821,14 @@ impl eframe::App for StrahlerApp {
         for file in ctx.input(|i| i.raw.dropped_files.clone()) {
             self.start_import(&ctx, file);
         }
+        let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
         self.overlay.strokes = self
-            .strokes
+            .scene
+            .rivers
             .iter()
-            .map(|s| {
-                (
-                    pos2(s.estuary.x as f32, s.estuary.y as f32),
-                    pos2(s.toward.x as f32, s.toward.y as f32),
-                )
-            })
+            .map(|s| (p(&s.estuary), p(&s.toward)))
             .collect();
-        let p = |v: &DVec2| pos2(v.x as f32, v.y as f32);
-        let segments = |lines: &[crate::skeleton::sketch::SketchLine]| {
+        let segments = |lines: &[crate::scene::SketchLine]| {
             lines
                 .iter()
                 .flat_map(|l| {
@@ -860,9 +839,9 @@ impl eframe::App for StrahlerApp {
                 })
                 .collect::<Vec<_>>()
         };
-        self.overlay.sketch_ridges = segments(&self.sketch.ridges);
-        self.overlay.sketch_valleys = segments(&self.sketch.valleys);
-        self.overlay.peaks = self.sketch.peaks.iter().map(|k| p(&k.at)).collect();
+        self.overlay.sketch_ridges = segments(&self.scene.sketch.ridges);
+        self.overlay.sketch_valleys = segments(&self.scene.sketch.valleys);
+        self.overlay.peaks = self.scene.sketch.peaks.iter().map(|k| p(&k.at)).collect();
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let response = self.map.show(ui, self.tool, &self.overlay);
             self.hover = response.hover;
@@ -882,30 +861,34 @@ impl eframe::App for StrahlerApp {
             if let Some(at) = response.select_click {
                 self.select_at(at, response.pick_tolerance);
             }
-            let d = |q: egui::Pos2| DVec2::new(f64::from(q.x), f64::from(q.y));
+            let d = |q: egui::Pos2| [f64::from(q.x), f64::from(q.y)];
             if let Some((a, b)) = response.new_stroke {
-                use crate::skeleton::sketch::SketchLine;
+                use crate::scene::SketchLine;
                 let line = SketchLine {
                     points: vec![d(a), d(b)],
                     height: None,
                 };
                 match self.tool {
-                    Tool::Ridge => self.sketch.ridges.push(line),
-                    Tool::Valley => self.sketch.valleys.push(line),
+                    Tool::Ridge => self.scene.sketch.ridges.push(line),
+                    Tool::Valley => self.scene.sketch.valleys.push(line),
                     _ => {
-                        let last = self.strokes.last().copied().unwrap_or_else(default_stroke);
-                        self.strokes.push(Stroke {
+                        let last = self
+                            .scene
+                            .rivers
+                            .last()
+                            .copied()
+                            .unwrap_or_else(|| default_stroke().into());
+                        self.scene.rivers.push(RiverStroke {
                             estuary: d(a),
                             toward: d(b),
-                            phi: last.phi,
-                            max_depth: last.max_depth,
+                            ..last
                         });
                     }
                 }
                 self.dirty = true;
             }
             if let Some(at) = response.clicked {
-                self.sketch.peaks.push(crate::skeleton::sketch::SketchPeak {
+                self.scene.sketch.peaks.push(crate::scene::SketchPeak {
                     at: d(at),
                     height: None,
                 });

@@ -10,31 +10,15 @@ use egui::{ColorImage, Pos2};
 use super::layers;
 use super::relief::shaded_relief_stepped;
 use crate::heightfield::Heightfield;
-use crate::jobs::{Cancelled, JobCtx, JobHandle, SpawnError};
+use crate::jobs::{Cancelled, JobCtx};
 
 /// A terrain with what the map draws of it.
+#[derive(Clone)]
 pub struct Picture {
     pub field: Arc<Heightfield>,
     pub relief: ColorImage,
     /// Contour segments (map units), every "nice" interval for the height range.
     pub contours: Vec<(Pos2, Pos2)>,
-}
-
-pub type PictureJob = JobHandle<Result<Picture, Cancelled>>;
-
-/// Draws `field` (cells `cell_size` metres apart) in the background; `ctx` repaints when the
-/// picture is ready.
-pub fn spawn(
-    ctx: &egui::Context,
-    field: Arc<Heightfield>,
-    cell_size: f32,
-) -> Result<PictureJob, SpawnError> {
-    let repaint = ctx.clone();
-    crate::jobs::spawn(
-        "map picture",
-        move |job| async move { draw(field, cell_size, &job).await },
-        move || repaint.request_repaint(),
-    )
 }
 
 /// Draws `field` within a job (yielding between bands of rows).
@@ -52,24 +36,10 @@ pub async fn draw(
     })
 }
 
-/// Metres between cells of a `width`-cell terrain as the map draws it.
-pub fn cell_size(width: usize) -> f32 {
-    super::MAP_WIDTH_M / width.max(1) as f32
-}
-
 /// Contour lines of `field` at a "nice" interval for its height range.
 fn contours(field: &Heightfield) -> Vec<(Pos2, Pos2)> {
     match field.finite_range() {
         Some((lo, hi)) => layers::contours(field, layers::contour_interval(hi - lo)),
         None => Vec::new(),
-    }
-}
-
-/// The same picture drawn at once, for when no job can be started.
-pub fn draw_now(field: Arc<Heightfield>, cell_size: f32) -> Picture {
-    Picture {
-        relief: super::relief::shaded_relief(&field, cell_size),
-        contours: contours(&field),
-        field,
     }
 }

@@ -54,45 +54,47 @@ impl StrahlerApp {
                 best = Some((d, item));
             }
         };
-        for (i, peak) in self.sketch.peaks.iter().enumerate() {
+        let sketch = &self.scene.sketch;
+        let v = |a: &[f64; 2]| DVec2::from(*a);
+        let line = |points: &[[f64; 2]]| points.iter().map(v).collect::<Vec<_>>();
+        for (i, peak) in sketch.peaks.iter().enumerate() {
             // Peaks are small targets: they win ties with the lines under them.
-            consider(p.distance(peak.at) * 0.5, Item::Peak(i));
+            consider(p.distance(v(&peak.at)) * 0.5, Item::Peak(i));
         }
-        for (i, s) in self.strokes.iter().enumerate() {
-            consider(to_segment(p, s.estuary, s.toward), Item::River(i));
+        for (i, s) in self.scene.rivers.iter().enumerate() {
+            consider(to_segment(p, v(&s.estuary), v(&s.toward)), Item::River(i));
         }
-        for (i, l) in self.sketch.ridges.iter().enumerate() {
-            consider(to_polyline(p, &l.points), Item::Ridge(i));
+        for (i, l) in sketch.ridges.iter().enumerate() {
+            consider(to_polyline(p, &line(&l.points)), Item::Ridge(i));
         }
-        for (i, l) in self.sketch.valleys.iter().enumerate() {
-            consider(to_polyline(p, &l.points), Item::Valley(i));
+        for (i, l) in sketch.valleys.iter().enumerate() {
+            consider(to_polyline(p, &line(&l.points)), Item::Valley(i));
         }
         best.map(|(_, item)| item)
     }
 
     /// The selected item's points (map units), for the highlight.
     pub(super) fn selected_points(&self) -> Vec<Pos2> {
-        let p = |v: &DVec2| pos2(v.x as f32, v.y as f32);
+        let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
+        let sketch = &self.scene.sketch;
         match self.selected {
             Some(Item::River(i)) => self
-                .strokes
+                .scene
+                .rivers
                 .get(i)
                 .map(|s| vec![p(&s.estuary), p(&s.toward)])
                 .unwrap_or_default(),
-            Some(Item::Ridge(i)) => self
-                .sketch
+            Some(Item::Ridge(i)) => sketch
                 .ridges
                 .get(i)
                 .map(|l| l.points.iter().map(p).collect())
                 .unwrap_or_default(),
-            Some(Item::Valley(i)) => self
-                .sketch
+            Some(Item::Valley(i)) => sketch
                 .valleys
                 .get(i)
                 .map(|l| l.points.iter().map(p).collect())
                 .unwrap_or_default(),
-            Some(Item::Peak(i)) => self
-                .sketch
+            Some(Item::Peak(i)) => sketch
                 .peaks
                 .get(i)
                 .map(|k| vec![p(&k.at)])
@@ -123,26 +125,25 @@ impl StrahlerApp {
 
     /// Shifts every point of `item` by `delta`, kept inside the map.
     fn move_item(&mut self, item: Item, delta: Vec2) {
-        let points: Vec<&mut DVec2> = match item {
+        let sketch = &mut self.scene.sketch;
+        let points: Vec<&mut [f64; 2]> = match item {
             Item::River(i) => self
-                .strokes
+                .scene
+                .rivers
                 .get_mut(i)
                 .map(|s| vec![&mut s.estuary, &mut s.toward])
                 .unwrap_or_default(),
-            Item::Ridge(i) => self
-                .sketch
+            Item::Ridge(i) => sketch
                 .ridges
                 .get_mut(i)
                 .map(|l| l.points.iter_mut().collect())
                 .unwrap_or_default(),
-            Item::Valley(i) => self
-                .sketch
+            Item::Valley(i) => sketch
                 .valleys
                 .get_mut(i)
                 .map(|l| l.points.iter_mut().collect())
                 .unwrap_or_default(),
-            Item::Peak(i) => self
-                .sketch
+            Item::Peak(i) => sketch
                 .peaks
                 .get_mut(i)
                 .map(|k| vec![&mut k.at])
@@ -154,11 +155,12 @@ impl StrahlerApp {
         // The largest shift that keeps every point in [0, 1]^2.
         let (mut dx, mut dy) = (f64::from(delta.x), f64::from(delta.y));
         for p in &points {
-            dx = dx.clamp(-p.x, 1.0 - p.x);
-            dy = dy.clamp(-p.y, 1.0 - p.y);
+            dx = dx.clamp(-p[0], 1.0 - p[0]);
+            dy = dy.clamp(-p[1], 1.0 - p[1]);
         }
         for p in points {
-            *p += DVec2::new(dx, dy);
+            p[0] += dx;
+            p[1] += dy;
         }
     }
 
@@ -168,20 +170,20 @@ impl StrahlerApp {
             return;
         };
         let removed = match item {
-            Item::River(i) if i < self.strokes.len() => {
-                self.strokes.remove(i);
+            Item::River(i) if i < self.scene.rivers.len() => {
+                self.scene.rivers.remove(i);
                 true
             }
-            Item::Ridge(i) if i < self.sketch.ridges.len() => {
-                self.sketch.ridges.remove(i);
+            Item::Ridge(i) if i < self.scene.sketch.ridges.len() => {
+                self.scene.sketch.ridges.remove(i);
                 true
             }
-            Item::Valley(i) if i < self.sketch.valleys.len() => {
-                self.sketch.valleys.remove(i);
+            Item::Valley(i) if i < self.scene.sketch.valleys.len() => {
+                self.scene.sketch.valleys.remove(i);
                 true
             }
-            Item::Peak(i) if i < self.sketch.peaks.len() => {
-                self.sketch.peaks.remove(i);
+            Item::Peak(i) if i < self.scene.sketch.peaks.len() => {
+                self.scene.sketch.peaks.remove(i);
                 true
             }
             _ => false,

@@ -7,27 +7,13 @@ use super::StrahlerApp;
 use super::map_view::Tool;
 use crate::compute::BackendChoice;
 use crate::diffusion::{Method, MultigridParams};
-use crate::terrain::TerrainParams;
 
 /// Grid sizes offered (square, cells per side).
 pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
 
-/// The terrain controls' values.
+/// How the diffusion stage solves and on what: run options, not part of the scene.
 #[derive(Clone, Debug, PartialEq)]
-pub struct FillSettings {
-    pub size: usize,
-    pub seed: u64,
-    /// theta of Sec. IV-A in degrees.
-    pub theta: f64,
-    /// River slope (m per m of channel).
-    pub slope: f64,
-    /// alpha of eq. 4.
-    pub alpha: f64,
-    /// Amplitude of the fractal noise of eq. 5 (m).
-    pub noise: f64,
-    /// MD/MDI passes and distance limit L (cells), Sec. V-B.
-    pub passes: u32,
-    pub distance_limit: u32,
+pub struct SolverSettings {
     /// Multigrid (converged) or the paper's fixed count of Jacobi sweeps.
     pub multigrid: bool,
     /// Residual tolerance of multigrid, as a fraction of the height range.
@@ -35,32 +21,20 @@ pub struct FillSettings {
     /// Sweeps of the Jacobi method.
     pub sweeps: u32,
     pub backend: BackendChoice,
-    /// Post-filters of the filled terrain.
-    pub post: crate::diffusion::PostFilter,
 }
 
-impl Default for FillSettings {
+impl Default for SolverSettings {
     fn default() -> Self {
-        let terrain = TerrainParams::default();
         Self {
-            size: 512,
-            seed: 1,
-            theta: terrain.rivers.theta_deg,
-            slope: terrain.rivers.slope,
-            alpha: terrain.ridges.alpha,
-            noise: terrain.noise.amplitude,
-            passes: terrain.enrich.passes,
-            distance_limit: terrain.enrich.distance_limit,
             multigrid: true,
             tolerance: MultigridParams::default().tolerance,
             sweeps: 5500,
             backend: BackendChoice::Auto,
-            post: Default::default(),
         }
     }
 }
 
-impl FillSettings {
+impl SolverSettings {
     pub fn method(&self) -> Method {
         if self.multigrid {
             Method::Multigrid(MultigridParams {
@@ -72,24 +46,6 @@ impl FillSettings {
                 sweeps: self.sweeps,
             }
         }
-    }
-
-    /// The pipeline parameters these settings stand for.
-    pub fn terrain(&self) -> TerrainParams {
-        let mut p = TerrainParams {
-            size: self.size,
-            seed: self.seed,
-            solver: self.method(),
-            ..Default::default()
-        };
-        p.rivers.theta_deg = self.theta;
-        p.rivers.slope = self.slope;
-        p.ridges.alpha = self.alpha;
-        p.noise.amplitude = self.noise;
-        p.enrich.passes = self.passes;
-        p.enrich.distance_limit = self.distance_limit;
-        p.post = self.post;
-        p
     }
 }
 
@@ -105,13 +61,24 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 document_row(ui, app);
                 super::layers::section(ui, &mut app.layers);
                 ui.separator();
-                let before = app.settings.clone();
+                // What these sections edit (not the mask or the blocks, which are large).
+                let shaping = |app: &StrahlerApp| {
+                    let s = &app.scene;
+                    (
+                        (s.size, s.cell_size, s.seed),
+                        (s.params, s.rivers.clone(), s.sketch.clone()),
+                        (s.erosion.clone(), app.settings.clone()),
+                    )
+                };
+                let before = shaping(app);
                 rivers_section(ui, app);
                 ui.separator();
                 terrain_section(ui, app);
                 ui.separator();
                 diffusion_section(ui, app);
-                if app.settings != before {
+                ui.separator();
+                super::erosion::section(ui, app);
+                if shaping(app) != before {
                     app.dirty = true;
                 }
                 ui.separator();
@@ -200,7 +167,7 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     });
     let mut remove = None;
     let mut changed = false;
-    for (i, stroke) in app.strokes.iter_mut().enumerate() {
+    for (i, stroke) in app.scene.rivers.iter_mut().enumerate() {
         ui.horizontal(|ui| {
             ui.label(format!("#{}", i + 1));
             let label = ui.label("φ").on_hover_text(
@@ -214,7 +181,7 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 .label("depth")
                 .on_hover_text("MaxDepth of eq. 3 (1 to 16).");
             changed |= ui
-                .add(DragValue::new(&mut stroke.max_depth).range(1..=16))
+                .add(DragValue::new(&mut stroke.depth).range(1..=16))
                 .labelled_by(label.id)
                 .changed();
             if ui
@@ -227,19 +194,19 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         });
     }
     if let Some(i) = remove {
-        app.strokes.remove(i);
+        app.scene.rivers.remove(i);
         changed = true;
     }
-    if app.strokes.is_empty() {
+    if app.scene.rivers.is_empty() {
         ui.label(RichText::new("No river yet: choose Draw river and drag on the map.").weak());
     } else if ui.button("Delete all rivers").clicked() {
-        app.strokes.clear();
+        app.scene.rivers.clear();
         changed = true;
     }
     let counts = (
-        app.sketch.ridges.len(),
-        app.sketch.valleys.len(),
-        app.sketch.peaks.len(),
+        app.scene.sketch.ridges.len(),
+        app.scene.sketch.valleys.len(),
+        app.scene.sketch.peaks.len(),
     );
     if counts != (0, 0, 0) {
         ui.horizontal(|ui| {
@@ -248,7 +215,7 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 counts.0, counts.1, counts.2
             ));
             if ui.button("Delete sketch").clicked() {
-                app.sketch = Default::default();
+                app.scene.sketch = Default::default();
                 changed = true;
             }
         });
@@ -260,20 +227,40 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 
 fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.label(RichText::new("Terrain").strong());
-    let s = &mut app.settings;
+    let scene = &mut app.scene;
+    let width = scene.map_width();
     egui::Grid::new("terrain settings")
         .num_columns(2)
         .show(ui, |ui| {
             let label = ui.label("Grid size");
             ComboBox::from_id_salt("grid size")
-                .selected_text(format!("{0} x {0}", s.size))
+                .selected_text(format!("{0} x {0}", scene.size))
                 .show_ui(ui, |ui| {
                     for size in SIZES {
-                        ui.selectable_value(&mut s.size, size, format!("{size} x {size}"));
+                        ui.selectable_value(&mut scene.size, size, format!("{size} x {size}"));
                     }
                 })
                 .response
                 .labelled_by(label.id);
+            // The map keeps its width in metres when its cell count changes.
+            scene.cell_size = width / scene.size as f64;
+            ui.end_row();
+            let label = ui
+                .label("Map width")
+                .on_hover_text("Width of the square map in metres (sets the cell size).");
+            let mut km = width / 1000.0;
+            if ui
+                .add(
+                    DragValue::new(&mut km)
+                        .range(0.1..=1000.0)
+                        .speed(0.1)
+                        .suffix(" km"),
+                )
+                .labelled_by(label.id)
+                .changed()
+            {
+                scene.cell_size = km * 1000.0 / scene.size as f64;
+            }
             ui.end_row();
             ui.label("Preview").on_hover_text(format!(
                 "Edits of a map larger than {0} x {0} regenerate at {0} x {0}; Generate full \
@@ -284,9 +271,9 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.end_row();
             let label = ui.label("Seed");
             ui.horizontal(|ui| {
-                ui.add(DragValue::new(&mut s.seed)).labelled_by(label.id);
+                ui.add(DragValue::new(&mut scene.seed)).labelled_by(label.id);
                 if ui.button("New seed").clicked() {
-                    s.seed = s
+                    scene.seed = scene
                         .seed
                         .wrapping_mul(6_364_136_223_846_793_005)
                         .wrapping_add(1)
@@ -297,19 +284,19 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             let label = ui
                 .label("θ (°)")
                 .on_hover_text("Branching angle theta: exterior links turn theta or 2 theta.");
-            ui.add(DragValue::new(&mut s.theta).range(5.0..=60.0).speed(0.5))
+            ui.add(DragValue::new(&mut scene.params.theta).range(5.0..=60.0).speed(0.5))
                 .labelled_by(label.id);
             ui.end_row();
             let label = ui
                 .label("River slope")
                 .on_hover_text("Metres of height per metre of channel (Sec. IV-C).");
-            ui.add(DragValue::new(&mut s.slope).range(0.0..=0.2).speed(0.001))
+            ui.add(DragValue::new(&mut scene.params.river_slope).range(0.0..=0.2).speed(0.001))
                 .labelled_by(label.id);
             ui.end_row();
             let label = ui.label("α").on_hover_text(
                 "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
             );
-            ui.add(DragValue::new(&mut s.alpha).range(0.0..=1.0).speed(0.005))
+            ui.add(DragValue::new(&mut scene.params.alpha).range(0.0..=1.0).speed(0.005))
                 .labelled_by(label.id);
             ui.end_row();
             let label = ui.label("Noise (m)").on_hover_text(
@@ -317,20 +304,36 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                      takes at most half of a ridge's height above its rivers (alpha * d of \
                      eq. 4), so low ridges between close rivers stay above them.",
             );
-            ui.add(DragValue::new(&mut s.noise).range(0.0..=500.0).speed(1.0))
+            ui.add(DragValue::new(&mut scene.params.noise.amplitude).range(0.0..=500.0).speed(1.0))
                 .labelled_by(label.id);
+            ui.end_row();
+            let label = ui
+                .label("Octaves")
+                .on_hover_text("Octaves of the fractal noise of eq. 5 (1 to 16).");
+            ui.add(DragValue::new(&mut scene.params.noise.octaves).range(1..=16))
+                .labelled_by(label.id);
+            ui.end_row();
+            let label = ui
+                .label("Roughness")
+                .on_hover_text("Amplitude ratio between successive octaves of eq. 5's noise.");
+            ui.add(
+                DragValue::new(&mut scene.params.noise.roughness)
+                    .range(0.0..=1.0)
+                    .speed(0.01),
+            )
+            .labelled_by(label.id);
             ui.end_row();
             let label = ui.label("MD/MDI passes").on_hover_text(
                 "Midpoint displacement and its inverse (Sec. V-B): each pass widens rivers and \
                  ridges by a cell of flank. 0 turns enrichment off.",
             );
-            ui.add(DragValue::new(&mut s.passes).range(0..=16))
+            ui.add(DragValue::new(&mut scene.params.enrich.passes).range(0..=16))
                 .labelled_by(label.id);
             ui.end_row();
             let label = ui
                 .label("L (cells)")
                 .on_hover_text("Distance limit L: no point is added farther from the skeleton.");
-            ui.add(DragValue::new(&mut s.distance_limit).range(1..=64))
+            ui.add(DragValue::new(&mut scene.params.enrich.distance_limit).range(1..=64))
                 .labelled_by(label.id);
             ui.end_row();
         });
@@ -385,7 +388,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  a margin around them are never touched, so they drain as designed.",
             );
             ui.add(
-                DragValue::new(&mut app.settings.post.smooth_sigma)
+                DragValue::new(&mut app.scene.params.post.smooth_sigma)
                     .range(0.0..=crate::diffusion::post::MAX_SIGMA)
                     .speed(0.05)
                     .suffix(" cells"),
@@ -397,7 +400,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  faded out near the rivers.",
             );
             ui.add(
-                DragValue::new(&mut app.settings.post.fbm_amplitude)
+                DragValue::new(&mut app.scene.params.post.fbm_amplitude)
                     .range(0.0..=500.0)
                     .speed(0.2)
                     .suffix(" m"),
@@ -422,9 +425,9 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             app.start_generate(&ctx);
         }
         if app.preview
-            && app.settings.size > super::PREVIEW_SIZE
+            && app.scene.size > super::PREVIEW_SIZE
             && ui
-                .button(format!("Generate full size ({0} x {0})", app.settings.size))
+                .button(format!("Generate full size ({0} x {0})", app.scene.size))
                 .clicked()
         {
             app.generate_full_size(&ctx);

@@ -123,13 +123,15 @@ impl View3d {
     }
 
     /// Draws the view into the rest of `ui`: uploads a changed terrain, moves the camera from
-    /// input and renders a frame. `rivers` is the skeleton's Strahler order per cell (square).
+    /// input and renders a frame. `rivers` is the skeleton's Strahler order per cell (square);
+    /// `cell` the field's cell size in metres.
     pub fn show(
         &mut self,
         ui: &mut Ui,
         frame: &eframe::Frame,
         field: Option<(&crate::heightfield::Heightfield, u64)>,
         rivers: Option<(&[u8], usize)>,
+        cell: f32,
     ) {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
@@ -159,7 +161,6 @@ impl View3d {
         let wanted = self.uploaded != Some(version);
         if wanted && self.preparing.as_ref().map(|(v, _)| *v) != Some(version) {
             // O(cells), off the UI thread; a newer terrain cancels the older preparation.
-            let cell = super::MAP_WIDTH_M / field.width().saturating_sub(1).max(1) as f32;
             let max_side = renderer.max_texture_side();
             let field = field.clone();
             let rivers = rivers.map(|(order, side)| (order.to_vec(), side));

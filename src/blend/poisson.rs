@@ -29,7 +29,7 @@ use crate::jobs::JobCtx;
 use super::{BlendError, BlockRect};
 
 /// How one block's solve went.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct BlockSolve {
     /// Cells solved (the block minus its fixed frame).
     pub unknowns: usize,

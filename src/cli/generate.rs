@@ -9,6 +9,8 @@ use crate::compute::BackendChoice;
 use crate::dem::GeoRef;
 use crate::jobs::JobCtx;
 use crate::river::Stroke;
+use crate::erosion::ErosionSettings;
+use crate::pipeline::{self, Output};
 use crate::scene::{RiverStroke, Scene};
 use crate::terrain;
 
@@ -54,6 +56,10 @@ pub struct GenerateArgs {
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
     #[arg(long)]
     pub fbm: Option<f32>,
+    /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn the scene's
+    /// erosion off.
+    #[arg(long)]
+    pub erosion: Option<String>,
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -108,6 +114,18 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.distance_limit {
         scene.params.enrich.distance_limit = v;
+    }
+    match args.erosion.as_deref() {
+        None => {}
+        Some("none") => scene.erosion = None,
+        Some(name) => {
+            scene.erosion = Some(ErosionSettings::preset(name).ok_or_else(|| {
+                format!(
+                    "--erosion: unknown preset {name:?}; use one of {} or none",
+                    crate::erosion::PRESETS.join(", ")
+                )
+            })?)
+        }
     }
     scene
         .rivers
@@ -164,49 +182,43 @@ pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
 
 pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     let scene = scene_of(args)?;
-    let strokes = scene.strokes();
-    let params = scene.terrain_params();
-    let map_width = params.ridges.map_width_m;
-
     let path = super::compute_path(args.backend);
     let backend = args.backend.resolve(&path)?;
-    let generated = pollster::block_on(terrain::generate(
-        &strokes,
-        &params,
-        &backend,
-        &JobCtx::detached(),
-    ))?;
-    let report = &generated.report;
+    let out = pollster::block_on(pipeline::generate(&scene, &backend, &JobCtx::detached()))?;
+    let report = &out.report;
 
-    if let Some(out) = &args.out {
-        write_heightmap(out, &generated.terrain, map_width)?;
+    if let Some(path) = &args.out {
+        write_heightmap(path, &out.field, scene.map_width())?;
     }
     if let Some(dir) = &args.layers {
-        write_layers(dir, &generated)?;
+        write_layers(dir, &out)?;
     }
     if let Some(path) = &args.report {
         std::fs::write(path, serde_json::to_string_pretty(report)?)
             .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }
     let stages: Vec<String> = report
+        .terrain
         .stages
         .iter()
         .map(|s| format!("{} {:.0} ms", s.name, s.ms))
         .collect();
+    let r = &report.terrain;
     println!(
         "{0} x {0} terrain, heights {1:.0} to {2:.0} m; {3} river nodes, Strahler order {4}, {5} ridges; drainage: {6:.1}% of river cells, {7:.2}% of cells reach an outlet, {8} pits",
-        report.size,
-        report.height_range[0],
-        report.height_range[1],
-        report.rivers.nodes,
-        report.rivers.max_order,
-        report.ridges.edges,
-        report.drainage.river_fraction * 100.0,
-        report.drainage.outlet_fraction * 100.0,
-        report.drainage.pit_cells
+        r.size,
+        r.height_range[0],
+        r.height_range[1],
+        r.rivers.nodes,
+        r.rivers.max_order,
+        r.ridges.edges,
+        r.drainage.river_fraction * 100.0,
+        r.drainage.outlet_fraction * 100.0,
+        r.drainage.pit_cells
     );
     println!("stages: {}", stages.join(", "));
-    for note in &report.rivers.trimmed {
+    println!("checksum: {}", r.checksum);
+    for note in &r.rivers.trimmed {
         println!("note: {note}");
     }
     Ok(())
@@ -226,9 +238,15 @@ fn write_heightmap(
     super::io::write_dem(out, terrain, &georef, Some(cell))
 }
 
-fn write_layers(dir: &Path, g: &terrain::Generated) -> Result<(), Box<dyn std::error::Error>> {
+/// The skeleton's layers, and with erosion `drainage_area.png` (log scale) and
+/// `erosion_depth.png`.
+fn write_layers(dir: &Path, out: &Output) -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-    for (name, png) in terrain::layer_pngs(&g.skeleton)? {
+    let mut layers = terrain::layer_pngs(&out.hydrology.skeleton)?;
+    if let Some(eroded) = &out.erosion {
+        layers.extend(crate::erosion::layer_pngs(eroded, &out.hydrology.terrain)?);
+    }
+    for (name, png) in layers {
         let path = dir.join(name);
         std::fs::write(&path, png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
     }

@@ -6,7 +6,7 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::compute::ComputePath;
-use crate::compute::selftest::{self, SelfTest};
+use crate::diffusion::selftest::{self, SelfTest};
 use crate::gpu::{AdapterSummary, Capabilities};
 use crate::jobs::JobCtx;
 

@@ -16,6 +16,7 @@ pub mod demo;
 mod gpu;
 pub mod multigrid;
 pub mod post;
+pub mod selftest;
 
 use thiserror::Error;
 use web_time::Instant;

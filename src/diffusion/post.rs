@@ -20,7 +20,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::heightfield::Heightfield;
-use crate::skeleton::noise::Perlin;
+use crate::noise::Perlin;
 
 /// The post-filter settings (the scene's `params.post`).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -87,16 +87,17 @@ impl fmt::Debug for GpuContext {
 }
 
 impl GpuContext {
-    /// Shares the device eframe created for drawing (see [`device_descriptor`], which the app
-    /// passes to eframe so that device carries the adapter's full limits).
-    pub fn from_render_state(state: &egui_wgpu::RenderState) -> Self {
-        let info = state.adapter.get_info();
+    /// Shares a device created elsewhere, e.g. the one eframe draws with (see
+    /// [`device_descriptor`], which the app passes to eframe so that device carries the
+    /// adapter's full limits).
+    pub fn from_device(adapter: &wgpu::Adapter, device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+        let info = adapter.get_info();
         Self {
-            device: state.device.clone(),
-            queue: state.queue.clone(),
+            device: device.clone(),
+            queue: queue.clone(),
             adapter: AdapterSummary::of(&info),
             backend: info.backend,
-            caps: Capabilities::of(&state.adapter, &state.device),
+            caps: Capabilities::of(adapter, device),
         }
     }
 

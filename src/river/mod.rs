@@ -14,7 +14,7 @@ pub mod stats;
 
 use glam::DVec2;
 use rand::SeedableRng;
-use rand::rngs::StdRng;
+use rand::rngs::ChaCha12Rng;
 use serde::Serialize;
 
 pub use network::RiverNetwork;
@@ -98,7 +98,7 @@ pub fn grow_all(strokes: &[Stroke], params: &RiverParams, seed: u64) -> Vec<Grow
         .enumerate()
         .map(|(i, stroke)| {
             let stream = 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(i as u64 + 1);
-            let mut rng = StdRng::seed_from_u64(seed ^ stream);
+            let mut rng = ChaCha12Rng::seed_from_u64(seed ^ stream);
             let depth_asked = depth_for(stroke);
             (
                 depth_asked,

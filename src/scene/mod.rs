@@ -228,6 +228,9 @@ pub struct Scene {
     pub params: Params,
     pub sketch: SketchSettings,
     pub detail: DetailSettings,
+    /// Stream-power erosion of the designed terrain, the rivers as base level; absent = off.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub erosion: Option<crate::erosion::ErosionSettings>,
     /// Blocks of real terrain blended in by the Poisson equation, solved in order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub blend: Vec<crate::blend::BlendBlock>,
@@ -319,6 +322,7 @@ impl Default for Scene {
             params: Params::default(),
             sketch: SketchSettings::default(),
             detail: DetailSettings::default(),
+            erosion: None,
             blend: Vec::new(),
         }
     }
@@ -512,7 +516,24 @@ impl Scene {
         if let Err((field, problem)) = p.post.validate() {
             return bad(&format!("params.post.{field}"), problem);
         }
+        if let Some(Err((field, problem))) = self.erosion.as_ref().map(|e| e.validate()) {
+            return bad(&format!("erosion.{field}"), problem);
+        }
+        if !(self.map_width().is_finite() && self.map_width() <= 1.0e7) {
+            return bad(
+                "cell_size",
+                format!(
+                    "the map would be {} m wide; at most 10000 km",
+                    self.map_width()
+                ),
+            );
+        }
         Ok(())
+    }
+
+    /// Width of the map in metres (`cell_size` x `size`), whatever size a run has.
+    pub fn map_width(&self) -> f64 {
+        self.cell_size * self.size as f64
     }
 
     /// The strokes of the rivers.

@@ -109,10 +109,10 @@ impl<'a> Enrichment<'a> {
             added: 0,
         };
         // The per-cell state from the skeleton, in a band of rows per thread.
-        let band = n.div_ceil(crate::compute::parallel::threads()).max(1);
+        let band = n.div_ceil(crate::parallel::threads()).max(1);
         let bands: Vec<_> = (0..n).step_by(band).map(|y| y..(y + band).min(n)).collect();
         let limit = params.distance_limit;
-        crate::compute::parallel::for_each_item(enrichment.rows_mut(&bands), |mut rows| {
+        crate::parallel::for_each_item(enrichment.rows_mut(&bands), |mut rows| {
             rows.fill(limit);
         });
         enrichment.find_banks();
@@ -318,7 +318,7 @@ impl<'a> Enrichment<'a> {
     pub fn apply_bands(&mut self, bands: &[Range<usize>], parts: &[Vec<Update>]) {
         let limit = self.params.distance_limit;
         let items: Vec<_> = self.rows_mut(bands).into_iter().zip(parts).collect();
-        crate::compute::parallel::for_each_item(items, |(mut rows, updates)| {
+        crate::parallel::for_each_item(items, |(mut rows, updates)| {
             rows.apply(updates, limit);
         });
         self.added += parts.iter().map(Vec::len).sum::<usize>();
@@ -586,7 +586,7 @@ impl HalfPass {
                 .collect();
             let gather = &*enrichment;
             let md = self.md;
-            crate::compute::parallel::for_each_item(items, |(rows, out)| {
+            crate::parallel::for_each_item(items, |(rows, out)| {
                 if md {
                     gather.md_updates_into(rows, out);
                 } else {

@@ -2,7 +2,7 @@
 //! Bresenham's algorithm and heights by eq. 5, as the fixed cells of the diffusion.
 
 pub mod enrich;
-pub mod noise;
+
 mod raster;
 pub mod sketch;
 
@@ -13,7 +13,7 @@ use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
-use noise::{FbmGrid, Perlin};
+use crate::noise::{FbmGrid, Perlin};
 use raster::{Band, Line, RidgeNoise};
 
 /// What a skeleton cell is.
@@ -227,7 +227,7 @@ impl Bands {
     /// One band per thread natively; bands of 2^17 cells one at a time on the web, so the page
     /// keeps painting.
     pub fn for_platform(n: usize) -> Self {
-        let threads = crate::compute::parallel::threads();
+        let threads = crate::parallel::threads();
         if cfg!(target_arch = "wasm32") {
             Self {
                 rows: ((1usize << 17) / n.max(1)).max(1),
@@ -279,7 +279,7 @@ async fn in_bands(
     let mut parts = parts.into_iter().enumerate().peekable();
     while parts.peek().is_some() {
         let step: Vec<_> = parts.by_ref().take(bands.per_step).collect();
-        crate::compute::parallel::for_each_item(step, |(k, mut band)| {
+        crate::parallel::for_each_item(step, |(k, mut band)| {
             for &i in &lines_of[k] {
                 draw(&mut band, &lines[i as usize]);
             }

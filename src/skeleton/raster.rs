@@ -7,7 +7,7 @@
 //! them. Bands run on all threads natively and one at a time on the web, with the job's ticks
 //! between them.
 
-use super::noise::FbmGrid;
+use crate::noise::FbmGrid;
 use super::{CellKind, bresenham};
 
 /// A straight segment in grid cells with eq. 5's linear heights: `h = start + t * rise`, `t`
@@ -162,7 +162,7 @@ impl Band<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::skeleton::noise::Perlin;
+    use crate::noise::Perlin;
 
     /// Eq. 5's noise on a low ridge (2 to 4 m above its rivers) with 25 m of amplitude: it may
     /// lower the ridge by half its relief at most, and keeps its full amplitude upwards.

@@ -8,7 +8,7 @@
 
 use glam::DVec2;
 
-use super::noise::Perlin;
+use crate::noise::Perlin;
 use super::{CellKind, NoiseParams, Skeleton, bresenham, to_cell};
 use crate::river::RiverNetwork;
 

@@ -119,11 +119,32 @@ pub struct DiffusionReport {
 /// A generated terrain and its intermediate products (for layers and overlays).
 #[derive(Clone, Debug)]
 pub struct Generated {
-    pub terrain: Heightfield,
+    /// Shared with the pipeline's cache and the views, never copied.
+    pub terrain: std::sync::Arc<Heightfield>,
     pub rivers: Vec<GrownRiver>,
     pub ridges: Vec<RidgeSegment>,
     pub skeleton: Skeleton,
     pub report: TerrainReport,
+}
+
+/// The diffusion stage of a generated terrain, with the terrain's checksum and range (what
+/// the app's Diffusion section and `status().lastRun` show).
+pub fn run_summary(g: &Generated) -> crate::diffusion::selftest::RunSummary {
+    let d = &g.report.diffusion;
+    let [min, max] = g.report.height_range;
+    crate::diffusion::selftest::RunSummary {
+        backend: d.backend,
+        method: d.method,
+        millis: d.millis,
+        cycles: d.cycles,
+        sweeps: d.sweeps,
+        relative_residual: d.relative_residual,
+        converged: d.converged,
+        checksum: g.report.checksum.clone(),
+        max_update: d.relative_residual * (max - min),
+        min,
+        max,
+    }
 }
 
 /// The skeleton's layers as 8-bit PNGs: `rivers.png` (value = Strahler order),
@@ -208,7 +229,7 @@ pub async fn enrich(
     // Natively bands of at most half a million cells (256 rows at 2048^2), one per thread in
     // each step; on the web one band of 2^17 cells per step (a few milliseconds), so the page
     // keeps painting.
-    let threads = crate::compute::parallel::threads();
+    let threads = crate::parallel::threads();
     let band_cells = if cfg!(target_arch = "wasm32") {
         1usize << 17
     } else {
@@ -397,7 +418,7 @@ pub async fn generate(
     };
     ctx.set_progress(1.0, "terrain ready");
     Ok(Generated {
-        terrain,
+        terrain: std::sync::Arc::new(terrain),
         rivers,
         ridges,
         skeleton,

@@ -23,7 +23,7 @@
 //!
 //! Cost: O(samples) per level, so O(w h) for a full transform; no memory beyond the grid.
 
-use crate::compute::parallel;
+use crate::parallel;
 
 /// The two lifting steps, forward (analysis) or backward (synthesis).
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -28,7 +28,7 @@ use super::analysis::{self, Analysis, AnalysisParams, LocalFit, LocalParams, Tra
 use super::lifting::{self, Band};
 use super::mask::Mask;
 use super::rng;
-use crate::compute::parallel;
+use crate::parallel;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 

@@ -4,7 +4,7 @@
 //!
 //! - `status()`: `{version, ready, compute, computePath, adapter, capabilities, job,
 //!   lastRun, lastError}`; `compute` is "webgpu" on the GPU path and "cpu" on the fallback.
-//! - `selfTest()`: a promise of the CPU/GPU comparison (`compute::selftest::SelfTest`).
+//! - `selfTest()`: a promise of the CPU/GPU comparison (`diffusion::selftest::SelfTest`).
 //! - `scene()`: the current scene (the document, see `crate::scene`).
 //! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
 //! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
@@ -27,7 +27,7 @@
 use wasm_bindgen::prelude::*;
 
 use crate::app::{Automation, Command};
-use crate::compute::selftest;
+use crate::diffusion::selftest;
 use crate::jobs::JobCtx;
 use crate::scene::{RiverStroke, Scene};
 
@@ -69,16 +69,15 @@ pub(super) fn install(automation: &Automation) {
 
     let load_target = automation.clone();
     let load_scene =
-        Closure::<dyn Fn(JsValue) -> Result<(), JsValue>>::new(move |value: JsValue| {
+        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |value: JsValue| {
             let scene = Scene::from_json(&json_text(&value)?).map_err(error)?;
-            load_target.push(Command::LoadScene(Box::new(scene)));
-            Ok(())
+            Ok(applied(&load_target, Command::LoadScene(Box::new(scene))))
         });
     set(&api, "loadScene", load_scene.as_ref());
     load_scene.forget();
 
     let river_target = automation.clone();
-    let add_river = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<(), JsValue>>::new(
+    let add_river = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
         move |from: JsValue, to: JsValue, options: JsValue| {
             let text = format!(
                 r#"{{"version": {}, "rivers": [{{"estuary": {}, "toward": {}{}}}]}}"#,
@@ -89,22 +88,21 @@ pub(super) fn install(automation: &Automation) {
             );
             let scene = Scene::from_json(&text).map_err(error)?;
             let river: RiverStroke = scene.rivers[0];
-            river_target.push(Command::AddRiver(river.into()));
-            Ok(())
+            Ok(applied(&river_target, Command::AddRiver(river.into())))
         },
     );
     set(&api, "addRiver", add_river.as_ref());
     add_river.forget();
 
     let mask_target = automation.clone();
-    let mask_from_rivers = Closure::<dyn Fn()>::new(move || {
-        mask_target.push(Command::MaskFromRivers);
+    let mask_from_rivers = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
+        applied(&mask_target, Command::MaskFromRivers)
     });
     set(&api, "maskFromRivers", mask_from_rivers.as_ref());
     mask_from_rivers.forget();
 
     let paint_target = automation.clone();
-    let paint_mask = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<(), JsValue>>::new(
+    let paint_mask = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
         move |from: JsValue, to: JsValue, options: JsValue| {
             let point = |v: &JsValue| -> Result<glam::DVec2, JsValue> {
                 let p: [f64; 2] = serde_json::from_str(&json_text(v)?)
@@ -139,61 +137,63 @@ pub(super) fn install(automation: &Automation) {
             {
                 return Err(error("brush values must be finite numbers"));
             }
-            paint_target.push(Command::PaintMask(point(&from)?, point(&to)?, brush));
-            Ok(())
+            let command = Command::PaintMask(point(&from)?, point(&to)?, brush);
+            Ok(applied(&paint_target, command))
         },
     );
     set(&api, "paintMask", paint_mask.as_ref());
     paint_mask.forget();
 
     let dem_target = automation.clone();
-    let load_dem = Closure::<dyn Fn(String, js_sys::Uint8Array)>::new(
+    let load_dem = Closure::<dyn Fn(String, js_sys::Uint8Array) -> js_sys::Promise>::new(
         move |name: String, bytes: js_sys::Uint8Array| {
-            dem_target.push(Command::LoadDem {
+            let command = Command::LoadDem {
                 name,
                 bytes: bytes.to_vec(),
-            });
+            };
+            applied(&dem_target, command)
         },
     );
     set(&api, "loadDem", load_dem.as_ref());
     load_dem.forget();
 
     let fill_target = automation.clone();
-    let fill_voids = Closure::<dyn Fn()>::new(move || fill_target.push(Command::FillVoids));
+    let fill_voids =
+        Closure::<dyn Fn() -> js_sys::Promise>::new(move || applied(&fill_target, Command::FillVoids));
     set(&api, "fillVoids", fill_voids.as_ref());
     fill_voids.forget();
 
     let place_target = automation.clone();
     let place_block =
-        Closure::<dyn Fn(JsValue) -> Result<(), JsValue>>::new(move |options: JsValue| {
+        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |options: JsValue| {
             let o: PlaceOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
                 error(format!(
                     "placeBlock({{window: [row, col, height, width], rect: [x0, y0, x1, y1], \
                      quarterTurns, mirror, zScale}}): {e}"
                 ))
             })?;
-            place_target.push(Command::PlaceBlock {
+            let command = Command::PlaceBlock {
                 window: o.window,
                 rect: o.rect,
                 quarter_turns: o.quarter_turns,
                 mirror: o.mirror,
                 z_scale: o.z_scale,
-            });
-            Ok(())
+            };
+            Ok(applied(&place_target, command))
         });
     set(&api, "placeBlock", place_block.as_ref());
     place_block.forget();
 
     let move_target = automation.clone();
-    let move_block = Closure::<dyn Fn(u32, JsValue) -> Result<(), JsValue>>::new(
+    let move_block = Closure::<dyn Fn(u32, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
         move |index: u32, rect: JsValue| {
             let rect: [f64; 4] = serde_json::from_str(&json_text(&rect)?)
                 .map_err(|_| error("rect is [x0, y0, x1, y1] in map units"))?;
-            move_target.push(Command::MoveBlock {
+            let command = Command::MoveBlock {
                 index: index as usize,
                 rect,
-            });
-            Ok(())
+            };
+            Ok(applied(&move_target, command))
         },
     );
     set(&api, "moveBlock", move_block.as_ref());
@@ -202,22 +202,24 @@ pub(super) fn install(automation: &Automation) {
     let export_source = automation.clone();
     let export = Closure::<dyn Fn(String, JsValue) -> js_sys::Promise>::new(
         move |format: String, options: JsValue| {
-            let bytes = export_bytes(&export_source, &format, &options);
-            match bytes {
-                Ok(bytes) => js_sys::Promise::resolve(&JsValue::from(bytes)),
-                Err(err) => js_sys::Promise::reject(&err),
-            }
+            let automation = export_source.clone();
+            wasm_bindgen_futures::future_to_promise(async move {
+                settled(&automation).await;
+                export_bytes(&automation, &format, &options).map(JsValue::from)
+            })
         },
     );
     set(&api, "exportHeightmap", export.as_ref());
     export.forget();
 
     let undo_target = automation.clone();
-    let undo = Closure::<dyn Fn()>::new(move || undo_target.push(Command::Undo));
+    let undo =
+        Closure::<dyn Fn() -> js_sys::Promise>::new(move || applied(&undo_target, Command::Undo));
     set(&api, "undo", undo.as_ref());
     undo.forget();
     let redo_target = automation.clone();
-    let redo = Closure::<dyn Fn()>::new(move || redo_target.push(Command::Redo));
+    let redo =
+        Closure::<dyn Fn() -> js_sys::Promise>::new(move || applied(&redo_target, Command::Redo));
     set(&api, "redo", redo.as_ref());
     redo.forget();
 
@@ -235,53 +237,50 @@ pub(super) fn install(automation: &Automation) {
                 .scene()
                 .ok_or_else(|| error("Strahler has not started yet"))?;
             if let Some(size) = size {
+                // The map keeps its width: a larger size means finer cells.
+                let width = scene.map_width();
                 scene.size = size as usize;
+                scene.cell_size = width / scene.size.max(1) as f64;
             }
             scene.validate().map_err(error)?;
             let backend = crate::compute::BackendChoice::Auto
                 .resolve(&path)
                 .map_err(error)?;
-            let generated = crate::terrain::generate(
-                &scene.strokes(),
-                &scene.terrain_params(),
-                &backend,
-                &JobCtx::detached(),
-            )
-            .await
-            .map_err(error)?;
-            Ok(to_js(&generated.report))
+            let output = crate::pipeline::generate(&scene, &backend, &JobCtx::detached())
+                .await
+                .map_err(error)?;
+            Ok(to_js(&output.report))
         })
     });
     set(&api, "generate", generate.as_ref());
     generate.forget();
 
     let view_target = automation.clone();
-    let set_view = Closure::<dyn Fn(String) -> Result<(), JsValue>>::new(move |view: String| {
+    let set_view = Closure::<dyn Fn(String) -> Result<js_sys::Promise, JsValue>>::new(move |view: String| {
         let view = match view.as_str() {
             "2d" => crate::app::ViewKind::Map,
             "3d" => crate::app::ViewKind::ThreeD,
             other => return Err(error(format!("setView('2d' | '3d'), not '{other}'"))),
         };
-        view_target.push(Command::SetView(view));
-        Ok(())
+        Ok(applied(&view_target, Command::SetView(view)))
     });
     set(&api, "setView", set_view.as_ref());
     set_view.forget();
 
     let camera_target = automation.clone();
     let set_camera =
-        Closure::<dyn Fn(JsValue) -> Result<(), JsValue>>::new(move |options: JsValue| {
+        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |options: JsValue| {
             let o: CameraOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
                 error(format!(
                     "setCamera({{distance (map widths), yaw, pitch (degrees)}}): {e}"
                 ))
             })?;
-            camera_target.push(Command::SetCamera(crate::app::CameraRequest {
+            let command = Command::SetCamera(crate::app::CameraRequest {
                 distance: o.distance,
                 yaw: o.yaw,
                 pitch: o.pitch,
-            }));
-            Ok(())
+            });
+            Ok(applied(&camera_target, command))
         });
     set(&api, "setCamera", set_camera.as_ref());
     set_camera.forget();
@@ -323,6 +322,46 @@ fn export_bytes(
     )
     .map_err(error)?;
     Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))
+}
+
+/// Queues `command` and returns a promise that resolves once the app has applied it and
+/// published the scene, so `scene()` shows the change (scripts never poll).
+fn applied(automation: &Automation, command: Command) -> js_sys::Promise {
+    let number = automation.push(command);
+    let automation = automation.clone();
+    wasm_bindgen_futures::future_to_promise(async move {
+        while automation.applied() < number {
+            sleep(10).await;
+        }
+        Ok(JsValue::UNDEFINED)
+    })
+}
+
+/// Waits until every queued command is applied and no job is computing the terrain, so an
+/// export takes the terrain of the scene as it stands.
+async fn settled(automation: &Automation) {
+    loop {
+        let status = automation.status();
+        let pending = automation.applied() < automation.queued();
+        let computing = status.job.is_some();
+        if !pending && !computing {
+            return;
+        }
+        sleep(20).await;
+    }
+}
+
+/// A timer of `ms` milliseconds that lets the page paint meanwhile.
+async fn sleep(ms: i32) {
+    let promise = js_sys::Promise::new(&mut |resolve, _reject| {
+        let scheduled = web_sys::window().map(|window| {
+            window.set_timeout_with_callback_and_timeout_and_arguments_0(&resolve, ms)
+        });
+        if !matches!(scheduled, Some(Ok(_))) {
+            let _ = resolve.call0(&JsValue::NULL);
+        }
+    });
+    let _ = wasm_bindgen_futures::JsFuture::from(promise).await;
 }
 
 fn set(target: &JsValue, name: &str, value: &JsValue) {

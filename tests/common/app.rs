@@ -14,6 +14,14 @@ pub fn harness(width: f32, height: f32) -> Harness<'static, StrahlerApp> {
         .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
 }
 
+/// The app without a GPU renderer: it computes on the CPU path, as in a browser without
+/// WebGPU. For tests of the UI and the pipeline that need no GPU (they run everywhere).
+pub fn cpu_harness(width: f32, height: f32) -> Harness<'static, StrahlerApp> {
+    Harness::builder()
+        .with_size(egui::vec2(width, height))
+        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
+}
+
 /// Steps frames until `done` holds (the UI keeps responding meanwhile); fails after 2 minutes.
 pub fn wait_until<T>(
     harness: &mut Harness<'static, T>,

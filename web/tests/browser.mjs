@@ -159,7 +159,7 @@ async function runMode(url, mode, expectedChecksum) {
       ]);
     }
     check('the U key opens the Upload DEM file picker', chooser !== null);
-    await chooser.setFiles(join(here, '..', '..', '..', 'shared', 'data', 'dems', 'volcano_maungawhau.tif'));
+    await chooser.setFiles(join(here, '..', '..', 'tests', 'data', 'volcano_maungawhau.tif'));
     await page.waitForFunction(() => window.strahler.status().dem !== null, null, { timeout: 30_000 });
     const dem = await page.evaluate(() => window.strahler.status().dem);
     check('the Upload DEM picker reads a GeoTIFF into the DEM panel',

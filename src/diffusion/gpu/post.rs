@@ -7,7 +7,7 @@ use super::{WORKGROUP, bind, pipeline};
 use crate::diffusion::post::{PostFilter, gaussian_taps};
 use crate::gpu::{GpuContext, GpuError, read_f32_buffer, wait_for_submitted_work};
 use crate::heightfield::Heightfield;
-use crate::skeleton::noise::Perlin;
+use crate::noise::Perlin;
 
 const SHADER: &str = include_str!("../../../shaders/postfilter.wgsl");
 

@@ -7,7 +7,7 @@
 
 use crate::diffusion::FixedMask;
 
-use crate::compute::parallel;
+use crate::parallel;
 
 /// Copies of the rows just above and below a band (absent at the grid's border).
 type Halo = (Option<Vec<f32>>, Option<Vec<f32>>);

@@ -2,7 +2,7 @@
 //! octaves (fBm). Seeded, and made of additions, multiplications and `floor` only, so the
 //! same seed gives the same bits natively and in the browser.
 
-use rand::rngs::StdRng;
+use rand::rngs::ChaCha12Rng;
 use rand::{RngExt, SeedableRng};
 
 /// The eight 2D gradients of improved noise, picked by the low three bits of the hash:
@@ -109,7 +109,7 @@ pub struct Perlin {
 impl Perlin {
     pub fn new(seed: u64) -> Self {
         let mut table: [u8; 256] = std::array::from_fn(|i| i as u8);
-        let mut rng = StdRng::seed_from_u64(seed);
+        let mut rng = ChaCha12Rng::seed_from_u64(seed);
         for i in (1..256).rev() {
             let j = rng.random_range(0..=i);
             table.swap(i, j);

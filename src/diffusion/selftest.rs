@@ -4,7 +4,7 @@
 
 use serde::Serialize;
 
-use super::{Backend, ComputePath};
+use crate::compute::{Backend, ComputePath};
 use crate::diffusion::{self, DiffusionError, Filled, Method, MultigridParams, demo};
 use crate::jobs::JobCtx;
 
@@ -50,26 +50,6 @@ impl From<&Filled> for RunSummary {
     }
 }
 
-impl RunSummary {
-    /// The diffusion stage of a generated terrain, with the terrain's checksum and range.
-    pub fn of_terrain(g: &crate::terrain::Generated) -> Self {
-        let d = &g.report.diffusion;
-        let [min, max] = g.report.height_range;
-        Self {
-            backend: d.backend,
-            method: d.method,
-            millis: d.millis,
-            cycles: d.cycles,
-            sweeps: d.sweeps,
-            relative_residual: d.relative_residual,
-            converged: d.converged,
-            checksum: g.report.checksum.clone(),
-            max_update: d.relative_residual * (max - min),
-            min,
-            max,
-        }
-    }
-}
 
 /// The self-test's result.
 #[derive(Clone, Debug, Serialize)]

@@ -1,0 +1,93 @@
+//! The Erosion section: stream-power erosion with uplift and hillslope processes (the
+//! scene's `erosion`), its presets and parameters in physical units, the before/after toggle
+//! and the drainage-area and erosion-depth layers.
+
+use egui::{ComboBox, DragValue, RichText};
+
+use super::StrahlerApp;
+use crate::erosion::{ErosionSettings, PRESETS};
+
+/// The Erosion section of the side panel. Edits go to the scene; the side panel notices the
+/// change and re-runs the pipeline (the cache keeps the hydrology).
+pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    ui.label(RichText::new("Erosion").strong()).on_hover_text(
+        "Fluvial erosion by the stream-power law dh/dt = U - K A^m S^n with hillslope \
+         diffusion (Braun and Willett 2013). The drawn rivers are the base level: they keep \
+         their heights and the land around them is carved into valleys and ridges.",
+    );
+    let mut on = app.scene.erosion.is_some();
+    ui.horizontal(|ui| {
+        ui.checkbox(&mut on, "Erode the terrain");
+        if app.scene.erosion.is_some() {
+            ui.toggle_value(&mut app.show_before_erosion, "Show before")
+                .on_hover_text("Show the terrain before erosion (the design) on the map");
+        }
+    });
+    if on != app.scene.erosion.is_some() {
+        app.scene.erosion = on.then(ErosionSettings::default);
+    }
+    let Some(e) = app.scene.erosion.as_mut() else {
+        return;
+    };
+    let before = e.clone();
+    egui::Grid::new("erosion settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            let label = ui.label("Preset");
+            ComboBox::from_id_salt("erosion preset")
+                .selected_text(e.preset.clone())
+                .show_ui(ui, |ui| {
+                    for name in PRESETS {
+                        if ui.selectable_label(e.preset == *name, *name).clicked()
+                            && let Some(p) = ErosionSettings::preset(name)
+                        {
+                            *e = p;
+                        }
+                    }
+                })
+                .response
+                .labelled_by(label.id);
+            ui.end_row();
+            let row = |ui: &mut egui::Ui, name: &str, tip: &str, value: &mut f64, range: std::ops::RangeInclusive<f64>, speed: f64| {
+                let label = ui.label(name).on_hover_text(tip);
+                ui.add(DragValue::new(value).range(range).speed(speed))
+                    .labelled_by(label.id);
+                ui.end_row();
+            };
+            row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years where the design stands highest above its rivers; in proportion to that height elsewhere, 0 on the rivers.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
+            row(ui, "Erodibility K", "K of the stream-power law, in m^(1-2m) per year: how fast water cuts rock. Larger K carves deeper valleys.", &mut e.erodibility, 0.0..=1.0, 1e-6);
+            row(ui, "m", "Drainage-area exponent m (m/n is the concavity of river profiles, 0.3 to 0.7 in real rivers).", &mut e.m, 0.1..=1.0, 0.01);
+            row(ui, "n", "Slope exponent n (1 for most bedrock rivers).", &mut e.n, 0.5..=2.0, 0.01);
+            row(ui, "Diffusivity (m²/yr)", "Hillslope diffusivity kappa: soil creep that rounds ridges and fills hollows.", &mut e.diffusivity, 0.0..=10.0, 0.01);
+            row(ui, "Years", "Simulated time.", &mut e.years, 0.0..=1.0e8, 1000.0);
+            let label = ui.label("Steps").on_hover_text("Time steps (the implicit scheme is stable at any step; more steps follow the evolution more closely).");
+            ui.add(DragValue::new(&mut e.steps).range(1..=1000)).labelled_by(label.id);
+            ui.end_row();
+            let label = ui.label("River banks").on_hover_text("Cells on each side of a river kept at their designed height with it.");
+            ui.add(DragValue::new(&mut e.river_band).range(0..=16).suffix(" cells")).labelled_by(label.id);
+            ui.end_row();
+            let mut talus = e.talus_deg.is_some();
+            let label = ui.label("Talus angle").on_hover_text("Thermal erosion: scree slides where slopes exceed this angle.");
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut talus, "");
+                let mut deg = e.talus_deg.unwrap_or(35.0);
+                ui.add_enabled(talus, DragValue::new(&mut deg).range(10.0..=60.0).suffix("°"));
+                e.talus_deg = talus.then_some(deg);
+            })
+            .response
+            .labelled_by(label.id);
+            ui.end_row();
+        });
+    if *e != before && e.preset == before.preset && ErosionSettings::preset(&e.preset).as_ref() != Some(e) {
+        e.preset = "custom".into();
+    }
+    if let Some(report) = app.output.as_ref().and_then(|o| o.report.erosion.as_ref()) {
+        ui.label(format!(
+            "Eroded in {:.0} ms: mean {:.1} m, up to {:.0} m lowered; {:.1}% of river cells drain along the river",
+            report.millis,
+            report.mean_depth_m,
+            report.max_depth_m,
+            report.drainage.river_fraction * 100.0
+        ));
+    }
+}

@@ -1,0 +1,56 @@
+//! Linear hillslope diffusion `dh/dt = kappa * lap(h)`, backward Euler.
+//!
+//! Choice: implicit (backward Euler) on the 5-point Laplacian,
+//! `(1 + r k_i) h_i' - r * sum_nb h_nb' = h_i` with `r = kappa dt / cell^2` and `k_i` the
+//! number of in-grid 4-neighbours (zero flux across the map edge), solved with a fixed
+//! number of red-black Gauss–Seidel sweeps started from `h`.
+//!
+//! Why: every Gauss–Seidel update `h_i' = (h_i + r sum h_nb') / (1 + r k_i)` is a convex
+//! combination of values, so each sweep obeys a discrete maximum principle and the
+//! result is stable and free of overshoot for *any* `dt`, at a fixed cost of
+//! `DIFFUSION_SWEEPS` passes (O(cells)). Explicit sub-stepping would need
+//! `dt / (cell^2 / 4 kappa)` passes, which is unbounded for long steps on fine grids.
+//! For `r <~ 1` (the presets) a few sweeps converge to well under 1 % of the step's
+//! change; for very large `r` the sweeps under-relax (less smoothing than the exact
+//! backward-Euler solution), never more. Base-level cells are fixed (Dirichlet).
+
+use super::grid::{D4, Grid};
+
+/// Red-black Gauss–Seidel sweeps per time step.
+pub(super) const DIFFUSION_SWEEPS: usize = 3;
+
+/// Applies one backward-Euler diffusion step to `h`; `rhs` is scratch of the same size.
+pub(super) fn diffuse(grid: Grid, h: &mut [f32], base: &[bool], r: f64, rhs: &mut [f32]) {
+    rhs.copy_from_slice(h);
+    let r = r as f32;
+    let w = grid.width;
+    // Diagonal weights for 4, 3 and 2 neighbours (interior, edge, corner).
+    let inv = |k: usize| 1.0 / (1.0 + r * k as f32);
+    let inv4 = inv(4);
+    for _ in 0..DIFFUSION_SWEEPS {
+        for colour in 0..2 {
+            for y in 0..grid.height {
+                let interior_row = y > 0 && y + 1 < grid.height;
+                let mut x = (y + colour) % 2;
+                while x < w {
+                    let i = y * w + x;
+                    if !base[i] {
+                        h[i] = if interior_row && x > 0 && x + 1 < w {
+                            (rhs[i] + r * (h[i - w] + h[i - 1] + h[i + 1] + h[i + w])) * inv4
+                        } else {
+                            let (mut sum, mut k) = (0.0, 0);
+                            for &o in &D4 {
+                                if let Some(j) = grid.offset(x, y, o) {
+                                    sum += h[j];
+                                    k += 1;
+                                }
+                            }
+                            (rhs[i] + r * sum) * inv(k)
+                        };
+                    }
+                    x += 2;
+                }
+            }
+        }
+    }
+}

@@ -1,0 +1,263 @@
+//! Fluvial erosion by the stream-power law with uplift, hillslope diffusion and
+//! optional thermal erosion:
+//!
+//! ```text
+//! dh/dt = U(x) - K A^m S^n + kappa * lap(h)
+//! ```
+//!
+//! solved with the implicit O(n) scheme of Braun & Willett (2013), "A very efficient
+//! O(n), implicit and parallel method to solve the stream power equation governing
+//! fluvial incision and landscape evolution", Geomorphology 180–181, 170–179.
+//!
+//! One [`Eroder::step`] (all O(cells), single-threaded, deterministic):
+//! 1. D8 steepest-descent receivers and the depth-first stack from the base-level
+//!    cells ([`flow`]); if some cell does not reach base level, depressions are filled
+//!    (Priority-Flood + epsilon, [`fill`]) and the routing is recomputed;
+//! 2. drainage area along the reversed stack;
+//! 3. implicit stream-power incision + uplift in stack order ([`stream_power`]);
+//! 4. implicit hillslope diffusion ([`diffusion`]) and optional talus relaxation
+//!    ([`thermal`]).
+//!
+//! After the last step the routing is redone once more, so the final surface has a
+//! strictly descending path from every free cell to base level.
+//!
+//! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
+//! them, the map border) keep their heights exactly and are the roots of the stack.
+//!
+//! Memory besides the caller's heights, mask and uplift: receivers (`u32`), stack
+//! (`u32`), drainage area (`f32`) and, when `diffusivity > 0`, one `f32` scratch field:
+//! at most 16 bytes per cell. Depression filling, when pits exist, temporarily
+//! allocates a bit set (1 bit per cell) and a heap/queue sized by the flooded region.
+
+mod diffusion;
+mod error;
+mod fill;
+mod flow;
+mod grid;
+mod layers;
+mod params;
+mod stage;
+mod stream_power;
+mod thermal;
+
+#[cfg(test)]
+mod tests;
+
+pub use self::error::ErosionError;
+pub use self::layers::layer_pngs;
+pub use self::stage::{
+    Eroded, ErosionReport, ErosionSettings, StageError, base_level, erode_terrain, uplift_from_design,
+};
+pub use self::params::{ErosionParams, PRESETS, preset};
+
+use self::grid::Grid;
+
+/// Time-stepping landscape-evolution solver; see the module docs.
+pub struct Eroder {
+    grid: Grid,
+    heights: Vec<f32>,
+    base: Vec<bool>,
+    uplift: Vec<f32>,
+    params: ErosionParams,
+    dt: f64,
+    steps_done: u32,
+    receivers: Vec<u32>,
+    stack: Vec<u32>,
+    area: Vec<f32>,
+    /// Right-hand side for the implicit diffusion (empty when `diffusivity == 0`).
+    scratch: Vec<f32>,
+}
+
+/// Flow routing of a surface, as computed by [`receivers_and_area`].
+#[derive(Clone, Debug)]
+pub struct Routing {
+    /// The input heights with depressions filled (Priority-Flood + epsilon).
+    pub heights: Vec<f32>,
+    /// D8 steepest-descent receiver of each cell (itself for base-level cells).
+    pub receivers: Vec<u32>,
+    /// Braun–Willett stack: every receiver precedes its donors.
+    pub stack: Vec<u32>,
+    /// Drainage area in m^2 (each cell contributes `cell_m^2`).
+    pub area: Vec<f32>,
+}
+
+/// Routes flow over `heights` (after filling depressions) and returns receivers, stack
+/// and drainage area. Inputs are validated as in [`Eroder::new`].
+pub fn receivers_and_area(
+    heights: &[f32],
+    width: usize,
+    height: usize,
+    cell_m: f64,
+    base_level: &[bool],
+) -> Result<Routing, ErosionError> {
+    let grid = check_grid(width, height, cell_m)?;
+    check_len("heights", heights.len(), grid.len())?;
+    check_len("base_level", base_level.len(), grid.len())?;
+    check_finite("heights", heights)?;
+    if !base_level.contains(&true) {
+        return Err(ErosionError::NoBaseLevel);
+    }
+    let mut heights = heights.to_vec();
+    let mut receivers = vec![0; grid.len()];
+    let mut stack = Vec::with_capacity(grid.len());
+    route(grid, &mut heights, base_level, &mut receivers, &mut stack);
+    let mut area = vec![0.0; grid.len()];
+    flow::accumulate_area(grid, &receivers, &stack, &mut area);
+    Ok(Routing { heights, receivers, stack, area })
+}
+
+impl Eroder {
+    /// Builds a solver.
+    ///
+    /// * `heights`: row-major `width * height` elevations in metres.
+    /// * `cell_m`: cell size in metres (square cells).
+    /// * `base_level`: cells with fixed height where water leaves the map (rivers,
+    ///   their banks, the border); at least one must be `true`.
+    /// * `uplift`: rock uplift rate `U` in m/yr per cell (1 m/kyr = 0.001); ignored on
+    ///   base-level cells. Negative values (subsidence) are allowed.
+    pub fn new(
+        heights: Vec<f32>,
+        width: usize,
+        height: usize,
+        cell_m: f64,
+        base_level: Vec<bool>,
+        uplift: Vec<f32>,
+        params: ErosionParams,
+    ) -> Result<Self, ErosionError> {
+        let grid = check_grid(width, height, cell_m)?;
+        let n = grid.len();
+        check_len("heights", heights.len(), n)?;
+        check_len("base_level", base_level.len(), n)?;
+        check_len("uplift", uplift.len(), n)?;
+        check_finite("heights", &heights)?;
+        check_finite("uplift", &uplift)?;
+        params
+            .validate()
+            .map_err(|(field, problem)| ErosionError::InvalidParam { field, problem })?;
+        if !base_level.contains(&true) {
+            return Err(ErosionError::NoBaseLevel);
+        }
+        let scratch = if params.diffusivity > 0.0 { vec![0.0; n] } else { Vec::new() };
+        Ok(Eroder {
+            grid,
+            heights,
+            base: base_level,
+            uplift,
+            params,
+            dt: params.years / f64::from(params.steps),
+            steps_done: 0,
+            receivers: vec![0; n],
+            stack: Vec::with_capacity(n),
+            area: vec![0.0; n],
+            scratch,
+        })
+    }
+
+    /// Performs one time step if any remain and returns whether steps remain
+    /// afterwards (`false` once all are done; further calls do nothing). Each step is
+    /// O(cells), so a UI can yield between steps.
+    pub fn step(&mut self) -> bool {
+        if self.steps_done >= self.params.steps {
+            return false;
+        }
+        let g = self.grid;
+        self.route();
+        flow::accumulate_area(g, &self.receivers, &self.stack, &mut self.area);
+        let p = self.params;
+        if p.diffusivity > 0.0 {
+            let r = p.diffusivity * self.dt / (g.cell * g.cell);
+            diffusion::diffuse(g, &mut self.heights, &self.base, r, &mut self.scratch);
+        }
+        if let Some(talus) = p.talus_deg {
+            thermal::relax(g, &mut self.heights, &self.base, talus);
+        }
+        stream_power::Incision {
+            grid: g,
+            base: &self.base,
+            uplift: &self.uplift,
+            rec: &self.receivers,
+            stack: &self.stack,
+            area: &self.area,
+            dt: self.dt,
+            k: p.erodibility,
+            m: p.m,
+            n: p.n,
+        }
+        .apply(&mut self.heights);
+        self.steps_done += 1;
+        let more = self.steps_done < p.steps;
+        if !more {
+            // Leave a pit-free surface and the matching drainage area.
+            self.route();
+            flow::accumulate_area(g, &self.receivers, &self.stack, &mut self.area);
+        }
+        more
+    }
+
+    /// Number of completed steps.
+    pub fn steps_done(&self) -> u32 {
+        self.steps_done
+    }
+
+    /// Current heights (row-major, metres). Between steps they may still contain
+    /// pits created by diffusion or thermal erosion; after the last step they do not.
+    pub fn heights(&self) -> &[f32] {
+        &self.heights
+    }
+
+    /// Consumes the solver and returns the heights.
+    pub fn into_heights(self) -> Vec<f32> {
+        self.heights
+    }
+
+    /// Drainage area (m^2) of the last step (all zero before the first), e.g. for a
+    /// "log drainage area" map layer.
+    pub fn drainage_area(&self) -> &[f32] {
+        &self.area
+    }
+
+    /// Receivers + stack for the current heights, filling depressions if needed.
+    fn route(&mut self) {
+        route(self.grid, &mut self.heights, &self.base, &mut self.receivers, &mut self.stack);
+    }
+}
+
+/// Computes receivers and the stack; if some cells do not reach base level (pits or
+/// flats), fills them and recomputes.
+fn route(grid: Grid, h: &mut [f32], base: &[bool], rec: &mut [u32], stack: &mut Vec<u32>) {
+    flow::receivers(grid, h, base, rec);
+    flow::build_stack(grid, base, rec, stack);
+    if stack.len() < grid.len() {
+        fill::fill_unrouted(grid, h, stack);
+        flow::receivers(grid, h, base, rec);
+        flow::build_stack(grid, base, rec, stack);
+        debug_assert_eq!(stack.len(), grid.len());
+    }
+}
+
+fn check_grid(width: usize, height: usize, cell_m: f64) -> Result<Grid, ErosionError> {
+    let n = width.checked_mul(height).unwrap_or(usize::MAX);
+    if n == 0 || n >= u32::MAX as usize {
+        return Err(ErosionError::BadDimensions { width, height });
+    }
+    if !(cell_m.is_finite() && cell_m > 0.0) {
+        return Err(ErosionError::BadCellSize(cell_m));
+    }
+    Ok(Grid { width, height, cell: cell_m })
+}
+
+fn check_len(what: &'static str, got: usize, expected: usize) -> Result<(), ErosionError> {
+    if got == expected {
+        Ok(())
+    } else {
+        Err(ErosionError::SizeMismatch { what, expected, got })
+    }
+}
+
+fn check_finite(what: &'static str, v: &[f32]) -> Result<(), ErosionError> {
+    match v.iter().position(|x| !x.is_finite()) {
+        Some(index) => Err(ErosionError::NonFinite { what, index }),
+        None => Ok(()),
+    }
+}
+

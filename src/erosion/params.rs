@@ -1,0 +1,129 @@
+//! Simulation parameters and named presets.
+
+/// Parameters of `dh/dt = U - K A^m S^n + kappa * lap(h)` (Braun & Willett 2013, eq. 1
+/// plus a linear hillslope-diffusion term) and of the optional thermal (talus) erosion.
+///
+/// The uplift rate `U` is not a parameter: it is a per-cell field given to
+/// [`Eroder::new`](super::Eroder::new) in m/yr (1 m/kyr = 0.001 m/yr; active mountain
+/// belts 0.1..10 m/kyr).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErosionParams {
+    /// Simulated time in years. Landscapes approach steady state after a few
+    /// response times `~ L / (K A^m)` (typically 0.1..5 Myr for the presets).
+    pub years: f64,
+    /// Number of implicit time steps; `dt = years / steps`. The scheme is stable for any
+    /// `dt`, but drainage reorganises only once per step, so use at least ~10.
+    pub steps: u32,
+    /// Erodibility `K` in m^(1-2m)/yr (slope is dimensionless, so `K A^m S^n` is in m/yr
+    /// for any `n`). Higher `K` = faster incision, lower steady-state relief
+    /// (`S = (U/K)^(1/n) A^(-m/n)`). Typical 1e-6 (hard rock) .. 1e-4 (weak sediment).
+    pub erodibility: f64,
+    /// Area exponent `m` (dimensionless). Only `m/n` (the channel concavity,
+    /// 0.3..0.7 in nature, ~0.5 typical) and `n` matter for the profile shape.
+    pub m: f64,
+    /// Slope exponent `n` (dimensionless, 0.5..4; 1 is the common choice and the
+    /// fastest: a closed-form update instead of Newton iterations).
+    pub n: f64,
+    /// Hillslope diffusivity `kappa` in m^2/yr (soil creep; 1e-3 .. 5e-2). Larger
+    /// values round ridges and widen the spacing of valleys.
+    pub diffusivity: f64,
+    /// Talus (angle of repose) in degrees for thermal erosion, `None` = off. Slopes
+    /// steeper than `tan(talus)` shed material to their lower neighbours.
+    pub talus_deg: Option<f64>,
+}
+
+/// Names accepted by [`preset`].
+pub const PRESETS: &[&str] = &["young-mountains", "old-hills", "badlands"];
+
+/// Parameter presets for a ~10 km map with a few hundred metres of relief (cells of
+/// ~10-20 m) and a caller-supplied uplift of up to ~0.5 m/kyr.
+///
+/// * `young-mountains`: strong incision relative to creep (`K` high, `kappa` low), a
+///   talus limit of 35 deg: deep V-shaped dendritic valleys and knife-edge ridges.
+/// * `old-hills`: weak incision, strong creep and a long run: rounded, convex
+///   hilltops and wide valleys (high Peclet-number contrast to the mountains).
+/// * `badlands`: very erodible material (`K` ten times higher), almost no creep,
+///   short time: dense, finely branched gullies; steep talus of 40 deg.
+///
+/// Returns `None` for an unknown name.
+pub fn preset(name: &str) -> Option<ErosionParams> {
+    let p = match name {
+        "young-mountains" => ErosionParams {
+            years: 1.0e6,
+            steps: 25,
+            erodibility: 2.0e-5,
+            m: 0.5,
+            n: 1.0,
+            diffusivity: 0.005,
+            talus_deg: Some(35.0),
+        },
+        "old-hills" => ErosionParams {
+            years: 3.0e6,
+            steps: 25,
+            erodibility: 1.0e-5,
+            m: 0.45,
+            n: 1.0,
+            diffusivity: 0.05,
+            talus_deg: None,
+        },
+        "badlands" => ErosionParams {
+            years: 2.0e5,
+            steps: 25,
+            erodibility: 1.5e-4,
+            m: 0.5,
+            n: 1.0,
+            diffusivity: 0.001,
+            talus_deg: Some(40.0),
+        },
+        _ => return None,
+    };
+    Some(p)
+}
+
+impl ErosionParams {
+    /// Checks every field; on failure returns `(field name, problem)`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        fn require(ok: bool, field: &'static str, problem: String) -> Result<(), (&'static str, String)> {
+            if ok { Ok(()) } else { Err((field, problem)) }
+        }
+        let p = self;
+        require(
+            p.years.is_finite() && p.years > 0.0,
+            "years",
+            format!("must be a finite number > 0, got {}", p.years),
+        )?;
+        require(
+            (1..=1_000_000).contains(&p.steps),
+            "steps",
+            format!("must be in 1..=1000000, got {}", p.steps),
+        )?;
+        require(
+            p.erodibility.is_finite() && p.erodibility >= 0.0,
+            "erodibility",
+            format!("must be a finite number >= 0, got {}", p.erodibility),
+        )?;
+        require(
+            p.n.is_finite() && (0.5..=4.0).contains(&p.n),
+            "n",
+            format!("must be in 0.5..=4, got {}", p.n),
+        )?;
+        require(
+            p.m.is_finite() && p.m > 0.0 && (0.3..=0.7).contains(&(p.m / p.n)),
+            "m",
+            format!("m/n (channel concavity) must be in 0.3..=0.7, got m = {}, n = {}", p.m, p.n),
+        )?;
+        require(
+            p.diffusivity.is_finite() && p.diffusivity >= 0.0,
+            "diffusivity",
+            format!("must be a finite number >= 0, got {}", p.diffusivity),
+        )?;
+        if let Some(t) = p.talus_deg {
+            require(
+                t.is_finite() && t > 0.0 && t < 90.0,
+                "talus_deg",
+                format!("must be strictly between 0 and 90 degrees, got {t}"),
+            )?;
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,301 @@
+//! Erosion as a stage of the scene's pipeline: which cells are base level, the uplift map
+//! from the design, the solver run in steps with the job's ticks between them, and the
+//! drainage check of the eroded terrain.
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+use super::{Eroder, ErosionError, ErosionParams};
+use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx};
+use crate::skeleton::CellKind;
+use crate::terrain::{Generated, drainage};
+
+/// The scene's `erosion` section: the stream-power law with uplift and hillslope processes
+/// (see [`super`]). Absent from a scene = no erosion.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ErosionSettings {
+    /// The preset these values came from ("custom" once edited); for the user only.
+    pub preset: String,
+    /// Uplift rate U in metres per thousand years where the design stands highest above its
+    /// nearest river; elsewhere in proportion to that height (0 on the rivers).
+    pub uplift_m_per_kyr: f64,
+    /// Erodibility K of the stream-power law, in m^(1-2m) per year.
+    pub erodibility: f64,
+    /// Drainage-area exponent m.
+    pub m: f64,
+    /// Slope exponent n (m/n is the concavity, 0.3 to 0.7 in real rivers).
+    pub n: f64,
+    /// Hillslope diffusivity kappa in m^2 per year.
+    pub diffusivity: f64,
+    /// Simulated time in years.
+    pub years: f64,
+    /// Time steps (the implicit scheme is stable at any step).
+    pub steps: u32,
+    /// Thermal erosion: the talus angle in degrees above which scree slides (absent = off).
+    pub talus_deg: Option<f64>,
+    /// Cells on each side of a river or valley kept at their designed height with it (the
+    /// river's banks), 0 to 16.
+    pub river_band: u32,
+}
+
+impl Default for ErosionSettings {
+    /// The first preset.
+    fn default() -> Self {
+        let name = super::PRESETS[0];
+        let params = super::preset(name).unwrap_or(ErosionParams {
+            years: 1.0e6,
+            steps: 20,
+            erodibility: 2.0e-5,
+            m: 0.5,
+            n: 1.0,
+            diffusivity: 0.01,
+            talus_deg: None,
+        });
+        Self::from_params(name, &params, uplift_of(name))
+    }
+}
+
+/// The uplift each preset pairs with its erodibility (m per thousand years).
+fn uplift_of(preset: &str) -> f64 {
+    match preset {
+        "old-hills" => 0.1,
+        "badlands" => 0.5,
+        _ => 1.0,
+    }
+}
+
+impl ErosionSettings {
+    /// The named preset ([`super::PRESETS`]), or `None`.
+    pub fn preset(name: &str) -> Option<Self> {
+        let params = super::preset(name)?;
+        Some(Self::from_params(name, &params, uplift_of(name)))
+    }
+
+    fn from_params(name: &str, p: &ErosionParams, uplift_m_per_kyr: f64) -> Self {
+        Self {
+            preset: name.to_owned(),
+            uplift_m_per_kyr,
+            erodibility: p.erodibility,
+            m: p.m,
+            n: p.n,
+            diffusivity: p.diffusivity,
+            years: p.years,
+            steps: p.steps,
+            talus_deg: p.talus_deg,
+            river_band: 1,
+        }
+    }
+
+    /// The solver's parameters.
+    pub fn params(&self) -> ErosionParams {
+        ErosionParams {
+            years: self.years,
+            steps: self.steps,
+            erodibility: self.erodibility,
+            m: self.m,
+            n: self.n,
+            diffusivity: self.diffusivity,
+            talus_deg: self.talus_deg,
+        }
+    }
+
+    /// Checks every value: `Err((field, problem))`.
+    pub fn validate(&self) -> Result<(), (&'static str, String)> {
+        if !(self.uplift_m_per_kyr.is_finite() && (0.0..=100.0).contains(&self.uplift_m_per_kyr))
+        {
+            return Err((
+                "uplift_m_per_kyr",
+                format!("must be 0 to 100 m per thousand years, got {}", self.uplift_m_per_kyr),
+            ));
+        }
+        if self.river_band > 16 {
+            return Err((
+                "river_band",
+                format!("must be 0 to 16 cells, got {}", self.river_band),
+            ));
+        }
+        self.params().validate()
+    }
+}
+
+/// What the erosion stage reports.
+#[derive(Clone, Debug, Serialize)]
+pub struct ErosionReport {
+    pub preset: String,
+    pub steps: u32,
+    pub years: f64,
+    /// Cells kept at their height (rivers, valleys, their banks, the map border).
+    pub base_level_cells: usize,
+    /// Mean and largest lowering of the land, metres (negative = raised by uplift).
+    pub mean_depth_m: f64,
+    pub max_depth_m: f64,
+    /// Drainage of the eroded terrain (after depression filling).
+    pub drainage: drainage::Drainage,
+    pub conditioning: drainage::Conditioning,
+    pub millis: f64,
+}
+
+/// The erosion stage's output.
+#[derive(Debug)]
+pub struct Eroded {
+    pub field: Arc<Heightfield>,
+    /// Drainage area in m^2 of the last step (the "drainage area" layer).
+    pub drainage_area: Arc<Heightfield>,
+    pub report: ErosionReport,
+    pub millis: f64,
+}
+
+impl Eroded {
+    /// How much each cell was lowered (metres; negative where uplift raised it): the
+    /// "erosion depth" layer.
+    pub fn depth(&self, before: &Heightfield) -> Vec<f32> {
+        before
+            .data()
+            .iter()
+            .zip(self.field.data())
+            .map(|(b, a)| b - a)
+            .collect()
+    }
+}
+
+#[derive(Debug, Error)]
+pub enum StageError {
+    #[error("{0}")]
+    Solver(#[from] ErosionError),
+    #[error("{0}")]
+    Field(#[from] crate::heightfield::HeightfieldError),
+    #[error("cancelled")]
+    Cancelled(#[from] Cancelled),
+}
+
+/// Base level: river and valley cells, `band` cells around them, and the map border.
+/// O(cells x band).
+pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
+    let mut base: Vec<bool> = kinds
+        .iter()
+        .map(|k| matches!(k, CellKind::River | CellKind::Valley))
+        .collect();
+    for _ in 0..band {
+        let grown = base.clone();
+        for y in 0..n {
+            for x in 0..n {
+                if grown[y * n + x] {
+                    continue;
+                }
+                let near = (y.saturating_sub(1)..(y + 2).min(n))
+                    .any(|yy| (x.saturating_sub(1)..(x + 2).min(n)).any(|xx| grown[yy * n + xx]));
+                base[y * n + x] = near;
+            }
+        }
+    }
+    for i in 0..n {
+        base[i] = true;
+        base[(n - 1) * n + i] = true;
+        base[i * n] = true;
+        base[i * n + n - 1] = true;
+    }
+    base
+}
+
+/// The uplift map (m/yr): `max_m_per_yr` times the design's height above its nearest river
+/// cell, over the largest such height. The nearest river is found by a breadth-first walk
+/// from every river and valley cell over the 8-neighbourhood (O(cells)); a map without
+/// rivers uses its lowest height.
+pub fn uplift_from_design(field: &Heightfield, kinds: &[CellKind], max_m_per_yr: f64) -> Vec<f32> {
+    let n = field.width();
+    let z = field.data();
+    let mut base = vec![f32::NAN; z.len()];
+    let mut queue = std::collections::VecDeque::new();
+    for (i, k) in kinds.iter().enumerate() {
+        if matches!(k, CellKind::River | CellKind::Valley) {
+            base[i] = z[i];
+            queue.push_back(i);
+        }
+    }
+    if queue.is_empty() {
+        let lowest = field.finite_range().map_or(0.0, |(lo, _)| lo);
+        base.fill(lowest);
+    }
+    while let Some(i) = queue.pop_front() {
+        let (x, y) = (i % n, i / n);
+        for yy in y.saturating_sub(1)..(y + 2).min(n) {
+            for xx in x.saturating_sub(1)..(x + 2).min(n) {
+                let j = yy * n + xx;
+                if base[j].is_nan() {
+                    base[j] = base[i];
+                    queue.push_back(j);
+                }
+            }
+        }
+    }
+    let above: Vec<f32> = z.iter().zip(&base).map(|(h, b)| (h - b).max(0.0)).collect();
+    let top = above.iter().copied().fold(0.0f32, f32::max);
+    let scale = if top > 0.0 { max_m_per_yr as f32 / top } else { 0.0 };
+    above.iter().map(|a| a * scale).collect()
+}
+
+/// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
+/// then depression filling and the drainage check. O(cells) per step.
+pub async fn erode_terrain(
+    hydrology: &Generated,
+    settings: &ErosionSettings,
+    cell_m: f64,
+    ctx: &JobCtx,
+) -> Result<Eroded, StageError> {
+    let field = &hydrology.terrain;
+    let n = field.width();
+    let kinds = &hydrology.skeleton.kinds;
+    let base = base_level(kinds, n, settings.river_band);
+    let base_level_cells = base.iter().filter(|b| **b).count();
+    let uplift = uplift_from_design(field, kinds, settings.uplift_m_per_kyr / 1000.0);
+    let mut eroder = Eroder::new(
+        field.data().to_vec(),
+        n,
+        n,
+        cell_m,
+        base,
+        uplift,
+        settings.params(),
+    )?;
+    let steps = settings.steps.max(1);
+    loop {
+        let done = eroder.steps_done();
+        ctx.tick(
+            0.6 + 0.3 * done as f32 / steps as f32,
+            &format!("eroding: step {} of {steps}", done + 1),
+        )
+        .await?;
+        if !eroder.step() {
+            break;
+        }
+    }
+    let area = Heightfield::from_vec(n, n, eroder.drainage_area().to_vec())?;
+    let mut eroded = Heightfield::from_vec(n, n, eroder.into_heights())?;
+    let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
+    let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
+    for (b, a) in field.data().iter().zip(eroded.data()) {
+        let d = f64::from(b - a);
+        sum += d;
+        max = max.max(d);
+    }
+    Ok(Eroded {
+        field: Arc::new(eroded),
+        drainage_area: Arc::new(area),
+        report: ErosionReport {
+            preset: settings.preset.clone(),
+            steps,
+            years: settings.years,
+            base_level_cells,
+            mean_depth_m: sum / (n * n).max(1) as f64,
+            max_depth_m: max.max(0.0),
+            drainage,
+            conditioning,
+            millis: 0.0,
+        },
+        millis: 0.0,
+    })
+}

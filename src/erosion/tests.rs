@@ -1,0 +1,293 @@
+//! Tests; test data comes from a small LCG (no crates).
+
+use super::grid::{D8_DIST, Grid};
+use super::*;
+
+/// Numerical Recipes LCG.
+struct Lcg(u32);
+
+impl Lcg {
+    fn next_f32(&mut self) -> f32 {
+        self.0 = self.0.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+        (self.0 >> 8) as f32 / (1u32 << 24) as f32
+    }
+}
+
+fn fnv1a(h: &[f32]) -> u64 {
+    let mut hash = 0xcbf2_9ce4_8422_2325u64;
+    for b in h.iter().flat_map(|v| v.to_bits().to_le_bytes()) {
+        hash = (hash ^ u64::from(b)).wrapping_mul(0x0100_0000_01b3);
+    }
+    hash
+}
+
+fn params(k: f64, m: f64, n: f64, kappa: f64, years: f64, steps: u32) -> ErosionParams {
+    ErosionParams { years, steps, erodibility: k, m, n, diffusivity: kappa, talus_deg: None }
+}
+
+/// Rough test surface: tilted plane + noise (with many pits), border as base level
+/// plus a short interior "river".
+fn rough_surface(w: usize, h: usize, seed: u32, relief: f32) -> (Vec<f32>, Vec<bool>) {
+    let mut rng = Lcg(seed);
+    let mut z = vec![0.0; w * h];
+    let mut base = vec![false; w * h];
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            base[i] = x == 0 || y == 0 || x + 1 == w || y + 1 == h || (x == w / 2 && y > h / 2);
+            let tilt = (x + y) as f32 * relief / (w + h) as f32;
+            z[i] = tilt + relief * rng.next_f32();
+        }
+    }
+    (z, base)
+}
+
+fn run(mut e: Eroder) -> Eroder {
+    while e.step() {}
+    e
+}
+
+/// Follows strictly descending steps from every free cell and checks it reaches base.
+fn assert_descending_paths(w: usize, h: usize, z: &[f32], base: &[bool]) {
+    let grid = Grid { width: w, height: h, cell: 1.0 };
+    for start in 0..z.len() {
+        let mut i = start;
+        let mut steps = 0;
+        while !base[i] {
+            let (x, y) = grid.xy(i);
+            let lower = (0..8)
+                .filter_map(|d| grid.neighbour(x, y, d))
+                .filter(|&j| z[j] < z[i])
+                .min_by(|&a, &b| z[a].total_cmp(&z[b]));
+            i = lower.unwrap_or_else(|| panic!("cell {i} (from {start}) is a pit"));
+            steps += 1;
+            assert!(steps <= z.len(), "cycle from {start}");
+        }
+    }
+}
+
+/// 1-D river: a 3 x `len` strip whose middle row is free and drains to its left end
+/// (high fixed walls above and below). Returns relative slope errors vs. the analytic
+/// steady state `S = (U/K)^(1/n) A^(-m/n)`.
+fn profile_error(k: f64, m: f64, n: f64, years: f64, steps: u32) -> f64 {
+    let (w, cell, u) = (200usize, 100.0, 1e-3f32);
+    let mut z = vec![1e4f32; 3 * w];
+    let mut base = vec![true; 3 * w];
+    for x in 1..w {
+        z[w + x] = 0.01 * x as f32;
+        base[w + x] = false;
+    }
+    z[w] = 0.0;
+    let e = Eroder::new(z, w, 3, cell, base, vec![u; 3 * w], params(k, m, n, 0.0, years, steps));
+    let e = run(e.expect("valid input"));
+    let (z, a) = (e.heights(), e.drainage_area());
+    let mut worst = 0.0f64;
+    for x in 1..w {
+        let i = w + x;
+        let expected_area = (w - x) as f64 * cell * cell;
+        assert!((a[i] as f64 - expected_area).abs() <= 1e-6 * expected_area, "area at {x}");
+        let s = (z[i] - z[i - 1]) as f64 / cell;
+        let s_exact = (u as f64 / k).powf(1.0 / n) * expected_area.powf(-m / n);
+        worst = worst.max((s / s_exact - 1.0).abs());
+    }
+    worst
+}
+
+#[test]
+fn steady_state_profile_n1() {
+    let err = profile_error(1e-4, 0.5, 1.0, 5e6, 500);
+    println!("max relative slope error {err:.2e}");
+    assert!(err < 1e-4, "max relative slope error {err}");
+}
+
+#[test]
+fn steady_state_profile_n2() {
+    let err = profile_error(1e-5, 1.0, 2.0, 2e7, 2000);
+    println!("max relative slope error {err:.2e}");
+    assert!(err < 1e-4, "max relative slope error {err}");
+}
+
+#[test]
+fn steady_state_profile_n1_5() {
+    let err = profile_error(3e-5, 0.75, 1.5, 1e7, 1000);
+    println!("max relative slope error {err:.2e}");
+    assert!(err < 1e-4, "max relative slope error {err}");
+}
+
+#[test]
+fn base_level_fixed_finite_and_bounded() {
+    let (w, h) = (64, 48);
+    let (z0, base) = rough_surface(w, h, 7, 100.0);
+    let uplift: Vec<f32> = (0..w * h).map(|i| 1e-3 * (i % 7) as f32 / 6.0).collect();
+    let mut p = preset("young-mountains").expect("preset");
+    p.years = 5e5;
+    p.steps = 20;
+    let e = run(Eroder::new(z0.clone(), w, h, 20.0, base.clone(), uplift, p).expect("valid"));
+    let bound = z0.iter().cloned().fold(f32::MIN, f32::max) + 1e-3 * p.years as f32;
+    for (i, (&z, &z0)) in e.heights().iter().zip(&z0).enumerate() {
+        assert!(z.is_finite(), "NaN at {i}");
+        assert!(z <= bound + 1e-3, "cell {i} rose to {z} > {bound}");
+        if base[i] {
+            assert_eq!(z.to_bits(), z0.to_bits(), "base cell {i} changed");
+        }
+    }
+    assert_eq!(e.steps_done(), 20);
+}
+
+#[test]
+fn without_uplift_no_cell_rises() {
+    let (w, h) = (50, 40);
+    let (z0, base) = rough_surface(w, h, 11, 60.0);
+    // Reference: the input with its pits filled (filling is the only raising).
+    let filled = receivers_and_area(&z0, w, h, 10.0, &base).expect("valid").heights;
+    for n in [1.0, 1.5] {
+        let p = params(5e-5, 0.5 * n, n, 0.0, 2e5, 10);
+        let e = run(Eroder::new(z0.clone(), w, h, 10.0, base.clone(), vec![0.0; w * h], p).unwrap());
+        for (i, (&z, &f)) in e.heights().iter().zip(&filled).enumerate() {
+            assert!(z <= f + 1e-4, "n={n}: cell {i} rose from {f} to {z}");
+        }
+        let lowered = e.heights().iter().zip(&filled).filter(|(z, f)| z < f).count();
+        assert!(lowered > w * h / 2, "erosion did nothing");
+    }
+}
+
+#[test]
+fn mass_bounds() {
+    let (w, h) = (50, 40);
+    let (z0, base) = rough_surface(w, h, 3, 60.0);
+    let filled = receivers_and_area(&z0, w, h, 10.0, &base).expect("valid").heights;
+    let volume = |z: &[f32]| z.iter().map(|&v| v as f64).sum::<f64>();
+    let v0 = volume(&filled);
+    let free = base.iter().filter(|b| !**b).count() as f64;
+    // No uplift: diffusion, incision and talus only move mass down and out.
+    let mut p = params(2e-5, 0.5, 1.0, 0.02, 2e5, 10);
+    p.talus_deg = Some(35.0);
+    let e = run(Eroder::new(z0.clone(), w, h, 10.0, base.clone(), vec![0.0; w * h], p).unwrap());
+    let dv = volume(e.heights()) - v0;
+    assert!(dv <= 1e-3 * free, "volume grew by {dv} m*cells without uplift");
+    assert!(dv < 0.0, "nothing eroded");
+    // With uplift U the gain is at most U * years per free cell.
+    let u = 1e-3f32;
+    let e = run(Eroder::new(z0, w, h, 10.0, base, vec![u; w * h], p).unwrap());
+    let dv = volume(e.heights()) - v0;
+    assert!(dv <= u as f64 * p.years * free, "gained {dv}");
+}
+
+#[test]
+fn no_pits_after_erosion() {
+    let (w, h) = (48, 40);
+    let (z0, base) = rough_surface(w, h, 5, 40.0);
+    let uplift: Vec<f32> = z0.iter().map(|z| 2e-5 * z).collect();
+    let mut p = preset("old-hills").unwrap();
+    p.years = 2e5;
+    p.steps = 8;
+    let e = Eroder::new(z0.clone(), w, h, 10.0, base.clone(), uplift, p).unwrap();
+    let e = run(e);
+    assert_descending_paths(w, h, e.heights(), &base);
+    // The stand-alone routing also leaves no pit, and routes every cell.
+    let r = receivers_and_area(&z0, w, h, 10.0, &base).unwrap();
+    assert_descending_paths(w, h, &r.heights, &base);
+    assert_eq!(r.stack.len(), w * h);
+    let total: f64 = base.iter().zip(&r.area).filter(|(b, _)| **b).map(|(_, a)| *a as f64).sum();
+    assert!((total - (w * h) as f64 * 100.0).abs() < 1e-3 * total, "area not conserved");
+}
+
+#[test]
+fn deterministic_checksum() {
+    let (w, h) = (40, 32);
+    let (z0, base) = rough_surface(w, h, 42, 80.0);
+    let uplift: Vec<f32> = z0.iter().map(|z| 1e-5 * z).collect();
+    let mut p = params(3e-5, 0.75, 1.5, 0.01, 3e5, 12);
+    p.talus_deg = Some(33.0);
+    let make = || Eroder::new(z0.clone(), w, h, 15.0, base.clone(), uplift.clone(), p).unwrap();
+    let a = fnv1a(run(make()).heights());
+    let b = fnv1a(run(make()).heights());
+    assert_eq!(a, b);
+    assert_eq!(a, 0x2ec7_0909_9d10_8804, "pinned checksum changed: {a:#018x}");
+}
+
+/// Largest `slope / tan(talus) - 1` from a free cell down to any neighbour.
+fn worst_talus_excess(w: usize, h: usize, cell: f64, z: &[f32], base: &[bool], talus: f64) -> f64 {
+    let grid = Grid { width: w, height: h, cell };
+    let tan = talus.to_radians().tan();
+    let mut worst = f64::MIN;
+    for i in (0..w * h).filter(|&i| !base[i]) {
+        let (x, y) = grid.xy(i);
+        for d in 0..8 {
+            if let Some(j) = grid.neighbour(x, y, d) {
+                let slope = (z[i] - z[j]) as f64 / (D8_DIST[d] * cell);
+                worst = worst.max(slope / tan - 1.0);
+            }
+        }
+    }
+    worst
+}
+
+#[test]
+fn thermal_limits_slopes() {
+    let (w, h, cell) = (40, 40, 10.0);
+    let (z0, base) = rough_surface(w, h, 9, 40.0);
+    assert!(worst_talus_excess(w, h, cell, &z0, &base, 30.0) > 0.5, "test surface too smooth");
+    let mut p = params(0.0, 0.5, 1.0, 0.0, 1e3, 30);
+    p.talus_deg = Some(30.0);
+    let e = run(Eroder::new(z0, w, h, cell, base.clone(), vec![0.0; w * h], p).unwrap());
+    let worst = worst_talus_excess(w, h, cell, e.heights(), &base, 30.0);
+    assert!(worst < 0.01, "slope exceeds talus by {:.2} %", worst * 100.0);
+}
+
+#[test]
+fn thermal_conserves_mass_away_from_base() {
+    let (w, h) = (30, 30);
+    let (z0, _) = rough_surface(w, h, 13, 100.0);
+    let base = vec![false; w * h];
+    let mut z = z0.clone();
+    thermal::relax(Grid { width: w, height: h, cell: 5.0 }, &mut z, &base, 30.0);
+    let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
+    assert!(z != z0, "nothing moved");
+    assert!((sum(&z) - sum(&z0)).abs() < 1e-6 * sum(&z0));
+}
+
+#[test]
+fn invalid_input_is_reported() {
+    let p = preset("badlands").unwrap();
+    let ok = || (vec![1.0f32; 12], vec![true; 12], vec![0.0f32; 12]);
+    let (z, b, u) = ok();
+    assert!(Eroder::new(z, 4, 3, 10.0, b, u, p).is_ok());
+    let (z, b, u) = ok();
+    let e = Eroder::new(z, 4, 4, 10.0, b, u, p).err().unwrap();
+    assert!(matches!(e, ErosionError::SizeMismatch { what: "heights", .. }), "{e}");
+    let (mut z, b, u) = ok();
+    z[5] = f32::NAN;
+    let e = Eroder::new(z, 4, 3, 10.0, b, u, p).err().unwrap();
+    assert_eq!(e, ErosionError::NonFinite { what: "heights", index: 5 });
+    let (z, _, u) = ok();
+    let e = Eroder::new(z, 4, 3, 10.0, vec![false; 12], u, p).err().unwrap();
+    assert_eq!(e, ErosionError::NoBaseLevel);
+    let (z, b, u) = ok();
+    let e = Eroder::new(z, 4, 3, -1.0, b, u, p).err().unwrap();
+    assert!(matches!(e, ErosionError::BadCellSize(_)));
+    for (field, bad) in [
+        ("years", ErosionParams { years: f64::NAN, ..p }),
+        ("steps", ErosionParams { steps: 0, ..p }),
+        ("erodibility", ErosionParams { erodibility: -1.0, ..p }),
+        ("n", ErosionParams { n: 5.0, ..p }),
+        ("m", ErosionParams { m: 0.9, ..p }),
+        ("diffusivity", ErosionParams { diffusivity: f64::INFINITY, ..p }),
+        ("talus_deg", ErosionParams { talus_deg: Some(90.0), ..p }),
+    ] {
+        assert_eq!(bad.validate().unwrap_err().0, field);
+        let (z, b, u) = ok();
+        let e = Eroder::new(z, 4, 3, 10.0, b, u, bad).err().unwrap();
+        assert!(matches!(e, ErosionError::InvalidParam { field: f, .. } if f == field), "{e}");
+        assert!(e.to_string().contains(field));
+    }
+}
+
+#[test]
+fn presets_are_valid() {
+    for name in PRESETS {
+        preset(name).expect("listed preset exists").validate().expect("valid preset");
+    }
+    assert!(preset("nope").is_none());
+}
+

@@ -1,0 +1,382 @@
+//! One pipeline: a [`Scene`] in; the terrain, its layers and its report out.
+//!
+//! Every front end (the app's jobs, `strahler generate`, `window.strahler.generate`, the
+//! export dialog and `exportHeightmap`) builds terrain through [`Pipeline::run`], so the same
+//! scene gives the same terrain everywhere. The stages, in order:
+//!
+//! 1. **hydrology** ([`crate::terrain::generate`]): rivers, ridges, skeleton, MD/MDI
+//!    enrichment, diffusion, post-filters, depression filling and the drainage check;
+//! 2. **erosion** ([`crate::erosion`]): stream-power fluvial erosion with uplift and
+//!    hillslope processes, the drawn rivers as base level (when the scene turns it on);
+//! 3. **detail** ([`crate::wavelet`]): new wavelet levels under the painted mask;
+//! 4. **blend** ([`crate::blend`]): the scene's DEM blocks, solved in order.
+//!
+//! A new stage is added here, in [`Pipeline::run`], with the scene fields it depends on in
+//! its key.
+//!
+//! **Stage cache.** Each stage's output is kept with a key made of exactly the scene fields
+//! (and run options) it depends on, plus the key of the stage before it; a run recomputes a
+//! stage only when its key changed, so a mask stroke re-runs detail and blend, moving a block
+//! re-runs blend, and a river edit re-runs everything. Outputs are shared ([`Arc`]), never
+//! copied, between the cache, the app and the exports. Each map size (the preview and the
+//! full size) keeps its own entries.
+
+mod cache;
+mod report;
+
+use std::sync::Arc;
+
+use thiserror::Error;
+use web_time::Instant;
+
+use crate::blend::{self, BlendError, BlockSolve};
+use crate::compute::Backend;
+use crate::diffusion::Method;
+use crate::erosion::{self, Eroded};
+use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx};
+use crate::scene::{Scene, SceneError};
+use crate::terrain::{self, Generated, StageTime, TerrainError, stage_seed};
+use crate::wavelet::{self, AmplifyFailure, synthesis};
+
+pub use cache::StageKey;
+use cache::Stages;
+pub use report::{BlendReport, DetailReport, Report};
+
+/// Why a run failed; every message names the stage.
+#[derive(Debug, Error)]
+pub enum PipelineError {
+    #[error(transparent)]
+    Scene(#[from] SceneError),
+    #[error(transparent)]
+    Hydrology(#[from] TerrainError),
+    #[error("erosion: {0}")]
+    Erosion(String),
+    #[error("detail: {0}")]
+    Detail(String),
+    #[error("blend: {0}")]
+    Blend(String),
+    #[error("cancelled")]
+    Cancelled(#[from] Cancelled),
+}
+
+impl PipelineError {
+    /// Whether the run was cancelled (a newer edit replaced it), not failed.
+    pub fn is_cancelled(&self) -> bool {
+        use crate::diffusion::DiffusionError;
+        matches!(
+            self,
+            PipelineError::Cancelled(_)
+                | PipelineError::Hydrology(TerrainError::Cancelled(_))
+                | PipelineError::Hydrology(TerrainError::Diffusion(DiffusionError::Cancelled(_)))
+        )
+    }
+}
+
+/// What a run needs besides the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RunOptions {
+    /// Cells per side of this run (the scene's size, or a preview's).
+    pub size: usize,
+    /// How the diffusion stage solves (multigrid by default; Jacobi is the paper's baseline).
+    pub solver: Method,
+}
+
+impl RunOptions {
+    /// The scene's own size, default solver.
+    pub fn for_scene(scene: &Scene) -> Self {
+        Self {
+            size: scene.size,
+            solver: Method::Multigrid(crate::diffusion::MultigridParams::default()),
+        }
+    }
+}
+
+/// The wavelet detail stage's output.
+#[derive(Debug)]
+pub struct Detailed {
+    pub field: Arc<Heightfield>,
+    pub rms: synthesis::DetailRms,
+    pub millis: f64,
+    pub backend: &'static str,
+}
+
+/// The blend stage's output.
+#[derive(Debug)]
+pub struct Blended {
+    pub field: Arc<Heightfield>,
+    pub solves: Vec<BlockSolve>,
+    pub millis: f64,
+    pub backend: &'static str,
+}
+
+/// A finished run: every stage's output (shared with the cache) and the final terrain.
+#[derive(Clone, Debug)]
+pub struct Output {
+    pub hydrology: Arc<Generated>,
+    pub erosion: Option<Arc<Eroded>>,
+    pub detail: Option<Arc<Detailed>>,
+    pub blend: Option<Arc<Blended>>,
+    /// The final terrain (the last stage's output).
+    pub field: Arc<Heightfield>,
+    /// Horizontal size of a cell of [`Output::field`] in metres.
+    pub cell_m: f64,
+    pub report: Report,
+    /// The stages this run computed (the others came from the cache), in order.
+    pub computed: Vec<&'static str>,
+}
+
+impl Output {
+    /// The terrain after hydrology and erosion, before detail and blocks (what the mask and
+    /// the skeleton's layers line up with).
+    pub fn base(&self) -> &Heightfield {
+        match &self.erosion {
+            Some(e) => &e.field,
+            None => &self.hydrology.terrain,
+        }
+    }
+}
+
+/// The pipeline with its stage cache. Cloning is cheap (the outputs are shared), so a job
+/// can take a copy, run, and hand the updated cache back.
+#[derive(Clone, Debug, Default)]
+pub struct Pipeline {
+    /// One set of cached stages per map size, most recently used first (at most two: the
+    /// preview and the full size).
+    sizes: Vec<Stages>,
+}
+
+/// Map sizes whose stages are kept.
+const SIZES_KEPT: usize = 2;
+
+impl Pipeline {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// Runs every stage of `scene` at `options.size` on `backend`, reusing the cached
+    /// outputs whose keys are unchanged. Cost: that of the stages recomputed (see each
+    /// stage); a run with nothing changed is O(1) plus the report.
+    pub async fn run(
+        &mut self,
+        scene: &Scene,
+        options: &RunOptions,
+        backend: &Backend,
+        ctx: &JobCtx,
+    ) -> Result<Output, PipelineError> {
+        let mut sized = scene.clone();
+        sized.size = options.size;
+        sized.cell_size = scene.map_width() / options.size.max(1) as f64;
+        sized.validate()?;
+        let scene = &sized;
+
+        let position = self.sizes.iter().position(|s| s.size == options.size);
+        let mut stages = match position {
+            Some(i) => self.sizes.remove(i),
+            None => Stages::new(options.size),
+        };
+        let result = run_stages(&mut stages, scene, options, backend, ctx).await;
+        self.sizes.insert(0, stages);
+        self.sizes.truncate(SIZES_KEPT);
+        result
+    }
+}
+
+async fn run_stages(
+    stages: &mut Stages,
+    scene: &Scene,
+    options: &RunOptions,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Output, PipelineError> {
+    let mut computed = Vec::new();
+    let mut times = Vec::new();
+
+    // 1. Hydrology: everything up to the conditioned, drained terrain.
+    let key = StageKey::start("hydrology")
+        .with(&(scene.size, scene.cell_size, scene.seed))
+        .with(&scene.rivers)
+        .with(&scene.params)
+        .with(&scene.sketch)
+        .with(&format!("{:?}", options.solver))
+        .with(&backend.key());
+    let hydrology = match stages.hydrology.get(key) {
+        Some(cached) => cached,
+        None => {
+            let mut params = scene.terrain_params();
+            params.solver = options.solver;
+            let generated = terrain::generate(&scene.strokes(), &params, backend, ctx).await?;
+            computed.push("hydrology");
+            stages.hydrology.put(key, generated)
+        }
+    };
+    times.extend(hydrology.report.stages.iter().cloned());
+    let mut field = hydrology.terrain.clone();
+    let mut key = key;
+
+    // 2. Erosion, on when the scene has an erosion section.
+    let mut eroded = None;
+    if let Some(settings) = &scene.erosion {
+        key = key.then("erosion").with(settings);
+        let out = match stages.erosion.get(key) {
+            Some(cached) => cached,
+            None => {
+                let clock = Instant::now();
+                ctx.checkpoint(0.0, "eroding").await?;
+                let out = erosion::erode_terrain(&hydrology, settings, scene.cell_size, ctx)
+                    .await
+                    .map_err(|e| match e {
+                        erosion::StageError::Cancelled(c) => PipelineError::Cancelled(c),
+                        other => PipelineError::Erosion(other.to_string()),
+                    })?;
+                computed.push("erosion");
+                let millis = clock.elapsed().as_secs_f64() * 1e3;
+                stages.erosion.put(key, Eroded { millis, ..out })
+            }
+        };
+        times.push(StageTime {
+            name: "erosion",
+            ms: out.millis,
+        });
+        field = out.field.clone();
+        eroded = Some(out);
+    }
+
+    // 3. Wavelet detail under the painted mask.
+    let mut detailed = None;
+    if scene.detail.levels > 0 {
+        key = key.then("detail").with(&scene.detail);
+        let out = match stages.detail.get(key) {
+            Some(cached) => cached,
+            None => {
+                let out = detail(scene, &field, backend, ctx).await?;
+                computed.push("detail");
+                stages.detail.put(key, out)
+            }
+        };
+        times.push(StageTime {
+            name: "detail",
+            ms: out.millis,
+        });
+        field = out.field.clone();
+        detailed = Some(out);
+    }
+
+    // 4. Blocks of real terrain.
+    let mut blended = None;
+    if !scene.blend.is_empty() {
+        key = key.then("blend").with(&scene.blend);
+        let out = match stages.blend.get(key) {
+            Some(cached) => cached,
+            None => {
+                let out = blend_blocks(scene, &field, backend, ctx).await?;
+                computed.push("blend");
+                stages.blend.put(key, out)
+            }
+        };
+        times.push(StageTime {
+            name: "blend",
+            ms: out.millis,
+        });
+        field = out.field.clone();
+        blended = Some(out);
+    }
+    stages.forget_unused(scene.erosion.is_some(), detailed.is_some(), blended.is_some());
+
+    ctx.tick(0.99, "terrain report").await?;
+    let report = Report::new(
+        &hydrology.report,
+        eroded.as_deref(),
+        detailed.as_deref(),
+        blended.as_deref(),
+        &field,
+        times,
+        ctx,
+    )
+    .await?;
+    let cell_m = scene.map_width() / field.width().max(1) as f64;
+    Ok(Output {
+        hydrology,
+        erosion: eroded,
+        detail: detailed,
+        blend: blended,
+        field,
+        cell_m,
+        report,
+        computed,
+    })
+}
+
+/// The detail stage: new wavelet levels of `source` (seed paper 001) under the scene's mask.
+/// A GPU that cannot hold the output falls back to the CPU rather than failing.
+async fn detail(
+    scene: &Scene,
+    source: &Heightfield,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Detailed, PipelineError> {
+    let params = scene.detail.params(stage_seed(scene.seed, "detail"));
+    synthesis::check(source, &params).map_err(|e| PipelineError::Detail(e.to_string()))?;
+    let mask = scene.detail.mask()?;
+    let n = synthesis::output_len(source.width(), params.levels);
+    let backend = match backend {
+        Backend::Gpu(gpu) if gpu.check_field(n, n).is_err() => &Backend::Cpu,
+        other => other,
+    };
+    let clock = Instant::now();
+    let out = wavelet::amplify_on(backend, source, &params, mask.as_ref(), ctx)
+        .await
+        .map_err(|e| match e {
+            AmplifyFailure::Cancelled(c) => PipelineError::Cancelled(c),
+            AmplifyFailure::Wavelet(w) => PipelineError::Detail(w.to_string()),
+        })?;
+    let millis = clock.elapsed().as_secs_f64() * 1e3;
+    ctx.tick(0.97, "measuring the detail").await?;
+    let rms = synthesis::detail_rms(source, &out.field, params.levels, mask.as_ref());
+    Ok(Detailed {
+        field: Arc::new(out.field),
+        rms,
+        millis,
+        backend: backend.key(),
+    })
+}
+
+/// The blend stage: every block of the scene solved into `terrain`, in order (seed 000,
+/// Sec. VI, Algorithm 1).
+async fn blend_blocks(
+    scene: &Scene,
+    terrain: &Heightfield,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Blended, PipelineError> {
+    let clock = Instant::now();
+    let mut field = terrain.clone();
+    let solves = blend::apply_blocks(backend, &mut field, &scene.blend, ctx)
+        .await
+        .map_err(|e| match e {
+            BlendError::Diffusion(crate::diffusion::DiffusionError::Cancelled(c)) => {
+                PipelineError::Cancelled(c)
+            }
+            other => PipelineError::Blend(other.to_string()),
+        })?;
+    Ok(Blended {
+        field: Arc::new(field),
+        solves,
+        millis: clock.elapsed().as_secs_f64() * 1e3,
+        backend: backend.key(),
+    })
+}
+
+/// Runs `scene` once at its own size on `backend` (the command line and scripts).
+pub async fn generate(
+    scene: &Scene,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Output, PipelineError> {
+    Pipeline::new()
+        .run(scene, &RunOptions::for_scene(scene), backend, ctx)
+        .await
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,270 @@
+//! The pipeline: every stage chained, the cache recomputing only what an edit touched, and
+//! pinned checksums of small scenes (the same bits natively, in the browser and on the
+//! command line; `tests/cli.rs` and `web/tests/browser.mjs` pin the same values).
+
+use super::*;
+use crate::blend::BlendBlock;
+use crate::scene::{DetailSettings, RiverStroke, SketchLine, SketchPeak};
+use crate::wavelet::{Brush, Mask};
+
+fn river(estuary: [f64; 2], toward: [f64; 2], phi: u32, depth: u32) -> RiverStroke {
+    RiverStroke {
+        estuary,
+        toward,
+        phi,
+        depth,
+    }
+}
+
+/// A small scene with sketched ridges, valleys and peaks.
+pub fn sketch_scene() -> Scene {
+    let mut scene = Scene {
+        size: 96,
+        seed: 7,
+        rivers: vec![river([0.5, 1.0], [0.45, 0.4], 3, 6)],
+        ..Scene::default()
+    };
+    scene.sketch.ridges.push(SketchLine {
+        points: vec![[0.1, 0.2], [0.3, 0.1]],
+        height: None,
+    });
+    scene.sketch.valleys.push(SketchLine {
+        points: vec![[0.8, 0.7], [0.9, 0.4]],
+        height: None,
+    });
+    scene.sketch.peaks.push(SketchPeak {
+        at: [0.2, 0.6],
+        height: Some(600.0),
+    });
+    scene.params.noise.octaves = 4;
+    scene.params.noise.roughness = 0.6;
+    scene
+}
+
+/// A small scene with two detail levels and a painted mask.
+pub fn detail_scene() -> Scene {
+    let mut scene = Scene {
+        size: 64,
+        seed: 3,
+        rivers: vec![river([0.0, 0.5], [0.6, 0.5], 2, 6)],
+        ..Scene::default()
+    };
+    let mut mask = Mask::new(64, 64).unwrap();
+    mask.paint_segment(
+        glam::DVec2::new(0.2, 0.2),
+        glam::DVec2::new(0.8, 0.3),
+        &Brush {
+            radius: 6.0,
+            ..Brush::default()
+        },
+    );
+    scene.detail = DetailSettings {
+        levels: 2,
+        scope: "local".into(),
+        window: 3,
+        mask_png: None,
+    };
+    scene.detail.set_mask(Some(&mask));
+    scene
+}
+
+/// A small scene with a block of (synthetic) real terrain blended in.
+pub fn block_scene() -> Scene {
+    let mut scene = Scene {
+        size: 64,
+        seed: 5,
+        rivers: vec![river([1.0, 0.3], [0.5, 0.4], 3, 5)],
+        ..Scene::default()
+    };
+    let reference = crate::wavelet::fbm::diamond_square(24, 24, 0.8, 11).unwrap();
+    let scaled: Vec<f32> = reference.data().iter().map(|v| v * 200.0).collect();
+    let reference = Heightfield::from_vec(24, 24, scaled).unwrap();
+    scene
+        .blend
+        .push(BlendBlock::new("dunes", &reference, [0.1, 0.5, 0.45, 0.9]).unwrap());
+    scene
+}
+
+fn run(pipeline: &mut Pipeline, scene: &Scene) -> Output {
+    pollster::block_on(pipeline.run(
+        scene,
+        &RunOptions::for_scene(scene),
+        &Backend::Cpu,
+        &JobCtx::detached(),
+    ))
+    .unwrap()
+}
+
+#[test]
+fn every_stage_runs_and_a_later_stage_changes_the_terrain() {
+    let scene = detail_scene();
+    let out = run(&mut Pipeline::new(), &scene);
+    assert_eq!(out.computed, ["hydrology", "detail"]);
+    // 64 cells become 2 * 64 - 1 = 127, then 253.
+    assert_eq!(out.field.width(), 253);
+    assert_eq!(out.report.terrain.size, 253);
+    let mut plain = scene.clone();
+    plain.detail = DetailSettings::default();
+    let without = run(&mut Pipeline::new(), &plain);
+    assert_ne!(out.report.terrain.checksum, without.report.terrain.checksum);
+    // The hydrology is the same with and without detail.
+    assert_eq!(
+        out.report.hydrology_checksum,
+        without.report.hydrology_checksum
+    );
+    let d = out.report.detail.as_ref().unwrap();
+    assert!(d.rms_unmasked > 0.0);
+    assert!(d.rms_masked.is_some_and(|m| m < d.rms_unmasked), "{d:?}");
+}
+
+#[test]
+fn an_edit_recomputes_only_the_stages_it_touched() {
+    let mut scene = block_scene();
+    scene.detail.levels = 1;
+    let mut pipeline = Pipeline::new();
+    let first = run(&mut pipeline, &scene);
+    assert_eq!(first.computed, ["hydrology", "detail", "blend"]);
+
+    // Nothing changed: nothing recomputed, the same outputs shared.
+    let again = run(&mut pipeline, &scene);
+    assert!(again.computed.is_empty());
+    assert!(Arc::ptr_eq(&again.field, &first.field));
+    assert!(Arc::ptr_eq(&again.hydrology, &first.hydrology));
+
+    // A block moved: only the blend.
+    scene.blend[0].rect = [0.2, 0.5, 0.55, 0.9];
+    let moved = run(&mut pipeline, &scene);
+    assert_eq!(moved.computed, ["blend"]);
+    assert_ne!(moved.report.terrain.checksum, first.report.terrain.checksum);
+
+    // A mask stroke: detail and what follows.
+    let mut mask = Mask::new(64, 64).unwrap();
+    mask.paint_segment(
+        glam::DVec2::new(0.5, 0.1),
+        glam::DVec2::new(0.5, 0.9),
+        &Brush::default(),
+    );
+    scene.detail.set_mask(Some(&mask));
+    assert_eq!(run(&mut pipeline, &scene).computed, ["detail", "blend"]);
+
+    // A river edit: everything.
+    scene.rivers[0].phi = 2;
+    assert_eq!(
+        run(&mut pipeline, &scene).computed,
+        ["hydrology", "detail", "blend"]
+    );
+}
+
+#[test]
+fn preview_and_full_size_keep_their_own_stages() {
+    let scene = sketch_scene();
+    let mut pipeline = Pipeline::new();
+    let preview = RunOptions {
+        size: 48,
+        ..RunOptions::for_scene(&scene)
+    };
+    let full = RunOptions::for_scene(&scene);
+    let go = |p: &mut Pipeline, o: &RunOptions| {
+        pollster::block_on(p.run(&scene, o, &Backend::Cpu, &JobCtx::detached())).unwrap()
+    };
+    assert_eq!(go(&mut pipeline, &preview).computed, ["hydrology"]);
+    assert_eq!(go(&mut pipeline, &full).computed, ["hydrology"]);
+    let small = go(&mut pipeline, &preview);
+    assert!(small.computed.is_empty(), "the preview's stages were kept");
+    assert_eq!(small.field.width(), 48);
+    // The preview keeps the map's width: its cells are larger.
+    assert!((small.cell_m - scene.map_width() / 48.0).abs() < 1e-9);
+}
+
+/// The golden scenes, as `tests/data/scenes/` holds them (made by [`write_golden_scenes`]).
+fn golden_scenes() -> [(&'static str, Scene); 3] {
+    let read = |text: &str| Scene::from_json(text).unwrap();
+    [
+        (
+            "sketch",
+            read(include_str!("../../tests/data/scenes/sketch.json")),
+        ),
+        (
+            "detail",
+            read(include_str!("../../tests/data/scenes/detail.json")),
+        ),
+        (
+            "block",
+            read(include_str!("../../tests/data/scenes/block.json")),
+        ),
+    ]
+}
+
+/// Golden checksums: the terrain's bits are promised to be the same natively, in the browser
+/// and for `strahler generate` (`tests/cli.rs` and `web/tests/browser.mjs` check the same
+/// values from `tests/data/scenes/checksums.json`). A change here is a change of every user's
+/// terrain: update that file with it, and say so.
+#[test]
+fn golden_scenes_have_pinned_checksums() {
+    let pinned: std::collections::BTreeMap<String, String> =
+        serde_json::from_str(include_str!("../../tests/data/scenes/checksums.json")).unwrap();
+    for (name, scene) in golden_scenes() {
+        let out = run(&mut Pipeline::new(), &scene);
+        assert_eq!(
+            Some(&out.report.terrain.checksum),
+            pinned.get(name),
+            "scene {name}"
+        );
+    }
+}
+
+/// A scene with every field away from its default (`tests/app_ui.rs` round-trips it through
+/// the app).
+fn every_field_scene() -> Scene {
+    let mut scene = block_scene();
+    let detail = detail_scene().detail;
+    scene.size = 80;
+    scene.cell_size = 25.0;
+    scene.vertical_scale = 1.5;
+    scene.seed = 42;
+    scene.rivers.push(river([0.0, 0.9], [0.3, 0.8], 2, 4));
+    scene.sketch = sketch_scene().sketch;
+    scene.params.theta = 35.0;
+    scene.params.river_slope = 0.02;
+    scene.params.alpha = 0.2;
+    scene.params.noise.amplitude = 30.0;
+    scene.params.noise.octaves = 5;
+    scene.params.noise.roughness = 0.6;
+    scene.params.enrich.passes = 3;
+    scene.params.enrich.distance_limit = 4;
+    scene.params.post.smooth_sigma = 0.5;
+    scene.params.post.fbm_amplitude = 2.0;
+    scene.params.post.fbm_octaves = 3;
+    scene.detail = DetailSettings {
+        levels: 1,
+        window: 5,
+        ..detail
+    };
+    let mut erosion = crate::erosion::ErosionSettings::preset("badlands").unwrap();
+    erosion.steps = 3;
+    erosion.river_band = 2;
+    scene.erosion = Some(erosion);
+    scene
+}
+
+/// The golden scenes are the files; this writes them from the constructors above (run by
+/// hand with `--ignored` when a scene is changed on purpose).
+#[test]
+#[ignore]
+fn write_golden_scenes() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/scenes");
+    std::fs::create_dir_all(dir).unwrap();
+    let mut sums = std::collections::BTreeMap::new();
+    for (name, scene) in [
+        ("sketch", sketch_scene()),
+        ("detail", detail_scene()),
+        ("block", block_scene()),
+    ] {
+        std::fs::write(format!("{dir}/{name}.json"), scene.to_json()).unwrap();
+        let out = run(&mut Pipeline::new(), &scene);
+        sums.insert(name, out.report.terrain.checksum);
+    }
+    std::fs::write(format!("{dir}/every_field.json"), every_field_scene().to_json()).unwrap();
+    let text = serde_json::to_string_pretty(&sums).unwrap();
+    std::fs::write(format!("{dir}/checksums.json"), text + "\n").unwrap();
+}
