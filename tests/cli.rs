@@ -713,3 +713,63 @@ fn files_written_by_gdal_read_correctly() {
         (tie[3] - 5.999583333333334).abs() < 1e-9 && (tie[4] - 50.000416666666666).abs() < 1e-9
     );
 }
+
+/// The golden scenes (`tests/data/scenes`, one with sketch items, one with detail and a
+/// painted mask, one with a DEM block): `strahler generate` writes the terrain whose
+/// checksum the library, the page and this test pin, and a scene's detail section matters.
+#[test]
+fn generate_builds_every_stage_of_a_scene_with_the_pinned_checksum() {
+    let data = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/scenes");
+    let pinned: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(data.join("checksums.json")).unwrap()).unwrap();
+    let dir = out_dir();
+    let mut sums = std::collections::BTreeMap::new();
+    for name in ["sketch", "detail", "block"] {
+        let report = dir.join(format!("golden-{name}.json"));
+        let scene = data.join(format!("{name}.json"));
+        let result = strahler(&[
+            "generate",
+            scene.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--report",
+            report.to_str().unwrap(),
+        ]);
+        assert!(
+            result.status.success(),
+            "{name}: {}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+        assert_eq!(report["checksum"], pinned[name], "scene {name}");
+        sums.insert(name, report);
+    }
+    // Detail: two new levels (64 -> 253 cells), and without its detail section the same
+    // scene gives another terrain on the same hydrology.
+    let detailed = &sums["detail"];
+    assert_eq!(detailed["size"], 253);
+    assert!(detailed["detail"]["rms_masked"].as_f64().is_some());
+    let mut scene: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(data.join("detail.json")).unwrap()).unwrap();
+    scene.as_object_mut().unwrap().remove("detail");
+    let plain = dir.join("golden-detail-plain.json");
+    std::fs::write(&plain, scene.to_string()).unwrap();
+    let report = dir.join("golden-detail-plain-report.json");
+    let result = strahler(&[
+        "generate",
+        plain.to_str().unwrap(),
+        "--backend",
+        "cpu",
+        "--report",
+        report.to_str().unwrap(),
+    ]);
+    assert!(result.status.success());
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_ne!(report["checksum"], detailed["checksum"]);
+    assert_eq!(report["hydrology_checksum"], detailed["hydrology_checksum"]);
+    // The block scene reports its solve.
+    assert_eq!(sums["block"]["blend"]["blocks"], 1);
+    assert_eq!(sums["block"]["blend"]["converged"], true);
+}

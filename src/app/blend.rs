@@ -14,9 +14,9 @@ use std::sync::Arc;
 
 use egui::{Color32, DragValue, ProgressBar, Rect, RichText, Sense, Stroke, StrokeKind, pos2};
 
+use super::StrahlerApp;
 use super::automation::{BlendStatus, DemStatus};
 use super::map_view::{BlockDrag, Tool};
-use super::StrahlerApp;
 use crate::blend::BlendBlock;
 use crate::dem::format::{self, Format, ImportOptions};
 use crate::dem::{Dem, DemError, ReadLimits};

@@ -194,7 +194,9 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         .show(ui, |ui| {
             ui.label("New levels");
             let out = synthesis::output_len(app.scene.size, app.scene.detail.levels);
-            ui.add(Slider::new(&mut app.scene.detail.levels, 0..=3).text(format!("-> {out} x {out}")));
+            ui.add(
+                Slider::new(&mut app.scene.detail.levels, 0..=3).text(format!("-> {out} x {out}")),
+            );
             ui.end_row();
             let label = ui.label("Scope").on_hover_text(
                 "Global (GSA): one line per band for the whole map. Local (LSA): a line per \

@@ -30,9 +30,9 @@ pub use view3d::{CameraRequest, View3d, View3dStatus, ViewKind};
 use egui::pos2;
 use glam::DVec2;
 
-use crate::diffusion::selftest::{RunSummary, SelfTest};
 use crate::compute::{ComputePath, CpuReason};
 use crate::diffusion::DiffusionError;
+use crate::diffusion::selftest::{RunSummary, SelfTest};
 use crate::gpu::{GpuContext, device_descriptor};
 use crate::jobs::JobHandle;
 use crate::pipeline::{Output, Pipeline, PipelineError, RunOptions};
@@ -117,6 +117,8 @@ pub struct StrahlerApp {
     /// The Erosion section's before/after toggle, and the pictures it switches between
     /// (after erosion, before it).
     show_before_erosion: bool,
+    /// The Realism section asks each run to measure the terrain.
+    measure_realism: bool,
     pictures: Option<(picture::Picture, Option<picture::Picture>)>,
     showing_before: bool,
     /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
@@ -183,6 +185,7 @@ impl StrahlerApp {
             moving: false,
             detail_summary: None,
             show_before_erosion: false,
+            measure_realism: false,
             pictures: None,
             showing_before: false,
             mask_overlay_stale: false,
@@ -348,7 +351,7 @@ impl StrahlerApp {
     pub fn start_generate(&mut self, ctx: &egui::Context) {
         self.dirty = false;
         self.automation.set_scene(self.scene());
-        if self.scene.rivers.is_empty() {
+        if self.scene.rivers.is_empty() && self.scene.sketch.is_empty() {
             self.terrain_job = None;
             self.set_error(
                 "Draw a river to make terrain: choose Draw river and drag on the map.".into(),
@@ -362,6 +365,7 @@ impl StrahlerApp {
         let mut options = RunOptions {
             size: scene.size,
             solver: self.settings.method(),
+            realism: self.measure_realism,
         };
         if self.preview && !std::mem::take(&mut self.full_size_requested) {
             options.size = options.size.min(PREVIEW_SIZE);
@@ -372,7 +376,7 @@ impl StrahlerApp {
             "terrain",
             move |job| async move {
                 let output = pipeline.run(&scene, &options, &backend, &job).await?;
-                Ok(Arrived::prepare(pipeline, output, &job).await?)
+                Arrived::prepare(pipeline, output, &job).await
             },
             move || repaint.request_repaint(),
         );
@@ -867,6 +871,7 @@ impl eframe::App for StrahlerApp {
                 let line = SketchLine {
                     points: vec![d(a), d(b)],
                     height: None,
+                    heights: None,
                 };
                 match self.tool {
                     Tool::Ridge => self.scene.sketch.ridges.push(line),

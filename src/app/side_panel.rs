@@ -78,6 +78,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 diffusion_section(ui, app);
                 ui.separator();
                 super::erosion::section(ui, app);
+                ui.separator();
+                super::erosion::realism_section(ui, app);
                 if shaping(app) != before {
                     app.dirty = true;
                 }
@@ -271,7 +273,8 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.end_row();
             let label = ui.label("Seed");
             ui.horizontal(|ui| {
-                ui.add(DragValue::new(&mut scene.seed)).labelled_by(label.id);
+                ui.add(DragValue::new(&mut scene.seed))
+                    .labelled_by(label.id);
                 if ui.button("New seed").clicked() {
                     scene.seed = scene
                         .seed
@@ -284,28 +287,44 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             let label = ui
                 .label("θ (°)")
                 .on_hover_text("Branching angle theta: exterior links turn theta or 2 theta.");
-            ui.add(DragValue::new(&mut scene.params.theta).range(5.0..=60.0).speed(0.5))
-                .labelled_by(label.id);
+            ui.add(
+                DragValue::new(&mut scene.params.theta)
+                    .range(5.0..=60.0)
+                    .speed(0.5),
+            )
+            .labelled_by(label.id);
             ui.end_row();
             let label = ui
                 .label("River slope")
                 .on_hover_text("Metres of height per metre of channel (Sec. IV-C).");
-            ui.add(DragValue::new(&mut scene.params.river_slope).range(0.0..=0.2).speed(0.001))
-                .labelled_by(label.id);
+            ui.add(
+                DragValue::new(&mut scene.params.river_slope)
+                    .range(0.0..=0.2)
+                    .speed(0.001),
+            )
+            .labelled_by(label.id);
             ui.end_row();
             let label = ui.label("α").on_hover_text(
                 "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
             );
-            ui.add(DragValue::new(&mut scene.params.alpha).range(0.0..=1.0).speed(0.005))
-                .labelled_by(label.id);
+            ui.add(
+                DragValue::new(&mut scene.params.alpha)
+                    .range(0.0..=1.0)
+                    .speed(0.005),
+            )
+            .labelled_by(label.id);
             ui.end_row();
             let label = ui.label("Noise (m)").on_hover_text(
                 "Amplitude of the fractal Perlin noise F(P) of eq. 5 on ridges. Downwards it \
                      takes at most half of a ridge's height above its rivers (alpha * d of \
                      eq. 4), so low ridges between close rivers stay above them.",
             );
-            ui.add(DragValue::new(&mut scene.params.noise.amplitude).range(0.0..=500.0).speed(1.0))
-                .labelled_by(label.id);
+            ui.add(
+                DragValue::new(&mut scene.params.noise.amplitude)
+                    .range(0.0..=500.0)
+                    .speed(1.0),
+            )
+            .labelled_by(label.id);
             ui.end_row();
             let label = ui
                 .label("Octaves")

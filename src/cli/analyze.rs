@@ -1,5 +1,7 @@
 //! `strahler analyze`: the wavelet statistics of a DEM (seed paper 001, eqs. 6-7): detail
-//! variance per level and band, and the fitted lines.
+//! variance per level and band, and the fitted lines; then the realism report (slopes,
+//! harmonic cells, geomorphons, drainage density, spectral slope) that `strahler generate`
+//! gives too, so a generated terrain compares with a real one.
 
 use std::path::PathBuf;
 
@@ -7,6 +9,7 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::dem::ReadLimits;
+use crate::realism::RealismReport;
 use crate::wavelet::{self, AnalysisParams, Band};
 
 #[derive(Debug, Args)]
@@ -19,6 +22,9 @@ pub struct AnalyzeArgs {
     /// Levels whose band has fewer coefficients are not fitted (the paper uses 16).
     #[arg(long, default_value_t = 16)]
     pub min_coefficients: usize,
+    /// Cell size in metres where the file gives none (PNG, RAW) [default: 1].
+    #[arg(long)]
+    pub cell_size: Option<f64>,
     /// Print JSON instead of the table.
     #[arg(long)]
     pub json: bool,
@@ -60,6 +66,12 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
     let params = AnalysisParams {
         min_coefficients: args.min_coefficients.max(1),
     };
+    let (cell_x, cell_y) = dem
+        .georef
+        .cell_size_m(dem.field.height())
+        .or(args.cell_size.map(|c| (c, c)))
+        .unwrap_or((1.0, 1.0));
+    let realism = RealismReport::of(&dem.field, cell_x, cell_y);
     let analysis = wavelet::analyze(&dem.field, &params)
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
     let levels = analysis.levels.len() as u32;
@@ -83,6 +95,8 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
                 residual: f.residual,
                 levels_used: f.levels_used,
             })).collect::<Vec<_>>(),
+            "cell_size_m": [cell_x, cell_y],
+            "realism": realism,
         });
         println!("{}", serde_json::to_string_pretty(&json)?);
         return Ok(());
@@ -133,6 +147,10 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
                 band.label()
             ),
         }
+    }
+    println!("realism (cells {cell_x:.1} x {cell_y:.1} m):");
+    for line in realism.lines() {
+        println!("  {line}");
     }
     Ok(())
 }

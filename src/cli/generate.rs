@@ -7,10 +7,10 @@ use glam::DVec2;
 
 use crate::compute::BackendChoice;
 use crate::dem::GeoRef;
-use crate::jobs::JobCtx;
-use crate::river::Stroke;
 use crate::erosion::ErosionSettings;
+use crate::jobs::JobCtx;
 use crate::pipeline::{self, Output};
+use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene};
 use crate::terrain;
 
@@ -218,6 +218,12 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     );
     println!("stages: {}", stages.join(", "));
     println!("checksum: {}", r.checksum);
+    if let Some(realism) = &report.realism {
+        println!("realism:");
+        for line in realism.lines() {
+            println!("  {line}");
+        }
+    }
     for note in &r.rivers.trimmed {
         println!("note: {note}");
     }

@@ -8,8 +8,10 @@ mod bench_view3d;
 mod bench_wavelet;
 mod blend;
 mod convert;
+mod features;
 mod fill;
 mod generate;
+mod hillshade;
 mod info;
 mod io;
 
@@ -42,6 +44,10 @@ pub enum Command {
     Convert(convert::ConvertArgs),
     /// Blend a window of a real DEM into a block of a terrain by the Poisson equation.
     Blend(blend::BlendArgs),
+    /// Extract ridge lines, valley lines and peaks of a DEM (seed 003) as an editable scene.
+    Features(features::FeaturesArgs),
+    /// Draw grey hillshades of DEMs side by side in one PNG (compare terrains by eye).
+    Hillshade(hillshade::HillshadeArgs),
     /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
     /// and print a table beside the paper's numbers.
     Bench(bench::BenchArgs),
@@ -75,6 +81,8 @@ pub fn run(command: Command) -> ExitCode {
         Command::Amplify(args) => amplify::run(&args),
         Command::Convert(args) => convert::run(&args),
         Command::Blend(args) => blend::run(&args),
+        Command::Hillshade(args) => hillshade::run(&args),
+        Command::Features(args) => features::run(&args),
     };
     match result {
         Ok(()) => ExitCode::SUCCESS,

@@ -5,7 +5,6 @@
 //! (`--backend auto|cpu|gpu` on the command line, a combo box in the app) and
 //! [`BackendChoice::resolve`] turns it into a [`Backend`] given the GPU that was found.
 
-
 use std::fmt;
 use std::sync::Arc;
 

@@ -10,6 +10,7 @@ pub mod asc;
 pub mod format;
 pub mod geotiff;
 pub mod hgt;
+pub mod hillshade;
 pub mod obj;
 pub mod png16;
 pub mod raw;
@@ -154,6 +155,25 @@ impl GeoRef {
         geographic
             .map(|c| format!("EPSG:{c}"))
             .or_else(|| self.geo_ascii.clone().filter(|a| !a.trim().is_empty()))
+    }
+
+    /// Horizontal cell size in metres: the CRS's units, or for a geographic CRS (degrees,
+    /// any EPSG:4xxx code) the degrees converted at the raster's latitude (WGS 84 mean
+    /// radius). `None` where the file gives no cell size.
+    pub fn cell_size_m(&self, rows: usize) -> Option<(f64, f64)> {
+        let (cx, cy) = self.cell_size()?;
+        let geographic = self.crs_label().is_some_and(|c| c.starts_with("EPSG:4"));
+        if !geographic {
+            return Some((cx, cy));
+        }
+        let top = self
+            .tiepoint
+            .as_ref()
+            .filter(|t| t.len() >= 6)
+            .map(|t| t[4])?;
+        let lat = (top - cy * rows as f64 / 2.0).to_radians();
+        let metres_per_degree = 6_371_008.8 * std::f64::consts::PI / 180.0;
+        Some((cx * metres_per_degree * lat.cos(), cy * metres_per_degree))
     }
 
     /// Horizontal cell size in the CRS's units, when the file says.

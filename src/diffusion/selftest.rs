@@ -50,7 +50,6 @@ impl From<&Filled> for RunSummary {
     }
 }
 
-
 /// The self-test's result.
 #[derive(Clone, Debug, Serialize)]
 pub struct SelfTest {

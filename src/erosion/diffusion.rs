@@ -2,22 +2,26 @@
 //!
 //! Choice: implicit (backward Euler) on the 5-point Laplacian,
 //! `(1 + r k_i) h_i' - r * sum_nb h_nb' = h_i` with `r = kappa dt / cell^2` and `k_i` the
-//! number of in-grid 4-neighbours (zero flux across the map edge), solved with a fixed
-//! number of red-black Gauss–Seidel sweeps started from `h`.
+//! number of in-grid 4-neighbours (zero flux across the map edge), solved with
+//! red-black Gauss–Seidel sweeps started from `h`.
 //!
 //! Why: every Gauss–Seidel update `h_i' = (h_i + r sum h_nb') / (1 + r k_i)` is a convex
 //! combination of values, so each sweep obeys a discrete maximum principle and the
-//! result is stable and free of overshoot for *any* `dt`, at a fixed cost of
-//! `DIFFUSION_SWEEPS` passes (O(cells)). Explicit sub-stepping would need
-//! `dt / (cell^2 / 4 kappa)` passes, which is unbounded for long steps on fine grids.
-//! For `r <~ 1` (the presets) a few sweeps converge to well under 1 % of the step's
-//! change; for very large `r` the sweeps under-relax (less smoothing than the exact
-//! backward-Euler solution), never more. Base-level cells are fixed (Dirichlet).
+//! result is stable and free of overshoot for *any* `dt`. Explicit sub-stepping would
+//! need `dt / (cell^2 / 4 kappa)` passes, unbounded for long steps on fine grids.
+//! One red-black sweep carries information about two cells, and the step's diffusion
+//! length is `sqrt(kappa dt) = sqrt(r)` cells, so we run `ceil(sqrt(r))` sweeps,
+//! clamped to `MIN_SWEEPS..=MAX_SWEEPS`: O(cells) per step. Within that bound the
+//! short wavelengths (ridges, gullies), which Gauss–Seidel smooths fastest, are
+//! essentially converged; for very large `r` the longest wavelengths are not (they are
+//! smoothed less than by the exact backward-Euler solution), which stays stable.
+//! Base-level cells are fixed (Dirichlet).
 
 use super::grid::{D4, Grid};
 
-/// Red-black Gauss–Seidel sweeps per time step.
-pub(super) const DIFFUSION_SWEEPS: usize = 3;
+/// Bounds on the red-black Gauss–Seidel sweeps per time step.
+const MIN_SWEEPS: usize = 2;
+const MAX_SWEEPS: usize = 8;
 
 /// Applies one backward-Euler diffusion step to `h`; `rhs` is scratch of the same size.
 pub(super) fn diffuse(grid: Grid, h: &mut [f32], base: &[bool], r: f64, rhs: &mut [f32]) {
@@ -27,7 +31,8 @@ pub(super) fn diffuse(grid: Grid, h: &mut [f32], base: &[bool], r: f64, rhs: &mu
     // Diagonal weights for 4, 3 and 2 neighbours (interior, edge, corner).
     let inv = |k: usize| 1.0 / (1.0 + r * k as f32);
     let inv4 = inv(4);
-    for _ in 0..DIFFUSION_SWEEPS {
+    let sweeps = (r.sqrt().ceil() as usize).clamp(MIN_SWEEPS, MAX_SWEEPS);
+    for _ in 0..sweeps {
         for colour in 0..2 {
             for y in 0..grid.height {
                 let interior_row = y > 0 && y + 1 < grid.height;

@@ -14,7 +14,10 @@ pub enum ErosionError {
         got: usize,
     },
     /// A parameter is out of range; `field` names the [`ErosionParams`](super::ErosionParams) field.
-    InvalidParam { field: &'static str, problem: String },
+    InvalidParam {
+        field: &'static str,
+        problem: String,
+    },
     /// `cell_m` is not a finite number > 0.
     BadCellSize(f64),
     /// An input array holds a NaN or an infinity.
@@ -29,7 +32,11 @@ impl fmt::Display for ErosionError {
             Self::BadDimensions { width, height } => {
                 write!(f, "grid size {width} x {height} is empty or too large")
             }
-            Self::SizeMismatch { what, expected, got } => {
+            Self::SizeMismatch {
+                what,
+                expected,
+                got,
+            } => {
                 write!(f, "{what} has {got} cells, expected {expected}")
             }
             Self::InvalidParam { field, problem } => write!(f, "parameter `{field}`: {problem}"),

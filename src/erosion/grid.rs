@@ -63,24 +63,14 @@ impl Grid {
         self.offset(x, y, D8[d])
     }
 
-    /// D8 direction index of the step from cell `from` to its neighbour `to`.
-    pub(super) fn direction(self, from: usize, to: usize) -> usize {
-        let (fx, fy) = self.xy(from);
-        let (tx, ty) = self.xy(to);
-        let dx = tx as isize - fx as isize;
-        let dy = ty as isize - fy as isize;
-        let k = ((dy + 1) * 3 + (dx + 1)) as usize;
-        // Row-major 3x3 index without the centre (4).
-        if k < 4 { k } else { k - 1 }
+    /// Index offsets of the D8 neighbours (valid for cells not on the map edge).
+    pub(super) fn offsets(self) -> [isize; 8] {
+        D8.map(|(dx, dy)| dy * self.width as isize + dx)
     }
 
-    /// Distance in metres between cell `i` and its D8 neighbour `j`.
-    pub(super) fn distance(self, i: usize, j: usize) -> f64 {
-        let diagonal = i % self.width != j % self.width && i / self.width != j / self.width;
-        if diagonal {
-            self.cell * std::f64::consts::SQRT_2
-        } else {
-            self.cell
-        }
+    /// Whether `(x, y)` is off the map edge, so that all eight neighbours exist.
+    #[inline]
+    pub(super) fn interior(self, x: usize, y: usize) -> bool {
+        x > 0 && y > 0 && x + 1 < self.width && y + 1 < self.height
     }
 }

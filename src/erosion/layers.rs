@@ -16,7 +16,9 @@ pub fn layer_pngs(
     let (lo, hi) = area
         .iter()
         .filter(|a| a.is_finite() && **a > 0.0)
-        .fold((f32::INFINITY, 0.0f32), |(lo, hi), &a| (lo.min(a), hi.max(a)));
+        .fold((f32::INFINITY, 0.0f32), |(lo, hi), &a| {
+            (lo.min(a), hi.max(a))
+        });
     let (llo, lhi) = (lo.max(1e-6).log10(), hi.max(1e-6).log10());
     let span = (lhi - llo).max(1e-6);
     let area_px: Vec<u8> = area

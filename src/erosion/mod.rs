@@ -10,13 +10,14 @@
 //! fluvial incision and landscape evolution", Geomorphology 180–181, 170–179.
 //!
 //! One [`Eroder::step`] (all O(cells), single-threaded, deterministic):
-//! 1. D8 steepest-descent receivers and the depth-first stack from the base-level
-//!    cells ([`flow`]); if some cell does not reach base level, depressions are filled
-//!    (Priority-Flood + epsilon, [`fill`]) and the routing is recomputed;
-//! 2. drainage area along the reversed stack;
-//! 3. implicit stream-power incision + uplift in stack order ([`stream_power`]);
-//! 4. implicit hillslope diffusion ([`diffusion`]) and optional talus relaxation
-//!    ([`thermal`]).
+//! 1. D8 steepest-descent receivers (`flow.rs`); free cells without a lower
+//!    neighbour (pits) are detected in the same pass, and only if there are any, their
+//!    depressions are filled to the sill (Priority-Flood + epsilon, `fill.rs`);
+//! 2. the depth-first stack from the base-level cells and the drainage area along
+//!    the reversed stack (`flow.rs`);
+//! 3. implicit stream-power incision + uplift in stack order (`stream_power.rs`);
+//! 4. implicit hillslope diffusion (`diffusion.rs`) and optional talus relaxation
+//!    (`thermal.rs`): operator splitting, receivers are fixed within a step.
 //!
 //! After the last step the routing is redone once more, so the final surface has a
 //! strictly descending path from every free cell to base level.
@@ -24,10 +25,12 @@
 //! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
 //! them, the map border) keep their heights exactly and are the roots of the stack.
 //!
-//! Memory besides the caller's heights, mask and uplift: receivers (`u32`), stack
-//! (`u32`), drainage area (`f32`) and, when `diffusivity > 0`, one `f32` scratch field:
-//! at most 16 bytes per cell. Depression filling, when pits exist, temporarily
-//! allocates a bit set (1 bit per cell) and a heap/queue sized by the flooded region.
+//! Memory besides the caller's heights (`f32`), mask (`bool`) and uplift (`f32`):
+//! receiver codes (`u8`), donor bitmasks (`u8`), stack (`u32`), drainage area (`f32`)
+//! and, when `diffusivity > 0`, one `f32` scratch field for the implicit diffusion:
+//! at most 14 bytes per cell (3.5 four-byte fields). Depression filling, only when
+//! pits exist, temporarily allocates two bit sets (2 bits per cell) plus a heap and
+//! queues sized by the lakes.
 
 mod diffusion;
 mod error;
@@ -45,11 +48,13 @@ mod tests;
 
 pub use self::error::ErosionError;
 pub use self::layers::layer_pngs;
-pub use self::stage::{
-    Eroded, ErosionReport, ErosionSettings, StageError, base_level, erode_terrain, uplift_from_design,
-};
 pub use self::params::{ErosionParams, PRESETS, preset};
+pub use self::stage::{
+    Eroded, ErosionReport, ErosionSettings, StageError, base_level, erode_terrain,
+    uplift_from_design,
+};
 
+use self::flow::Network;
 use self::grid::Grid;
 
 /// Time-stepping landscape-evolution solver; see the module docs.
@@ -61,8 +66,8 @@ pub struct Eroder {
     params: ErosionParams,
     dt: f64,
     steps_done: u32,
-    receivers: Vec<u32>,
-    stack: Vec<u32>,
+    /// Receivers, donors and stack (see [`flow`]).
+    net: Network,
     area: Vec<f32>,
     /// Right-hand side for the implicit diffusion (empty when `diffusivity == 0`).
     scratch: Vec<f32>,
@@ -98,12 +103,16 @@ pub fn receivers_and_area(
         return Err(ErosionError::NoBaseLevel);
     }
     let mut heights = heights.to_vec();
-    let mut receivers = vec![0; grid.len()];
-    let mut stack = Vec::with_capacity(grid.len());
-    route(grid, &mut heights, base_level, &mut receivers, &mut stack);
+    let mut net = Network::new(grid);
+    net.route(grid, &mut heights, base_level);
     let mut area = vec![0.0; grid.len()];
-    flow::accumulate_area(grid, &receivers, &stack, &mut area);
-    Ok(Routing { heights, receivers, stack, area })
+    net.area(grid, &mut area);
+    Ok(Routing {
+        heights,
+        receivers: net.receiver_indices(),
+        stack: net.stack,
+        area,
+    })
 }
 
 impl Eroder {
@@ -137,7 +146,11 @@ impl Eroder {
         if !base_level.contains(&true) {
             return Err(ErosionError::NoBaseLevel);
         }
-        let scratch = if params.diffusivity > 0.0 { vec![0.0; n] } else { Vec::new() };
+        let scratch = if params.diffusivity > 0.0 {
+            vec![0.0; n]
+        } else {
+            Vec::new()
+        };
         Ok(Eroder {
             grid,
             heights,
@@ -146,8 +159,7 @@ impl Eroder {
             params,
             dt: params.years / f64::from(params.steps),
             steps_done: 0,
-            receivers: vec![0; n],
-            stack: Vec::with_capacity(n),
+            net: Network::new(grid),
             area: vec![0.0; n],
             scratch,
         })
@@ -161,22 +173,15 @@ impl Eroder {
             return false;
         }
         let g = self.grid;
-        self.route();
-        flow::accumulate_area(g, &self.receivers, &self.stack, &mut self.area);
+        self.net.route(g, &mut self.heights, &self.base);
+        self.net.area(g, &mut self.area);
         let p = self.params;
-        if p.diffusivity > 0.0 {
-            let r = p.diffusivity * self.dt / (g.cell * g.cell);
-            diffusion::diffuse(g, &mut self.heights, &self.base, r, &mut self.scratch);
-        }
-        if let Some(talus) = p.talus_deg {
-            thermal::relax(g, &mut self.heights, &self.base, talus);
-        }
         stream_power::Incision {
             grid: g,
-            base: &self.base,
             uplift: &self.uplift,
-            rec: &self.receivers,
-            stack: &self.stack,
+            dir: &self.net.dir,
+            off: self.net.off,
+            stack: &self.net.stack,
             area: &self.area,
             dt: self.dt,
             k: p.erodibility,
@@ -184,12 +189,19 @@ impl Eroder {
             n: p.n,
         }
         .apply(&mut self.heights);
+        if p.diffusivity > 0.0 {
+            let r = p.diffusivity * self.dt / (g.cell * g.cell);
+            diffusion::diffuse(g, &mut self.heights, &self.base, r, &mut self.scratch);
+        }
+        if let Some(talus) = p.talus_deg {
+            thermal::relax(g, &mut self.heights, &self.base, talus);
+        }
         self.steps_done += 1;
         let more = self.steps_done < p.steps;
         if !more {
             // Leave a pit-free surface and the matching drainage area.
-            self.route();
-            flow::accumulate_area(g, &self.receivers, &self.stack, &mut self.area);
+            self.net.route(g, &mut self.heights, &self.base);
+            self.net.area(g, &mut self.area);
         }
         more
     }
@@ -215,42 +227,32 @@ impl Eroder {
     pub fn drainage_area(&self) -> &[f32] {
         &self.area
     }
-
-    /// Receivers + stack for the current heights, filling depressions if needed.
-    fn route(&mut self) {
-        route(self.grid, &mut self.heights, &self.base, &mut self.receivers, &mut self.stack);
-    }
-}
-
-/// Computes receivers and the stack; if some cells do not reach base level (pits or
-/// flats), fills them and recomputes.
-fn route(grid: Grid, h: &mut [f32], base: &[bool], rec: &mut [u32], stack: &mut Vec<u32>) {
-    flow::receivers(grid, h, base, rec);
-    flow::build_stack(grid, base, rec, stack);
-    if stack.len() < grid.len() {
-        fill::fill_unrouted(grid, h, stack);
-        flow::receivers(grid, h, base, rec);
-        flow::build_stack(grid, base, rec, stack);
-        debug_assert_eq!(stack.len(), grid.len());
-    }
 }
 
 fn check_grid(width: usize, height: usize, cell_m: f64) -> Result<Grid, ErosionError> {
-    let n = width.checked_mul(height).unwrap_or(usize::MAX);
+    let n = width.saturating_mul(height);
     if n == 0 || n >= u32::MAX as usize {
         return Err(ErosionError::BadDimensions { width, height });
     }
     if !(cell_m.is_finite() && cell_m > 0.0) {
         return Err(ErosionError::BadCellSize(cell_m));
     }
-    Ok(Grid { width, height, cell: cell_m })
+    Ok(Grid {
+        width,
+        height,
+        cell: cell_m,
+    })
 }
 
 fn check_len(what: &'static str, got: usize, expected: usize) -> Result<(), ErosionError> {
     if got == expected {
         Ok(())
     } else {
-        Err(ErosionError::SizeMismatch { what, expected, got })
+        Err(ErosionError::SizeMismatch {
+            what,
+            expected,
+            got,
+        })
     }
 }
 
@@ -260,4 +262,3 @@ fn check_finite(what: &'static str, v: &[f32]) -> Result<(), ErosionError> {
         None => Ok(()),
     }
 }
-

@@ -40,6 +40,11 @@ pub struct ErosionSettings {
     /// Cells on each side of a river or valley kept at their designed height with it (the
     /// river's banks), 0 to 16.
     pub river_band: u32,
+    /// Cell-scale roughness added to the land before eroding, metres (standard deviation):
+    /// water on a smooth plane runs in parallel lines forever, as on no real slope; a little
+    /// roughness lets the flow lines meet and branch (as landscape-evolution models start
+    /// from a randomly perturbed surface).
+    pub roughness_m: f64,
 }
 
 impl Default for ErosionSettings {
@@ -87,6 +92,7 @@ impl ErosionSettings {
             steps: p.steps,
             talus_deg: p.talus_deg,
             river_band: 1,
+            roughness_m: 2.0,
         }
     }
 
@@ -105,11 +111,19 @@ impl ErosionSettings {
 
     /// Checks every value: `Err((field, problem))`.
     pub fn validate(&self) -> Result<(), (&'static str, String)> {
-        if !(self.uplift_m_per_kyr.is_finite() && (0.0..=100.0).contains(&self.uplift_m_per_kyr))
-        {
+        if !(self.uplift_m_per_kyr.is_finite() && (0.0..=100.0).contains(&self.uplift_m_per_kyr)) {
             return Err((
                 "uplift_m_per_kyr",
-                format!("must be 0 to 100 m per thousand years, got {}", self.uplift_m_per_kyr),
+                format!(
+                    "must be 0 to 100 m per thousand years, got {}",
+                    self.uplift_m_per_kyr
+                ),
+            ));
+        }
+        if !(self.roughness_m.is_finite() && (0.0..=100.0).contains(&self.roughness_m)) {
+            return Err((
+                "roughness_m",
+                format!("must be 0 to 100 m, got {}", self.roughness_m),
             ));
         }
         if self.river_band > 16 {
@@ -172,8 +186,9 @@ pub enum StageError {
     Cancelled(#[from] Cancelled),
 }
 
-/// Base level: river and valley cells, `band` cells around them, and the map border.
-/// O(cells x band).
+/// Base level: river and valley cells and `band` cells around them. The map border is not
+/// base level: the land drains to the drawn rivers (which leave the map at their estuaries),
+/// as in a closed catchment, rather than off every edge. O(cells x band).
 pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
     let mut base: Vec<bool> = kinds
         .iter()
@@ -191,12 +206,6 @@ pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
                 base[y * n + x] = near;
             }
         }
-    }
-    for i in 0..n {
-        base[i] = true;
-        base[(n - 1) * n + i] = true;
-        base[i * n] = true;
-        base[i * n + n - 1] = true;
     }
     base
 }
@@ -234,8 +243,36 @@ pub fn uplift_from_design(field: &Heightfield, kinds: &[CellKind], max_m_per_yr:
     }
     let above: Vec<f32> = z.iter().zip(&base).map(|(h, b)| (h - b).max(0.0)).collect();
     let top = above.iter().copied().fold(0.0f32, f32::max);
-    let scale = if top > 0.0 { max_m_per_yr as f32 / top } else { 0.0 };
+    let scale = if top > 0.0 {
+        max_m_per_yr as f32 / top
+    } else {
+        0.0
+    };
     above.iter().map(|a| a * scale).collect()
+}
+
+/// Adds zero-mean noise of standard deviation `sigma` metres to every cell that is not base
+/// level: a hash of the seed and the cell (SplitMix64), two uniforms to one Gaussian
+/// (Box-Muller), so the same seed gives the same bits everywhere. O(cells).
+pub fn roughen(heights: &mut [f32], base: &[bool], sigma: f64, seed: u64) {
+    if sigma <= 0.0 {
+        return;
+    }
+    let mix = |mut z: u64| {
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    };
+    for (i, (h, fixed)) in heights.iter_mut().zip(base).enumerate() {
+        if *fixed {
+            continue;
+        }
+        let r = mix(seed ^ mix(i as u64 + 0x9e37_79b9_7f4a_7c15));
+        let u1 = ((r >> 11) as f64 + 0.5) / (1u64 << 53) as f64;
+        let u2 = (mix(r) >> 11) as f64 / (1u64 << 53) as f64;
+        let g = (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos();
+        *h += (sigma * g) as f32;
+    }
 }
 
 /// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
@@ -244,6 +281,7 @@ pub async fn erode_terrain(
     hydrology: &Generated,
     settings: &ErosionSettings,
     cell_m: f64,
+    seed: u64,
     ctx: &JobCtx,
 ) -> Result<Eroded, StageError> {
     let field = &hydrology.terrain;
@@ -252,15 +290,9 @@ pub async fn erode_terrain(
     let base = base_level(kinds, n, settings.river_band);
     let base_level_cells = base.iter().filter(|b| **b).count();
     let uplift = uplift_from_design(field, kinds, settings.uplift_m_per_kyr / 1000.0);
-    let mut eroder = Eroder::new(
-        field.data().to_vec(),
-        n,
-        n,
-        cell_m,
-        base,
-        uplift,
-        settings.params(),
-    )?;
+    let mut start = field.data().to_vec();
+    roughen(&mut start, &base, settings.roughness_m, seed);
+    let mut eroder = Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?;
     let steps = settings.steps.max(1);
     loop {
         let done = eroder.steps_done();

@@ -90,7 +90,11 @@ impl GpuContext {
     /// Shares a device created elsewhere, e.g. the one eframe draws with (see
     /// [`device_descriptor`], which the app passes to eframe so that device carries the
     /// adapter's full limits).
-    pub fn from_device(adapter: &wgpu::Adapter, device: &wgpu::Device, queue: &wgpu::Queue) -> Self {
+    pub fn from_device(
+        adapter: &wgpu::Adapter,
+        device: &wgpu::Device,
+        queue: &wgpu::Queue,
+    ) -> Self {
         let info = adapter.get_info();
         Self {
             device: device.clone(),

@@ -22,6 +22,8 @@ pub struct Report {
     pub erosion: Option<ErosionReport>,
     pub detail: Option<DetailReport>,
     pub blend: Option<BlendReport>,
+    /// The final terrain's realism measures, when the run asked for them.
+    pub realism: Option<crate::realism::RealismReport>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -94,6 +96,7 @@ impl Report {
                 converged: b.solves.iter().all(|s| s.converged),
                 solves: b.solves.clone(),
             }),
+            realism: None,
         })
     }
 }

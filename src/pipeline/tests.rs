@@ -27,10 +27,12 @@ pub fn sketch_scene() -> Scene {
     scene.sketch.ridges.push(SketchLine {
         points: vec![[0.1, 0.2], [0.3, 0.1]],
         height: None,
+        heights: None,
     });
     scene.sketch.valleys.push(SketchLine {
         points: vec![[0.8, 0.7], [0.9, 0.4]],
         height: None,
+        heights: None,
     });
     scene.sketch.peaks.push(SketchPeak {
         at: [0.2, 0.6],
@@ -264,7 +266,11 @@ fn write_golden_scenes() {
         let out = run(&mut Pipeline::new(), &scene);
         sums.insert(name, out.report.terrain.checksum);
     }
-    std::fs::write(format!("{dir}/every_field.json"), every_field_scene().to_json()).unwrap();
+    std::fs::write(
+        format!("{dir}/every_field.json"),
+        every_field_scene().to_json(),
+    )
+    .unwrap();
     let text = serde_json::to_string_pretty(&sums).unwrap();
     std::fs::write(format!("{dir}/checksums.json"), text + "\n").unwrap();
 }

@@ -17,12 +17,16 @@ mod drainage;
 mod geomorphon;
 mod grid;
 mod harmonic;
+mod report;
 mod slope;
+mod ssim;
 #[cfg(test)]
 mod tests;
 
 pub use self::geomorphon::GEOMORPHON_NAMES;
 use self::grid::Grid;
+pub use self::report::{BandFit, RealismReport};
+pub use self::ssim::ssim;
 
 /// The realism report of one heightmap. All fields are 0 when nothing could be measured.
 #[derive(Clone, Debug, Default, serde::Serialize)]

@@ -144,10 +144,7 @@ pub fn extract(
         }
     }
     let mut crossing = vec![false; candidates.len()];
-    let band = candidates
-        .len()
-        .div_ceil(crate::parallel::threads())
-        .max(1);
+    let band = candidates.len().div_ceil(crate::parallel::threads()).max(1);
     crate::parallel::for_each_band(&mut crossing, band, |k, flags| {
         for (flag, r) in flags.iter_mut().zip(&candidates[k * band..]) {
             *flag = index.intersects(DVec2::from(r.a), DVec2::from(r.b));

@@ -141,13 +141,16 @@ impl Default for Params {
     }
 }
 
-/// A sketched ridge or valley line (seed paper 003): map-unit points, optional height (m).
+/// A sketched ridge or valley line (seed paper 003): map-unit points, optional height (m),
+/// or a height per point (lines extracted from a real DEM).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct SketchLine {
     pub points: Vec<[f64; 2]>,
     #[serde(default)]
     pub height: Option<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub heights: Option<Vec<f64>>,
 }
 
 /// A sketched peak point with an optional height (m).
@@ -176,6 +179,7 @@ impl SketchSettings {
         let line = |l: &SketchLine| sketch::SketchLine {
             points: l.points.iter().map(|p| DVec2::from(*p)).collect(),
             height: l.height,
+            heights: l.heights.clone(),
         };
         sketch::Sketch {
             ridges: self.ridges.iter().map(line).collect(),
@@ -191,11 +195,41 @@ impl SketchSettings {
         }
     }
 
+    /// The features extracted from a DEM (seed 003, Sec. 3.1) as editable sketch items,
+    /// with the DEM's heights. `scale` maps the features' map units into the scene's square
+    /// map (1 for a square DEM; a non-square one fills the square along its longer side).
+    pub fn from_features(f: &crate::features::Features, scale: [f64; 2]) -> Self {
+        let at = |p: &[f64; 2]| [p[0] * scale[0], p[1] * scale[1]];
+        let line = |l: &crate::features::FeatureLine| SketchLine {
+            points: l.points.iter().map(at).collect(),
+            height: None,
+            heights: Some(l.heights.clone()),
+        };
+        Self {
+            ridges: f.ridges.iter().map(line).collect(),
+            valleys: f.valleys.iter().map(line).collect(),
+            peaks: f
+                .peaks
+                .iter()
+                .map(|(p, h)| SketchPeak {
+                    at: at(p),
+                    height: Some(*h),
+                })
+                .collect(),
+        }
+    }
+
+    /// Whether there is nothing sketched.
+    pub fn is_empty(&self) -> bool {
+        self.ridges.is_empty() && self.valleys.is_empty() && self.peaks.is_empty()
+    }
+
     /// From the pipeline's form.
     pub fn from_sketch(s: &crate::skeleton::sketch::Sketch) -> Self {
         let line = |l: &crate::skeleton::sketch::SketchLine| SketchLine {
             points: l.points.iter().map(|p| p.to_array()).collect(),
             height: l.height,
+            heights: l.heights.clone(),
         };
         Self {
             ridges: s.ridges.iter().map(line).collect(),
@@ -484,6 +518,24 @@ impl Scene {
                         &format!("{field}.height"),
                         "must be -11000 to 9000 m".into(),
                     );
+                }
+                if let Some(h) = &line.heights {
+                    if h.len() != line.points.len() {
+                        return bad(
+                            &format!("{field}.heights"),
+                            format!(
+                                "needs one height per point ({}), got {}",
+                                line.points.len(),
+                                h.len()
+                            ),
+                        );
+                    }
+                    if h.iter().any(|v| !height_ok(Some(*v))) {
+                        return bad(
+                            &format!("{field}.heights"),
+                            "every height must be -11000 to 9000 m".into(),
+                        );
+                    }
                 }
             }
         }

@@ -11,9 +11,9 @@ use glam::DVec2;
 use crate::diffusion::{Constraints, FixedMask};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::noise::{FbmGrid, Perlin};
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
-use crate::noise::{FbmGrid, Perlin};
 use raster::{Band, Line, RidgeNoise};
 
 /// What a skeleton cell is.

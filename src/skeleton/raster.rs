@@ -7,8 +7,8 @@
 //! them. Bands run on all threads natively and one at a time on the web, with the job's ticks
 //! between them.
 
-use crate::noise::FbmGrid;
 use super::{CellKind, bresenham};
+use crate::noise::FbmGrid;
 
 /// A straight segment in grid cells with eq. 5's linear heights: `h = start + t * rise`, `t`
 /// the distance from `a` over the segment's length.

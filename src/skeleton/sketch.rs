@@ -8,15 +8,28 @@
 
 use glam::DVec2;
 
-use crate::noise::Perlin;
 use super::{CellKind, NoiseParams, Skeleton, bresenham, to_cell};
+use crate::noise::Perlin;
 use crate::river::RiverNetwork;
 
-/// A sketched polyline in map units with an optional height in metres.
+/// A sketched polyline in map units with an optional height in metres, or a height per
+/// vertex (lines extracted from a real DEM carry its heights).
 #[derive(Clone, Debug, PartialEq)]
 pub struct SketchLine {
     pub points: Vec<DVec2>,
     pub height: Option<f64>,
+    /// One height per point (metres); when given it wins over `height`.
+    pub heights: Option<Vec<f64>>,
+}
+
+impl SketchLine {
+    /// The given height of vertex `k`, if any.
+    fn given(&self, k: usize) -> Option<f64> {
+        self.heights
+            .as_ref()
+            .and_then(|h| h.get(k).copied())
+            .or(self.height)
+    }
 }
 
 /// A sketched peak.
@@ -110,7 +123,8 @@ pub fn rasterise(
         let vertex_h: Vec<f64> = line
             .points
             .iter()
-            .map(|p| line.height.unwrap_or_else(|| heights.eq4(*p, 1.0)))
+            .enumerate()
+            .map(|(k, p)| line.given(k).unwrap_or_else(|| heights.eq4(*p, 1.0)))
             .collect();
         draw_polyline(&line.points, &vertex_h, n, |x, y, h| {
             let f = noise.amplitude
@@ -137,7 +151,12 @@ pub fn rasterise(
             if k > 0 {
                 along += p.distance(line.points[k - 1]);
             }
-            vertex_h.push(base + slope * along * map_width_m);
+            vertex_h.push(
+                line.heights
+                    .as_ref()
+                    .and_then(|h| h.get(k).copied())
+                    .unwrap_or(base + slope * along * map_width_m),
+            );
         }
         draw_polyline(&line.points, &vertex_h, n, |x, y, h| {
             put(sk, x, y, h, CellKind::Valley)

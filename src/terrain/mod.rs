@@ -24,7 +24,7 @@ pub use drainage::Drainage;
 
 #[derive(Debug, Error)]
 pub enum TerrainError {
-    #[error("draw at least one river")]
+    #[error("draw at least one river (or sketch a ridge, valley or peak)")]
     NoRivers,
     #[error("the map size must be between 16 and 8192 cells, got {0}")]
     Size(usize),
@@ -258,8 +258,12 @@ pub fn stage_seed(seed: u64, stage: &str) -> u64 {
     })
 }
 
-fn check_strokes(strokes: &[Stroke]) -> Result<(), TerrainError> {
-    if strokes.is_empty() {
+/// A terrain needs something to shape it: a river, or a sketch (e.g. the features extracted
+/// from a real DEM, seed 003).
+fn check_strokes(strokes: &[Stroke], sketch: &Sketch) -> Result<(), TerrainError> {
+    let sketched =
+        !(sketch.ridges.is_empty() && sketch.valleys.is_empty() && sketch.peaks.is_empty());
+    if strokes.is_empty() && !sketched {
         return Err(TerrainError::NoRivers);
     }
     for (index, s) in strokes.iter().enumerate() {
@@ -290,7 +294,7 @@ pub async fn generate(
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Generated, TerrainError> {
-    check_strokes(strokes)?;
+    check_strokes(strokes, &params.sketch)?;
     if !(16..=8192).contains(&params.size) {
         return Err(TerrainError::Size(params.size));
     }
@@ -537,10 +541,12 @@ mod tests {
         params.sketch.ridges.push(SketchLine {
             points: vec![DVec2::new(0.7, 0.1), DVec2::new(0.9, 0.4)],
             height: None,
+            heights: None,
         });
         params.sketch.valleys.push(SketchLine {
             points: vec![DVec2::new(0.5, 0.75), DVec2::new(0.2, 0.6)],
             height: None,
+            heights: None,
         });
         // A small river in the south-east corner, away from the sketches.
         let strokes = [stroke((0.95, 1.0), (0.95, 0.85), 2, 4)];

@@ -28,9 +28,9 @@ use super::analysis::{self, Analysis, AnalysisParams, LocalFit, LocalParams, Tra
 use super::lifting::{self, Band};
 use super::mask::Mask;
 use super::rng;
-use crate::parallel;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::parallel;
 
 /// Largest number of new levels (each multiplies the cell count by about 4).
 pub const MAX_LEVELS: u32 = 3;

@@ -68,29 +68,31 @@ pub(super) fn install(automation: &Automation) {
     scene.forget();
 
     let load_target = automation.clone();
-    let load_scene =
-        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |value: JsValue| {
+    let load_scene = Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(
+        move |value: JsValue| {
             let scene = Scene::from_json(&json_text(&value)?).map_err(error)?;
             Ok(applied(&load_target, Command::LoadScene(Box::new(scene))))
-        });
+        },
+    );
     set(&api, "loadScene", load_scene.as_ref());
     load_scene.forget();
 
     let river_target = automation.clone();
-    let add_river = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
-        move |from: JsValue, to: JsValue, options: JsValue| {
-            let text = format!(
-                r#"{{"version": {}, "rivers": [{{"estuary": {}, "toward": {}{}}}]}}"#,
-                crate::scene::VERSION,
-                json_text(&from)?,
-                json_text(&to)?,
-                river_options(&options)?
-            );
-            let scene = Scene::from_json(&text).map_err(error)?;
-            let river: RiverStroke = scene.rivers[0];
-            Ok(applied(&river_target, Command::AddRiver(river.into())))
-        },
-    );
+    let add_river =
+        Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
+            move |from: JsValue, to: JsValue, options: JsValue| {
+                let text = format!(
+                    r#"{{"version": {}, "rivers": [{{"estuary": {}, "toward": {}{}}}]}}"#,
+                    crate::scene::VERSION,
+                    json_text(&from)?,
+                    json_text(&to)?,
+                    river_options(&options)?
+                );
+                let scene = Scene::from_json(&text).map_err(error)?;
+                let river: RiverStroke = scene.rivers[0];
+                Ok(applied(&river_target, Command::AddRiver(river.into())))
+            },
+        );
     set(&api, "addRiver", add_river.as_ref());
     add_river.forget();
 
@@ -102,45 +104,48 @@ pub(super) fn install(automation: &Automation) {
     mask_from_rivers.forget();
 
     let paint_target = automation.clone();
-    let paint_mask = Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
-        move |from: JsValue, to: JsValue, options: JsValue| {
-            let point = |v: &JsValue| -> Result<glam::DVec2, JsValue> {
-                let p: [f64; 2] = serde_json::from_str(&json_text(v)?)
-                    .map_err(|_| error("points are [x, y] in map units"))?;
-                if !p.iter().all(|c| c.is_finite()) {
-                    return Err(error("points must be finite"));
-                }
-                Ok(glam::DVec2::new(p[0], p[1]))
-            };
-            let mut brush = crate::wavelet::Brush::default();
-            if !(options.is_undefined() || options.is_null()) {
-                let get = |key: &str| {
-                    js_sys::Reflect::get(&options, &JsValue::from_str(key))
-                        .ok()
-                        .and_then(|v| v.as_f64())
+    let paint_mask =
+        Closure::<dyn Fn(JsValue, JsValue, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
+            move |from: JsValue, to: JsValue, options: JsValue| {
+                let point = |v: &JsValue| -> Result<glam::DVec2, JsValue> {
+                    let p: [f64; 2] = serde_json::from_str(&json_text(v)?)
+                        .map_err(|_| error("points are [x, y] in map units"))?;
+                    if !p.iter().all(|c| c.is_finite()) {
+                        return Err(error("points must be finite"));
+                    }
+                    Ok(glam::DVec2::new(p[0], p[1]))
                 };
-                if let Some(r) = get("radius") {
-                    brush.radius = r as f32;
+                let mut brush = crate::wavelet::Brush::default();
+                if !(options.is_undefined() || options.is_null()) {
+                    let get = |key: &str| {
+                        js_sys::Reflect::get(&options, &JsValue::from_str(key))
+                            .ok()
+                            .and_then(|v| v.as_f64())
+                    };
+                    if let Some(r) = get("radius") {
+                        brush.radius = r as f32;
+                    }
+                    if let Some(h) = get("hardness") {
+                        brush.hardness = h as f32;
+                    }
+                    if let Some(v) = get("value") {
+                        brush.value = v as f32;
+                    }
+                    brush.eraser = js_sys::Reflect::get(&options, &JsValue::from_str("eraser"))
+                        .ok()
+                        .and_then(|v| v.as_bool())
+                        .unwrap_or(false);
                 }
-                if let Some(h) = get("hardness") {
-                    brush.hardness = h as f32;
+                if !(brush.radius.is_finite()
+                    && brush.hardness.is_finite()
+                    && brush.value.is_finite())
+                {
+                    return Err(error("brush values must be finite numbers"));
                 }
-                if let Some(v) = get("value") {
-                    brush.value = v as f32;
-                }
-                brush.eraser = js_sys::Reflect::get(&options, &JsValue::from_str("eraser"))
-                    .ok()
-                    .and_then(|v| v.as_bool())
-                    .unwrap_or(false);
-            }
-            if !(brush.radius.is_finite() && brush.hardness.is_finite() && brush.value.is_finite())
-            {
-                return Err(error("brush values must be finite numbers"));
-            }
-            let command = Command::PaintMask(point(&from)?, point(&to)?, brush);
-            Ok(applied(&paint_target, command))
-        },
-    );
+                let command = Command::PaintMask(point(&from)?, point(&to)?, brush);
+                Ok(applied(&paint_target, command))
+            },
+        );
     set(&api, "paintMask", paint_mask.as_ref());
     paint_mask.forget();
 
@@ -158,14 +163,15 @@ pub(super) fn install(automation: &Automation) {
     load_dem.forget();
 
     let fill_target = automation.clone();
-    let fill_voids =
-        Closure::<dyn Fn() -> js_sys::Promise>::new(move || applied(&fill_target, Command::FillVoids));
+    let fill_voids = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
+        applied(&fill_target, Command::FillVoids)
+    });
     set(&api, "fillVoids", fill_voids.as_ref());
     fill_voids.forget();
 
     let place_target = automation.clone();
-    let place_block =
-        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |options: JsValue| {
+    let place_block = Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(
+        move |options: JsValue| {
             let o: PlaceOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
                 error(format!(
                     "placeBlock({{window: [row, col, height, width], rect: [x0, y0, x1, y1], \
@@ -180,7 +186,8 @@ pub(super) fn install(automation: &Automation) {
                 z_scale: o.z_scale,
             };
             Ok(applied(&place_target, command))
-        });
+        },
+    );
     set(&api, "placeBlock", place_block.as_ref());
     place_block.forget();
 
@@ -256,20 +263,21 @@ pub(super) fn install(automation: &Automation) {
     generate.forget();
 
     let view_target = automation.clone();
-    let set_view = Closure::<dyn Fn(String) -> Result<js_sys::Promise, JsValue>>::new(move |view: String| {
-        let view = match view.as_str() {
-            "2d" => crate::app::ViewKind::Map,
-            "3d" => crate::app::ViewKind::ThreeD,
-            other => return Err(error(format!("setView('2d' | '3d'), not '{other}'"))),
-        };
-        Ok(applied(&view_target, Command::SetView(view)))
-    });
+    let set_view =
+        Closure::<dyn Fn(String) -> Result<js_sys::Promise, JsValue>>::new(move |view: String| {
+            let view = match view.as_str() {
+                "2d" => crate::app::ViewKind::Map,
+                "3d" => crate::app::ViewKind::ThreeD,
+                other => return Err(error(format!("setView('2d' | '3d'), not '{other}'"))),
+            };
+            Ok(applied(&view_target, Command::SetView(view)))
+        });
     set(&api, "setView", set_view.as_ref());
     set_view.forget();
 
     let camera_target = automation.clone();
-    let set_camera =
-        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |options: JsValue| {
+    let set_camera = Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(
+        move |options: JsValue| {
             let o: CameraOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
                 error(format!(
                     "setCamera({{distance (map widths), yaw, pitch (degrees)}}): {e}"
@@ -281,7 +289,8 @@ pub(super) fn install(automation: &Automation) {
                 pitch: o.pitch,
             });
             Ok(applied(&camera_target, command))
-        });
+        },
+    );
     set(&api, "setCamera", set_camera.as_ref());
     set_camera.forget();
 

@@ -104,6 +104,10 @@ async function runMode(url, mode, expectedChecksum) {
     }
     check('scene() returns the document', scene.version === 1 && scene.rivers.length === 1,
       JSON.stringify(scene));
+    await goldenScenes(page, mode);
+    // Back to the first scene for the edits below.
+    await page.evaluate((s) => window.strahler.loadScene(s), scene);
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
     const before = run.checksum;
     await page.evaluate(() => window.strahler.addRiver([1.0, 0.25], [0.7, 0.3], { phi: 2, depth: 7 }));
     await page.waitForFunction((old) => {
@@ -274,6 +278,30 @@ async function runMode(url, mode, expectedChecksum) {
 
 // The 3D view (WebGPU, or WebGL2 on the CPU fallback): setView/setCamera, the LoD responding
 // to the camera, terrain actually drawn, a mouse drag turning the camera, F to fly.
+// The golden scenes of tests/data/scenes: loaded through the awaitable loadScene(), read
+// back deep-equal, and on the CPU path generated with the checksums the library and the
+// command line pin (same scene, same bits, natively and in the browser).
+async function goldenScenes(page, mode) {
+  const dir = join(here, '..', '..', 'tests', 'data', 'scenes');
+  const pinned = JSON.parse(readFileSync(join(dir, 'checksums.json'), 'utf8'));
+  for (const name of ['sketch', 'detail', 'block', 'every_field']) {
+    const scene = JSON.parse(readFileSync(join(dir, `${name}.json`), 'utf8'));
+    // The promise resolves once the app applied the scene: no polling.
+    await page.evaluate((s) => window.strahler.loadScene(s), scene);
+    const back = await page.evaluate(() => window.strahler.scene());
+    check(`loadScene(${name}) then scene() gives it back deep-equal`,
+      JSON.stringify(back) === JSON.stringify(scene), JSON.stringify(back).slice(0, 200));
+    if (mode === 'cpu' && pinned[name]) {
+      const report = await page.evaluate(() => window.strahler.generate({}));
+      check(`the page makes the pinned terrain of scene ${name}`, report.checksum === pinned[name],
+        `${report.checksum} != ${pinned[name]}`);
+    }
+  }
+  // exportHeightmap() waits for the terrain being computed instead of failing.
+  const bytes = await page.evaluate(async () => (await window.strahler.exportHeightmap('tif')).length);
+  check('exportHeightmap() waits for the terrain of the scene just loaded', bytes > 1000, String(bytes));
+}
+
 async function check3d(page, mode) {
   const view3d = () => page.evaluate(() => window.strahler.status().view3d);
   await page.evaluate(() => window.strahler.setView('3d'));

@@ -1,0 +1,163 @@
+//! `strahler features`: the ridge lines, valley lines and peaks of a real DEM (seed paper
+//! 003, Sec. 3.1) written as a scene whose sketch the user edits and regenerates; with
+//! `--rebuild`, the terrain that scene regenerates and its SSIM against the DEM (Table 2).
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::dem::{GeoRef, ReadLimits, hillshade};
+use crate::features::{self, FeatureParams, Features};
+use crate::jobs::JobCtx;
+use crate::scene::{Scene, SketchSettings};
+
+#[derive(Debug, Args)]
+pub struct FeaturesArgs {
+    /// The DEM (any format `convert` reads; fill its voids first).
+    pub input: PathBuf,
+    /// The scene to write (JSON): the features as sketched ridges, valleys and peaks.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the feature map (hillshade, ridges red, valleys blue, peaks green) as PNG.
+    #[arg(long)]
+    pub png: Option<PathBuf>,
+    /// Also regenerate the terrain from the scene, write it here and print its SSIM
+    /// against the DEM.
+    #[arg(long)]
+    pub rebuild: Option<PathBuf>,
+    /// K_gray of eqs. 1-2 (fraction of cells clipped at each end of the grey range).
+    #[arg(long, default_value_t = FeatureParams::default().k_gray)]
+    pub k_gray: f64,
+    /// w of eq. 3 (profile threshold).
+    #[arg(long, default_value_t = FeatureParams::default().w)]
+    pub w: f64,
+    /// Height range of a PNG heightmap without a text chunk or sidecar JSON.
+    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    pub z_range: Option<(f32, f32)>,
+}
+
+pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let dem = super::io::read_dem(&args.input, ReadLimits::default(), args.z_range)?;
+    let (w, h) = (dem.field.width(), dem.field.height());
+    let params = FeatureParams {
+        k_gray: args.k_gray,
+        w: args.w,
+        ..FeatureParams::default()
+    };
+    let clock = web_time::Instant::now();
+    let found = features::extract(dem.field.data(), w, h, &params)
+        .map_err(|e| format!("{}: {e}", args.input.display()))?;
+    let millis = clock.elapsed().as_secs_f64() * 1e3;
+    let (cx, _) = dem.georef.cell_size_m(h).unwrap_or((30.0, 30.0));
+    let scene = scene_of(&found, w, h, cx)?;
+    std::fs::write(&args.out, scene.to_json())
+        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    println!(
+        "{}: {w} x {h} cells; {} ridges, {} valleys, {} peaks in {millis:.0} ms -> {}",
+        args.input.display(),
+        found.ridges.len(),
+        found.valleys.len(),
+        found.peaks.len(),
+        args.out.display()
+    );
+    if let Some(path) = &args.png {
+        let png = feature_map(&dem.field, &found, cx)?;
+        std::fs::write(path, png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    if let Some(path) = &args.rebuild {
+        let out = pollster::block_on(crate::pipeline::generate(
+            &scene,
+            &crate::compute::Backend::Cpu,
+            &JobCtx::detached(),
+        ))?;
+        // The DEM fills the square map from its north-west corner: compare that part.
+        let n = out.field.width();
+        let rebuilt: Vec<f32> = (0..h)
+            .flat_map(|y| out.field.data()[y * n..y * n + w].iter().copied())
+            .collect();
+        let field = crate::heightfield::Heightfield::from_vec(w, h, rebuilt)?;
+        let georef = if dem.georef.cell_size().is_some() {
+            dem.georef.clone()
+        } else {
+            GeoRef::default()
+        };
+        super::io::write_dem(path, &field, &georef, Some(cx))?;
+        match crate::realism::ssim(dem.field.data(), field.data(), w, h) {
+            Some(s) => println!(
+                "rebuilt from the features: SSIM {s:.3} against the DEM (seed 003 Table 2: 0.60-0.65)"
+            ),
+            None => println!("rebuilt from the features: no SSIM (the DEM is too small)"),
+        }
+    }
+    Ok(())
+}
+
+/// The scene of a DEM's features: its size and cell size, no rivers, the features as the
+/// sketch (a non-square DEM fills the square map from its north-west corner).
+pub fn scene_of(
+    found: &Features,
+    w: usize,
+    h: usize,
+    cell_m: f64,
+) -> Result<Scene, Box<dyn std::error::Error>> {
+    let side = w.max(h).clamp(16, 8192);
+    let span = (side - 1).max(1) as f64;
+    let scale = [(w - 1) as f64 / span, (h - 1) as f64 / span];
+    let scene = Scene {
+        size: side,
+        cell_size: cell_m,
+        sketch: SketchSettings::from_features(found, scale),
+        ..Scene::default()
+    };
+    scene.validate()?;
+    Ok(scene)
+}
+
+/// The feature map as in the paper's figures: a grey hillshade, ridges red, valleys blue,
+/// peaks green.
+fn feature_map(
+    field: &crate::heightfield::Heightfield,
+    found: &Features,
+    cell_m: f64,
+) -> Result<Vec<u8>, Box<dyn std::error::Error>> {
+    let (w, h) = (field.width(), field.height());
+    let shade = hillshade::hillshade(field, cell_m, cell_m, 1.0);
+    let mut rgb: Vec<u8> = shade.iter().flat_map(|&g| [g, g, g]).collect();
+    for (i, (&r, &v)) in found
+        .ridge_cells
+        .iter()
+        .zip(&found.valley_cells)
+        .enumerate()
+    {
+        if r {
+            rgb[3 * i..3 * i + 3].copy_from_slice(&[220, 40, 30]);
+        } else if v {
+            rgb[3 * i..3 * i + 3].copy_from_slice(&[40, 90, 230]);
+        }
+    }
+    for (p, _) in &found.peaks {
+        let (x, y) = (
+            (p[0] * (w - 1) as f64).round() as i64,
+            (p[1] * (h - 1) as f64).round() as i64,
+        );
+        for dy in -2..=2i64 {
+            for dx in -2..=2i64 {
+                let (xx, yy) = (x + dx, y + dy);
+                if xx >= 0 && yy >= 0 && (xx as usize) < w && (yy as usize) < h {
+                    let i = yy as usize * w + xx as usize;
+                    rgb[3 * i..3 * i + 3].copy_from_slice(&[30, 200, 60]);
+                }
+            }
+        }
+    }
+    let mut out = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut out, w as u32, h as u32);
+        encoder.set_color(png::ColorType::Rgb);
+        encoder.set_depth(png::BitDepth::Eight);
+        let mut writer = encoder.write_header()?;
+        writer.write_image_data(&rgb)?;
+        writer.finish()?;
+    }
+    Ok(out)
+}
