@@ -24,7 +24,7 @@ fn cpu_harness() -> Harness<'static, StrahlerApp> {
 }
 
 fn tall_cpu_harness() -> Harness<'static, StrahlerApp> {
-    common::app::cpu_harness(1200.0, 1500.0)
+    common::app::cpu_harness(1200.0, 2100.0)
 }
 
 use common::app::wait_idle;
@@ -299,7 +299,9 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     harness.run_steps(2);
     wait_idle(&mut harness);
     let status = automation.status();
-    let blend = status.blend.expect("the block was blended");
+    let blend = status
+        .blend
+        .unwrap_or_else(|| panic!("the block was blended: {:?}", status.last_error));
     assert_eq!(blend.blocks, 1);
     assert!(blend.converged);
     let [row, col, h, w] = blend.rects[0];
@@ -323,7 +325,7 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     assert_eq!(harness.state().tool(), strahler::app::Tool::Block);
     let x0 = harness.state().scene().blend[0].rect[0];
     // The map fills the central panel; its centre is where the block was placed.
-    let centre = egui::pos2(300.0 + 900.0 / 2.0, 1480.0 / 2.0);
+    let centre = egui::pos2(300.0 + 900.0 / 2.0, 2080.0 / 2.0);
     drag(&mut harness, centre, centre + egui::vec2(150.0, 0.0));
     wait_idle(&mut harness);
     let moved = harness.state().scene().blend[0].rect;

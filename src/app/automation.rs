@@ -135,6 +135,8 @@ pub enum Command {
     },
     /// Fill the uploaded DEM's voids by harmonic diffusion.
     FillVoids,
+    /// Extract the uploaded DEM's ridges, valleys and peaks (seed 003) as the scene's sketch.
+    ExtractFeatures,
     /// Place a block of the uploaded DEM: its window `[row, col, height, width]` on the
     /// DEM, and where it goes on the map (`[x0, y0, x1, y1]`, map units).
     PlaceBlock {

@@ -24,6 +24,7 @@ use crate::diffusion::{self, DiffusionError, Method, MultigridParams};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobHandle;
 use crate::pipeline::Output;
+use crate::scene::Scene;
 
 /// The uploaded DEM.
 pub struct LoadedDem {
@@ -53,6 +54,8 @@ pub struct BlendState {
     pub selected: Option<usize>,
     grab: Option<(usize, Grab)>,
     pub fill_job: Option<JobHandle<Result<Heightfield, DiffusionError>>>,
+    /// Extracting the DEM's features (seed 003) into a scene.
+    pub features_job: Option<JobHandle<Result<Scene, String>>>,
     pub summary: Option<String>,
     /// Native builds: the path typed into the Open field.
     #[cfg(not(target_arch = "wasm32"))]
@@ -69,6 +72,7 @@ impl Default for BlendState {
             selected: None,
             grab: None,
             fill_job: None,
+            features_job: None,
             summary: None,
             #[cfg(not(target_arch = "wasm32"))]
             path_input: String::new(),
@@ -306,6 +310,71 @@ impl StrahlerApp {
         });
     }
 
+    /// Extracts the uploaded DEM's ridge lines, valley lines and peaks (seed 003, Sec. 3.1)
+    /// as a job; the result replaces the scene's rivers and sketch (see [`Self::take_features`]).
+    pub(super) fn extract_features(&mut self, ctx: &egui::Context) {
+        let Some(loaded) = &self.blend.dem else {
+            self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
+            return;
+        };
+        let field = loaded.dem.field.clone();
+        let (w, h) = (field.width(), field.height());
+        let cell = loaded.dem.georef.cell_size_m(h).map_or(30.0, |c| c.0);
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "features",
+            move |job| async move {
+                let params = crate::features::FeatureParams::default();
+                let mut steps = crate::features::Extraction::new(field.data(), w, h, &params)
+                    .map_err(|e| e.to_string())?;
+                loop {
+                    let message = format!("extracting features: {}", steps.stage_name());
+                    job.tick(steps.progress(), &message)
+                        .await
+                        .map_err(|e| e.to_string())?;
+                    if steps.step() {
+                        break;
+                    }
+                }
+                Scene::from_features(&steps.finish(), w, h, cell).map_err(|e| e.to_string())
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.blend.features_job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// Extracted features become the document: the sketch of ridges, valleys and peaks at
+    /// the DEM's size and cell size, without rivers, ready to edit and regenerate (undo
+    /// brings the previous scene back).
+    pub(super) fn take_features(&mut self) {
+        let Some(result) = self
+            .blend
+            .features_job
+            .as_ref()
+            .and_then(JobHandle::try_take)
+        else {
+            return;
+        };
+        self.blend.features_job = None;
+        match result {
+            Ok(scene) => {
+                let s = &scene.sketch;
+                self.notice = Some(format!(
+                    "Extracted {} ridges, {} valleys and {} peaks: edit them and regenerate",
+                    s.ridges.len(),
+                    s.valleys.len(),
+                    s.peaks.len()
+                ));
+                self.load_scene(&scene);
+            }
+            Err(err) if err == "cancelled" => {}
+            Err(err) => self.set_error(format!("Extract features failed: {err}")),
+        }
+    }
+
     /// A finished void fill replaces the DEM's heights.
     pub(super) fn take_filled_dem(&mut self, ctx: &egui::Context) {
         let Some(result) = self.blend.fill_job.as_ref().and_then(JobHandle::try_take) else {
@@ -423,6 +492,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let mut reread = false;
     let mut fill = false;
     let mut place = false;
+    let mut extract = false;
     if let Some(loaded) = &app.blend.dem {
         let f = &loaded.dem.field;
         let (lo, hi) = f.finite_range().unwrap_or((0.0, 0.0));
@@ -474,6 +544,17 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         if let Some(job) = &app.blend.fill_job {
             ui.add(ProgressBar::new(job.progress()).text(job.message()));
         }
+        extract = ui
+            .add_enabled(voids == 0, egui::Button::new("Extract features"))
+            .on_hover_text(
+                "Ridge lines, valley lines and peaks of the DEM (seed paper 003) become the \
+                 map's sketch, with the DEM's heights: edit them and regenerate. Fill the \
+                 voids first.",
+            )
+            .clicked();
+        if let Some(job) = &app.blend.features_job {
+            ui.add(ProgressBar::new(job.progress()).text(job.message()));
+        }
         preview(ui, app);
         place = ui
             .button("Place block on map")
@@ -486,6 +567,9 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     }
     if fill {
         app.fill_dem_voids(&ctx);
+    }
+    if extract {
+        app.extract_features(&ctx);
     }
     if place {
         app.place_selection(&ctx);

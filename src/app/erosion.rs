@@ -67,15 +67,19 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.add(DragValue::new(&mut e.river_band).range(0..=16).suffix(" cells")).labelled_by(label.id);
             ui.end_row();
             let mut talus = e.talus_deg.is_some();
-            let label = ui.label("Talus angle").on_hover_text("Thermal erosion: scree slides where slopes exceed this angle.");
+            let label = ui
+                .label("Talus angle")
+                .on_hover_text("Thermal erosion: scree slides where slopes exceed this angle.");
             ui.horizontal(|ui| {
-                ui.checkbox(&mut talus, "");
+                ui.checkbox(&mut talus, "scree");
                 let mut deg = e.talus_deg.unwrap_or(35.0);
-                ui.add_enabled(talus, DragValue::new(&mut deg).range(10.0..=60.0).suffix("°"));
+                ui.add_enabled(
+                    talus,
+                    DragValue::new(&mut deg).range(10.0..=60.0).suffix("°"),
+                )
+                .labelled_by(label.id);
                 e.talus_deg = talus.then_some(deg);
-            })
-            .response
-            .labelled_by(label.id);
+            });
             ui.end_row();
         });
     if *e != before

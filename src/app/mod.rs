@@ -49,7 +49,7 @@ pub fn default_stroke() -> Stroke {
         estuary: DVec2::new(0.5, 1.0),
         toward: DVec2::new(0.5, 0.35),
         phi: 3,
-        max_depth: 8,
+        max_depth: crate::scene::default_depth(),
     }
 }
 
@@ -342,6 +342,7 @@ impl StrahlerApp {
         self.terrain_job.is_some()
             || self.selftest_job.is_some()
             || self.blend.fill_job.is_some()
+            || self.blend.features_job.is_some()
             || self.dirty
     }
 
@@ -521,6 +522,7 @@ impl StrahlerApp {
                 Command::LoadDem { name, bytes } => self.load_dem(ctx, &name, bytes),
                 Command::ImportMask { name, bytes } => self.import_mask(ctx, &name, &bytes),
                 Command::FillVoids => self.fill_dem_voids(ctx),
+                Command::ExtractFeatures => self.extract_features(ctx),
                 Command::PlaceBlock {
                     window,
                     rect,
@@ -585,6 +587,7 @@ impl StrahlerApp {
             }
         }
         self.take_filled_dem(ctx);
+        self.take_features();
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
             self.selftest = Some(result.map_err(|err| err.to_string()));
@@ -592,6 +595,7 @@ impl StrahlerApp {
         // The first running job, in pipeline order, is the one scripts see.
         let job = job_status(&self.terrain_job)
             .or_else(|| job_status(&self.blend.fill_job))
+            .or_else(|| job_status(&self.blend.features_job))
             .or_else(|| job_status(&self.selftest_job));
         self.automation.update(|s| s.job = job);
         if self.busy() {

@@ -9,7 +9,7 @@ use clap::Args;
 use crate::dem::{GeoRef, ReadLimits, hillshade};
 use crate::features::{self, FeatureParams, Features};
 use crate::jobs::JobCtx;
-use crate::scene::{Scene, SketchSettings};
+use crate::scene::Scene;
 
 #[derive(Debug, Args)]
 pub struct FeaturesArgs {
@@ -49,7 +49,7 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
     let millis = clock.elapsed().as_secs_f64() * 1e3;
     let (cx, _) = dem.georef.cell_size_m(h).unwrap_or((30.0, 30.0));
-    let scene = scene_of(&found, w, h, cx)?;
+    let scene = Scene::from_features(&found, w, h, cx)?;
     std::fs::write(&args.out, scene.to_json())
         .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
     println!(
@@ -90,27 +90,6 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     Ok(())
-}
-
-/// The scene of a DEM's features: its size and cell size, no rivers, the features as the
-/// sketch (a non-square DEM fills the square map from its north-west corner).
-pub fn scene_of(
-    found: &Features,
-    w: usize,
-    h: usize,
-    cell_m: f64,
-) -> Result<Scene, Box<dyn std::error::Error>> {
-    let side = w.max(h).clamp(16, 8192);
-    let span = (side - 1).max(1) as f64;
-    let scale = [(w - 1) as f64 / span, (h - 1) as f64 / span];
-    let scene = Scene {
-        size: side,
-        cell_size: cell_m,
-        sketch: SketchSettings::from_features(found, scale),
-        ..Scene::default()
-    };
-    scene.validate()?;
-    Ok(scene)
 }
 
 /// The feature map as in the paper's figures: a grey hillshade, ridges red, valleys blue,

@@ -56,8 +56,8 @@ pub struct GenerateArgs {
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
     #[arg(long)]
     pub fbm: Option<f32>,
-    /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn the scene's
-    /// erosion off.
+    /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn erosion off
+    /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
     #[arg(long)]
     pub erosion: Option<String>,
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
@@ -162,7 +162,7 @@ pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
         estuary: DVec2::new(x0, y0),
         toward: DVec2::new(x1, y1),
         phi: 3,
-        max_depth: 8,
+        max_depth: crate::scene::default_depth(),
     };
     for option in parts {
         let (key, value) = option

@@ -71,6 +71,8 @@ pub struct Eroder {
     area: Vec<f32>,
     /// Right-hand side for the implicit diffusion (empty when `diffusivity == 0`).
     scratch: Vec<f32>,
+    /// Heights no cell may be lowered below (see [`Eroder::with_floor`]); empty = none.
+    floor: Vec<f32>,
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -162,7 +164,18 @@ impl Eroder {
             net: Network::new(grid),
             area: vec![0.0; n],
             scratch,
+            floor: Vec::new(),
         })
+    }
+
+    /// Sets heights below which no cell is lowered (applied after every step). The pipeline
+    /// passes the height of each cell's nearest river, so erosion never digs the land
+    /// beside a river below it and leaves the river hanging on a levee.
+    pub fn with_floor(mut self, floor: Vec<f32>) -> Result<Self, ErosionError> {
+        check_len("floor", floor.len(), self.grid.len())?;
+        check_finite("floor", &floor)?;
+        self.floor = floor;
+        Ok(self)
     }
 
     /// Performs one time step if any remain and returns whether steps remain
@@ -195,6 +208,9 @@ impl Eroder {
         }
         if let Some(talus) = p.talus_deg {
             thermal::relax(g, &mut self.heights, &self.base, talus);
+        }
+        for (h, f) in self.heights.iter_mut().zip(&self.floor) {
+            *h = h.max(*f);
         }
         self.steps_done += 1;
         let more = self.steps_done < p.steps;

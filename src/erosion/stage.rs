@@ -67,8 +67,7 @@ impl Default for ErosionSettings {
 /// The uplift each preset pairs with its erodibility (m per thousand years).
 fn uplift_of(preset: &str) -> f64 {
     match preset {
-        "old-hills" => 0.1,
-        "badlands" => 0.5,
+        "badlands" => 2.0,
         _ => 1.0,
     }
 }
@@ -210,14 +209,14 @@ pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
     base
 }
 
-/// The uplift map (m/yr): `max_m_per_yr` times the design's height above its nearest river
-/// cell, over the largest such height. The nearest river is found by a breadth-first walk
-/// from every river and valley cell over the 8-neighbourhood (O(cells)); a map without
-/// rivers uses its lowest height.
-pub fn uplift_from_design(field: &Heightfield, kinds: &[CellKind], max_m_per_yr: f64) -> Vec<f32> {
+/// Each cell's nearest river or valley cell by a breadth-first walk over the
+/// 8-neighbourhood from every channel cell (O(cells)): that cell's height and the distance
+/// in steps. A map without channels uses its lowest height at distance 0.
+pub fn nearest_channel(field: &Heightfield, kinds: &[CellKind]) -> (Vec<f32>, Vec<u32>) {
     let n = field.width();
     let z = field.data();
     let mut base = vec![f32::NAN; z.len()];
+    let mut steps = vec![0u32; z.len()];
     let mut queue = std::collections::VecDeque::new();
     for (i, k) in kinds.iter().enumerate() {
         if matches!(k, CellKind::River | CellKind::Valley) {
@@ -236,12 +235,24 @@ pub fn uplift_from_design(field: &Heightfield, kinds: &[CellKind], max_m_per_yr:
                 let j = yy * n + xx;
                 if base[j].is_nan() {
                     base[j] = base[i];
+                    steps[j] = steps[i] + 1;
                     queue.push_back(j);
                 }
             }
         }
     }
-    let above: Vec<f32> = z.iter().zip(&base).map(|(h, b)| (h - b).max(0.0)).collect();
+    (base, steps)
+}
+
+/// The uplift map (m/yr): `max_m_per_yr` times the design's height above its nearest
+/// channel (`channel`, from [`nearest_channel`]), over the largest such height.
+pub fn uplift_from_design(field: &Heightfield, channel: &[f32], max_m_per_yr: f64) -> Vec<f32> {
+    let above: Vec<f32> = field
+        .data()
+        .iter()
+        .zip(channel)
+        .map(|(h, b)| (h - b).max(0.0))
+        .collect();
     let top = above.iter().copied().fold(0.0f32, f32::max);
     let scale = if top > 0.0 {
         max_m_per_yr as f32 / top
@@ -275,6 +286,9 @@ pub fn roughen(heights: &mut [f32], base: &[bool], sigma: f64, seed: u64) {
     }
 }
 
+/// How far from a river (cells) the land is kept above the river's height.
+const FLOOR_CELLS: u32 = 8;
+
 /// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
 /// then depression filling and the drainage check. O(cells) per step.
 pub async fn erode_terrain(
@@ -289,10 +303,27 @@ pub async fn erode_terrain(
     let kinds = &hydrology.skeleton.kinds;
     let base = base_level(kinds, n, settings.river_band);
     let base_level_cells = base.iter().filter(|b| **b).count();
-    let uplift = uplift_from_design(field, kinds, settings.uplift_m_per_kyr / 1000.0);
+    let (channel, steps_away) = nearest_channel(field, kinds);
+    let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
+    // The floor near the rivers: within FLOOR_CELLS of a river no land goes below it (a
+    // centimetre more per cell away, so floors still drain to it), so a river never ends up
+    // hanging on a levee above its valley. Farther away the land is free: floors of
+    // different rivers would meet in steps there.
+    let floor: Vec<f32> = channel
+        .iter()
+        .zip(&steps_away)
+        .map(|(h, d)| {
+            if *d <= FLOOR_CELLS {
+                h + 0.01 * *d as f32
+            } else {
+                f32::MIN
+            }
+        })
+        .collect();
     let mut start = field.data().to_vec();
     roughen(&mut start, &base, settings.roughness_m, seed);
-    let mut eroder = Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?;
+    let mut eroder =
+        Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?.with_floor(floor)?;
     let steps = settings.steps.max(1);
     loop {
         let done = eroder.steps_done();

@@ -101,7 +101,7 @@ fn run(pipeline: &mut Pipeline, scene: &Scene) -> Output {
 fn every_stage_runs_and_a_later_stage_changes_the_terrain() {
     let scene = detail_scene();
     let out = run(&mut Pipeline::new(), &scene);
-    assert_eq!(out.computed, ["hydrology", "detail"]);
+    assert_eq!(out.computed, ["hydrology", "erosion", "detail"]);
     // 64 cells become 2 * 64 - 1 = 127, then 253.
     assert_eq!(out.field.width(), 253);
     assert_eq!(out.report.terrain.size, 253);
@@ -125,7 +125,7 @@ fn an_edit_recomputes_only_the_stages_it_touched() {
     scene.detail.levels = 1;
     let mut pipeline = Pipeline::new();
     let first = run(&mut pipeline, &scene);
-    assert_eq!(first.computed, ["hydrology", "detail", "blend"]);
+    assert_eq!(first.computed, ["hydrology", "erosion", "detail", "blend"]);
 
     // Nothing changed: nothing recomputed, the same outputs shared.
     let again = run(&mut pipeline, &scene);
@@ -149,12 +149,25 @@ fn an_edit_recomputes_only_the_stages_it_touched() {
     scene.detail.set_mask(Some(&mask));
     assert_eq!(run(&mut pipeline, &scene).computed, ["detail", "blend"]);
 
+    // An erosion parameter: erosion and what follows.
+    if let Some(e) = scene.erosion.as_mut() {
+        e.diffusivity *= 2.0;
+    }
+    assert_eq!(
+        run(&mut pipeline, &scene).computed,
+        ["erosion", "detail", "blend"]
+    );
+
     // A river edit: everything.
     scene.rivers[0].phi = 2;
     assert_eq!(
         run(&mut pipeline, &scene).computed,
-        ["hydrology", "detail", "blend"]
+        ["hydrology", "erosion", "detail", "blend"]
     );
+
+    // Erosion turned off: the later stages start from the hydrology again.
+    scene.erosion = None;
+    assert_eq!(run(&mut pipeline, &scene).computed, ["detail", "blend"]);
 }
 
 #[test]
@@ -169,8 +182,11 @@ fn preview_and_full_size_keep_their_own_stages() {
     let go = |p: &mut Pipeline, o: &RunOptions| {
         pollster::block_on(p.run(&scene, o, &Backend::Cpu, &JobCtx::detached())).unwrap()
     };
-    assert_eq!(go(&mut pipeline, &preview).computed, ["hydrology"]);
-    assert_eq!(go(&mut pipeline, &full).computed, ["hydrology"]);
+    assert_eq!(
+        go(&mut pipeline, &preview).computed,
+        ["hydrology", "erosion"]
+    );
+    assert_eq!(go(&mut pipeline, &full).computed, ["hydrology", "erosion"]);
     let small = go(&mut pipeline, &preview);
     assert!(small.computed.is_empty(), "the preview's stages were kept");
     assert_eq!(small.field.width(), 48);

@@ -43,8 +43,11 @@ fn default_phi() -> u32 {
     3
 }
 
-fn default_depth() -> u32 {
-    8
+/// MaxDepth 5: a network of a few hundred nodes, main valleys a few kilometres apart on the
+/// default 10 km map, with room between them for the erosion stage to carve the tributaries
+/// (see the README's defaults).
+pub fn default_depth() -> u32 {
+    5
 }
 
 impl From<RiverStroke> for Stroke {
@@ -262,8 +265,8 @@ pub struct Scene {
     pub params: Params,
     pub sketch: SketchSettings,
     pub detail: DetailSettings,
-    /// Stream-power erosion of the designed terrain, the rivers as base level; absent = off.
-    #[serde(skip_serializing_if = "Option::is_none")]
+    /// Stream-power erosion of the designed terrain, the rivers as base level; `null` = off,
+    /// absent = the default preset.
     pub erosion: Option<crate::erosion::ErosionSettings>,
     /// Blocks of real terrain blended in by the Poisson equation, solved in order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
@@ -356,7 +359,7 @@ impl Default for Scene {
             params: Params::default(),
             sketch: SketchSettings::default(),
             detail: DetailSettings::default(),
-            erosion: None,
+            erosion: Some(crate::erosion::ErosionSettings::default()),
             blend: Vec::new(),
         }
     }
@@ -581,6 +584,31 @@ impl Scene {
             );
         }
         Ok(())
+    }
+
+    /// The scene of a real DEM's features (seed 003, Sec. 3.1): the DEM's size and cell size,
+    /// no rivers, the features as the sketch with the DEM's heights (a non-square DEM fills
+    /// the square map from its north-west corner). The user edits it and regenerates.
+    pub fn from_features(
+        found: &crate::features::Features,
+        width: usize,
+        height: usize,
+        cell_m: f64,
+    ) -> Result<Self, SceneError> {
+        let side = width.max(height).clamp(16, 8192);
+        let span = (side - 1).max(1) as f64;
+        let scale = [
+            width.saturating_sub(1) as f64 / span,
+            height.saturating_sub(1) as f64 / span,
+        ];
+        let scene = Scene {
+            size: side,
+            cell_size: cell_m,
+            sketch: SketchSettings::from_features(found, scale),
+            ..Scene::default()
+        };
+        scene.validate()?;
+        Ok(scene)
     }
 
     /// Width of the map in metres (`cell_size` x `size`), whatever size a run has.

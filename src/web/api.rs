@@ -163,6 +163,13 @@ pub(super) fn install(automation: &Automation) {
     load_dem.forget();
 
     let fill_target = automation.clone();
+    let features_target = automation.clone();
+    let extract_features = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
+        applied(&features_target, Command::ExtractFeatures)
+    });
+    set(&api, "extractFeatures", extract_features.as_ref());
+    extract_features.forget();
+
     let fill_voids = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
         applied(&fill_target, Command::FillVoids)
     });
