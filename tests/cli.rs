@@ -485,14 +485,15 @@ fn convert_round_trips_every_format() {
     assert_eq!(back.field, original.field);
     assert_eq!(back.georef.cell_size(), original.georef.cell_size());
 
-    // PNG and RAW R16 (with its sidecar and a Y flip) within one quantisation step.
-    for name in ["o.png", "o.r16"] {
+    // PNG and RAW R16 (with its sidecar and a Y flip) within one quantisation step. Each has
+    // its own stem: their sidecars would be the same `.json`.
+    for name in ["p.png", "r.r16"] {
         run(&["convert", &src.to_string_lossy(), &path(name), "--flip-y"]);
         assert!(dir.join(name).with_extension("json").exists());
         let back_name = format!("{name}.tif");
         run(&["convert", &path(name), &path(&back_name)]);
         let mut back = read_tif(&dir.join(&back_name)).field;
-        if name == "o.png" {
+        if name == "p.png" {
             // PNG carries no flip flag: the rows come back bottom-up.
             back = strahler::dem::resize::flipped_y(&back);
         }
@@ -712,4 +713,172 @@ fn files_written_by_gdal_read_correctly() {
     assert!(
         (tie[3] - 5.999583333333334).abs() < 1e-9 && (tie[4] - 50.000416666666666).abs() < 1e-9
     );
+}
+
+/// Runs `args`, expects a failure whose message holds every string of `expect`.
+fn refused(args: &[&str], expect: &[&str]) -> String {
+    let out = strahler(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded: {err}");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: expected {e:?} in: {err}");
+    }
+    err
+}
+
+/// The temporary files a failed write could leave in `dir`.
+fn temp_files(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("strahler-tmp"))
+        .collect()
+}
+
+/// Issue 22, points 1 and 2: an output equal to an input, the scene, an input's sidecar or
+/// another output of the same run is refused before anything is written.
+#[test]
+fn outputs_never_replace_inputs_scenes_or_each_other() {
+    let dir = out_dir().join("safe");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    std::fs::copy(test_dem("olinda.tif"), dir.join("x.tif")).unwrap();
+    let original = std::fs::read(dir.join("x.tif")).unwrap();
+    let x = p("x.tif");
+
+    refused(&["convert", &x, &x], &["x.tif", "input"]);
+    refused(&["convert", &x, &p("./x.tif")], &["input"]);
+    refused(&["fill", &x, "--out", &x, "--backend", "cpu"], &["input"]);
+    refused(
+        &["amplify", &x, "--out", &x, "--backend", "cpu"],
+        &["output", "input"],
+    );
+    refused(
+        &["amplify", &x, "--out", &p("a.tif"), "--report", &x],
+        &["report", "input"],
+    );
+    let volcano = test_dem("volcano_maungawhau.tif");
+    refused(
+        &[
+            "blend",
+            &x,
+            &volcano.to_string_lossy(),
+            "--block",
+            "1,1,4,4",
+            "--ref-at",
+            "0,0",
+            "--out",
+            &x,
+        ],
+        &["output", "target"],
+    );
+    let generate = ["generate", "--size", "64", "--backend", "cpu"];
+    refused(
+        &[
+            &generate[..],
+            &["--out", &p("s.tif"), "--report", &p("s.tif")],
+        ]
+        .concat(),
+        &["report", "output"],
+    );
+    // The report where the PNG's sidecar goes.
+    refused(
+        &[
+            &generate[..],
+            &["--out", &p("t.png"), "--report", &p("t.json")],
+        ]
+        .concat(),
+        &["t.json", "sidecar"],
+    );
+    // The scene where the PNG's sidecar goes.
+    let scene_text = r#"{"version": 1, "size": 64}"#;
+    std::fs::write(dir.join("myscene.json"), scene_text).unwrap();
+    refused(
+        &[
+            "generate",
+            &p("myscene.json"),
+            "--backend",
+            "cpu",
+            "--out",
+            &p("myscene.png"),
+        ],
+        &["myscene.json", "scene"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("myscene.json")).unwrap(),
+        scene_text
+    );
+    assert_eq!(std::fs::read(dir.join("x.tif")).unwrap(), original);
+    for never in ["a.tif", "s.tif", "t.png", "t.json", "myscene.png"] {
+        assert!(!dir.join(never).exists(), "{never} written");
+    }
+}
+
+/// Issue 22, point 1: a sidecar never replaces a file the run did not write (an input's
+/// sidecar, a curated one) unless `--force` is given; Strahler's own sidecar of the same
+/// output is replaced on a re-run.
+#[test]
+fn sidecars_replace_only_their_own_file_unless_forced() {
+    let dir = out_dir().join("sidecars");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    std::fs::copy(test_dem("olinda.png"), dir.join("volc.png")).unwrap();
+    std::fs::copy(test_dem("olinda.json"), dir.join("volc.json")).unwrap();
+    let curated = std::fs::read(dir.join("volc.json")).unwrap();
+    // convert volc.png volc.r16: the R16's sidecar is the PNG's own.
+    refused(
+        &["convert", &p("volc.png"), &p("volc.r16"), "--z-scale", "2"],
+        &["volc.json", "sidecar of the input"],
+    );
+    // convert olinda.tif volc2.png beside a curated volc2.json.
+    std::fs::write(dir.join("volc2.json"), &curated).unwrap();
+    let tif = test_dem("olinda.tif").to_string_lossy().into_owned();
+    refused(
+        &["convert", &tif, &p("volc2.png")],
+        &["volc2.json", "--force"],
+    );
+    assert_eq!(std::fs::read(dir.join("volc2.json")).unwrap(), curated);
+    assert!(!dir.join("volc2.png").exists());
+    let forced = strahler(&["convert", &tif, &p("volc2.png"), "--force"]);
+    assert!(forced.status.success(), "{forced:?}");
+    // Its own sidecar now: a re-run replaces both without --force.
+    let again = strahler(&["convert", &tif, &p("volc2.png"), "--z-scale", "2"]);
+    assert!(again.status.success(), "{again:?}");
+    let sidecar: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("volc2.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["zmax"].as_f64(), Some(176.0));
+    assert_eq!(std::fs::read(dir.join("volc.json")).unwrap(), curated);
+}
+
+/// Issue 22, point 3: a write that fails leaves no empty, truncated or temporary file.
+#[test]
+fn failed_writes_leave_nothing_behind() {
+    let dir = out_dir().join("failed_writes");
+    std::fs::create_dir_all(&dir).unwrap();
+    let tif = test_dem("olinda.tif").to_string_lossy().into_owned();
+    // A folder that does not exist.
+    let missing = dir.join("no/such/folder/o.tif");
+    refused(&["convert", &tif, &missing.to_string_lossy()], &["o.tif"]);
+    assert!(!missing.exists());
+    // The output is a non-empty folder: the rename fails after the bytes were written.
+    let blocked = dir.join("blocked.png");
+    std::fs::create_dir_all(blocked.join("keep")).unwrap();
+    refused(
+        &["convert", &tif, &blocked.to_string_lossy()],
+        &["blocked.png"],
+    );
+    refused(
+        &[
+            "generate",
+            "--size",
+            "64",
+            "--backend",
+            "cpu",
+            "--out",
+            &blocked.to_string_lossy(),
+        ],
+        &["blocked.png"],
+    );
+    assert!(blocked.join("keep").is_dir());
+    assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
 }

@@ -7,6 +7,8 @@ use crate::dem::format::{self, ExportOptions, Format, ImportOptions};
 use crate::dem::{Dem, GeoRef, ReadLimits};
 use crate::heightfield::Heightfield;
 
+use super::output::Outputs;
+
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
 /// Reads a DEM in any supported format. PNG and RAW heightmaps take their height range from
@@ -47,13 +49,16 @@ fn sidecar_json(path: &Path) -> Option<serde_json::Value> {
 }
 
 /// Writes `field` in the format of `path`'s extension; PNG and RAW also get a sidecar `.json`.
+/// `path` must have been claimed with [`Outputs::claim_dem`]; both files are written atomically.
 pub fn write_dem(
+    outputs: &Outputs,
     path: &Path,
     field: &Heightfield,
     georef: &GeoRef,
     cell_size_m: Option<f64>,
 ) -> Result<()> {
     write_dem_with(
+        outputs,
         path,
         field,
         georef,
@@ -66,8 +71,10 @@ pub fn write_dem(
     )
 }
 
-/// [`write_dem`] with every export option.
+/// [`write_dem`] with every export option. Everything is encoded (and every check on the
+/// values made) before the first byte is written.
 pub fn write_dem_with(
+    outputs: &Outputs,
     path: &Path,
     field: &Heightfield,
     georef: &GeoRef,
@@ -82,12 +89,9 @@ pub fn write_dem_with(
     })?;
     let out = format::write(format, field, georef, options)
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    let write = |p: &Path, bytes: &[u8]| {
-        std::fs::write(p, bytes).map_err(|e| format!("cannot write {}: {e}", p.display()))
-    };
-    write(path, &out.bytes)?;
+    outputs.write(path, &out.bytes)?;
     if let Some(json) = &out.sidecar {
-        write(&path.with_extension("json"), json.as_bytes())?;
+        outputs.write(&super::output::sidecar_of(path), json.as_bytes())?;
     }
     Ok(())
 }

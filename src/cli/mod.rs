@@ -12,6 +12,7 @@ mod fill;
 mod generate;
 mod info;
 mod io;
+mod output;
 
 use std::process::ExitCode;
 
