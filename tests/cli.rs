@@ -882,3 +882,268 @@ fn failed_writes_leave_nothing_behind() {
     assert!(blocked.join("keep").is_dir());
     assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
 }
+
+/// Issue 22, point 6: files are refused from their length and header before they are read;
+/// only regular files are read; error messages quote little of a file.
+#[test]
+fn readers_check_length_and_header_before_reading() {
+    let dir = out_dir().join("bounded");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let out = p("o.tif");
+    // A device behind an elevation file's name.
+    #[cfg(unix)]
+    {
+        let zero = dir.join("zero.hgt");
+        let _ = std::fs::remove_file(&zero);
+        std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+        refused(&["convert", &p("zero.hgt"), &out], &["not a regular file"]);
+        std::fs::copy(test_dem("olinda.png"), dir.join("zero.png")).unwrap();
+        let sidecar = dir.join("zero.json");
+        let _ = std::fs::remove_file(&sidecar);
+        std::os::unix::fs::symlink("/dev/zero", &sidecar).unwrap();
+        refused(&["convert", &p("zero.png"), &out], &["not a regular file"]);
+        refused(
+            &["generate", &p("zero.hgt"), "--size", "64"],
+            &["not a regular file"],
+        );
+    }
+    // Small headers in huge (sparse) files: refused from the length, nothing allocated.
+    for (name, source) in [("big.tif", "olinda.tif"), ("big.png", "olinda.png")] {
+        std::fs::copy(test_dem(source), dir.join(name)).unwrap();
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(dir.join(name))
+            .unwrap();
+        file.set_len(3 << 30).unwrap();
+        refused(
+            &["convert", &p(name), &out],
+            &["3221225472 bytes", "not read"],
+        );
+    }
+    // 20 MB behind a 111 x 111 header: within --max-cells, but not what the header allows.
+    std::fs::copy(test_dem("olinda.tif"), dir.join("padded.tif")).unwrap();
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(dir.join("padded.tif"))
+        .unwrap();
+    file.set_len(20 << 20).unwrap();
+    refused(&["convert", &p("padded.tif"), &out], &["111 x 111 GeoTIFF"]);
+    std::fs::write(dir.join("grid.asc"), "ncols 4\nnrows 4\ncellsize 1\n").unwrap();
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(dir.join("grid.asc"))
+        .unwrap();
+    file.set_len(200 << 20).unwrap();
+    refused(
+        &["convert", &p("grid.asc"), &out],
+        &["4 x 4 ESRI ASCII grid"],
+    );
+    // A long token quoted in an error is clipped.
+    let long = format!("ncols 2\nnrows 1\ncellsize 1\n1 {}\n", "7x".repeat(250_000));
+    std::fs::write(dir.join("long.asc"), long).unwrap();
+    let err = refused(&["convert", &p("long.asc"), &out], &["row 0, column 1"]);
+    assert!(err.len() < 400, "{} bytes of error", err.len());
+    assert!(!dir.join("o.tif").exists());
+}
+
+/// Issue 22, points 5, 7 and 8: absurd scales and counts are errors naming the limit, never
+/// a panic (exit 101) or an unbounded allocation.
+#[test]
+fn absurd_scales_and_counts_are_refused_with_the_limit() {
+    let dir = out_dir().join("absurd");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("huge_cells.json");
+    std::fs::write(&scene, r#"{"version": 1, "size": 64, "cell_size": 1e36}"#).unwrap();
+    let run = strahler(&["generate", &scene.to_string_lossy(), "--backend", "cpu"]);
+    assert_eq!(run.status.code(), Some(1), "{run:?}");
+    assert!(String::from_utf8_lossy(&run.stderr).contains("cell_size"));
+    for width in ["1e40", "NaN", "-5", "0"] {
+        let flag = format!("--map-width={width}");
+        let run = strahler(&["generate", "--size", "64", &flag]);
+        assert_eq!(run.status.code(), Some(1), "{width}: {run:?}");
+        assert!(String::from_utf8_lossy(&run.stderr).contains("--map-width"));
+    }
+    let mut args = vec!["generate", "--size", "64", "--backend", "cpu"];
+    for _ in 0..65 {
+        args.extend(["--river", "0.5,1,0.5,0.3"]);
+    }
+    refused(&args, &["rivers", "at most 64"]);
+    let points: Vec<String> = (0..10_001)
+        .map(|i| format!("[{}, 0.5]", i as f64 / 10_001.0))
+        .collect();
+    std::fs::write(
+        &scene,
+        format!(
+            r#"{{"version": 1, "size": 64, "sketch": {{"ridges": [{{"points": [{}]}}]}}}}"#,
+            points.join(",")
+        ),
+    )
+    .unwrap();
+    refused(
+        &["generate", &scene.to_string_lossy()],
+        &["sketch.ridges[0].points", "at most 10000"],
+    );
+    refused(&["bench", "--sizes", "100000"], &["--sizes", "8192"]);
+    refused(&["bench", "--sizes", "64", "--fixed", "2"], &["--fixed"]);
+    refused(&["bench", "--sizes", "64", "--fixed", "NaN"], &["--fixed"]);
+    refused(
+        &["bench", "--pipeline", "--sizes", "64", "--runs", "0"],
+        &["--runs"],
+    );
+}
+
+/// Issue 22, points 9 and 11-16: a result that is not what was asked is an error (or a
+/// correct result), never a wrong file and exit 0.
+#[test]
+fn wrong_results_are_errors_not_silent_successes() {
+    let dir = out_dir().join("honest");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let olinda = test_dem("olinda.tif").to_string_lossy().into_owned();
+    let voids = test_dem("srtm_n44e005_voids.tif")
+        .to_string_lossy()
+        .into_owned();
+    let ok = |args: &[&str]| {
+        let out = strahler(args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+
+    // 9: no-data is refused for PNG and R16 (no value to hold it); the old file is kept.
+    std::fs::write(dir.join("v.png"), b"old").unwrap();
+    refused(&["convert", &voids, &p("v.png")], &["1038 no-data", "fill"]);
+    assert_eq!(std::fs::read(dir.join("v.png")).unwrap(), b"old");
+    refused(&["convert", &voids, &p("v.r16")], &["no-data"]);
+    ok(&["convert", &voids, &p("vf.r16"), "--fill-voids"]);
+
+    // 11: a non-square R16 reads back with the size in its sidecar.
+    let volcano = test_dem("volcano_maungawhau.tif")
+        .to_string_lossy()
+        .into_owned();
+    ok(&["convert", &volcano, &p("volc.r16")]);
+    ok(&["convert", &p("volc.r16"), &p("volc_back.tif")]);
+    let back = read_tif(&dir.join("volc_back.tif")).field;
+    assert_eq!((back.width(), back.height()), (87, 61));
+
+    // 12: fill writes the format its output names.
+    ok(&[
+        "fill",
+        &voids,
+        "--out",
+        &p("filled.png"),
+        "--backend",
+        "cpu",
+    ]);
+    assert_eq!(
+        &std::fs::read(dir.join("filled.png")).unwrap()[..8],
+        b"\x89PNG\r\n\x1a\n"
+    );
+    assert!(dir.join("filled.json").exists());
+
+    // 13: overflowing scales and clipped .hgt heights are refused.
+    refused(
+        &["convert", &olinda, &p("inf.tif"), "--z-scale", "1e37"],
+        &["32-bit float range"],
+    );
+    refused(
+        &["convert", &olinda, &p("N07W035.hgt"), "--z-scale", "1000"],
+        &["3357 cells", "clipped"],
+    );
+    assert!(!dir.join("inf.tif").exists() && !dir.join("N07W035.hgt").exists());
+
+    // 14: inverted ranges, from a sidecar or the command line.
+    std::fs::copy(test_dem("olinda.png"), dir.join("inv.png")).unwrap();
+    std::fs::write(dir.join("inv.json"), r#"{"zmin": 88, "zmax": -1}"#).unwrap();
+    refused(
+        &["convert", &p("inv.png"), &p("inv.tif")],
+        &["inv.json", "inverted"],
+    );
+    refused(
+        &["convert", &p("volc.r16"), &p("x.tif"), "--z-range", "5,1"],
+        &["MIN < MAX"],
+    );
+
+    // 15: an unconverged fill fails unless allowed.
+    let stop = [
+        "fill",
+        &voids,
+        "--out",
+        &p("unconverged.tif"),
+        "--iterations",
+        "1",
+        "--tol",
+        "1e-9",
+        "--backend",
+        "cpu",
+    ];
+    refused(&stop, &["before converging", "--allow-unconverged"]);
+    assert!(!dir.join("unconverged.tif").exists());
+    ok(&[&stop[..], &["--allow-unconverged"]].concat());
+    assert!(dir.join("unconverged.tif").exists());
+
+    // 16: a JSON array is not a scene; impossible tile names; PNG errors say PNG; a malformed
+    // sidecar is reported as malformed.
+    std::fs::write(dir.join("array.json"), "[1, 64]").unwrap();
+    refused(&["generate", &p("array.json")], &["JSON object"]);
+    std::fs::write(dir.join("N95E999.hgt"), [0u8; 8]).unwrap();
+    refused(
+        &["convert", &p("N95E999.hgt"), &p("tile.tif")],
+        &["latitude 95"],
+    );
+    let mut rgb = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut rgb, 2, 2);
+        encoder.set_color(png::ColorType::Rgb);
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(&[0u8; 12]).unwrap();
+    }
+    std::fs::write(dir.join("rgb.png"), rgb).unwrap();
+    let err = refused(&["convert", &p("rgb.png"), &p("rgb.tif")], &["PNG"]);
+    assert!(!err.contains("GeoTIFF"), "{err}");
+    std::fs::copy(test_dem("olinda.png"), dir.join("broken.png")).unwrap();
+    std::fs::write(dir.join("broken.json"), "{\"zmin\": -1, \"zmax\": 8").unwrap();
+    refused(
+        &["convert", &p("broken.png"), &p("broken.tif")],
+        &["broken.json", "sidecar JSON", "not valid JSON"],
+    );
+}
+
+/// Issue 22, point 16: a GDAL_NODATA that is not a number is reported, and the `tiff`
+/// crate's debug line for long text tags is never printed.
+#[test]
+fn garbage_gdal_nodata_is_reported_without_debug_output() {
+    use tiff::encoder::{TiffEncoder, colortype::Gray32Float};
+    use tiff::tags::Tag;
+    let dir = out_dir().join("nodata");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    {
+        let mut encoder = TiffEncoder::new(&mut bytes).unwrap();
+        let mut image = encoder.new_image::<Gray32Float>(4, 4).unwrap();
+        image
+            .encoder()
+            .write_tag(Tag::GdalNodata, "no data here ".repeat(40).as_str())
+            .unwrap();
+        image.write_data(&[1.0f32; 16]).unwrap();
+    }
+    let path = dir.join("garbage.tif");
+    std::fs::write(&path, bytes.into_inner()).unwrap();
+    let err = refused(
+        &[
+            "convert",
+            &path.to_string_lossy(),
+            &dir.join("o.asc").to_string_lossy(),
+        ],
+        &["GDAL_NODATA", "not a number"],
+    );
+    assert!(
+        !err.contains("LimitsExceeded") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(err.len() < 300, "{err}");
+}

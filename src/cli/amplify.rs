@@ -90,8 +90,10 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
     let dem = super::io::read_dem(&args.input, limits, args.z_range)?;
     let mask = match &args.mask {
         Some(path) => {
+            let limit = limits.max_file_bytes(crate::dem::format::Format::Png.max_bytes_per_cell());
             let bytes =
-                std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                crate::dem::read_bounded(path, limit, "a mask of --max-cells cells may take")
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
             Some(Mask::from_png(&bytes, limits).map_err(|e| format!("{}: {e}", path.display()))?)
         }
         None => None,

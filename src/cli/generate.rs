@@ -82,13 +82,28 @@ pub struct GenerateArgs {
 pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>> {
     let mut scene = match &args.scene {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let bytes = crate::dem::read_bounded(
+                path,
+                crate::scene::MAX_SCENE_BYTES,
+                "a scene file may take",
+            )
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+            let text = String::from_utf8(bytes)
+                .map_err(|_| format!("{}: a scene is UTF-8 JSON text", path.display()))?;
             Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
         }
         None => Scene::default(),
     };
     let width = scene.cell_size * scene.size as f64;
+    if let Some(w) = args.map_width
+        && !(w.is_finite() && w > 0.0 && w <= crate::scene::MAX_MAP_WIDTH_M)
+    {
+        return Err(format!(
+            "--map-width must be a positive number of metres up to {} (10000 km), got {w:?}",
+            crate::scene::MAX_MAP_WIDTH_M
+        )
+        .into());
+    }
     if let Some(size) = args.size {
         scene.size = size;
     }
