@@ -880,6 +880,41 @@ fn failed_writes_leave_nothing_behind() {
         &["blocked.png"],
     );
     assert!(blocked.join("keep").is_dir());
+    // A write that fails part-way (a file size limit, as a full disk would): the file it was
+    // replacing is intact and no partial or temporary file is left.
+    #[cfg(unix)]
+    for args in [
+        vec!["convert", &tif, "KEEP"],
+        vec!["fill", &tif, "--out", "KEEP", "--backend", "cpu"],
+    ] {
+        let keep = dir.join("keep.asc");
+        std::fs::write(&keep, b"the user's file").unwrap();
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| a.replace("KEEP", &keep.to_string_lossy()))
+            .collect();
+        // SIGXFSZ ignored (inherited through exec), so the write fails with EFBIG.
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg("trap '' XFSZ; ulimit -f 16; exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_strahler"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(
+            err.contains("cannot write") && err.contains("keep.asc"),
+            "{err}"
+        );
+        let kept = std::fs::read(&keep).unwrap();
+        assert!(
+            kept == b"the user's file",
+            "{args:?} left {} bytes in place of the user's file",
+            kept.len()
+        );
+        assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
+    }
     assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
 }
 
