@@ -485,14 +485,15 @@ fn convert_round_trips_every_format() {
     assert_eq!(back.field, original.field);
     assert_eq!(back.georef.cell_size(), original.georef.cell_size());
 
-    // PNG and RAW R16 (with its sidecar and a Y flip) within one quantisation step.
-    for name in ["o.png", "o.r16"] {
+    // PNG and RAW R16 (with its sidecar and a Y flip) within one quantisation step. Each has
+    // its own stem: their sidecars would be the same `.json`.
+    for name in ["p.png", "r.r16"] {
         run(&["convert", &src.to_string_lossy(), &path(name), "--flip-y"]);
         assert!(dir.join(name).with_extension("json").exists());
         let back_name = format!("{name}.tif");
         run(&["convert", &path(name), &path(&back_name)]);
         let mut back = read_tif(&dir.join(&back_name)).field;
-        if name == "o.png" {
+        if name == "p.png" {
             // PNG carries no flip flag: the rows come back bottom-up.
             back = strahler::dem::resize::flipped_y(&back);
         }
@@ -772,4 +773,472 @@ fn generate_builds_every_stage_of_a_scene_with_the_pinned_checksum() {
     // The block scene reports its solve.
     assert_eq!(sums["block"]["blend"]["blocks"], 1);
     assert_eq!(sums["block"]["blend"]["converged"], true);
+}
+
+/// Runs `args`, expects a failure whose message holds every string of `expect`.
+fn refused(args: &[&str], expect: &[&str]) -> String {
+    let out = strahler(args);
+    let err = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "{args:?} succeeded: {err}");
+    for e in expect {
+        assert!(err.contains(e), "{args:?}: expected {e:?} in: {err}");
+    }
+    err
+}
+
+/// The temporary files a failed write could leave in `dir`.
+fn temp_files(dir: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.contains("strahler-tmp"))
+        .collect()
+}
+
+/// Issue 22, points 1 and 2: an output equal to an input, the scene, an input's sidecar or
+/// another output of the same run is refused before anything is written.
+#[test]
+fn outputs_never_replace_inputs_scenes_or_each_other() {
+    let dir = out_dir().join("safe");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    std::fs::copy(test_dem("olinda.tif"), dir.join("x.tif")).unwrap();
+    let original = std::fs::read(dir.join("x.tif")).unwrap();
+    let x = p("x.tif");
+
+    refused(&["convert", &x, &x], &["x.tif", "input"]);
+    refused(&["convert", &x, &p("./x.tif")], &["input"]);
+    refused(&["fill", &x, "--out", &x, "--backend", "cpu"], &["input"]);
+    refused(
+        &["amplify", &x, "--out", &x, "--backend", "cpu"],
+        &["output", "input"],
+    );
+    refused(
+        &["amplify", &x, "--out", &p("a.tif"), "--report", &x],
+        &["report", "input"],
+    );
+    let volcano = test_dem("volcano_maungawhau.tif");
+    refused(
+        &[
+            "blend",
+            &x,
+            &volcano.to_string_lossy(),
+            "--block",
+            "1,1,4,4",
+            "--ref-at",
+            "0,0",
+            "--out",
+            &x,
+        ],
+        &["output", "target"],
+    );
+    let generate = ["generate", "--size", "64", "--backend", "cpu"];
+    refused(
+        &[
+            &generate[..],
+            &["--out", &p("s.tif"), "--report", &p("s.tif")],
+        ]
+        .concat(),
+        &["report", "output"],
+    );
+    // The report where the PNG's sidecar goes.
+    refused(
+        &[
+            &generate[..],
+            &["--out", &p("t.png"), "--report", &p("t.json")],
+        ]
+        .concat(),
+        &["t.json", "sidecar"],
+    );
+    // The scene where the PNG's sidecar goes.
+    let scene_text = r#"{"version": 1, "size": 64}"#;
+    std::fs::write(dir.join("myscene.json"), scene_text).unwrap();
+    refused(
+        &[
+            "generate",
+            &p("myscene.json"),
+            "--backend",
+            "cpu",
+            "--out",
+            &p("myscene.png"),
+        ],
+        &["myscene.json", "scene"],
+    );
+    assert_eq!(
+        std::fs::read_to_string(dir.join("myscene.json")).unwrap(),
+        scene_text
+    );
+    assert_eq!(std::fs::read(dir.join("x.tif")).unwrap(), original);
+    for never in ["a.tif", "s.tif", "t.png", "t.json", "myscene.png"] {
+        assert!(!dir.join(never).exists(), "{never} written");
+    }
+}
+
+/// Issue 22, point 1: a sidecar never replaces a file the run did not write (an input's
+/// sidecar, a curated one) unless `--force` is given; Strahler's own sidecar of the same
+/// output is replaced on a re-run.
+#[test]
+fn sidecars_replace_only_their_own_file_unless_forced() {
+    let dir = out_dir().join("sidecars");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    std::fs::copy(test_dem("olinda.png"), dir.join("volc.png")).unwrap();
+    std::fs::copy(test_dem("olinda.json"), dir.join("volc.json")).unwrap();
+    let curated = std::fs::read(dir.join("volc.json")).unwrap();
+    // convert volc.png volc.r16: the R16's sidecar is the PNG's own.
+    refused(
+        &["convert", &p("volc.png"), &p("volc.r16"), "--z-scale", "2"],
+        &["volc.json", "sidecar of the input"],
+    );
+    // convert olinda.tif volc2.png beside a curated volc2.json.
+    std::fs::write(dir.join("volc2.json"), &curated).unwrap();
+    let tif = test_dem("olinda.tif").to_string_lossy().into_owned();
+    refused(
+        &["convert", &tif, &p("volc2.png")],
+        &["volc2.json", "--force"],
+    );
+    assert_eq!(std::fs::read(dir.join("volc2.json")).unwrap(), curated);
+    assert!(!dir.join("volc2.png").exists());
+    let forced = strahler(&["convert", &tif, &p("volc2.png"), "--force"]);
+    assert!(forced.status.success(), "{forced:?}");
+    // Its own sidecar now: a re-run replaces both without --force.
+    let again = strahler(&["convert", &tif, &p("volc2.png"), "--z-scale", "2"]);
+    assert!(again.status.success(), "{again:?}");
+    let sidecar: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.join("volc2.json")).unwrap()).unwrap();
+    assert_eq!(sidecar["zmax"].as_f64(), Some(176.0));
+    assert_eq!(std::fs::read(dir.join("volc.json")).unwrap(), curated);
+}
+
+/// Issue 22, point 3: a write that fails leaves no empty, truncated or temporary file.
+#[test]
+fn failed_writes_leave_nothing_behind() {
+    let dir = out_dir().join("failed_writes");
+    std::fs::create_dir_all(&dir).unwrap();
+    let tif = test_dem("olinda.tif").to_string_lossy().into_owned();
+    // A folder that does not exist.
+    let missing = dir.join("no/such/folder/o.tif");
+    refused(&["convert", &tif, &missing.to_string_lossy()], &["o.tif"]);
+    assert!(!missing.exists());
+    // The output is a non-empty folder: the rename fails after the bytes were written.
+    let blocked = dir.join("blocked.png");
+    std::fs::create_dir_all(blocked.join("keep")).unwrap();
+    refused(
+        &["convert", &tif, &blocked.to_string_lossy()],
+        &["blocked.png"],
+    );
+    refused(
+        &[
+            "generate",
+            "--size",
+            "64",
+            "--backend",
+            "cpu",
+            "--out",
+            &blocked.to_string_lossy(),
+        ],
+        &["blocked.png"],
+    );
+    assert!(blocked.join("keep").is_dir());
+    // A write that fails part-way (a file size limit, as a full disk would): the file it was
+    // replacing is intact and no partial or temporary file is left.
+    #[cfg(unix)]
+    for args in [
+        vec!["convert", &tif, "KEEP"],
+        vec!["fill", &tif, "--out", "KEEP", "--backend", "cpu"],
+    ] {
+        let keep = dir.join("keep.asc");
+        std::fs::write(&keep, b"the user's file").unwrap();
+        let args: Vec<String> = args
+            .iter()
+            .map(|a| a.replace("KEEP", &keep.to_string_lossy()))
+            .collect();
+        // SIGXFSZ ignored (inherited through exec), so the write fails with EFBIG.
+        let out = Command::new("sh")
+            .arg("-c")
+            .arg("trap '' XFSZ; ulimit -f 16; exec \"$0\" \"$@\"")
+            .arg(env!("CARGO_BIN_EXE_strahler"))
+            .args(&args)
+            .output()
+            .unwrap();
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?} succeeded");
+        assert!(
+            err.contains("cannot write") && err.contains("keep.asc"),
+            "{err}"
+        );
+        let kept = std::fs::read(&keep).unwrap();
+        assert!(
+            kept == b"the user's file",
+            "{args:?} left {} bytes in place of the user's file",
+            kept.len()
+        );
+        assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
+    }
+    assert!(temp_files(&dir).is_empty(), "{:?}", temp_files(&dir));
+}
+
+/// Issue 22, point 6: files are refused from their length and header before they are read;
+/// only regular files are read; error messages quote little of a file.
+#[test]
+fn readers_check_length_and_header_before_reading() {
+    let dir = out_dir().join("bounded");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let out = p("o.tif");
+    // A device behind an elevation file's name.
+    #[cfg(unix)]
+    {
+        let zero = dir.join("zero.hgt");
+        let _ = std::fs::remove_file(&zero);
+        std::os::unix::fs::symlink("/dev/zero", &zero).unwrap();
+        refused(&["convert", &p("zero.hgt"), &out], &["not a regular file"]);
+        std::fs::copy(test_dem("olinda.png"), dir.join("zero.png")).unwrap();
+        let sidecar = dir.join("zero.json");
+        let _ = std::fs::remove_file(&sidecar);
+        std::os::unix::fs::symlink("/dev/zero", &sidecar).unwrap();
+        refused(&["convert", &p("zero.png"), &out], &["not a regular file"]);
+        refused(
+            &["generate", &p("zero.hgt"), "--size", "64"],
+            &["not a regular file"],
+        );
+    }
+    // Small headers in huge (sparse) files: refused from the length, nothing allocated.
+    for (name, source) in [("big.tif", "olinda.tif"), ("big.png", "olinda.png")] {
+        std::fs::copy(test_dem(source), dir.join(name)).unwrap();
+        let file = std::fs::OpenOptions::new()
+            .write(true)
+            .open(dir.join(name))
+            .unwrap();
+        file.set_len(3 << 30).unwrap();
+        refused(
+            &["convert", &p(name), &out],
+            &["3221225472 bytes", "not read"],
+        );
+    }
+    // 20 MB behind a 111 x 111 header: within --max-cells, but not what the header allows.
+    std::fs::copy(test_dem("olinda.tif"), dir.join("padded.tif")).unwrap();
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(dir.join("padded.tif"))
+        .unwrap();
+    file.set_len(20 << 20).unwrap();
+    refused(&["convert", &p("padded.tif"), &out], &["111 x 111 GeoTIFF"]);
+    std::fs::write(dir.join("grid.asc"), "ncols 4\nnrows 4\ncellsize 1\n").unwrap();
+    let file = std::fs::OpenOptions::new()
+        .write(true)
+        .open(dir.join("grid.asc"))
+        .unwrap();
+    file.set_len(200 << 20).unwrap();
+    refused(
+        &["convert", &p("grid.asc"), &out],
+        &["4 x 4 ESRI ASCII grid"],
+    );
+    // A long token quoted in an error is clipped.
+    let long = format!("ncols 2\nnrows 1\ncellsize 1\n1 {}\n", "7x".repeat(250_000));
+    std::fs::write(dir.join("long.asc"), long).unwrap();
+    let err = refused(&["convert", &p("long.asc"), &out], &["row 0, column 1"]);
+    assert!(err.len() < 400, "{} bytes of error", err.len());
+    assert!(!dir.join("o.tif").exists());
+}
+
+/// Issue 22, points 5, 7 and 8: absurd scales and counts are errors naming the limit, never
+/// a panic (exit 101) or an unbounded allocation.
+#[test]
+fn absurd_scales_and_counts_are_refused_with_the_limit() {
+    let dir = out_dir().join("absurd");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = dir.join("huge_cells.json");
+    std::fs::write(&scene, r#"{"version": 1, "size": 64, "cell_size": 1e36}"#).unwrap();
+    let run = strahler(&["generate", &scene.to_string_lossy(), "--backend", "cpu"]);
+    assert_eq!(run.status.code(), Some(1), "{run:?}");
+    assert!(String::from_utf8_lossy(&run.stderr).contains("cell_size"));
+    for width in ["1e40", "NaN", "-5", "0"] {
+        let flag = format!("--map-width={width}");
+        let run = strahler(&["generate", "--size", "64", &flag]);
+        assert_eq!(run.status.code(), Some(1), "{width}: {run:?}");
+        assert!(String::from_utf8_lossy(&run.stderr).contains("--map-width"));
+    }
+    let mut args = vec!["generate", "--size", "64", "--backend", "cpu"];
+    for _ in 0..65 {
+        args.extend(["--river", "0.5,1,0.5,0.3"]);
+    }
+    refused(&args, &["rivers", "at most 64"]);
+    let points: Vec<String> = (0..10_001)
+        .map(|i| format!("[{}, 0.5]", i as f64 / 10_001.0))
+        .collect();
+    std::fs::write(
+        &scene,
+        format!(
+            r#"{{"version": 1, "size": 64, "sketch": {{"ridges": [{{"points": [{}]}}]}}}}"#,
+            points.join(",")
+        ),
+    )
+    .unwrap();
+    refused(
+        &["generate", &scene.to_string_lossy()],
+        &["sketch.ridges[0].points", "at most 10000"],
+    );
+    refused(&["bench", "--sizes", "100000"], &["--sizes", "8192"]);
+    refused(&["bench", "--sizes", "64", "--fixed", "2"], &["--fixed"]);
+    refused(&["bench", "--sizes", "64", "--fixed", "NaN"], &["--fixed"]);
+    refused(
+        &["bench", "--pipeline", "--sizes", "64", "--runs", "0"],
+        &["--runs"],
+    );
+}
+
+/// Issue 22, points 9 and 11-16: a result that is not what was asked is an error (or a
+/// correct result), never a wrong file and exit 0.
+#[test]
+fn wrong_results_are_errors_not_silent_successes() {
+    let dir = out_dir().join("honest");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let olinda = test_dem("olinda.tif").to_string_lossy().into_owned();
+    let voids = test_dem("srtm_n44e005_voids.tif")
+        .to_string_lossy()
+        .into_owned();
+    let ok = |args: &[&str]| {
+        let out = strahler(args);
+        assert!(
+            out.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        String::from_utf8_lossy(&out.stdout).into_owned()
+    };
+
+    // 9: no-data is refused for PNG and R16 (no value to hold it); the old file is kept.
+    std::fs::write(dir.join("v.png"), b"old").unwrap();
+    refused(&["convert", &voids, &p("v.png")], &["1038 no-data", "fill"]);
+    assert_eq!(std::fs::read(dir.join("v.png")).unwrap(), b"old");
+    refused(&["convert", &voids, &p("v.r16")], &["no-data"]);
+    ok(&["convert", &voids, &p("vf.r16"), "--fill-voids"]);
+
+    // 11: a non-square R16 reads back with the size in its sidecar.
+    let volcano = test_dem("volcano_maungawhau.tif")
+        .to_string_lossy()
+        .into_owned();
+    ok(&["convert", &volcano, &p("volc.r16")]);
+    ok(&["convert", &p("volc.r16"), &p("volc_back.tif")]);
+    let back = read_tif(&dir.join("volc_back.tif")).field;
+    assert_eq!((back.width(), back.height()), (87, 61));
+
+    // 12: fill writes the format its output names.
+    ok(&[
+        "fill",
+        &voids,
+        "--out",
+        &p("filled.png"),
+        "--backend",
+        "cpu",
+    ]);
+    assert_eq!(
+        &std::fs::read(dir.join("filled.png")).unwrap()[..8],
+        b"\x89PNG\r\n\x1a\n"
+    );
+    assert!(dir.join("filled.json").exists());
+
+    // 13: overflowing scales and clipped .hgt heights are refused.
+    refused(
+        &["convert", &olinda, &p("inf.tif"), "--z-scale", "1e37"],
+        &["32-bit float range"],
+    );
+    refused(
+        &["convert", &olinda, &p("N07W035.hgt"), "--z-scale", "1000"],
+        &["3357 cells", "clipped"],
+    );
+    assert!(!dir.join("inf.tif").exists() && !dir.join("N07W035.hgt").exists());
+
+    // 14: inverted ranges, from a sidecar or the command line.
+    std::fs::copy(test_dem("olinda.png"), dir.join("inv.png")).unwrap();
+    std::fs::write(dir.join("inv.json"), r#"{"zmin": 88, "zmax": -1}"#).unwrap();
+    refused(
+        &["convert", &p("inv.png"), &p("inv.tif")],
+        &["inv.json", "inverted"],
+    );
+    refused(
+        &["convert", &p("volc.r16"), &p("x.tif"), "--z-range", "5,1"],
+        &["MIN < MAX"],
+    );
+
+    // 15: an unconverged fill fails unless allowed.
+    let stop = [
+        "fill",
+        &voids,
+        "--out",
+        &p("unconverged.tif"),
+        "--iterations",
+        "1",
+        "--tol",
+        "1e-9",
+        "--backend",
+        "cpu",
+    ];
+    refused(&stop, &["before converging", "--allow-unconverged"]);
+    assert!(!dir.join("unconverged.tif").exists());
+    ok(&[&stop[..], &["--allow-unconverged"]].concat());
+    assert!(dir.join("unconverged.tif").exists());
+
+    // 16: a JSON array is not a scene; impossible tile names; PNG errors say PNG; a malformed
+    // sidecar is reported as malformed.
+    std::fs::write(dir.join("array.json"), "[1, 64]").unwrap();
+    refused(&["generate", &p("array.json")], &["JSON object"]);
+    std::fs::write(dir.join("N95E999.hgt"), [0u8; 8]).unwrap();
+    refused(
+        &["convert", &p("N95E999.hgt"), &p("tile.tif")],
+        &["latitude 95"],
+    );
+    let mut rgb = Vec::new();
+    {
+        let mut encoder = png::Encoder::new(&mut rgb, 2, 2);
+        encoder.set_color(png::ColorType::Rgb);
+        let mut writer = encoder.write_header().unwrap();
+        writer.write_image_data(&[0u8; 12]).unwrap();
+    }
+    std::fs::write(dir.join("rgb.png"), rgb).unwrap();
+    let err = refused(&["convert", &p("rgb.png"), &p("rgb.tif")], &["PNG"]);
+    assert!(!err.contains("GeoTIFF"), "{err}");
+    std::fs::copy(test_dem("olinda.png"), dir.join("broken.png")).unwrap();
+    std::fs::write(dir.join("broken.json"), "{\"zmin\": -1, \"zmax\": 8").unwrap();
+    refused(
+        &["convert", &p("broken.png"), &p("broken.tif")],
+        &["broken.json", "sidecar JSON", "not valid JSON"],
+    );
+}
+
+/// Issue 22, point 16: a GDAL_NODATA that is not a number is reported, and the `tiff`
+/// crate's debug line for long text tags is never printed.
+#[test]
+fn garbage_gdal_nodata_is_reported_without_debug_output() {
+    use tiff::encoder::{TiffEncoder, colortype::Gray32Float};
+    use tiff::tags::Tag;
+    let dir = out_dir().join("nodata");
+    std::fs::create_dir_all(&dir).unwrap();
+    let mut bytes = std::io::Cursor::new(Vec::new());
+    {
+        let mut encoder = TiffEncoder::new(&mut bytes).unwrap();
+        let mut image = encoder.new_image::<Gray32Float>(4, 4).unwrap();
+        image
+            .encoder()
+            .write_tag(Tag::GdalNodata, "no data here ".repeat(40).as_str())
+            .unwrap();
+        image.write_data(&[1.0f32; 16]).unwrap();
+    }
+    let path = dir.join("garbage.tif");
+    std::fs::write(&path, bytes.into_inner()).unwrap();
+    let err = refused(
+        &[
+            "convert",
+            &path.to_string_lossy(),
+            &dir.join("o.asc").to_string_lossy(),
+        ],
+        &["GDAL_NODATA", "not a number"],
+    );
+    assert!(
+        !err.contains("LimitsExceeded") && err.lines().count() == 1,
+        "{err}"
+    );
+    assert!(err.len() < 300, "{err}");
 }

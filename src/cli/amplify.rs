@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use clap::{Args, ValueEnum};
 use serde::Serialize;
 
+use super::output::Outputs;
 use crate::compute::BackendChoice;
 use crate::dem::ReadLimits;
 use crate::jobs::JobCtx;
@@ -53,6 +54,9 @@ pub struct AmplifyArgs {
     /// Refuse inputs with more cells than this.
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
+    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 #[derive(Serialize)]
@@ -74,11 +78,22 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
     let limits = ReadLimits {
         max_cells: args.max_cells,
     };
+    let mut outputs = Outputs::new(args.force);
+    outputs.input(&args.input, "input");
+    if let Some(mask) = &args.mask {
+        outputs.input(mask, "mask");
+    }
+    outputs.claim_dem(&args.out, "output")?;
+    if let Some(report) = &args.report {
+        outputs.claim(report, "report")?;
+    }
     let dem = super::io::read_dem(&args.input, limits, args.z_range)?;
     let mask = match &args.mask {
         Some(path) => {
+            let limit = limits.max_file_bytes(crate::dem::format::Format::Png.max_bytes_per_cell());
             let bytes =
-                std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+                crate::dem::read_bounded(path, limit, "a mask of --max-cells cells may take")
+                    .map_err(|e| format!("{}: {e}", path.display()))?;
             Some(Mask::from_png(&bytes, limits).map_err(|e| format!("{}: {e}", path.display()))?)
         }
         None => None,
@@ -113,7 +128,7 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
     let factor = f64::from(1u32 << args.levels);
     let georef = dem.georef.refined(factor);
     let cell = georef.cell_size().map(|(x, _)| x);
-    super::io::write_dem(&args.out, field, &georef, cell)?;
+    super::io::write_dem(&outputs, &args.out, field, &georef, cell)?;
     println!(
         "{} x {} -> {} x {} ({} level{}, {:?} scope{}) on the {} in {:.0} ms",
         dem.field.width(),
@@ -141,8 +156,7 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
             millis,
             checksum: field.checksum(),
         };
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(())
 }

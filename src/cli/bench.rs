@@ -161,7 +161,39 @@ fn paper(size: usize) -> &'static str {
     }
 }
 
+/// Largest grid side `--sizes` accepts (8192^2 cells, what the app generates).
+pub const MAX_SIZE: usize = 8192;
+/// Most `--runs`.
+pub const MAX_RUNS: usize = 1000;
+
+/// Checks every argument before any allocation: sizes 16 to [`MAX_SIZE`], `--fixed` a
+/// fraction in (0, 1), `--runs` 1 to [`MAX_RUNS`], `--max-binding-mib` at least 1.
+pub fn check(args: &BenchArgs) -> Result<(), String> {
+    if args.sizes.is_empty() {
+        return Err("--sizes: give at least one grid side".into());
+    }
+    if let Some(size) = args.sizes.iter().find(|s| !(16..=MAX_SIZE).contains(*s)) {
+        return Err(format!(
+            "--sizes: each side must be 16 to {MAX_SIZE} cells, got {size}"
+        ));
+    }
+    if !(args.fixed.is_finite() && args.fixed > 0.0 && args.fixed < 1.0) {
+        return Err(format!(
+            "--fixed must be a fraction of the cells between 0 and 1 (e.g. 0.015), got {}",
+            args.fixed
+        ));
+    }
+    if !(1..=MAX_RUNS).contains(&args.runs) {
+        return Err(format!("--runs must be 1 to {MAX_RUNS}, got {}", args.runs));
+    }
+    if args.max_binding_mib == Some(0) {
+        return Err("--max-binding-mib must be at least 1".into());
+    }
+    Ok(())
+}
+
 pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
+    check(args)?;
     if args.pipeline {
         return pipeline(args);
     }

@@ -12,6 +12,8 @@ use crate::dem::ReadLimits;
 use crate::diffusion::MultigridParams;
 use crate::jobs::JobCtx;
 
+use super::output::Outputs;
+
 #[derive(Debug, Args)]
 pub struct BlendArgs {
     /// The terrain to blend into (any supported format).
@@ -39,6 +41,9 @@ pub struct BlendArgs {
     /// Write a JSON report of the solve here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 fn numbers(text: &str, n: usize, what: &str) -> Result<Vec<usize>, String> {
@@ -85,6 +90,13 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
         return Err(format!("--scale-z must be a number, got {}", args.scale_z).into());
     }
     let limits = ReadLimits::default();
+    let mut outputs = Outputs::new(args.force);
+    outputs.input(&args.target, "target");
+    outputs.input(&args.reference, "reference");
+    outputs.claim_dem(&args.out, "output")?;
+    if let Some(report) = &args.report {
+        outputs.claim(report, "report")?;
+    }
     let target = super::io::read_dem(&args.target, limits, args.z_range)?;
     let reference = super::io::read_dem(&args.reference, limits, args.z_range)?;
     let b = args.block;
@@ -108,6 +120,7 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
         &JobCtx::detached(),
     ))?;
     super::io::write_dem(
+        &outputs,
         &args.out,
         &field,
         &target.georef,
@@ -140,8 +153,7 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
             converged: solve.converged,
             millis: solve.millis,
         };
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(())
 }

@@ -12,6 +12,8 @@ use crate::dem::format::{ExportOptions, ImportOptions};
 use crate::diffusion::{self, Method, MultigridParams};
 use crate::jobs::JobCtx;
 
+use super::output::Outputs;
+
 #[derive(Debug, Args)]
 pub struct ConvertArgs {
     /// Input: .tif/.tiff, .hgt, .asc, .png, .r16/.raw.
@@ -36,9 +38,15 @@ pub struct ConvertArgs {
     /// Refuse inputs with more cells than this.
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
+    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let mut outputs = Outputs::new(args.force);
+    outputs.input(&args.input, "input");
+    outputs.claim_dem(&args.output, "output")?;
     let mut dem = super::io::read_dem_with(
         &args.input,
         &ImportOptions {
@@ -69,7 +77,7 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
         z_scale: args.z_scale,
         cell_size: dem.georef.cell_size().map_or(1.0, |c| c.0),
     };
-    super::io::write_dem_with(&args.output, &dem.field, &dem.georef, &options)?;
+    super::io::write_dem_with(&outputs, &args.output, &dem.field, &dem.georef, &options)?;
     println!(
         "{} ({} x {}) -> {}",
         args.input.display(),

@@ -11,6 +11,8 @@ use crate::features::{self, FeatureParams, Features};
 use crate::jobs::JobCtx;
 use crate::scene::Scene;
 
+use super::output::Outputs;
+
 #[derive(Debug, Args)]
 pub struct FeaturesArgs {
     /// The DEM (any format `convert` reads; fill its voids first).
@@ -31,12 +33,24 @@ pub struct FeaturesArgs {
     /// w of eq. 3 (profile threshold).
     #[arg(long, default_value_t = FeatureParams::default().w)]
     pub w: f64,
+    /// Replace an existing file beside a PNG/R16 output that is not its own sidecar.
+    #[arg(long)]
+    pub force: bool,
     /// Height range of a PNG heightmap without a text chunk or sidecar JSON.
     #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
     pub z_range: Option<(f32, f32)>,
 }
 
 pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let mut outputs = Outputs::new(args.force);
+    outputs.input(&args.input, "input");
+    outputs.claim(&args.out, "scene")?;
+    if let Some(path) = &args.png {
+        outputs.claim(path, "feature map")?;
+    }
+    if let Some(path) = &args.rebuild {
+        outputs.claim_dem(path, "rebuilt terrain")?;
+    }
     let dem = super::io::read_dem(&args.input, ReadLimits::default(), args.z_range)?;
     let (w, h) = (dem.field.width(), dem.field.height());
     let params = FeatureParams {
@@ -50,8 +64,7 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
     let millis = clock.elapsed().as_secs_f64() * 1e3;
     let (cx, _) = dem.georef.cell_size_m(h).unwrap_or((30.0, 30.0));
     let scene = Scene::from_features(&found, w, h, cx)?;
-    std::fs::write(&args.out, scene.to_json())
-        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    outputs.write(&args.out, scene.to_json().as_bytes())?;
     println!(
         "{}: {w} x {h} cells; {} ridges, {} valleys, {} peaks in {millis:.0} ms -> {}",
         args.input.display(),
@@ -62,7 +75,7 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
     );
     if let Some(path) = &args.png {
         let png = feature_map(&dem.field, &found, cx)?;
-        std::fs::write(path, png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        outputs.write(path, &png)?;
     }
     if let Some(path) = &args.rebuild {
         let out = pollster::block_on(crate::pipeline::generate(
@@ -81,7 +94,7 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         } else {
             GeoRef::default()
         };
-        super::io::write_dem(path, &field, &georef, Some(cx))?;
+        super::io::write_dem(&outputs, path, &field, &georef, Some(cx))?;
         match crate::realism::ssim(dem.field.data(), field.data(), w, h) {
             Some(s) => println!(
                 "rebuilt from the features: SSIM {s:.3} against the DEM (seed 003 Table 2: 0.60-0.65)"

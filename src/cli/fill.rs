@@ -8,15 +8,19 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::compute::BackendChoice;
-use crate::dem::{self, ReadLimits};
+use crate::dem::ReadLimits;
 use crate::diffusion::{self, Method, MultigridParams};
 use crate::jobs::JobCtx;
 
+use super::output::Outputs;
+
 #[derive(Debug, Args)]
 pub struct FillArgs {
-    /// Input GeoTIFF; its no-data (NaN or GDAL_NODATA) cells are filled.
+    /// Input DEM (.tif, .hgt, .asc; .png or .r16 with a height range); its no-data cells (NaN,
+    /// GDAL_NODATA, SRTM voids, NODATA_value) are filled.
     pub input: PathBuf,
-    /// Output GeoTIFF (float32, georeferencing kept).
+    /// Output, format from the extension: .tif (float32, georeferencing kept), .asc, .hgt,
+    /// .png or .r16 (+ sidecar .json), .obj.
     #[arg(long)]
     pub out: PathBuf,
     /// auto (GPU if it computes, else CPU), cpu or gpu.
@@ -37,6 +41,15 @@ pub struct FillArgs {
     /// Refuse inputs with more cells than this.
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
+    /// Height range MIN,MAX for PNG and RAW inputs that do not carry one.
+    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    pub z_range: Option<(f32, f32)>,
+    /// Write the output (and exit 0) even when the solver stops before converging.
+    #[arg(long)]
+    pub allow_unconverged: bool,
+    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// What `--report` writes.
@@ -73,15 +86,19 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
             ..Default::default()
         }),
     };
-    let bytes = std::fs::read(&args.input)
-        .map_err(|e| format!("cannot read {}: {e}", args.input.display()))?;
-    let dem = dem::geotiff::read(
-        &bytes,
+    let mut outputs = Outputs::new(args.force);
+    outputs.input(&args.input, "input");
+    outputs.claim_dem(&args.out, "output")?;
+    if let Some(report) = &args.report {
+        outputs.claim(report, "report")?;
+    }
+    let dem = super::io::read_dem(
+        &args.input,
         ReadLimits {
             max_cells: args.max_cells,
         },
-    )
-    .map_err(|e| format!("{}: {e}", args.input.display()))?;
+        args.z_range,
+    )?;
     let problem = diffusion::void_problem(&dem.field);
     let free = problem.width() * problem.height() - problem.fixed().count();
 
@@ -101,9 +118,6 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
         ))?)
     };
     let field = filled.as_ref().map_or(&dem.field, |f| &f.field);
-    let out = dem::geotiff::write(field, &dem.georef)?;
-    std::fs::write(&args.out, out)
-        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
 
     let report = FillReport {
         input: args.input.display().to_string(),
@@ -141,9 +155,32 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
             " (NOT converged)"
         }
     );
+    // An unconverged fill is not what was asked: nothing is written unless the user says so
+    // (the report, if asked for, still says how far the solve got).
+    if !report.converged && !args.allow_unconverged {
+        if let Some(path) = &args.report {
+            outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+        }
+        return Err(format!(
+            "the fill stopped before converging after {} cycles (residual {:.1e} of the \
+             range, tolerance {:.1e}); {} was not written. Raise --iterations, loosen --tol, \
+             or pass --allow-unconverged to write it anyway",
+            report.cycles,
+            report.relative_residual,
+            args.tol,
+            args.out.display()
+        )
+        .into());
+    }
+    super::io::write_dem(
+        &outputs,
+        &args.out,
+        field,
+        &dem.georef,
+        dem.georef.cell_size().map(|c| c.0),
+    )?;
     if let Some(path) = &args.report {
-        std::fs::write(path, serde_json::to_string_pretty(&report)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
     Ok(())
 }

@@ -14,6 +14,8 @@ use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene};
 use crate::terrain;
 
+use super::output::Outputs;
+
 #[derive(Debug, Args)]
 pub struct GenerateArgs {
     /// A scene file (JSON, see the README); the options below add to or override it.
@@ -71,19 +73,37 @@ pub struct GenerateArgs {
     pub report: Option<PathBuf>,
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
+    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    #[arg(long)]
+    pub force: bool,
 }
 
 /// The scene the arguments describe: the file (or the defaults), then the options on top.
 pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>> {
     let mut scene = match &args.scene {
         Some(path) => {
-            let text = std::fs::read_to_string(path)
-                .map_err(|e| format!("cannot read {}: {e}", path.display()))?;
+            let bytes = crate::dem::read_bounded(
+                path,
+                crate::scene::MAX_SCENE_BYTES,
+                "a scene file may take",
+            )
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+            let text = String::from_utf8(bytes)
+                .map_err(|_| format!("{}: a scene is UTF-8 JSON text", path.display()))?;
             Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
         }
         None => Scene::default(),
     };
     let width = scene.cell_size * scene.size as f64;
+    if let Some(w) = args.map_width
+        && !(w.is_finite() && w > 0.0 && w <= crate::scene::MAX_MAP_WIDTH_M)
+    {
+        return Err(format!(
+            "--map-width must be a positive number of metres up to {} (10000 km), got {w:?}",
+            crate::scene::MAX_MAP_WIDTH_M
+        )
+        .into());
+    }
     if let Some(size) = args.size {
         scene.size = size;
     }
@@ -182,20 +202,44 @@ pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
 
 pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     let scene = scene_of(args)?;
+    let mut outputs = Outputs::new(args.force);
+    if let Some(path) = &args.scene {
+        outputs.input(path, "scene");
+    }
+    if let Some(path) = &args.out {
+        outputs.claim_dem(path, "output")?;
+    }
+    if let Some(path) = &args.report {
+        outputs.claim(path, "report")?;
+    }
     let path = super::compute_path(args.backend);
     let backend = args.backend.resolve(&path)?;
     let out = pollster::block_on(pipeline::generate(&scene, &backend, &JobCtx::detached()))?;
     let report = &out.report;
 
+    // Every layer is encoded and claimed before the first file is written.
+    let layers = match &args.layers {
+        Some(dir) => {
+            let layers = layers(&out)?;
+            for (name, _) in &layers {
+                outputs.claim(&dir.join(name), "layer")?;
+            }
+            Some((dir, layers))
+        }
+        None => None,
+    };
     if let Some(path) = &args.out {
-        write_heightmap(path, &out.field, scene.map_width())?;
+        write_heightmap(&outputs, path, &out.field, scene.map_width())?;
     }
-    if let Some(dir) = &args.layers {
-        write_layers(dir, &out)?;
+    if let Some((dir, layers)) = layers {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+        for (name, png) in layers {
+            outputs.write(&dir.join(name), &png)?;
+        }
     }
     if let Some(path) = &args.report {
-        std::fs::write(path, serde_json::to_string_pretty(report)?)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        outputs.write(path, serde_json::to_string_pretty(report)?.as_bytes())?;
     }
     let stages: Vec<String> = report
         .terrain
@@ -231,6 +275,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 fn write_heightmap(
+    outputs: &Outputs,
     out: &Path,
     terrain: &crate::heightfield::Heightfield,
     map_width: f64,
@@ -241,22 +286,20 @@ fn write_heightmap(
         tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, map_width, 0.0]),
         ..Default::default()
     };
-    super::io::write_dem(out, terrain, &georef, Some(cell))
+    super::io::write_dem(outputs, out, terrain, &georef, Some(cell))
 }
 
+/// A layer image: its file name and PNG bytes.
+type Layer = (&'static str, Vec<u8>);
+
 /// The skeleton's layers, and with erosion `drainage_area.png` (log scale) and
-/// `erosion_depth.png`.
-fn write_layers(dir: &Path, out: &Output) -> Result<(), Box<dyn std::error::Error>> {
-    std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+/// `erosion_depth.png`, as (file name, PNG bytes).
+fn layers(out: &Output) -> Result<Vec<Layer>, Box<dyn std::error::Error>> {
     let mut layers = terrain::layer_pngs(&out.hydrology.skeleton)?;
     if let Some(eroded) = &out.erosion {
         layers.extend(crate::erosion::layer_pngs(eroded, &out.hydrology.terrain)?);
     }
-    for (name, png) in layers {
-        let path = dir.join(name);
-        std::fs::write(&path, png).map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    }
-    Ok(())
+    Ok(layers)
 }
 
 #[cfg(test)]

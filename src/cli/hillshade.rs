@@ -7,6 +7,8 @@ use clap::Args;
 
 use crate::dem::{ReadLimits, hillshade};
 
+use super::output::Outputs;
+
 #[derive(Debug, Args)]
 pub struct HillshadeArgs {
     /// The DEMs (any format `convert` reads), drawn left to right.
@@ -37,6 +39,11 @@ pub fn run(args: &HillshadeArgs) -> Result<(), Box<dyn std::error::Error>> {
         )
         .into());
     }
+    let mut outputs = Outputs::new(false);
+    for path in &args.inputs {
+        outputs.input(path, "input");
+    }
+    outputs.claim(&args.out, "picture")?;
     let side = args.panel;
     let gap = 8;
     let count = args.inputs.len();
@@ -60,7 +67,6 @@ pub fn run(args: &HillshadeArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("{}: {w} x {h} cells of {cx:.1} x {cy:.1} m", path.display());
     }
     let png = crate::dem::png16::write_grey8(width, side, &picture)?;
-    std::fs::write(&args.out, png)
-        .map_err(|e| format!("cannot write {}: {e}", args.out.display()))?;
+    outputs.write(&args.out, &png)?;
     Ok(())
 }

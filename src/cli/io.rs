@@ -4,8 +4,11 @@
 use std::path::Path;
 
 use crate::dem::format::{self, ExportOptions, Format, ImportOptions};
-use crate::dem::{Dem, GeoRef, ReadLimits};
+use crate::dem::sidecar::{self, Sidecar};
+use crate::dem::{Dem, DemError, GeoRef, ReadLimits, raw};
 use crate::heightfield::Heightfield;
+
+use super::output::Outputs;
 
 type Result<T> = std::result::Result<T, Box<dyn std::error::Error>>;
 
@@ -22,38 +25,58 @@ pub fn read_dem(path: &Path, limits: ReadLimits, z_range: Option<(f32, f32)>) ->
     )
 }
 
-/// [`read_dem`] with every import option.
+/// [`read_dem`] with every import option. The file is read through
+/// [`format::read_file`] (size checked from its length and header first). A PNG or RAW
+/// file's sidecar `.json`, when present, gives the height range (unless `z_range` is given),
+/// the RAW file's width and height, and its row order; a malformed sidecar is an error that
+/// names it.
 pub fn read_dem_with(path: &Path, options: &ImportOptions) -> Result<Dem> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read {}: {e}", path.display()))?;
     let name = path.to_string_lossy();
+    let at = |e: DemError| format!("{}: {e}", path.display());
+    let format = Format::from_name(&name);
+    let bytes = format::read_file(path, options.limits).map_err(at)?;
     let mut options = *options;
-    if options.z_range.is_none() {
-        let sidecar = sidecar_json(&path.with_extension("json"));
-        options.z_range = sidecar.as_ref().and_then(|j| {
-            let get = |k: &str| j.get(k)?.as_f64().map(|v| v as f32);
-            Some((get("zmin")?, get("zmax")?))
-        });
-        if Format::from_name(&name) == Some(Format::R16)
-            && let Some(flip) = sidecar.as_ref().and_then(|j| j.get("flip_y")?.as_bool())
-        {
-            options.flip_y = flip;
-        }
+    let sidecar = match format {
+        Some(Format::Png | Format::R16) => read_sidecar(&super::output::sidecar_of(path))?,
+        _ => Sidecar::default(),
+    };
+    options.z_range = options.z_range.or(sidecar.z_range);
+    if format == Some(Format::R16) {
+        options.flip_y |= sidecar.flip_y == Some(true);
+        return Ok(raw::read_sized(
+            &bytes,
+            options.z_range,
+            options.flip_y,
+            options.limits,
+            sidecar.size,
+        )
+        .map_err(at)?);
     }
-    Ok(format::read(&name, &bytes, &options).map_err(|e| format!("{}: {e}", path.display()))?)
+    Ok(format::read(&name, &bytes, &options).map_err(at)?)
 }
 
-fn sidecar_json(path: &Path) -> Option<serde_json::Value> {
-    serde_json::from_str(&std::fs::read_to_string(path).ok()?).ok()
+/// The sidecar at `path`, or nothing said when there is none.
+fn read_sidecar(path: &Path) -> Result<Sidecar> {
+    if !path.exists() {
+        return Ok(Sidecar::default());
+    }
+    let at = |e: DemError| format!("{}: {e}", path.display());
+    let bytes =
+        crate::dem::read_bounded(path, sidecar::MAX_BYTES, "a sidecar may take").map_err(at)?;
+    Ok(sidecar::parse(&bytes).map_err(at)?)
 }
 
 /// Writes `field` in the format of `path`'s extension; PNG and RAW also get a sidecar `.json`.
+/// `path` must have been claimed with [`Outputs::claim_dem`]; both files are written atomically.
 pub fn write_dem(
+    outputs: &Outputs,
     path: &Path,
     field: &Heightfield,
     georef: &GeoRef,
     cell_size_m: Option<f64>,
 ) -> Result<()> {
     write_dem_with(
+        outputs,
         path,
         field,
         georef,
@@ -66,8 +89,10 @@ pub fn write_dem(
     )
 }
 
-/// [`write_dem`] with every export option.
+/// [`write_dem`] with every export option. Everything is encoded (and every check on the
+/// values made) before the first byte is written.
 pub fn write_dem_with(
+    outputs: &Outputs,
     path: &Path,
     field: &Heightfield,
     georef: &GeoRef,
@@ -82,12 +107,9 @@ pub fn write_dem_with(
     })?;
     let out = format::write(format, field, georef, options)
         .map_err(|e| format!("{}: {e}", path.display()))?;
-    let write = |p: &Path, bytes: &[u8]| {
-        std::fs::write(p, bytes).map_err(|e| format!("cannot write {}: {e}", p.display()))
-    };
-    write(path, &out.bytes)?;
+    outputs.write(path, &out.bytes)?;
     if let Some(json) = &out.sidecar {
-        write(&path.with_extension("json"), json.as_bytes())?;
+        outputs.write(&super::output::sidecar_of(path), json.as_bytes())?;
     }
     Ok(())
 }

@@ -14,6 +14,7 @@ mod generate;
 mod hillshade;
 mod info;
 mod io;
+mod output;
 
 use std::process::ExitCode;
 

@@ -56,20 +56,31 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
         if key.parse::<f32>().is_ok() {
             break; // a number (or `nan`): the data starts here
         }
-        let value = tokens
-            .next()
-            .ok_or_else(|| bad(format!("header line '{}' has no value", line.trim())))?;
+        let value = tokens.next().ok_or_else(|| {
+            bad(format!(
+                "header line '{}' has no value",
+                super::clip(line.trim())
+            ))
+        })?;
         let number = |what: &str| -> Result<f64, DemError> {
             value
                 .parse::<f64>()
                 .ok()
                 .filter(|v| v.is_finite())
-                .ok_or_else(|| bad(format!("{what} must be a finite number, got '{value}'")))
+                .ok_or_else(|| {
+                    bad(format!(
+                        "{what} must be a finite number, got '{}'",
+                        super::clip(value)
+                    ))
+                })
         };
         let count = |what: &str| -> Result<usize, DemError> {
-            value
-                .parse::<usize>()
-                .map_err(|_| bad(format!("{what} must be a whole number, got '{value}'")))
+            value.parse::<usize>().map_err(|_| {
+                bad(format!(
+                    "{what} must be a whole number, got '{}'",
+                    super::clip(value)
+                ))
+            })
         };
         match key.to_ascii_lowercase().as_str() {
             "ncols" => header.ncols = Some(count("ncols")?),
@@ -81,7 +92,12 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
             "cellsize" | "dx" => header.cellsize = Some(number("cellsize")?),
             "dy" => {}
             "nodata_value" => header.nodata = Some(number("NODATA_value")? as f32),
-            other => return Err(bad(format!("unknown header keyword '{other}'"))),
+            other => {
+                return Err(bad(format!(
+                    "unknown header keyword '{}'",
+                    super::clip(other)
+                )));
+            }
         }
         rest = &rest[line_end..];
     }
@@ -110,18 +126,20 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
         let v: f32 = token.parse().map_err(|_| {
             let i = data.len();
             bad(format!(
-                "row {}, column {}: '{token}' is not a number",
+                "row {}, column {}: '{}' is not a number",
                 i / ncols,
-                i % ncols
+                i % ncols,
+                super::clip(token)
             ))
         })?;
         if v.is_infinite() {
             let i = data.len();
             return Err(bad(format!(
-                "row {}, column {}: '{token}' is not a finite height (mark missing cells with \
+                "row {}, column {}: '{}' is not a finite height (mark missing cells with \
                  NODATA_value)",
                 i / ncols,
-                i % ncols
+                i % ncols,
+                super::clip(token)
             )));
         }
         // `nan` (GDAL writes it for NaN cells of float rasters) and NODATA_value: no data.
@@ -158,8 +176,9 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
 }
 
 /// Writes `field` with the georeferencing's corner and cell size when known (else corner 0, 0
-/// and `cell_size`).
-pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Vec<u8> {
+/// and `cell_size`). A non-finite or non-positive cell size, or a corner that is not finite,
+/// is refused rather than written.
+pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Result<Vec<u8>, DemError> {
     use std::fmt::Write as _;
     let cell = georef.cell_size().map_or(cell_size, |(sx, _)| sx);
     let (left, top) = georef
@@ -168,6 +187,16 @@ pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Vec<u8> {
         .filter(|t| t.len() >= 6 && t[0] == 0.0 && t[1] == 0.0)
         .map_or((0.0, cell * field.height() as f64), |t| (t[3], t[4]));
     let bottom = top - cell * field.height() as f64;
+    if !(cell.is_finite() && cell > 0.0) {
+        return Err(DemError::Write(format!(
+            "an ASCII grid needs a positive, finite cell size, got {cell}"
+        )));
+    }
+    if !(left.is_finite() && bottom.is_finite() && top.is_finite()) {
+        return Err(DemError::Write(format!(
+            "the grid's corner ({left}, {bottom}) is not finite"
+        )));
+    }
     let mut nodata = NODATA;
     for _ in 0..8 {
         if !field.data().contains(&nodata) {
@@ -191,7 +220,7 @@ pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Vec<u8> {
         }
         out.push('\n');
     }
-    out.into_bytes()
+    Ok(out.into_bytes())
 }
 
 #[cfg(test)]
@@ -202,7 +231,7 @@ mod tests {
     fn a_written_grid_reads_back_bit_exactly() {
         let data = vec![1.5, -0.1, f32::NAN, 1e-7, 12345.678, -9999.0];
         let field = Heightfield::from_vec(3, 2, data.clone()).unwrap();
-        let bytes = write(&field, &GeoRef::default(), 30.0);
+        let bytes = write(&field, &GeoRef::default(), 30.0).unwrap();
         let back = read(&bytes, ReadLimits::default()).unwrap();
         for (a, b) in data.iter().zip(back.field.data()) {
             assert!(a.to_bits() == b.to_bits() || (a.is_nan() && b.is_nan()));
@@ -225,6 +254,16 @@ mod tests {
             read(huge.as_bytes(), ReadLimits::default()),
             Err(DemError::TooLarge { .. })
         ));
+        let long = format!("ncols 2\nnrows 1\ncellsize 1\n1 {}\n", "x".repeat(100_000));
+        let e = read(long.as_bytes(), ReadLimits::default()).unwrap_err();
+        assert!(e.to_string().len() < 200, "{e}");
+        let inf_corner = GeoRef {
+            pixel_scale: Some(vec![f64::INFINITY, 1.0, 0.0]),
+            ..Default::default()
+        };
+        let field = Heightfield::filled(2, 2, 1.0).unwrap();
+        assert!(write(&field, &GeoRef::default(), f64::NAN).is_err());
+        assert!(write(&field, &inf_corner, 1.0).is_err());
         let nodata = "ncols 2\nnrows 1\ncellsize 1\nNODATA_value -1\n5 -1\n";
         let dem = read(nodata.as_bytes(), ReadLimits::default()).unwrap();
         assert!(dem.field.data()[1].is_nan());

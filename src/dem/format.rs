@@ -113,6 +113,117 @@ pub fn read(name: &str, bytes: &[u8], options: &ImportOptions) -> Result<Dem, De
     }
 }
 
+impl Format {
+    /// The format's name in messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Format::GeoTiff => "GeoTIFF",
+            Format::Png => "PNG heightmap",
+            Format::R16 => "RAW R16 file",
+            Format::Asc => "ESRI ASCII grid",
+            Format::Hgt => "SRTM .hgt tile",
+            Format::Obj => "OBJ mesh",
+        }
+    }
+
+    /// The most bytes one cell can take in a file of this format (uncompressed float64
+    /// GeoTIFF with tile padding; a 16-bit PNG with alpha, stored uncompressed; 16-bit
+    /// samples; a long decimal number and its separator in an ASCII grid).
+    pub fn max_bytes_per_cell(self) -> u64 {
+        match self {
+            Format::GeoTiff => 16,
+            Format::Png => 8,
+            Format::R16 | Format::Hgt => 2,
+            Format::Asc => 40,
+            Format::Obj => 0,
+        }
+    }
+}
+
+/// Reads the elevation file at `path` (format by its name) with every check made before the
+/// whole file is read: a regular file; its length within what `limits` allows for the format;
+/// the size the header declares (PNG, GeoTIFF, ASCII grid) within `limits`, and the length
+/// within what that size can take plus [`super::HEADER_SLACK`].
+pub fn read_file(path: &std::path::Path, limits: ReadLimits) -> Result<Vec<u8>, DemError> {
+    use std::io::{Read as _, Seek as _, SeekFrom};
+    let name = path.to_string_lossy();
+    let format = Format::from_name(&name)
+        .filter(|f| *f != Format::Obj)
+        .ok_or_else(|| DemError::UnknownFormat(name.clone().into_owned()))?;
+    let io = |e: std::io::Error| DemError::Io(e.to_string());
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let cap = limits.max_file_bytes(format.max_bytes_per_cell());
+    let why = format!(
+        "{}s of at most {} cells (--max-cells) can take",
+        format.name(),
+        limits.max_cells
+    );
+    let len = super::checked_len(&file, cap, &why)?;
+    // The size the header declares, when the format has a header.
+    let declared = match format {
+        Format::Png | Format::Asc => {
+            let mut head = Vec::new();
+            (&mut file).take(4096).read_to_end(&mut head).map_err(io)?;
+            if format == Format::Png {
+                png_size(&head)
+            } else {
+                asc_size(&head)
+            }
+        }
+        Format::GeoTiff => {
+            let reader = std::io::BufReader::new(&mut file);
+            tiff::decoder::Decoder::new(reader)
+                .and_then(|mut d| d.dimensions())
+                .ok()
+                .map(|(w, h)| (u64::from(w), u64::from(h)))
+        }
+        _ => None,
+    };
+    let limit = match declared {
+        Some((w, h)) => {
+            limits.check(w, h)?;
+            let limit = (w * h)
+                .saturating_mul(format.max_bytes_per_cell())
+                .saturating_add(super::HEADER_SLACK);
+            if len > limit {
+                return Err(DemError::FileTooLarge {
+                    bytes: len,
+                    limit,
+                    why: format!("a {w} x {h} {} (its header's size) can take", format.name()),
+                });
+            }
+            limit
+        }
+        None => cap,
+    };
+    file.seek(SeekFrom::Start(0)).map_err(io)?;
+    super::read_rest(&mut file, len, limit, &why)
+}
+
+/// Width and height from a PNG's IHDR chunk.
+fn png_size(head: &[u8]) -> Option<(u64, u64)> {
+    if head.len() < 24 || &head[..8] != b"\x89PNG\r\n\x1a\n" || &head[12..16] != b"IHDR" {
+        return None;
+    }
+    let be = |b: &[u8]| u64::from(u32::from_be_bytes([b[0], b[1], b[2], b[3]]));
+    Some((be(&head[16..20]), be(&head[20..24])))
+}
+
+/// `ncols` and `nrows` from the first lines of an ASCII grid.
+fn asc_size(head: &[u8]) -> Option<(u64, u64)> {
+    let text = String::from_utf8_lossy(head);
+    let (mut cols, mut rows) = (None, None);
+    for line in text.lines().take(8) {
+        let mut tokens = line.split_whitespace();
+        match (tokens.next().map(str::to_ascii_lowercase), tokens.next()) {
+            (Some(k), Some(v)) if k == "ncols" => cols = v.parse().ok(),
+            (Some(k), Some(v)) if k == "nrows" => rows = v.parse().ok(),
+            _ => {}
+        }
+    }
+    Some((cols?, rows?))
+}
+
 /// The sizes the export dialog offers besides the terrain's own.
 pub const SIZE_PRESETS: [usize; 11] =
     [257, 513, 1025, 2049, 4097, 8193, 256, 512, 1024, 2048, 4096];
@@ -150,7 +261,12 @@ pub struct Exported {
     pub sidecar: Option<String>,
 }
 
-/// Writes `field` in `format`.
+/// Writes `field` in `format`, after the checks every writer relies on:
+/// - no value is infinite, before or after the z scale (a height beyond `f32` is refused, not
+///   written as `inf`);
+/// - PNG and RAW R16 have no no-data value, so a field with no-data (NaN) cells is refused
+///   (fill the voids first) rather than written as the minimum height;
+/// - the cell size is positive and finite.
 pub fn write(
     format: Format,
     field: &Heightfield,
@@ -184,6 +300,35 @@ pub fn write(
         out.data_mut()
             .iter_mut()
             .for_each(|z| *z *= options.z_scale);
+    }
+    if let Some(i) = out.data().iter().position(|z| z.is_infinite()) {
+        let scaled = if options.z_scale != 1.0 {
+            format!(" after the z scale {:?}", options.z_scale)
+        } else {
+            String::new()
+        };
+        return Err(DemError::Write(format!(
+            "the height at row {}, column {} is beyond the 32-bit float range (+-3.4e38){scaled}; \
+             nothing was written",
+            i / out.width(),
+            i % out.width()
+        )));
+    }
+    if matches!(format, Format::Png | Format::R16) {
+        let voids = out.data().iter().filter(|z| z.is_nan()).count();
+        if voids > 0 {
+            return Err(DemError::Write(format!(
+                "{voids} no-data cells: a {} has no no-data value (they would read back as the \
+                 lowest height); fill them first (strahler convert --fill-voids, or strahler \
+                 fill) or write .tif or .asc",
+                format.name()
+            )));
+        }
+    }
+    if !(cell.is_finite() && cell > 0.0) {
+        return Err(DemError::Write(format!(
+            "the cell size must be a positive number, got {cell}"
+        )));
     }
     if options.flip_y && matches!(format, Format::Png) {
         out = resize::flipped_y(&out);
@@ -220,7 +365,7 @@ pub fn write(
             }
         }
         Format::Asc => Exported {
-            bytes: asc::write(&out, &georef, cell),
+            bytes: asc::write(&out, &georef, cell)?,
             sidecar: None,
         },
         Format::Hgt => Exported {

@@ -13,16 +13,40 @@ use tiff::tags::Tag;
 use super::{Dem, DemError, GeoRef, ReadLimits};
 use crate::heightfield::Heightfield;
 
-/// Reads the first image of a GeoTIFF. Cells equal to GDAL_NODATA (and non-finite floats)
-/// become NaN. The size is checked against `limits` before the pixels are decoded.
+/// The longest ASCII tag read (GeoAsciiParams, GDAL_NODATA); longer ones are refused before
+/// they are read.
+pub const MAX_ASCII_TAG: u64 = 64 * 1024;
+
+/// Reads the first image of a GeoTIFF. Cells equal to GDAL_NODATA (and NaN floats) become
+/// NaN; a GDAL_NODATA that is not a number is an error, and so is a finite sample beyond the
+/// `f32` range. The size is checked against `limits` before the pixels are decoded.
 pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
     let tiff_err = |e: tiff::TiffError| DemError::Tiff(e.to_string());
     let mut decoder = Decoder::new(Cursor::new(bytes)).map_err(tiff_err)?;
     let (width, height) = decoder.dimensions().map_err(tiff_err)?;
     limits.check(u64::from(width), u64::from(height))?;
-    // The decoder's own buffer limit: the raster at 8 bytes a sample, nothing more.
+    // ASCII tags longer than the decoder's buffer limit make the `tiff` crate print a debug
+    // line: their lengths are checked from the directory first.
+    if let Some(ptr) = decoder.ifd_pointer() {
+        let dir = decoder.read_directory(ptr).map_err(tiff_err)?;
+        for (tag, name) in [
+            (Tag::GeoAsciiParamsTag, "GeoAsciiParams"),
+            (Tag::GdalNodata, "GDAL_NODATA"),
+        ] {
+            if let Some(entry) = dir.get(tag)
+                && entry.count() > MAX_ASCII_TAG
+            {
+                return Err(DemError::Tiff(format!(
+                    "the {name} tag is {} bytes long; at most {MAX_ASCII_TAG} are read",
+                    entry.count()
+                )));
+            }
+        }
+    }
+    // The decoder's own buffer limit: the raster at 8 bytes a sample (and the ASCII tags).
     let mut decoder_limits = Limits::default();
     decoder_limits.decoding_buffer_size = (u64::from(width) * u64::from(height) * 8)
+        .max(MAX_ASCII_TAG)
         .try_into()
         .unwrap_or(usize::MAX);
     decoder = decoder.with_limits(decoder_limits);
@@ -30,7 +54,8 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
         ColorType::Gray(_) => {}
         other => {
             return Err(DemError::Unsupported(format!(
-                "{other:?}: an elevation GeoTIFF has one band of samples"
+                "unsupported GeoTIFF layout: {other:?}: an elevation GeoTIFF has one band of \
+                 samples"
             )));
         }
     }
@@ -42,12 +67,32 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
         geo_doubles: decoder.get_tag_f64_vec(Tag::GeoDoubleParamsTag).ok(),
         geo_ascii: decoder.get_tag_ascii_string(Tag::GeoAsciiParamsTag).ok(),
     };
-    let nodata = decoder
-        .get_tag_ascii_string(Tag::GdalNodata)
-        .ok()
-        .and_then(|s| s.trim_matches(char::from(0)).trim().parse::<f64>().ok());
+    let nodata = match decoder.find_tag(Tag::GdalNodata).map_err(tiff_err)? {
+        None => None,
+        Some(value) => {
+            let text = value
+                .into_string()
+                .map_err(|_| DemError::Tiff("the GDAL_NODATA tag is not text".into()))?;
+            let text = text.trim_matches(char::from(0)).trim();
+            Some(text.parse::<f64>().map_err(|_| {
+                DemError::Tiff(format!(
+                    "the GDAL_NODATA tag '{}' is not a number, so the no-data cells are unknown",
+                    super::clip(text)
+                ))
+            })?)
+        }
+    };
     let samples = decoder.read_image().map_err(tiff_err)?;
     let values = to_f32(samples, nodata)?;
+    if let Some(i) = values.iter().position(|v| v.is_infinite()) {
+        let w = width as usize;
+        return Err(DemError::Tiff(format!(
+            "row {}, column {}: the sample is beyond the 32-bit float range (+-3.4e38) or \
+             infinite; mark missing cells with GDAL_NODATA",
+            i / w.max(1),
+            i % w.max(1)
+        )));
+    }
     let (w, h) = (width as usize, height as usize);
     if values.len() != w * h {
         return Err(DemError::Tiff(format!(
@@ -59,13 +104,14 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
     Ok(Dem { field, georef })
 }
 
-/// Converts decoded samples to `f32` heights, mapping no-data and non-finite values to NaN.
+/// Converts decoded samples to `f32` heights, mapping no-data and NaN to NaN. Infinite
+/// samples and finite ones beyond `f32` come out infinite (the caller refuses them).
 fn to_f32(samples: DecodingResult, nodata: Option<f64>) -> Result<Vec<f32>, DemError> {
     fn map<T: Copy>(v: Vec<T>, nodata: Option<f64>, f: impl Fn(T) -> f64) -> Vec<f32> {
         v.into_iter()
             .map(|s| {
                 let x = f(s);
-                if !x.is_finite() || nodata.is_some_and(|n| x == n) {
+                if x.is_nan() || nodata.is_some_and(|n| x == n || (n.is_nan() && x.is_nan())) {
                     f32::NAN
                 } else {
                     x as f32
@@ -166,6 +212,57 @@ mod tests {
             err.to_string().contains("exceed the limit of 1000 cells"),
             "{err}"
         );
+    }
+
+    /// A 2 x 2 float64 GeoTIFF with `values` and an optional GDAL_NODATA string.
+    fn f64_tiff(values: &[f64; 4], nodata: Option<&str>) -> Vec<u8> {
+        use tiff::encoder::colortype::Gray64Float;
+        let mut out = Cursor::new(Vec::new());
+        let mut encoder = TiffEncoder::new(&mut out).unwrap();
+        let mut image = encoder.new_image::<Gray64Float>(2, 2).unwrap();
+        if let Some(text) = nodata {
+            image.encoder().write_tag(Tag::GdalNodata, text).unwrap();
+        }
+        image.write_data(values).unwrap();
+        out.into_inner()
+    }
+
+    #[test]
+    fn nodata_must_be_a_number_and_samples_must_fit_f32() {
+        let ok = read(
+            &f64_tiff(&[1.0, -9999.0, 3.0, 4.0], Some("-9999")),
+            Default::default(),
+        )
+        .unwrap();
+        assert!(ok.field.data()[1].is_nan());
+        let err = read(
+            &f64_tiff(&[1.0; 4], Some("none at all")),
+            Default::default(),
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("GDAL_NODATA") && err.contains("none at all"),
+            "{err}"
+        );
+        let long = "x".repeat(5000);
+        let err = read(&f64_tiff(&[1.0; 4], Some(&long)), Default::default())
+            .unwrap_err()
+            .to_string();
+        assert!(err.len() < 300, "{err}");
+        let huge = [1.0, 1e300, 3.0, 4.0];
+        let err = read(&f64_tiff(&huge, None), Default::default())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("row 0, column 1") && err.contains("32-bit"),
+            "{err}"
+        );
+        let inf = [1.0, 2.0, f64::NEG_INFINITY, 4.0];
+        assert!(read(&f64_tiff(&inf, None), Default::default()).is_err());
+        // An infinite GDAL_NODATA marks the infinite cells as no-data.
+        let marked = read(&f64_tiff(&inf, Some("-inf")), Default::default()).unwrap();
+        assert_eq!(marked.void_cells(), 1);
     }
 
     #[test]

@@ -33,6 +33,11 @@ pub fn read(name: &str, bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemErro
         )));
     }
     limits.check(n as u64, n as u64)?;
+    let georef = match tile_name(name) {
+        TileName::Corner(lat, lon) => georef_at(lat, lon, n),
+        TileName::Other => GeoRef::default(),
+        TileName::Impossible(problem) => return Err(bad(problem)),
+    };
     let data: Vec<f32> = bytes
         .chunks_exact(2)
         .map(|b| match i16::from_be_bytes([b[0], b[1]]) {
@@ -41,38 +46,61 @@ pub fn read(name: &str, bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemErro
         })
         .collect();
     let field = Heightfield::from_vec(n, n, data).map_err(|_| DemError::Empty)?;
-    Ok(Dem {
-        field,
-        georef: georef_from_name(name, n).unwrap_or_default(),
-    })
+    Ok(Dem { field, georef })
 }
 
-/// `N37W122` (any case, any extension) to its south-west corner (lat, lon) in degrees.
+/// What a file name says about the tile's place.
+#[derive(Debug, PartialEq)]
+enum TileName {
+    /// South-west corner (lat, lon) in degrees.
+    Corner(f64, f64),
+    /// Not of the form `N37W122`: the tile is read without georeferencing.
+    Other,
+    /// Of that form, but no such tile exists on Earth (`N95E999`): an error, not a tile
+    /// georeferenced off the globe.
+    Impossible(String),
+}
+
+fn tile_name(name: &str) -> TileName {
+    let parse = || -> Option<(u8, f64, u8, f64)> {
+        let stem = name.rsplit(['/', '\\']).next()?;
+        let stem = stem.get(..7)?.to_ascii_uppercase();
+        let b = stem.as_bytes();
+        let lat: f64 = stem.get(1..3)?.parse().ok()?;
+        let lon: f64 = stem.get(4..7)?.parse().ok()?;
+        (matches!(b[0], b'N' | b'S') && matches!(b[3], b'E' | b'W'))
+            .then_some((b[0], lat, b[3], lon))
+    };
+    let Some((ns, lat, ew, lon)) = parse() else {
+        return TileName::Other;
+    };
+    let lat = if ns == b'N' { lat } else { -lat };
+    let lon = if ew == b'E' { lon } else { -lon };
+    // A tile's south-west corner: latitudes -90..=89, longitudes -180..=179.
+    if !(-90.0..=89.0).contains(&lat) || !(-180.0..=179.0).contains(&lon) {
+        return TileName::Impossible(format!(
+            "the tile name says latitude {lat}, longitude {lon}; an SRTM tile's south-west \
+             corner lies at latitude -90 to 89 and longitude -180 to 179 (rename the file to \
+             read it without georeferencing)"
+        ));
+    }
+    TileName::Corner(lat, lon)
+}
+
+/// `N37W122` (any case, any extension) to its south-west corner (lat, lon) in degrees; `None`
+/// for other names and for corners off the globe.
 pub fn corner_from_name(name: &str) -> Option<(f64, f64)> {
-    let stem = name.rsplit(['/', '\\']).next()?;
-    let stem = stem.get(..7)?.to_ascii_uppercase();
-    let b = stem.as_bytes();
-    let lat: f64 = stem.get(1..3)?.parse().ok()?;
-    let lon: f64 = stem.get(4..7)?.parse().ok()?;
-    let lat = match b[0] {
-        b'N' => lat,
-        b'S' => -lat,
-        _ => return None,
-    };
-    let lon = match b[3] {
-        b'E' => lon,
-        b'W' => -lon,
-        _ => return None,
-    };
-    Some((lat, lon))
+    match tile_name(name) {
+        TileName::Corner(lat, lon) => Some((lat, lon)),
+        _ => None,
+    }
 }
 
 /// SRTM samples sit on whole arc-second lines: sample (0, 0) is the tile's north-west corner
 /// point. As a GeoTIFF (PixelIsArea) the raster's outer corner is half a cell beyond it.
-fn georef_from_name(name: &str, n: usize) -> Option<GeoRef> {
-    let (lat, lon) = corner_from_name(name)?;
+fn georef_at(lat: f64, lon: f64, n: usize) -> GeoRef {
     let step = 1.0 / (n - 1) as f64;
-    Some(GeoRef {
+    GeoRef {
         pixel_scale: Some(vec![step, step, 0.0]),
         tiepoint: Some(vec![
             0.0,
@@ -89,16 +117,34 @@ fn georef_from_name(name: &str, n: usize) -> Option<GeoRef> {
         ]),
         geo_doubles: None,
         geo_ascii: None,
-    })
+    }
 }
 
-/// Writes a tile (heights rounded to whole metres, NaN as -32768). Only square fields.
+/// Writes a tile (heights rounded to whole metres, NaN as -32768). Only square fields, and
+/// only heights that fit: a height beyond -32767..32767 m is refused, never clipped.
 pub fn write(field: &Heightfield) -> Result<Vec<u8>, DemError> {
     if field.width() != field.height() {
         return Err(DemError::Write(format!(
             "an SRTM tile is square; this field is {} x {}",
             field.width(),
             field.height()
+        )));
+    }
+    let outside: Vec<f32> = field
+        .data()
+        .iter()
+        .copied()
+        .filter(|z| z.is_finite() && !(-32767.5..32767.5).contains(z))
+        .collect();
+    if let Some(worst) = outside
+        .iter()
+        .copied()
+        .max_by(|a, b| a.abs().total_cmp(&b.abs()))
+    {
+        return Err(DemError::Write(format!(
+            "{} cells lie outside the SRTM range -32767..32767 m (the farthest at {worst} m) \
+             and would be clipped; lower the z scale or write .tif",
+            outside.len()
         )));
     }
     let mut out = Vec::with_capacity(field.data().len() * 2);
@@ -122,6 +168,22 @@ mod tests {
         assert_eq!(corner_from_name("N37W122.hgt"), Some((37.0, -122.0)));
         assert_eq!(corner_from_name("dir/s05e010.HGT"), Some((-5.0, 10.0)));
         assert_eq!(corner_from_name("x.hgt"), None);
+        assert_eq!(corner_from_name("S90W180.hgt"), Some((-90.0, -180.0)));
+        assert_eq!(corner_from_name("N95E999.hgt"), None);
+        let bytes = [0u8; 8];
+        let err = read("N95E999.hgt", &bytes, ReadLimits::default()).unwrap_err();
+        assert!(err.to_string().contains("latitude 95"), "{err}");
+        assert!(read("N90E000.hgt", &bytes, ReadLimits::default()).is_err());
+        assert!(read("E00N000.hgt", &bytes, ReadLimits::default()).is_ok());
+    }
+
+    #[test]
+    fn heights_beyond_the_tile_range_are_refused_not_clipped() {
+        let field = Heightfield::from_vec(2, 2, vec![0.0, 40_000.0, -50_000.0, 1.0]).unwrap();
+        let err = write(&field).unwrap_err().to_string();
+        assert!(err.contains("2 cells") && err.contains("-50000"), "{err}");
+        let ok = Heightfield::from_vec(2, 2, vec![32767.0, -32767.0, f32::NAN, 1.0]).unwrap();
+        assert!(write(&ok).is_ok());
     }
 
     #[test]

@@ -5,6 +5,15 @@
 //! Every reader checks the size from the header against [`ReadLimits`] before allocating,
 //! turns no-data into NaN, and returns a [`DemError`] that says what is wrong; no panic is
 //! reachable from a file's bytes.
+//!
+//! Rules for every reader of a file (see [`format::read_file`] and [`read_bounded`]):
+//! - only regular files are read (not `/dev/zero`, pipes or folders);
+//! - the file's length is checked against the limit before it is read: for a raster, the
+//!   size its header declares (checked against [`ReadLimits`]) times the most bytes a cell
+//!   can take in that format, plus [`HEADER_SLACK`]; for other files a fixed cap;
+//! - at most that many bytes are ever read, even from a file that grows meanwhile;
+//! - an error message quotes at most [`CLIP_CHARS`] characters of the file's content
+//!   ([`clip`]).
 
 pub mod asc;
 pub mod format;
@@ -15,6 +24,7 @@ pub mod obj;
 pub mod png16;
 pub mod raw;
 pub mod resize;
+pub mod sidecar;
 
 use thiserror::Error;
 
@@ -29,7 +39,9 @@ pub enum DemError {
     TooLarge { width: u64, height: u64, limit: u64 },
     #[error("not a readable GeoTIFF: {0}")]
     Tiff(String),
-    #[error("unsupported GeoTIFF layout: {0}")]
+    /// A layout or kind of file the readers do not take (the message names the format), or
+    /// a PNG without its height range.
+    #[error("{0}")]
     Unsupported(String),
     #[error("the file has no cells")]
     Empty,
@@ -47,6 +59,79 @@ pub enum DemError {
          ASCII grid), .png (greyscale heightmap) or .r16/.raw (RAW 16-bit)"
     )]
     UnknownFormat(String),
+    #[error("the file is {bytes} bytes, more than the {limit} bytes {why}; not read")]
+    FileTooLarge { bytes: u64, limit: u64, why: String },
+    #[error("not a regular file ({0}); give the path of a file")]
+    NotAFile(String),
+    #[error("cannot read the file: {0}")]
+    Io(String),
+}
+
+/// The most characters of a file's content an error message quotes.
+pub const CLIP_CHARS: usize = 40;
+
+/// `text` as quoted in an error message: at most [`CLIP_CHARS`] characters, then how long it
+/// really was.
+pub fn clip(text: &str) -> String {
+    match text.char_indices().nth(CLIP_CHARS) {
+        None => text.to_owned(),
+        Some((end, _)) => format!("{}... ({} bytes)", &text[..end], text.len()),
+    }
+}
+
+/// Bytes a raster file may take beyond its cells: headers, tags, text chunks.
+pub const HEADER_SLACK: u64 = 1 << 20;
+
+/// Reads a regular file of at most `limit` bytes (`why` says where the limit comes from, for
+/// the message). The length is checked before anything is read, and no more than `limit`
+/// bytes are read even from a file that grows meanwhile.
+pub fn read_bounded(path: &std::path::Path, limit: u64, why: &str) -> Result<Vec<u8>, DemError> {
+    let mut file = std::fs::File::open(path).map_err(|e| DemError::Io(e.to_string()))?;
+    let len = checked_len(&file, limit, why)?;
+    read_rest(&mut file, len, limit, why)
+}
+
+/// The length of an open file, refusing anything but a regular file of at most `limit` bytes.
+pub(crate) fn checked_len(file: &std::fs::File, limit: u64, why: &str) -> Result<u64, DemError> {
+    let meta = file.metadata().map_err(|e| DemError::Io(e.to_string()))?;
+    if !meta.is_file() {
+        let kind = if meta.is_dir() {
+            "a folder"
+        } else {
+            "a device, pipe or socket"
+        };
+        return Err(DemError::NotAFile(kind.into()));
+    }
+    if meta.len() > limit {
+        return Err(DemError::FileTooLarge {
+            bytes: meta.len(),
+            limit,
+            why: why.to_owned(),
+        });
+    }
+    Ok(meta.len())
+}
+
+/// Reads the whole of `file` from its current position, at most `limit` bytes.
+pub(crate) fn read_rest(
+    file: &mut std::fs::File,
+    len: u64,
+    limit: u64,
+    why: &str,
+) -> Result<Vec<u8>, DemError> {
+    use std::io::Read as _;
+    let mut bytes = Vec::with_capacity(usize::try_from(len.min(limit)).unwrap_or(0));
+    file.take(limit.saturating_add(1))
+        .read_to_end(&mut bytes)
+        .map_err(|e| DemError::Io(e.to_string()))?;
+    if bytes.len() as u64 > limit {
+        return Err(DemError::FileTooLarge {
+            bytes: bytes.len() as u64,
+            limit,
+            why: why.to_owned(),
+        });
+    }
+    Ok(bytes)
 }
 
 /// Size limit checked before any allocation.
@@ -66,6 +151,14 @@ impl Default for ReadLimits {
 }
 
 impl ReadLimits {
+    /// The largest file of a format taking at most `bytes_per_cell` bytes a cell, plus
+    /// [`HEADER_SLACK`].
+    pub fn max_file_bytes(&self, bytes_per_cell: u64) -> u64 {
+        self.max_cells
+            .saturating_mul(bytes_per_cell)
+            .saturating_add(HEADER_SLACK)
+    }
+
     pub fn check(&self, width: u64, height: u64) -> Result<(), DemError> {
         if width == 0 || height == 0 {
             return Err(DemError::Empty);

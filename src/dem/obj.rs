@@ -20,6 +20,11 @@ pub fn write(field: &Heightfield, cell_size: f64) -> Result<Vec<u8>, DemError> {
             "an OBJ mesh of {w} x {h} vertices is too large; export at 2049 x 2049 or smaller"
         )));
     }
+    if !(cell_size.is_finite() && cell_size > 0.0) {
+        return Err(DemError::Write(format!(
+            "an OBJ mesh needs a positive, finite cell size, got {cell_size}"
+        )));
+    }
     if w < 2 || h < 2 {
         return Err(DemError::Write(
             "an OBJ mesh needs at least 2 x 2 cells".into(),

@@ -5,8 +5,10 @@
 use super::DemError;
 use crate::heightfield::Heightfield;
 
-/// Encodes `field` so that `z = min + v / 65535 * (max - min)`. No-data cells become 0.
-/// Returns the bytes and the `(min, max)` range used.
+/// Encodes `field` so that `z = min + v / 65535 * (max - min)`. A PNG heightmap has no
+/// no-data value: [`super::format::write`] refuses fields with no-data cells before they get
+/// here (a NaN would be written as 0, the minimum). Returns the bytes and the `(min, max)`
+/// range used.
 pub fn write_heightmap(field: &Heightfield) -> Result<(Vec<u8>, (f32, f32)), DemError> {
     let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
     let span = f64::from(hi - lo);
@@ -70,6 +72,10 @@ pub fn read_heightmap(
     limits: super::ReadLimits,
 ) -> Result<super::Dem, DemError> {
     let bad = |e: png::DecodingError| DemError::Png(e.to_string());
+    let malformed = |problem: String| DemError::Malformed {
+        format: "PNG heightmap",
+        problem,
+    };
     let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
     decoder.set_transformations(png::Transformations::EXPAND);
     let mut reader = decoder.read_info().map_err(bad)?;
@@ -81,24 +87,34 @@ pub fn read_heightmap(
         png::ColorType::Grayscale | png::ColorType::GrayscaleAlpha
     ) {
         return Err(DemError::Unsupported(format!(
-            "a {color:?} PNG is not a heightmap; use greyscale (8 or 16 bits)"
+            "unsupported PNG: a {color:?} PNG is not a heightmap; use greyscale (8 or 16 bits)"
         )));
     }
-    let from_chunk = reader.info().uncompressed_latin1_text.iter().find_map(|t| {
-        (t.keyword == "strahler:z_range")
-            .then(|| parse_range(&t.text))
-            .flatten()
-    });
+    let chunk = reader
+        .info()
+        .uncompressed_latin1_text
+        .iter()
+        .find(|t| t.keyword == "strahler:z_range");
+    let from_chunk = match chunk {
+        Some(t) if z_range.is_none() => Some(parse_range(&t.text).ok_or_else(|| {
+            malformed(format!(
+                "the strahler:z_range text chunk '{}' is not MIN,MAX",
+                super::clip(&t.text)
+            ))
+        })?),
+        _ => None,
+    };
     let (lo, hi) = z_range.or(from_chunk).ok_or_else(|| {
         DemError::Unsupported(
             "the PNG does not say its height range; give it (--z-range MIN,MAX)".into(),
         )
     })?;
-    if !(lo.is_finite() && hi.is_finite()) {
-        return Err(DemError::Unsupported(format!(
-            "the height range {lo},{hi} is not finite"
-        )));
-    }
+    let source = if z_range.is_some() {
+        "the given range"
+    } else {
+        "the strahler:z_range text chunk"
+    };
+    super::sidecar::check_range(lo, hi, source).map_err(malformed)?;
     let size = reader
         .output_buffer_size()
         .ok_or_else(|| DemError::Png("the image is too large to decode".into()))?;

@@ -16,6 +16,27 @@ use crate::terrain::TerrainParams;
 /// The version this build writes and reads.
 pub const VERSION: u32 = 1;
 
+/// Caps on what a scene may ask for, so that no scene (from a file, the page's automation or
+/// the command line) can take unbounded time or memory. Each is checked by
+/// [`Scene::validate`], whose message names the field and the limit.
+///
+/// Rivers: each grows a network and prints a note when trimmed.
+pub const MAX_RIVERS: usize = 64;
+/// Points of one sketched ridge or valley line.
+pub const MAX_SKETCH_POINTS: usize = 10_000;
+/// Points of all sketched lines together.
+pub const MAX_SKETCH_POINTS_TOTAL: usize = 20_000;
+/// Sketched ridges, valleys and peaks together.
+pub const MAX_SKETCH_ITEMS: usize = 1_000;
+/// Blended blocks (each a Poisson solve).
+pub const MAX_BLEND_BLOCKS: usize = 64;
+/// Width of the map in metres (10000 km).
+pub const MAX_MAP_WIDTH_M: f64 = 1.0e7;
+/// The largest scene file read (a mask PNG in base64 included).
+pub const MAX_SCENE_BYTES: u64 = 64 << 20;
+/// The most characters of a parser message shown (a message may quote the file).
+const MAX_MESSAGE_CHARS: usize = 300;
+
 #[derive(Debug, Error, PartialEq)]
 pub enum SceneError {
     /// Malformed JSON, an unknown field or a value of the wrong type (serde names it).
@@ -366,10 +387,27 @@ impl Default for Scene {
 }
 
 impl Scene {
-    /// Parses and validates a scene.
+    /// Parses and validates a scene. The top level must be a JSON object: serde would read an
+    /// array positionally, field by field.
     pub fn from_json(text: &str) -> Result<Self, SceneError> {
-        let scene: Scene =
-            serde_json::from_str(text).map_err(|e| SceneError::Parse(e.to_string()))?;
+        let parse = |message: String| {
+            SceneError::Parse(match message.char_indices().nth(MAX_MESSAGE_CHARS) {
+                Some((end, _)) => format!("{}...", &message[..end]),
+                None => message,
+            })
+        };
+        let first = text.trim_start().chars().next();
+        if first != Some('{') {
+            let got = match first {
+                None => "nothing".to_owned(),
+                Some('[') => "an array".to_owned(),
+                Some(c) => format!("'{c}'"),
+            };
+            return Err(parse(format!(
+                "a scene is a JSON object ({{\"version\": 1, ...}}), got {got}"
+            )));
+        }
+        let scene: Scene = serde_json::from_str(text).map_err(|e| parse(e.to_string()))?;
         scene.validate()?;
         Ok(scene)
     }
@@ -411,6 +449,12 @@ impl Scene {
             return bad(
                 "vertical_scale",
                 format!("must be positive, got {}", self.vertical_scale),
+            );
+        }
+        if self.rivers.len() > MAX_RIVERS {
+            return bad(
+                "rivers",
+                format!("at most {MAX_RIVERS} rivers, got {}", self.rivers.len()),
             );
         }
         for (i, r) in self.rivers.iter().enumerate() {
@@ -459,6 +503,15 @@ impl Scene {
             );
         }
         d.mask()?;
+        if self.blend.len() > MAX_BLEND_BLOCKS {
+            return bad(
+                "blend",
+                format!(
+                    "at most {MAX_BLEND_BLOCKS} blocks, got {}",
+                    self.blend.len()
+                ),
+            );
+        }
         for (i, block) in self.blend.iter().enumerate() {
             if let Err((field, problem)) = block.validate() {
                 return bad(&format!("blend[{i}].{field}"), problem);
@@ -498,6 +551,30 @@ impl Scene {
                 format!("must be 0 to 1, got {}", p.noise.roughness),
             );
         }
+        let s = &self.sketch;
+        let items = s.ridges.len() + s.valleys.len() + s.peaks.len();
+        if items > MAX_SKETCH_ITEMS {
+            return bad(
+                "sketch",
+                format!(
+                    "at most {MAX_SKETCH_ITEMS} ridges, valleys and peaks together, got {items}"
+                ),
+            );
+        }
+        let points: usize = s
+            .ridges
+            .iter()
+            .chain(&s.valleys)
+            .map(|l| l.points.len())
+            .sum();
+        if points > MAX_SKETCH_POINTS_TOTAL {
+            return bad(
+                "sketch",
+                format!(
+                    "at most {MAX_SKETCH_POINTS_TOTAL} points in all lines together, got {points}"
+                ),
+            );
+        }
         let in_map = |p: &[f64; 2]| p.iter().all(|v| v.is_finite() && (0.0..=1.0).contains(v));
         let height_ok =
             |h: Option<f64>| h.is_none_or(|h| h.is_finite() && (-11_000.0..=9_000.0).contains(&h));
@@ -509,6 +586,15 @@ impl Scene {
                 let field = format!("sketch.{kind}[{i}]");
                 if line.points.len() < 2 {
                     return bad(&format!("{field}.points"), "needs at least 2 points".into());
+                }
+                if line.points.len() > MAX_SKETCH_POINTS {
+                    return bad(
+                        &format!("{field}.points"),
+                        format!(
+                            "at most {MAX_SKETCH_POINTS} points, got {}",
+                            line.points.len()
+                        ),
+                    );
                 }
                 if let Some(p) = line.points.iter().find(|p| !in_map(p)) {
                     return bad(
@@ -574,7 +660,7 @@ impl Scene {
         if let Some(Err((field, problem))) = self.erosion.as_ref().map(|e| e.validate()) {
             return bad(&format!("erosion.{field}"), problem);
         }
-        if !(self.map_width().is_finite() && self.map_width() <= 1.0e7) {
+        if !(self.map_width().is_finite() && self.map_width() <= MAX_MAP_WIDTH_M) {
             return bad(
                 "cell_size",
                 format!(
@@ -684,5 +770,77 @@ mod tests {
         let err = Scene::from_json(r#"{"version": 2}"#).unwrap_err();
         assert!(err.to_string().contains("version"), "{err}");
         assert!(Scene::from_json("{not json").is_err());
+    }
+
+    #[test]
+    fn arrays_are_not_scenes() {
+        // serde would read this positionally: version 1, size 64.
+        let err = Scene::from_json("[1, 64]").unwrap_err();
+        assert!(err.to_string().contains("JSON object"), "{err}");
+        assert!(Scene::from_json("  \n").is_err());
+        assert!(Scene::from_json(" {\"version\": 1}").is_ok());
+        let long = format!(r#"{{"version": 1, "{}": 1}}"#, "x".repeat(100_000));
+        let err = Scene::from_json(&long).unwrap_err();
+        assert!(
+            err.to_string().len() < 400,
+            "{} chars",
+            err.to_string().len()
+        );
+    }
+
+    #[test]
+    fn caps_name_the_field_and_the_limit() {
+        let river = RiverStroke {
+            estuary: [0.5, 1.0],
+            toward: [0.5, 0.3],
+            phi: 3,
+            depth: 8,
+        };
+        let mut scene = Scene {
+            rivers: vec![river; MAX_RIVERS],
+            ..Default::default()
+        };
+        assert!(scene.validate().is_ok());
+        scene.rivers.push(river);
+        let err = scene.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("rivers") && err.contains("at most 64"),
+            "{err}"
+        );
+
+        let line = |n: usize| SketchLine {
+            points: (0..n).map(|i| [i as f64 / n as f64, 0.5]).collect(),
+            height: None,
+            heights: None,
+        };
+        let mut scene = Scene::default();
+        scene.sketch.ridges.push(line(MAX_SKETCH_POINTS + 1));
+        let err = scene.validate().unwrap_err().to_string();
+        assert!(
+            err.contains("sketch.ridges[0].points") && err.contains("10000"),
+            "{err}"
+        );
+        scene.sketch.ridges = vec![line(MAX_SKETCH_POINTS); 3];
+        let err = scene.validate().unwrap_err().to_string();
+        assert!(err.contains("20000"), "{err}");
+        scene.sketch.ridges.clear();
+        scene.sketch.peaks = vec![
+            SketchPeak {
+                at: [0.5, 0.5],
+                height: None
+            };
+            MAX_SKETCH_ITEMS + 1
+        ];
+        let err = scene.validate().unwrap_err().to_string();
+        assert!(err.contains("1000 ridges, valleys and peaks"), "{err}");
+    }
+
+    #[test]
+    fn huge_cell_sizes_are_refused_not_panics() {
+        let err = Scene::from_json(r#"{"version": 1, "cell_size": 1e36}"#).unwrap_err();
+        assert!(err.to_string().contains("cell_size"), "{err}");
+        let err =
+            Scene::from_json(r#"{"version": 1, "cell_size": 1e308, "size": 8192}"#).unwrap_err();
+        assert!(err.to_string().contains("cell_size"), "{err}");
     }
 }

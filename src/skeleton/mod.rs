@@ -8,7 +8,7 @@ pub mod sketch;
 
 use glam::DVec2;
 
-use crate::diffusion::{Constraints, FixedMask};
+use crate::diffusion::{Constraints, ConstraintsError, FixedMask};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::noise::{FbmGrid, Perlin};
@@ -64,8 +64,10 @@ pub struct Skeleton {
 }
 
 impl Skeleton {
-    /// The diffusion problem: skeleton cells fixed, the rest free (starting at the mean).
-    pub fn constraints(&self) -> Constraints {
+    /// The diffusion problem: skeleton cells fixed, the rest free (starting at the mean). A
+    /// skeleton height that is not finite (a scene scaled beyond `f32`) is an error naming the
+    /// cell, never a panic.
+    pub fn constraints(&self) -> Result<Constraints, ConstraintsError> {
         let n = self.size;
         let mut fixed = FixedMask::new(n, n);
         let (mut sum, mut count) = (0.0f64, 0usize);
@@ -91,7 +93,6 @@ impl Skeleton {
             Heightfield::from_vec(n, n, initial).expect("size x size cells"),
             fixed,
         )
-        .expect("skeleton heights are finite")
     }
 
     pub fn fixed_cells(&self) -> usize {
@@ -291,6 +292,23 @@ async fn in_bands(
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn non_finite_heights_are_an_error_not_a_panic() {
+        let n = 16;
+        let mut kinds = vec![CellKind::Free; n * n];
+        kinds[5] = CellKind::River;
+        let mut heights = vec![0.0; n * n];
+        heights[5] = f32::INFINITY;
+        let skeleton = Skeleton {
+            size: n,
+            heights,
+            kinds,
+            river_order: vec![0; n * n],
+        };
+        let err = skeleton.constraints().unwrap_err();
+        assert!(err.to_string().contains("(5, 0)"), "{err}");
+    }
+
     use super::*;
 
     #[test]

@@ -36,6 +36,12 @@ pub enum TerrainError {
     Diffusion(#[from] DiffusionError),
     #[error("cancelled")]
     Cancelled(#[from] Cancelled),
+    /// The skeleton's heights overflowed (a scene scaled beyond `f32`).
+    #[error(
+        "the skeleton's heights are not finite numbers ({0}); lower the map width, the river \
+         slope or alpha"
+    )]
+    NonFinite(#[from] diffusion::ConstraintsError),
 }
 
 /// Everything that shapes the terrain besides the strokes.
@@ -347,7 +353,7 @@ pub async fn generate(
     let enriched_cells = enrich(&mut skeleton, params, ctx).await?;
     lap("enrich", &mut stages);
 
-    let problem = skeleton.constraints();
+    let problem = skeleton.constraints()?;
     ctx.checkpoint(0.3, "diffusing").await?;
     let filled = diffusion::fill(backend, &problem, params.solver, ctx).await?;
     lap("diffuse", &mut stages);
