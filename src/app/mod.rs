@@ -678,7 +678,12 @@ impl Arrived {
         let (w, h) = (g.terrain.width(), g.terrain.height());
         let constraints = layers::constraints_image(&g.skeleton.kinds, w, h);
         job.tick(1.0, "preparing the map").await?;
-        let summary = crate::terrain::run_summary(g);
+        // The diffusion stage's numbers, with the checksum and range of the terrain on the map
+        // (after every stage): the one `strahler generate` reports for the same scene.
+        let mut summary = crate::terrain::run_summary(g);
+        let r = &output.report.terrain;
+        summary.checksum = r.checksum.clone();
+        [summary.min, summary.max] = r.height_range;
         let picture = picture::draw(output.field.clone(), output.cell_m as f32, job).await?;
         let before = match &output.erosion {
             Some(_) => {

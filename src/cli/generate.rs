@@ -150,10 +150,12 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     scene
         .rivers
         .extend(args.rivers.iter().copied().map(RiverStroke::from));
-    if scene.rivers.is_empty() {
+    // Without a scene file and without a river, one river rises from the south edge (a
+    // scene file stands as it is: a sketch alone, e.g. features of a DEM, is a terrain).
+    if args.scene.is_none() && scene.rivers.is_empty() {
         scene
             .rivers
-            .push(RiverStroke::from(parse_stroke("0.5,1,0.5,0.3")?));
+            .push(RiverStroke::from(parse_stroke("0.5,1,0.5,0.35")?));
     }
     scene.validate()?;
     Ok(scene)

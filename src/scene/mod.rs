@@ -691,6 +691,9 @@ impl Scene {
             size: side,
             cell_size: cell_m,
             sketch: SketchSettings::from_features(found, scale),
+            // The sketch carries the DEM's own heights; erosion (one switch away) would carve
+            // a new drainage into it rather than rebuild the DEM.
+            erosion: None,
             ..Scene::default()
         };
         scene.validate()?;
