@@ -4,10 +4,11 @@
 Run by hand only, from anywhere:
 
     pip install tifffile imagecodecs numpy
-    python3 tests/data/make_data.py [--src DIR] [--gdal]
+    python3 tests/data/make_data.py --src DIR [--gdal]
 
-DIR is the folder of the source DEMs, by default `../shared/data/dems` beside the repository
-(the files are listed with their provenance in README.md). The tests never run this script:
+DIR (required) is the folder of the source DEMs, the files listed with their provenance in
+README.md (they ship in public packages: PyPI shareloc, Debian r-cran-stars, npm
+vega-datasets). The tests never run this script:
 they read the files it wrote, which are committed.
 
 What it does:
@@ -32,7 +33,6 @@ import numpy as np
 import tifffile
 
 HERE = Path(__file__).resolve().parent
-DEFAULT_SRC = HERE.parent.parent.parent / "shared" / "data" / "dems"
 
 TILE = "srtm_n44e005.tif"
 # name: (first row, first column, rows, columns) in the tile.
@@ -77,7 +77,7 @@ def write(path, data, extratags, **kwargs):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--src", type=Path, default=DEFAULT_SRC, help="source DEM folder")
+    parser.add_argument("--src", type=Path, required=True, help="source DEM folder")
     parser.add_argument("--gdal", action="store_true", help="also rewrite gdal/ (needs gdal-bin)")
     args = parser.parse_args()
     src = args.src
