@@ -53,7 +53,12 @@ fn no_module_imports_a_higher_layer() {
     let mut unknown = Vec::new();
     for file in files {
         let rel = file.strip_prefix(&src).unwrap();
-        let first = rel.iter().next().unwrap().to_string_lossy().replace(".rs", "");
+        let first = rel
+            .iter()
+            .next()
+            .unwrap()
+            .to_string_lossy()
+            .replace(".rs", "");
         if first == "lib" || first == "main" {
             continue;
         }

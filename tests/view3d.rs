@@ -37,7 +37,7 @@ fn renderer(ctx: &GpuContext, field: &Heightfield) -> Renderer {
     for y in 0..n {
         order[y * n + n / 2] = 4;
     }
-    let water = strahler::view3d::maps::water_mask(&order, n);
+    let water = strahler::view3d::maps::water_mask(&order, n, CELL);
     r.set_terrain(&ctx.device, &ctx.queue, maps, Some((&water, n)));
     r
 }

@@ -16,6 +16,8 @@ pub struct Layers {
     pub constraints: bool,
     pub mask: bool,
     pub blocks: bool,
+    /// Rivers are drawn from this Strahler order up (creeks would hide the relief).
+    pub min_river_order: u32,
 }
 
 impl Default for Layers {
@@ -28,6 +30,7 @@ impl Default for Layers {
             constraints: false,
             mask: true,
             blocks: true,
+            min_river_order: 3,
         }
     }
 }
@@ -124,6 +127,13 @@ pub(super) fn section(ui: &mut egui::Ui, layers: &mut Layers) {
         ui.checkbox(&mut layers.relief, "relief");
         ui.checkbox(&mut layers.contours, "contours");
         ui.checkbox(&mut layers.rivers, "rivers");
+        if layers.rivers {
+            let label = ui.label("from order").on_hover_text(
+                "Rivers of lower Strahler order are not drawn (1 draws every creek)",
+            );
+            ui.add(egui::DragValue::new(&mut layers.min_river_order).range(1..=12))
+                .labelled_by(label.id);
+        }
         ui.checkbox(&mut layers.ridges, "ridges");
         ui.checkbox(&mut layers.constraints, "constraints")
             .on_hover_text("Skeleton cells: rivers, ridges, valleys, and MD/MDI enriched points");

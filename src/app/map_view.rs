@@ -56,6 +56,8 @@ pub struct Overlay {
     pub sketch_valleys: Vec<(Pos2, Pos2)>,
     pub peaks: Vec<Pos2>,
     pub show_rivers: bool,
+    /// Rivers below this Strahler order are not drawn.
+    pub min_river_order: u32,
     pub show_ridges: bool,
     pub show_mask: bool,
     pub show_relief: bool,
@@ -340,8 +342,13 @@ impl MapView {
             }
         }
         if overlay.show_rivers {
-            for (a, b, order) in &overlay.rivers {
-                let width = 0.6 + 0.5 * *order as f32;
+            // Thin lines that widen with the order, so the relief leads.
+            for (a, b, order) in overlay
+                .rivers
+                .iter()
+                .filter(|r| r.2 >= overlay.min_river_order)
+            {
+                let width = 0.5 + 0.35 * (*order + 1 - overlay.min_river_order) as f32;
                 let stroke = Stroke::new(width, Color32::from_rgb(40, 110, 220));
                 painter.line_segment([to_screen(*a), to_screen(*b)], stroke);
             }

@@ -806,6 +806,7 @@ impl eframe::App for StrahlerApp {
         }
         let l = self.layers;
         self.overlay.show_rivers = l.rivers;
+        self.overlay.min_river_order = l.min_river_order;
         self.overlay.show_ridges = l.ridges;
         self.overlay.show_mask = l.mask || self.tool == Tool::Mask;
         self.overlay.show_relief = l.relief;

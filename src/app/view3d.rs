@@ -169,8 +169,14 @@ impl View3d {
                 "3D view",
                 move |job| async move {
                     let maps = TerrainMaps::prepare(&field, cell, max_side, &job).await?;
-                    let water = rivers
-                        .map(|(order, side)| (crate::view3d::maps::water_mask(&order, side), side));
+                    // The skeleton's cells may be coarser than the field's (detail levels).
+                    let water = rivers.map(|(order, side)| {
+                        let river_cell = cell * field.width() as f32 / side.max(1) as f32;
+                        (
+                            crate::view3d::maps::water_mask(&order, side, river_cell),
+                            side,
+                        )
+                    });
                     Ok((maps, water))
                 },
                 move || repaint.request_repaint(),

@@ -186,21 +186,34 @@ fn gradient_rows(
     out
 }
 
-/// The river network as a water mask: 255 on the cells of rivers of Strahler order >= 2
-/// (first-order creeks stay dry), rivers of order >= 5 one cell wider on each side (`order`
-/// is the skeleton's per-cell order, `size` x `size`).
-pub fn water_mask(order: &[u8], size: usize) -> Vec<u8> {
+/// Width in metres of a river of Strahler order `order`: 2.5 m for a first-order creek,
+/// doubling with each order (Horton's laws give drainage areas about four times larger per
+/// order, and hydraulic geometry (Leopold and Maddock 1953) widths growing as the square root
+/// of discharge, so about twice as wide per order): 40 m at order 5, 160 m at order 7.
+pub fn river_width_m(order: u8) -> f32 {
+    2.5 * 2f32.powi(i32::from(order.max(1)) - 1)
+}
+
+/// The river network as a water mask: 255 on the cells a river covers at its width
+/// ([`river_width_m`]) on cells `cell_m` metres wide; a river narrower than half a cell stays
+/// dry (so only real rivers look like water, whatever the map's scale). `order` is the
+/// skeleton's per-cell order, `size` x `size`.
+pub fn water_mask(order: &[u8], size: usize, cell_m: f32) -> Vec<u8> {
     let mut out = vec![0u8; size * size];
-    if order.len() < size * size {
+    if order.len() < size * size || !(cell_m > 0.0) {
         return out;
     }
     for y in 0..size {
         for x in 0..size {
             let o = order[y * size + x];
-            if o < 2 {
+            if o == 0 {
                 continue;
             }
-            let r = usize::from(o >= 5);
+            let width = river_width_m(o);
+            if width < 0.5 * cell_m {
+                continue;
+            }
+            let r = ((width / cell_m - 1.0) / 2.0).ceil().max(0.0) as usize;
             for yy in y.saturating_sub(r)..=(y + r).min(size - 1) {
                 for xx in x.saturating_sub(r)..=(x + r).min(size - 1) {
                     out[yy * size + xx] = 255;
@@ -319,5 +332,29 @@ mod tests {
         field.data_mut()[100] = f32::NAN;
         let maps = TerrainMaps::new(&field, 1.0, 4096);
         assert!(maps.heights.iter().all(|z| z.is_finite()));
+    }
+
+    #[test]
+    fn water_follows_the_river_width_in_metres() {
+        let n = 21;
+        let mut order = vec![0u8; n * n];
+        for y in 0..n {
+            order[y * n + 5] = 1; // a creek: 2.5 m
+            order[y * n + 14] = 5; // a river: 40 m
+        }
+        let wet_columns = |cell: f32| {
+            let mask = water_mask(&order, n, cell);
+            (0..n)
+                .filter(|&x| mask[10 * n + x] == 255)
+                .collect::<Vec<_>>()
+        };
+        // 10 m cells: the creek stays dry, the river is five cells wide (one centre cell
+        // and two on each side: ceil((40 / 10 - 1) / 2) = 2).
+        assert_eq!(wet_columns(10.0), vec![12, 13, 14, 15, 16]);
+        // 4 m cells: the creek is water too.
+        assert!(wet_columns(4.0).contains(&5));
+        // 100 m cells: even the river is narrower than half a cell.
+        assert!(wet_columns(100.0).is_empty());
+        assert_eq!(river_width_m(7), 160.0);
     }
 }
