@@ -114,6 +114,15 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
     // Parameter and size errors before any GPU is probed.
     wavelet::synthesis::check(&dem.field, &params)?;
     let backend = args.backend.resolve(&super::compute_path(args.backend))?;
+    // With the default backend a GPU that cannot hold the output in one binding hands the
+    // work to the CPU (the wavelet kernels do not tile yet); `--backend gpu` keeps the error.
+    let backend = if args.backend == BackendChoice::Auto {
+        let n = wavelet::synthesis::output_len(dem.field.width(), params.levels);
+        let m = wavelet::synthesis::output_len(dem.field.height(), params.levels);
+        backend.fitting(n, m)
+    } else {
+        backend
+    };
     let clock = web_time::Instant::now();
     let amplified = pollster::block_on(wavelet::amplify_on(
         &backend,

@@ -289,37 +289,106 @@ pub fn roughen(heights: &mut [f32], base: &[bool], sigma: f64, seed: u64) {
 /// How far from a river (cells) the land is kept above the river's height.
 const FLOOR_CELLS: u32 = 8;
 
-/// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
-/// then depression filling and the drainage check. O(cells) per step.
-pub async fn erode_terrain(
-    hydrology: &Generated,
-    settings: &ErosionSettings,
-    cell_m: f64,
-    seed: u64,
-    ctx: &JobCtx,
-) -> Result<Eroded, StageError> {
-    let field = &hydrology.terrain;
+/// The largest grid the solver runs on: larger maps are eroded on a grid of whole blocks of
+/// cells (at most this many per side) and the change is interpolated back. Stream-power
+/// erosion with hillslope diffusion has a physical length scale (the valley spacing set by
+/// kappa / K, a few cells at the presets' resolution of 10-20 m), so eroding a 10 km map at
+/// 2.5 m cells would only carve valleys a few metres apart and cost 16 times as much; the
+/// finer levels come from the detail stage instead. O(cells) either way.
+pub const MAX_SOLVER_SIDE: usize = 1024;
+
+/// The design of a large map reduced to the solver's grid by blocks of `f` x `f` cells: the
+/// mean height of each block, and a block is a channel where any of its cells is (holding
+/// the lowest channel height of the block, so rivers still fall towards their mouths).
+fn reduce(field: &Heightfield, kinds: &[CellKind], f: usize) -> (Heightfield, Vec<CellKind>) {
     let n = field.width();
-    let kinds = &hydrology.skeleton.kinds;
-    let base = base_level(kinds, n, settings.river_band);
-    let base_level_cells = base.iter().filter(|b| **b).count();
-    let (channel, steps_away) = nearest_channel(field, kinds);
-    let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
-    // The floor near the rivers: within FLOOR_CELLS of a river no land goes below it (a
-    // centimetre more per cell away, so floors still drain to it), so a river never ends up
-    // hanging on a levee above its valley. Farther away the land is free: floors of
-    // different rivers would meet in steps there.
-    let floor: Vec<f32> = channel
+    let m = n.div_ceil(f);
+    let z = field.data();
+    let mut heights = vec![0.0f32; m * m];
+    let mut coarse = vec![CellKind::Free; m * m];
+    for by in 0..m {
+        for bx in 0..m {
+            let (mut sum, mut count, mut channel) = (0.0f64, 0usize, f32::INFINITY);
+            let mut kind = CellKind::Free;
+            for y in by * f..((by + 1) * f).min(n) {
+                for x in bx * f..((bx + 1) * f).min(n) {
+                    let i = y * n + x;
+                    sum += f64::from(z[i]);
+                    count += 1;
+                    if matches!(kinds[i], CellKind::River | CellKind::Valley) {
+                        channel = channel.min(z[i]);
+                        if kind != CellKind::River {
+                            kind = kinds[i];
+                        }
+                    }
+                }
+            }
+            let b = by * m + bx;
+            coarse[b] = kind;
+            heights[b] = if kind == CellKind::Free {
+                (sum / count.max(1) as f64) as f32
+            } else {
+                channel
+            };
+        }
+    }
+    let reduced = Heightfield::from_vec(m, m, heights).unwrap_or_else(|_| field.clone());
+    (reduced, coarse)
+}
+
+/// Bilinear interpolation of a coarse `m` x `m` grid (cell centres of blocks of `f` cells)
+/// at the centres of the `n` x `n` fine cells.
+fn expand(coarse: &[f32], m: usize, f: usize, n: usize) -> Vec<f32> {
+    let at = |x: usize, y: usize| coarse[y.min(m - 1) * m + x.min(m - 1)];
+    let pos = |i: usize| ((i as f32 + 0.5) / f as f32 - 0.5).max(0.0);
+    let mut out = Vec::with_capacity(n * n);
+    for y in 0..n {
+        let fy = pos(y);
+        let (y0, ty) = (fy.floor() as usize, fy.fract());
+        for x in 0..n {
+            let fx = pos(x);
+            let (x0, tx) = (fx.floor() as usize, fx.fract());
+            let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+            let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+            out.push(top * (1.0 - ty) + bottom * ty);
+        }
+    }
+    out
+}
+
+/// The near-river floor: within [`FLOOR_CELLS`] of a river no land goes below it (a
+/// centimetre more per cell away, so floors still drain to it), so a river never ends up
+/// hanging on a levee above its valley. Farther away the land is free: floors of different
+/// rivers would meet in steps there.
+fn floor_near_rivers(channel: &[f32], steps_away: &[u32], cells: u32) -> Vec<f32> {
+    channel
         .iter()
-        .zip(&steps_away)
+        .zip(steps_away)
         .map(|(h, d)| {
-            if *d <= FLOOR_CELLS {
+            if *d <= cells {
                 h + 0.01 * *d as f32
             } else {
                 f32::MIN
             }
         })
-        .collect();
+        .collect()
+}
+
+/// Runs the solver on `field` (square, cells `cell_m` wide) with the rivers of `kinds` as
+/// base level; returns the eroded heights and the last drainage area. O(cells) per step.
+async fn solve(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    settings: &ErosionSettings,
+    cell_m: f64,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<(Vec<f32>, Vec<f32>), StageError> {
+    let n = field.width();
+    let base = base_level(kinds, n, settings.river_band);
+    let (channel, steps_away) = nearest_channel(field, kinds);
+    let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
+    let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
     let mut start = field.data().to_vec();
     roughen(&mut start, &base, settings.roughness_m, seed);
     let mut eroder =
@@ -336,8 +405,63 @@ pub async fn erode_terrain(
             break;
         }
     }
-    let area = Heightfield::from_vec(n, n, eroder.drainage_area().to_vec())?;
-    let mut eroded = Heightfield::from_vec(n, n, eroder.into_heights())?;
+    let area = eroder.drainage_area().to_vec();
+    Ok((eroder.into_heights(), area))
+}
+
+/// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
+/// then depression filling and the drainage check. Maps larger than [`MAX_SOLVER_SIDE`] are
+/// eroded on a grid of blocks and the change is interpolated back onto the design (river and
+/// bank cells keep their heights exactly, the near-river floor holds at full resolution).
+/// O(cells) per step.
+pub async fn erode_terrain(
+    hydrology: &Generated,
+    settings: &ErosionSettings,
+    cell_m: f64,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<Eroded, StageError> {
+    let field = &hydrology.terrain;
+    let n = field.width();
+    let kinds = &hydrology.skeleton.kinds;
+    let base = base_level(kinds, n, settings.river_band);
+    let base_level_cells = base.iter().filter(|b| **b).count();
+    let factor = n.div_ceil(MAX_SOLVER_SIDE);
+    let (heights, area) = if factor <= 1 {
+        solve(field, kinds, settings, cell_m, seed, ctx).await?
+    } else {
+        let (coarse, coarse_kinds) = reduce(field, kinds, factor);
+        let m = coarse.width();
+        let (eroded, area) = solve(
+            &coarse,
+            &coarse_kinds,
+            settings,
+            cell_m * factor as f64,
+            seed,
+            ctx,
+        )
+        .await?;
+        ctx.tick(0.9, "eroding: back to the full grid").await?;
+        let change: Vec<f32> = eroded
+            .iter()
+            .zip(coarse.data())
+            .map(|(a, b)| a - b)
+            .collect();
+        let change = expand(&change, m, factor, n);
+        let (channel, steps_away) = nearest_channel(field, kinds);
+        let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS * factor as u32);
+        let heights = field
+            .data()
+            .iter()
+            .zip(&change)
+            .zip(&base)
+            .zip(&floor)
+            .map(|(((h, d), fixed), f)| if *fixed { *h } else { (h + d).max(*f) })
+            .collect();
+        (heights, expand(&area, m, factor, n))
+    };
+    let area = Heightfield::from_vec(n, n, area)?;
+    let mut eroded = Heightfield::from_vec(n, n, heights)?;
     let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
     let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
     for (b, a) in field.data().iter().zip(eroded.data()) {
@@ -350,7 +474,7 @@ pub async fn erode_terrain(
         drainage_area: Arc::new(area),
         report: ErosionReport {
             preset: settings.preset.clone(),
-            steps,
+            steps: settings.steps.max(1),
             years: settings.years,
             base_level_cells,
             mean_depth_m: sum / (n * n).max(1) as f64,
@@ -361,4 +485,42 @@ pub async fn erode_terrain(
         },
         millis: 0.0,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Blocks reduce to their mean (channels to their lowest channel cell) and a change
+    /// interpolated back reproduces a linear ramp exactly inside the map.
+    #[test]
+    fn reduce_and_expand_keep_channels_and_linear_changes() {
+        let n = 12;
+        let f = 3;
+        let data: Vec<f32> = (0..n * n).map(|i| (i % n) as f32).collect();
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let mut kinds = vec![CellKind::Free; n * n];
+        kinds[n + 1] = CellKind::River; // block (0, 0), height 1
+        kinds[2] = CellKind::River; // block (0, 0), height 2
+        let (coarse, coarse_kinds) = reduce(&field, &kinds, f);
+        assert_eq!(coarse.width(), 4);
+        assert_eq!(coarse_kinds[0], CellKind::River);
+        assert_eq!(coarse.data()[0], 1.0, "the lowest channel cell");
+        // Block (1, 0) holds columns 3..6: mean 4.
+        assert_eq!(coarse.data()[1], 4.0);
+        assert_eq!(coarse_kinds[1], CellKind::Free);
+        // A linear change in x on the coarse grid (block centres at 1, 4, 7, 10) comes back
+        // as the same line at the fine cells between the first and last block centres.
+        let ramp: Vec<f32> = (0..16).map(|i| (1 + 3 * (i % 4)) as f32).collect();
+        let fine = expand(&ramp, 4, f, n);
+        for y in 0..n {
+            for x in 1..=10 {
+                assert!(
+                    (fine[y * n + x] - x as f32).abs() < 1e-5,
+                    "{x}: {}",
+                    fine[y * n + x]
+                );
+            }
+        }
+    }
 }

@@ -332,10 +332,7 @@ async fn detail(
     synthesis::check(source, &params).map_err(|e| PipelineError::Detail(e.to_string()))?;
     let mask = scene.detail.mask()?;
     let n = synthesis::output_len(source.width(), params.levels);
-    let backend = match backend {
-        Backend::Gpu(gpu) if gpu.check_field(n, n).is_err() => &Backend::Cpu,
-        other => other,
-    };
+    let backend = &backend.fitting(n, n);
     let clock = Instant::now();
     let out = wavelet::amplify_on(backend, source, &params, mask.as_ref(), ctx)
         .await

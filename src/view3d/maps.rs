@@ -200,7 +200,7 @@ pub fn river_width_m(order: u8) -> f32 {
 /// skeleton's per-cell order, `size` x `size`.
 pub fn water_mask(order: &[u8], size: usize, cell_m: f32) -> Vec<u8> {
     let mut out = vec![0u8; size * size];
-    if order.len() < size * size || !(cell_m > 0.0) {
+    if order.len() < size * size || cell_m.is_nan() || cell_m <= 0.0 {
         return out;
     }
     for y in 0..size {
