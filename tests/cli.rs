@@ -1242,3 +1242,41 @@ fn garbage_gdal_nodata_is_reported_without_debug_output() {
     );
     assert!(err.len() < 300, "{err}");
 }
+
+/// The scene's `vertical_scale` multiplies the exported heights (the report keeps the true
+/// ones), so a scene saved with it exports as the app's export dialog does.
+#[test]
+fn generate_applies_the_scenes_vertical_scale_to_its_output() {
+    let dir = out_dir();
+    let mut heights = Vec::new();
+    for scale in [1.0, 2.5] {
+        let scene = dir.join(format!("vscale-{scale}.json"));
+        std::fs::write(
+            &scene,
+            format!(
+                r#"{{"version": 1, "size": 64, "vertical_scale": {scale},
+                    "rivers": [{{"estuary": [0.5, 1.0], "toward": [0.5, 0.4]}}]}}"#
+            ),
+        )
+        .unwrap();
+        let out = dir.join(format!("vscale-{scale}.tif"));
+        let result = strahler(&[
+            "generate",
+            scene.to_str().unwrap(),
+            "--backend",
+            "cpu",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        heights.push(read_tif(&out).field);
+    }
+    let (plain, scaled) = (&heights[0], &heights[1]);
+    for (a, b) in plain.data().iter().zip(scaled.data()) {
+        assert!((b - 2.5 * a).abs() <= 1e-3 * a.abs().max(1.0), "{a} {b}");
+    }
+}

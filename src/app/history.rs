@@ -32,6 +32,8 @@ pub struct History {
     restoring: bool,
     last_autosave: Option<web_time::Instant>,
     autosaved: Option<String>,
+    /// The document changed since the last autosave.
+    unsaved: bool,
 }
 
 impl History {
@@ -78,13 +80,14 @@ impl StrahlerApp {
                 h.redo.clear();
             }
             h.current = Some(scene);
+            h.unsaved = true;
             let (undo, redo) = h.depths();
             self.automation.update(|s| {
                 s.undo = undo;
                 s.redo = redo;
             });
         }
-        self.autosave();
+        self.autosave(ctx);
     }
 
     /// Back one step.
@@ -111,6 +114,7 @@ impl StrahlerApp {
             to.push(current);
         }
         h.restoring = true;
+        h.unsaved = true;
         let (undo, redo) = h.depths();
         self.automation.update(|s| {
             s.undo = undo;
@@ -121,14 +125,23 @@ impl StrahlerApp {
     }
 
     /// Writes the scene to browser storage when it changed (web only).
-    fn autosave(&mut self) {
-        let due = self
-            .history
-            .last_autosave
-            .is_none_or(|t| t.elapsed().as_secs_f64() >= AUTOSAVE_SECONDS);
-        if !due {
+    /// Saves the document at most every [`AUTOSAVE_SECONDS`], within that time of any change
+    /// however it was made (mouse, keyboard or `window.strahler`): a change that is not yet
+    /// due asks for a frame when it will be, so an idle page still saves it.
+    fn autosave(&mut self, ctx: &egui::Context) {
+        if !self.history.unsaved {
             return;
         }
+        let since = self
+            .history
+            .last_autosave
+            .map_or(f64::INFINITY, |t| t.elapsed().as_secs_f64());
+        if since < AUTOSAVE_SECONDS {
+            let wait = (AUTOSAVE_SECONDS - since).max(0.05);
+            ctx.request_repaint_after(std::time::Duration::from_secs_f64(wait));
+            return;
+        }
+        self.history.unsaved = false;
         self.history.last_autosave = Some(web_time::Instant::now());
         let Some(scene) = &self.history.current else {
             return;

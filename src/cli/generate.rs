@@ -231,7 +231,13 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     if let Some(path) = &args.out {
-        write_heightmap(&outputs, path, &out.field, scene.map_width())?;
+        write_heightmap(
+            &outputs,
+            path,
+            &out.field,
+            scene.map_width(),
+            scene.vertical_scale,
+        )?;
     }
     if let Some((dir, layers)) = layers {
         std::fs::create_dir_all(dir)
@@ -281,7 +287,22 @@ fn write_heightmap(
     out: &Path,
     terrain: &crate::heightfield::Heightfield,
     map_width: f64,
+    vertical_scale: f64,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    // The scene's vertical scale applies to every export (the report keeps true heights).
+    let scaled;
+    let terrain = if vertical_scale == 1.0 {
+        terrain
+    } else {
+        let data = terrain
+            .data()
+            .iter()
+            .map(|v| v * vertical_scale as f32)
+            .collect();
+        scaled =
+            crate::heightfield::Heightfield::from_vec(terrain.width(), terrain.height(), data)?;
+        &scaled
+    };
     let cell = map_width / terrain.width() as f64;
     let georef = GeoRef {
         pixel_scale: Some(vec![cell, cell, 0.0]),

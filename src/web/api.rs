@@ -334,7 +334,11 @@ fn export_bytes(
         fmt,
         o.size,
         o.flip_y,
-        o.z_scale.unwrap_or(1.0),
+        // The scene's vertical scale applies to every export, the option on top.
+        o.z_scale.unwrap_or(1.0)
+            * export_source
+                .scene()
+                .map_or(1.0, |s| s.vertical_scale as f32),
     )
     .map_err(error)?;
     Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))

@@ -264,6 +264,18 @@ async function runMode(url, mode, expectedChecksum) {
     await page.waitForFunction(() => window.strahler.scene() !== null, null, { timeout: 30_000 });
     const sceneAfter = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
     check('a reload restores the autosaved scene', sceneAfter === sceneBefore, `${sceneBefore} vs ${sceneAfter}`);
+    // A scripted edit is autosaved too (the autosave follows changes, not frames): wait for
+    // the terrain, leave the page idle a little over 2 s, reload.
+    await page.evaluate(() => window.strahler.addRiver([0.0, 0.8], [0.3, 0.75], { phi: 2, depth: 4 }));
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
+    const scripted = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
+    await page.waitForTimeout(2500);
+    await page.reload();
+    await page.waitForFunction(() => window.strahler?.status().ready === true, null, { timeout: 90_000 });
+    await page.waitForFunction(() => window.strahler.scene() !== null, null, { timeout: 30_000 });
+    const restored = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
+    check('a scripted edit is autosaved within 2 s and restored after a reload', restored === scripted,
+      `${scripted} vs ${restored}`);
     await page.screenshot({ path: join(output, `${mode}.png`) });
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
     if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);
