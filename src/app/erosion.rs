@@ -127,3 +127,77 @@ pub(super) fn realism_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         }
     }
 }
+
+/// The Style section: detail from a real terrain's spectrum added into the terrain's own
+/// levels where it is smoother (`crate::wavelet::style`): a bundled style, or one measured on
+/// the DEM uploaded in the DEM panel.
+pub(super) fn style_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    use crate::scene::StyleSettings;
+    use crate::wavelet::style::STYLES;
+    ui.label(RichText::new("Style from real terrain").strong())
+        .on_hover_text(
+            "Adds detail where the terrain is smoother than a real DEM's wavelet spectrum \
+             (seed paper 001's gamma per band), kept off the rivers and the painted mask.",
+        );
+    let current = app
+        .scene
+        .style
+        .as_ref()
+        .map_or("none".to_owned(), |s| s.name.clone());
+    let mut chosen: Option<Option<StyleSettings>> = None;
+    let label = ui.label("Style");
+    ComboBox::from_id_salt("style")
+        .selected_text(current.clone())
+        .show_ui(ui, |ui| {
+            if ui.selectable_label(current == "none", "none").clicked() {
+                chosen = Some(None);
+            }
+            for (name, source, _) in STYLES {
+                if ui
+                    .selectable_label(current == *name, *name)
+                    .on_hover_text(*source)
+                    .clicked()
+                {
+                    chosen = Some(StyleSettings::bundled(name));
+                }
+            }
+        })
+        .response
+        .labelled_by(label.id);
+    if let Some(style) = chosen {
+        app.scene.style = style;
+    }
+    if let Some(loaded) = &app.blend.dem
+        && ui
+            .button("Style from the uploaded DEM")
+            .on_hover_text(
+                "Measure the spectrum of the DEM in the DEM panel (fill its voids first)",
+            )
+            .clicked()
+    {
+        match crate::wavelet::style::measure(&loaded.dem.field) {
+            Ok(gamma) => {
+                app.scene.style = Some(StyleSettings {
+                    name: format!("from {}", loaded.name),
+                    gamma,
+                    strength: 1.0,
+                })
+            }
+            Err(err) => app.set_error(format!("Style: {err}")),
+        }
+    }
+    if let Some(style) = app.scene.style.as_mut() {
+        let label = ui
+            .label("Strength")
+            .on_hover_text("Fraction of the missing detail variance added (0 to 2).");
+        ui.add(egui::Slider::new(&mut style.strength, 0.0..=2.0))
+            .labelled_by(label.id);
+        ui.label(
+            RichText::new(format!(
+                "gamma H {:.2}, V {:.2}, D {:.2}",
+                style.gamma[0], style.gamma[1], style.gamma[2]
+            ))
+            .weak(),
+        );
+    }
+}

@@ -67,7 +67,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     (
                         (s.size, s.cell_size, s.seed),
                         (s.params, s.rivers.clone(), s.sketch.clone()),
-                        (s.erosion.clone(), app.settings.clone()),
+                        (s.erosion.clone(), s.style.clone(), app.settings.clone()),
                     )
                 };
                 let before = shaping(app);
@@ -78,6 +78,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 diffusion_section(ui, app);
                 ui.separator();
                 super::erosion::section(ui, app);
+                ui.separator();
+                super::erosion::style_section(ui, app);
                 ui.separator();
                 super::erosion::realism_section(ui, app);
                 if shaping(app) != before {

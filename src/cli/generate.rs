@@ -11,7 +11,7 @@ use crate::erosion::ErosionSettings;
 use crate::jobs::JobCtx;
 use crate::pipeline::{self, Output};
 use crate::river::Stroke;
-use crate::scene::{RiverStroke, Scene};
+use crate::scene::{RiverStroke, Scene, StyleSettings};
 use crate::terrain;
 
 use super::output::Outputs;
@@ -62,6 +62,12 @@ pub struct GenerateArgs {
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
     #[arg(long)]
     pub erosion: Option<String>,
+    /// Style from real terrain: a bundled style (mountains, lowland, volcanic) or "none".
+    #[arg(long, conflicts_with = "style_from")]
+    pub style: Option<String>,
+    /// Style from real terrain measured on this DEM (any format `convert` reads).
+    #[arg(long)]
+    pub style_from: Option<PathBuf>,
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
     #[arg(long)]
     pub out: Option<PathBuf>,
@@ -134,6 +140,32 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.distance_limit {
         scene.params.enrich.distance_limit = v;
+    }
+    match args.style.as_deref() {
+        None => {}
+        Some("none") => scene.style = None,
+        Some(name) => {
+            scene.style = Some(StyleSettings::bundled(name).ok_or_else(|| {
+                let names: Vec<&str> = crate::wavelet::style::STYLES.iter().map(|s| s.0).collect();
+                format!(
+                    "--style: unknown style {name:?}; use one of {} or none",
+                    names.join(", ")
+                )
+            })?)
+        }
+    }
+    if let Some(path) = &args.style_from {
+        let dem = super::io::read_dem(path, crate::dem::ReadLimits::default(), None)?;
+        let gamma = crate::wavelet::style::measure(&dem.field)
+            .map_err(|e| format!("--style-from {}: {e}", path.display()))?;
+        let name = path
+            .file_name()
+            .map_or("the DEM".into(), |n| n.to_string_lossy().into_owned());
+        scene.style = Some(StyleSettings {
+            name: format!("from {name}"),
+            gamma,
+            strength: 1.0,
+        });
     }
     match args.erosion.as_deref() {
         None => {}

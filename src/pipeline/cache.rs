@@ -4,7 +4,7 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
-use super::{Blended, Detailed};
+use super::{Blended, Detailed, Styled};
 use crate::erosion::Eroded;
 use crate::terrain::Generated;
 
@@ -81,6 +81,7 @@ pub struct Stages {
     pub size: usize,
     pub hydrology: Cached<Generated>,
     pub erosion: Cached<Eroded>,
+    pub style: Cached<Styled>,
     pub detail: Cached<Detailed>,
     pub blend: Cached<Blended>,
 }
@@ -91,6 +92,7 @@ impl Stages {
             size,
             hydrology: Cached::default(),
             erosion: Cached::default(),
+            style: Cached::default(),
             detail: Cached::default(),
             blend: Cached::default(),
         }
@@ -98,9 +100,12 @@ impl Stages {
 
     /// Drops the outputs of stages the last run did not use (their memory is the largest:
     /// a detailed terrain has up to 64 times the cells of the map).
-    pub fn forget_unused(&mut self, erosion: bool, detail: bool, blend: bool) {
+    pub fn forget_unused(&mut self, erosion: bool, style: bool, detail: bool, blend: bool) {
         if !erosion {
             self.erosion.clear();
+        }
+        if !style {
+            self.style.clear();
         }
         if !detail {
             self.detail.clear();

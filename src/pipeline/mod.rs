@@ -8,8 +8,10 @@
 //!    enrichment, diffusion, post-filters, depression filling and the drainage check;
 //! 2. **erosion** ([`crate::erosion`]): stream-power fluvial erosion with uplift and
 //!    hillslope processes, the drawn rivers as base level (when the scene turns it on);
-//! 3. **detail** ([`crate::wavelet`]): new wavelet levels under the painted mask;
-//! 4. **blend** ([`crate::blend`]): the scene's DEM blocks, solved in order.
+//! 3. **style** ([`crate::wavelet::style`]): detail from a real terrain's spectrum added
+//!    into the existing levels where the terrain is smoother (when the scene has a style);
+//! 4. **detail** ([`crate::wavelet`]): new wavelet levels under the painted mask;
+//! 5. **blend** ([`crate::blend`]): the scene's DEM blocks, solved in order.
 //!
 //! A new stage is added here, in [`Pipeline::run`], with the scene fields it depends on in
 //! its key.
@@ -52,6 +54,8 @@ pub enum PipelineError {
     Hydrology(#[from] TerrainError),
     #[error("erosion: {0}")]
     Erosion(String),
+    #[error("style: {0}")]
+    Style(String),
     #[error("detail: {0}")]
     Detail(String),
     #[error("blend: {0}")]
@@ -105,6 +109,15 @@ pub struct Detailed {
     pub backend: &'static str,
 }
 
+/// The style stage's output.
+#[derive(Debug)]
+pub struct Styled {
+    pub field: Arc<Heightfield>,
+    pub stats: wavelet::style::StyleStats,
+    pub drainage: crate::terrain::Drainage,
+    pub millis: f64,
+}
+
 /// The blend stage's output.
 #[derive(Debug)]
 pub struct Blended {
@@ -119,6 +132,7 @@ pub struct Blended {
 pub struct Output {
     pub hydrology: Arc<Generated>,
     pub erosion: Option<Arc<Eroded>>,
+    pub style: Option<Arc<Styled>>,
     pub detail: Option<Arc<Detailed>>,
     pub blend: Option<Arc<Blended>>,
     /// The final terrain (the last stage's output).
@@ -247,7 +261,30 @@ async fn run_stages(
         eroded = Some(out);
     }
 
-    // 3. Wavelet detail under the painted mask.
+    // 3. Style from real terrain.
+    let mut styled = None;
+    if let Some(settings) = &scene.style {
+        key = key
+            .then("style")
+            .with(settings)
+            .with(&scene.detail.mask_png);
+        let out = match stages.style.get(key) {
+            Some(cached) => cached,
+            None => {
+                let out = style(scene, settings, &field, &hydrology, ctx).await?;
+                computed.push("style");
+                stages.style.put(key, out)
+            }
+        };
+        times.push(StageTime {
+            name: "style",
+            ms: out.millis,
+        });
+        field = out.field.clone();
+        styled = Some(out);
+    }
+
+    // 4. Wavelet detail under the painted mask.
     let mut detailed = None;
     if scene.detail.levels > 0 {
         key = key.then("detail").with(&scene.detail);
@@ -267,7 +304,7 @@ async fn run_stages(
         detailed = Some(out);
     }
 
-    // 4. Blocks of real terrain.
+    // 5. Blocks of real terrain.
     let mut blended = None;
     if !scene.blend.is_empty() {
         key = key.then("blend").with(&scene.blend);
@@ -288,22 +325,20 @@ async fn run_stages(
     }
     stages.forget_unused(
         scene.erosion.is_some(),
+        styled.is_some(),
         detailed.is_some(),
         blended.is_some(),
     );
 
     ctx.tick(0.99, "terrain report").await?;
     let cell_m = scene.map_width() / field.width().max(1) as f64;
-    let mut report = Report::new(
-        &hydrology.report,
-        eroded.as_deref(),
-        detailed.as_deref(),
-        blended.as_deref(),
-        &field,
-        times,
-        ctx,
-    )
-    .await?;
+    let later = report::Later {
+        eroded: eroded.as_deref(),
+        styled: styled.as_deref(),
+        detailed: detailed.as_deref(),
+        blended: blended.as_deref(),
+    };
+    let mut report = Report::new(&hydrology.report, later, &field, times, ctx).await?;
     if options.realism {
         ctx.tick(0.995, "measuring realism").await?;
         report.realism = Some(crate::realism::RealismReport::of(&field, cell_m, cell_m));
@@ -311,12 +346,56 @@ async fn run_stages(
     Ok(Output {
         hydrology,
         erosion: eroded,
+        style: styled,
         detail: detailed,
         blend: blended,
         field,
         cell_m,
         report,
         computed,
+    })
+}
+
+/// The style stage: the style's missing detail added into the terrain's own levels, faded
+/// out near the rivers, sketched valleys and their banks and under the painted mask; river
+/// cells keep their heights exactly; then depressions are filled and drainage measured.
+async fn style(
+    scene: &Scene,
+    settings: &crate::scene::StyleSettings,
+    field: &Heightfield,
+    hydrology: &Generated,
+    ctx: &JobCtx,
+) -> Result<Styled, PipelineError> {
+    let clock = Instant::now();
+    ctx.checkpoint(0.92, "style from real terrain").await?;
+    let kinds = &hydrology.skeleton.kinds;
+    let (_, distance) = erosion::nearest_channel(field, kinds);
+    let mask = scene.detail.mask()?;
+    let keep = wavelet::style::Keep {
+        distance: &distance,
+        banks: scene.erosion.as_ref().map_or(1, |e| e.river_band) + 1,
+        mask: mask.as_ref(),
+    };
+    let seed = stage_seed(scene.seed, "style");
+    let (mut out, stats) =
+        wavelet::style::apply(field, settings.gamma, settings.strength, &keep, seed)
+            .map_err(|e| PipelineError::Style(e.to_string()))?;
+    // The rivers stay exactly where the design put them.
+    for ((v, &original), kind) in out.data_mut().iter_mut().zip(field.data()).zip(kinds) {
+        if matches!(
+            kind,
+            crate::skeleton::CellKind::River | crate::skeleton::CellKind::Valley
+        ) {
+            *v = original;
+        }
+    }
+    let (_, drainage) =
+        crate::terrain::drainage::condition_and_measure(&mut out, kinds, ctx).await?;
+    Ok(Styled {
+        field: Arc::new(out),
+        stats,
+        drainage,
+        millis: clock.elapsed().as_secs_f64() * 1e3,
     })
 }
 

@@ -3,7 +3,7 @@
 
 use serde::Serialize;
 
-use super::{Blended, Detailed};
+use super::{Blended, Detailed, Styled};
 use crate::blend::BlockSolve;
 use crate::erosion::{Eroded, ErosionReport};
 use crate::heightfield::{Checksum, Heightfield};
@@ -20,10 +20,18 @@ pub struct Report {
     /// FNV-1a of the terrain after the hydrology stage (before erosion, detail and blocks).
     pub hydrology_checksum: String,
     pub erosion: Option<ErosionReport>,
+    pub style: Option<StyleReport>,
     pub detail: Option<DetailReport>,
     pub blend: Option<BlendReport>,
     /// The final terrain's realism measures, when the run asked for them.
     pub realism: Option<crate::realism::RealismReport>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct StyleReport {
+    #[serde(flatten)]
+    pub stats: crate::wavelet::style::StyleStats,
+    pub millis: f64,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -47,18 +55,30 @@ pub struct BlendReport {
     pub solves: Vec<BlockSolve>,
 }
 
+/// The outputs of the stages after hydrology that a run used.
+pub(super) struct Later<'a> {
+    pub eroded: Option<&'a Eroded>,
+    pub styled: Option<&'a Styled>,
+    pub detailed: Option<&'a Detailed>,
+    pub blended: Option<&'a Blended>,
+}
+
 impl Report {
     /// The report of a run whose final terrain is `field`. O(cells) for the checksum and
     /// range, with the job's ticks between slices.
     pub(super) async fn new(
         hydrology: &TerrainReport,
-        eroded: Option<&Eroded>,
-        detailed: Option<&Detailed>,
-        blended: Option<&Blended>,
+        later: Later<'_>,
         field: &Heightfield,
         stages: Vec<StageTime>,
         ctx: &JobCtx,
     ) -> Result<Self, Cancelled> {
+        let Later {
+            eroded,
+            styled,
+            detailed,
+            blended,
+        } = later;
         let mut terrain = hydrology.clone();
         terrain.stages = stages;
         terrain.size = field.width();
@@ -77,10 +97,17 @@ impl Report {
         if let Some(e) = eroded {
             terrain.drainage = e.report.drainage.clone();
         }
+        if let Some(s) = styled {
+            terrain.drainage = s.drainage.clone();
+        }
         Ok(Self {
             terrain,
             hydrology_checksum: hydrology.checksum.clone(),
             erosion: eroded.map(|e| e.report.clone()),
+            style: styled.map(|s| StyleReport {
+                stats: s.stats,
+                millis: s.millis,
+            }),
             detail: detailed.map(|d| DetailReport {
                 width: d.field.width(),
                 height: d.field.height(),

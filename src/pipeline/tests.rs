@@ -262,7 +262,40 @@ fn every_field_scene() -> Scene {
     erosion.steps = 3;
     erosion.river_band = 2;
     scene.erosion = Some(erosion);
+    scene.style = Some(crate::scene::StyleSettings {
+        strength: 0.5,
+        ..crate::scene::StyleSettings::bundled("lowland").unwrap()
+    });
     scene
+}
+
+/// The style stage sits between erosion and detail: changing it re-runs it and what
+/// follows, and it keeps every river cell's height and the drainage along the rivers.
+#[test]
+fn the_style_stage_adds_detail_and_keeps_the_rivers() {
+    let mut scene = detail_scene();
+    scene.style = crate::scene::StyleSettings::bundled("lowland");
+    let mut pipeline = Pipeline::new();
+    let out = run(&mut pipeline, &scene);
+    assert_eq!(out.computed, ["hydrology", "erosion", "style", "detail"]);
+    let styled = out.style.as_ref().unwrap();
+    assert!(styled.stats.added_rms > 0.0, "{:?}", styled.stats);
+    let before = out.erosion.as_ref().unwrap().field.clone();
+    for (i, kind) in out.hydrology.skeleton.kinds.iter().enumerate() {
+        if *kind == crate::skeleton::CellKind::River {
+            assert_eq!(styled.field.data()[i], before.data()[i]);
+        }
+    }
+    assert!(
+        styled.drainage.river_fraction >= 0.99,
+        "{:?}",
+        styled.drainage
+    );
+    assert_eq!(styled.drainage.pit_cells, 0);
+    if let Some(style) = scene.style.as_mut() {
+        style.strength = 0.5;
+    }
+    assert_eq!(run(&mut pipeline, &scene).computed, ["style", "detail"]);
 }
 
 /// The golden scenes are the files; this writes them from the constructors above (run by

@@ -289,9 +289,42 @@ pub struct Scene {
     /// Stream-power erosion of the designed terrain, the rivers as base level; `null` = off,
     /// absent = the default preset.
     pub erosion: Option<crate::erosion::ErosionSettings>,
+    /// Detail from a real terrain's spectrum added into the existing levels (after erosion,
+    /// before the new detail levels); absent or `null` = off.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub style: Option<StyleSettings>,
     /// Blocks of real terrain blended in by the Poisson equation, solved in order.
     #[serde(skip_serializing_if = "Vec::is_empty")]
     pub blend: Vec<crate::blend::BlendBlock>,
+}
+
+/// Style from real terrain (`crate::wavelet::style`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StyleSettings {
+    /// A bundled style's name (`crate::wavelet::style::STYLES`), or where a measured one
+    /// came from (e.g. "from volcano.tif"); for the user.
+    pub name: String,
+    /// Seed 001's gamma per band (H, V, D) the detail follows, 1 to 6.
+    pub gamma: [f64; 3],
+    /// Fraction of the missing variance added, 0 to 2.
+    #[serde(default = "one")]
+    pub strength: f64,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+impl StyleSettings {
+    /// A bundled style by name.
+    pub fn bundled(name: &str) -> Option<Self> {
+        crate::wavelet::style::bundled(name).map(|gamma| Self {
+            name: name.to_owned(),
+            gamma,
+            strength: 1.0,
+        })
+    }
 }
 
 /// Wavelet levels of detail (seed paper 001) added on top of the generated terrain.
@@ -381,6 +414,7 @@ impl Default for Scene {
             sketch: SketchSettings::default(),
             detail: DetailSettings::default(),
             erosion: Some(crate::erosion::ErosionSettings::default()),
+            style: None,
             blend: Vec::new(),
         }
     }
@@ -659,6 +693,21 @@ impl Scene {
         }
         if let Some(Err((field, problem))) = self.erosion.as_ref().map(|e| e.validate()) {
             return bad(&format!("erosion.{field}"), problem);
+        }
+        if let Some(style) = &self.style {
+            if let Some(g) = style
+                .gamma
+                .iter()
+                .find(|g| !(g.is_finite() && (1.0..=6.0).contains(*g)))
+            {
+                return bad("style.gamma", format!("each must be 1 to 6, got {g}"));
+            }
+            if !(style.strength.is_finite() && (0.0..=2.0).contains(&style.strength)) {
+                return bad(
+                    "style.strength",
+                    format!("must be 0 to 2, got {}", style.strength),
+                );
+            }
         }
         if !(self.map_width().is_finite() && self.map_width() <= MAX_MAP_WIDTH_M) {
             return bad(

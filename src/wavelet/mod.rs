@@ -16,6 +16,7 @@ pub mod gpu;
 pub mod lifting;
 pub mod mask;
 pub mod rng;
+pub mod style;
 pub mod synthesis;
 
 use thiserror::Error;
