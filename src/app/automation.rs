@@ -51,6 +51,9 @@ pub struct Status {
     /// Milliseconds of CPU the app's last frame took (its update and painting, not the
     /// browser's compositing), as eframe measures it.
     pub frame_cpu_ms: Option<f32>,
+    /// Bytes of the page's WebAssembly memory (it only grows, so after a run this is the
+    /// peak the app needed); `None` natively.
+    pub memory_bytes: Option<f64>,
 }
 
 /// The uploaded DEM, as the DEM panel shows it.

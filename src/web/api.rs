@@ -24,6 +24,7 @@
 //!   `status().view3d` then reports `{triangles, chunks, finestLevel, width, height, mode,
 //!   distance, yaw, pitch}` of the last frame.
 
+use wasm_bindgen::JsCast;
 use wasm_bindgen::prelude::*;
 
 use crate::app::{Automation, Command};
@@ -39,7 +40,15 @@ pub(super) fn install(automation: &Automation) {
     let api = js_sys::Object::new();
 
     let status_source = automation.clone();
-    let status = Closure::<dyn Fn() -> JsValue>::new(move || to_js(&status_source.status()));
+    let status = Closure::<dyn Fn() -> JsValue>::new(move || {
+        let mut status = status_source.status();
+        status.memory_bytes = wasm_bindgen::memory()
+            .dyn_into::<js_sys::WebAssembly::Memory>()
+            .ok()
+            .and_then(|m| m.buffer().dyn_into::<js_sys::ArrayBuffer>().ok())
+            .map(|b| f64::from(b.byte_length()));
+        to_js(&status)
+    });
     set(&api, "status", status.as_ref());
     status.forget();
 

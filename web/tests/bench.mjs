@@ -133,6 +133,18 @@ async function measure(url, mode) {
       return { gaps, total, tasks };
     });
     const hydrology = mode === 'cpu' ? await page.evaluate(hydrologyStages) : null;
+    // Peak memory of a 4096^2 generation of the default scene (the page's WebAssembly memory
+    // only grows, so its size afterwards is the peak), on the CPU path only (SwiftShader
+    // takes minutes at that size). BENCH_4096=0 skips it.
+    const big = mode === 'cpu' && process.env.BENCH_4096 !== '0'
+      ? await page.evaluate(async () => {
+        const before = window.strahler.status().memoryBytes;
+        const start = performance.now();
+        const report = await window.strahler.generate({ size: 4096 });
+        return { ms: performance.now() - start, before, after: window.strahler.status().memoryBytes,
+          stages: report.stages.map((s) => `${s.name} ${s.ms.toFixed(0)}`).join(', ') };
+      })
+      : null;
     const gaps = frames.gaps.slice(1).sort((a, b) => a - b);
     const pick = (q) => gaps[Math.min(gaps.length - 1, Math.floor(q * gaps.length))];
     return {
@@ -149,6 +161,7 @@ async function measure(url, mode) {
       longTasks: frames.tasks.length,
       longestTask: Math.max(0, ...frames.tasks),
       hydrology,
+      big,
     };
   } finally {
     await browser.close();
@@ -186,4 +199,8 @@ for (const r of rows.filter((row) => row.hydrology)) {
     + `${h.ms[0].toFixed(1)}, ridges ${h.ms[1].toFixed(1)}, skeleton ${h.ms[2].toFixed(1)}, `
     + `enrich ${h.ms[3].toFixed(1)}, together ${h.total.toFixed(1)} ms `
     + '(target: at most twice the native 200 ms)');
+}
+for (const r of rows.filter((r) => r.big)) {
+  console.log(`4096^2 generation in the page (${r.mode}): ${r.big.ms.toFixed(0)} ms (${r.big.stages}); `
+    + `WebAssembly memory ${(r.big.before / 2 ** 20).toFixed(0)} MiB before, ${(r.big.after / 2 ** 20).toFixed(0)} MiB after (the peak)`);
 }
