@@ -368,6 +368,97 @@ fn analyze_prints_the_variance_table_and_fits_for_tif_and_png() {
     assert!(gamma > 1.0 && gamma < 8.0, "{gamma}");
 }
 
+/// `analyze --network`: the real DEM's channel network beside the generated one (seed 000,
+/// Sec. VII), as a table and in the JSON.
+#[test]
+fn analyze_network_compares_the_dem_channels_with_a_generated_network() {
+    let input = test_dem("srtm_n44e005_384.tif");
+    let input = input.to_str().unwrap();
+    let out = strahler(&["analyze", input, "--network"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8_lossy(&out.stdout);
+    let header = text
+        .lines()
+        .find(|l| l.contains("DEM") && l.contains("generated") && !l.contains("channel network"))
+        .unwrap_or_else(|| panic!("no table header: {text}"));
+    assert!(header.find("DEM") < header.find("generated"), "{header}");
+    for row in [
+        "Strahler order",
+        "streams of order 4",
+        "bifurcation ratio R_b",
+        "Tokunaga T_1",
+    ] {
+        let line = text
+            .lines()
+            .find(|l| l.starts_with(row))
+            .unwrap_or_else(|| panic!("no row {row:?}: {text}"));
+        // Three columns: the DEM, its largest basin, the generated networks.
+        assert_eq!(line[row.len()..].split_whitespace().count(), 3, "{line}");
+    }
+
+    let scene = format!(
+        "{}/tests/data/scenes/sketch.json",
+        env!("CARGO_MANIFEST_DIR")
+    );
+    let json = strahler(&[
+        "analyze",
+        input,
+        "--network",
+        "--channel-area",
+        "200000",
+        "--scene",
+        &scene,
+        "--json",
+    ]);
+    assert!(
+        json.status.success(),
+        "{}",
+        String::from_utf8_lossy(&json.stderr)
+    );
+    let report: serde_json::Value = serde_json::from_slice(&json.stdout).expect("JSON");
+    let net = &report["network"];
+    assert_eq!(net["dem"]["channel_area_m2"].as_f64(), Some(200000.0));
+    assert!(
+        net["dem"]["stats"]["max_order"].as_u64().unwrap() >= 4,
+        "{net}"
+    );
+    let rb = net["dem"]["stats"]["bifurcation_ratio"].as_f64().unwrap();
+    assert!((3.0..=5.0).contains(&rb), "{rb}");
+    for field in ["streams_per_order", "tokunaga", "tokunaga_a", "tokunaga_c"] {
+        assert!(!net["dem"]["stats"][field].is_null(), "{field}: {net}");
+        assert!(
+            !net["dem"]["largest_basin"][field].is_null(),
+            "{field}: {net}"
+        );
+    }
+    assert!(
+        net["generated"]["scene"]
+            .as_str()
+            .unwrap()
+            .ends_with("sketch.json")
+    );
+    assert!(net["generated"]["networks"].as_u64().unwrap() >= 1, "{net}");
+    assert!(
+        net["generated"]["stats"]["max_order"].as_u64().unwrap() >= 2,
+        "{net}"
+    );
+    assert_eq!(
+        net["generated"]["per_network"].as_array().map(Vec::len),
+        net["generated"]["networks"].as_u64().map(|n| n as usize)
+    );
+    // Without --network the JSON has no network part; a bad area is refused.
+    let plain = strahler(&["analyze", input, "--json"]);
+    let plain: serde_json::Value = serde_json::from_slice(&plain.stdout).expect("JSON");
+    assert!(plain["network"].is_null());
+    let bad = strahler(&["analyze", input, "--network", "--channel-area", "0"]);
+    assert!(!bad.status.success());
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("--channel-area"));
+}
+
 #[test]
 fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
     let dir = out_dir();

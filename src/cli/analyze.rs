@@ -1,7 +1,10 @@
 //! `strahler analyze`: the wavelet statistics of a DEM (seed paper 001, eqs. 6-7): detail
 //! variance per level and band, and the fitted lines; then the realism report (slopes,
 //! harmonic cells, geomorphons, drainage density, spectral slope) that `strahler generate`
-//! gives too, so a generated terrain compares with a real one.
+//! gives too, so a generated terrain compares with a real one. With `--network`, the DEM's
+//! channel network (D8 on the filled DEM) beside the networks a scene grows (seed paper
+//! 000, Sec. VII, Fig. 8): Strahler orders, streams per order, Horton's bifurcation ratio,
+//! Tokunaga's T_k and their fit.
 
 use std::path::PathBuf;
 
@@ -9,7 +12,8 @@ use clap::Args;
 use serde::Serialize;
 
 use crate::dem::ReadLimits;
-use crate::realism::RealismReport;
+use crate::realism::{ChannelReport, RealismReport};
+use crate::river::{NetworkStats, RiverNetwork, stats};
 use crate::wavelet::{self, AnalysisParams, Band};
 
 #[derive(Debug, Args)]
@@ -31,6 +35,133 @@ pub struct AnalyzeArgs {
     /// Refuse inputs with more cells than this.
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
+    /// Also extract the DEM's channel network (D8 flow accumulation on the Priority-Flood
+    /// filled DEM) and print its river statistics beside those of a generated network.
+    #[arg(long)]
+    pub network: bool,
+    /// Channel initiation area in m² for --network: cells with at least this upstream area
+    /// are channels [default: 100000 m², at least 10 cells].
+    #[arg(long, value_name = "M2", requires = "network")]
+    pub channel_area: Option<f64>,
+    /// The scene whose grown river networks --network compares with [default: the scene of
+    /// `strahler generate` without arguments, one river from the south edge].
+    #[arg(long, value_name = "SCENE.json", requires = "network")]
+    pub scene: Option<PathBuf>,
+}
+
+/// `--network`: the DEM's channel network and the scene's grown networks.
+#[derive(Serialize)]
+struct NetworkComparison {
+    dem: ChannelReport,
+    generated: GeneratedNetworks,
+}
+
+#[derive(Serialize)]
+struct GeneratedNetworks {
+    /// The scene file, or "default".
+    scene: String,
+    networks: usize,
+    /// Every grown network pooled, as the DEM's basins are.
+    stats: NetworkStats,
+    /// Each network alone (the `rivers.networks` of the `generate` report).
+    per_network: Vec<NetworkStats>,
+}
+
+fn compare_networks(
+    args: &AnalyzeArgs,
+    field: &crate::heightfield::Heightfield,
+    cell_x: f64,
+    cell_y: f64,
+) -> Result<NetworkComparison, Box<dyn std::error::Error>> {
+    if let Some(a) = args.channel_area
+        && !(a.is_finite() && a > 0.0)
+    {
+        return Err(format!("--channel-area must be a positive area in m², got {a}").into());
+    }
+    let channels = crate::realism::extract_channels(
+        field.data(),
+        field.width(),
+        field.height(),
+        cell_x,
+        cell_y,
+        args.channel_area,
+    )
+    .ok_or("the DEM's cell size must be positive to extract its channels")?;
+    let (scene, name) = match &args.scene {
+        Some(path) => (
+            super::generate::read_scene(path)?,
+            path.display().to_string(),
+        ),
+        None => (super::generate::default_scene(), "default".to_string()),
+    };
+    scene.validate().map_err(|e| format!("{name}: {e}"))?;
+    let grown = crate::terrain::grow_rivers(&scene.strokes(), &scene.terrain_params());
+    let networks: Vec<RiverNetwork> = grown.iter().map(|g| g.network.clone()).collect();
+    Ok(NetworkComparison {
+        dem: channels.report(),
+        generated: GeneratedNetworks {
+            scene: name,
+            networks: networks.len(),
+            stats: stats::analyse(&RiverNetwork::forest(&networks)),
+            per_network: grown.into_iter().map(|g| g.stats).collect(),
+        },
+    })
+}
+
+/// The comparison as a table: the DEM (all basins, its largest basin) beside the generated
+/// networks.
+fn network_table(c: &NetworkComparison) -> Vec<String> {
+    let columns = [&c.dem.stats, &c.dem.largest_basin, &c.generated.stats];
+    let mut lines = vec![
+        format!(
+            "channel network (seed 000, Sec. VII): D8 on the Priority-Flood filled DEM, channels from {:.0} m² upstream; generated: the {} scene's grown networks",
+            c.dem.channel_area_m2, c.generated.scene
+        ),
+        format!(
+            "{:<24}{:>16}{:>16}{:>16}",
+            "", "DEM", "DEM largest", "generated"
+        ),
+    ];
+    let mut row = |label: &str, cells: [String; 3]| {
+        lines.push(format!(
+            "{label:<24}{:>16}{:>16}{:>16}",
+            cells[0], cells[1], cells[2]
+        ));
+    };
+    let each = |cell: &dyn Fn(&NetworkStats) -> String| columns.map(cell);
+    let opt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
+    row(
+        "basins / networks",
+        [
+            c.dem.basins.to_string(),
+            c.dem.basins.min(1).to_string(),
+            c.generated.networks.to_string(),
+        ],
+    );
+    row("nodes (channel cells)", each(&|s| s.nodes.to_string()));
+    row("Strahler order", each(&|s| s.max_order.to_string()));
+    let orders = columns.iter().map(|s| s.max_order).max().unwrap_or(0) as usize;
+    for k in 1..=orders {
+        row(
+            &format!("streams of order {k}"),
+            each(&|s| {
+                s.streams_per_order
+                    .get(k - 1)
+                    .map_or("-".into(), |n| n.to_string())
+            }),
+        );
+    }
+    row("bifurcation ratio R_b", each(&|s| opt(s.bifurcation_ratio)));
+    let tk = columns.iter().map(|s| s.tokunaga.len()).max().unwrap_or(0);
+    for m in 1..=tk {
+        row(
+            &format!("Tokunaga T_{m}"),
+            each(&|s| opt(s.tokunaga.get(m - 1).copied())),
+        );
+    }
+    row("Tokunaga fit a", each(&|s| opt(s.tokunaga_a)));
+    row("Tokunaga fit c", each(&|s| opt(s.tokunaga_c)));
+    lines
 }
 
 pub fn parse_z_range(text: &str) -> Result<(f32, f32), String> {
@@ -72,6 +203,10 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
         .or(args.cell_size.map(|c| (c, c)))
         .unwrap_or((1.0, 1.0));
     let realism = RealismReport::of(&dem.field, cell_x, cell_y);
+    let network = args
+        .network
+        .then(|| compare_networks(args, &dem.field, cell_x, cell_y))
+        .transpose()?;
     let analysis = wavelet::analyze(&dem.field, &params)
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
     let levels = analysis.levels.len() as u32;
@@ -98,6 +233,10 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
             "cell_size_m": [cell_x, cell_y],
             "realism": realism,
         });
+        let mut json = json;
+        if let Some(network) = &network {
+            json["network"] = serde_json::to_value(network)?;
+        }
         println!("{}", serde_json::to_string_pretty(&json)?);
         return Ok(());
     }
@@ -151,6 +290,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
     println!("realism (cells {cell_x:.1} x {cell_y:.1} m):");
     for line in realism.lines() {
         println!("  {line}");
+    }
+    if let Some(network) = &network {
+        for line in network_table(network) {
+            println!("{line}");
+        }
     }
     Ok(())
 }

@@ -87,17 +87,7 @@ pub struct GenerateArgs {
 /// The scene the arguments describe: the file (or the defaults), then the options on top.
 pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>> {
     let mut scene = match &args.scene {
-        Some(path) => {
-            let bytes = crate::dem::read_bounded(
-                path,
-                crate::scene::MAX_SCENE_BYTES,
-                "a scene file may take",
-            )
-            .map_err(|e| format!("{}: {e}", path.display()))?;
-            let text = String::from_utf8(bytes)
-                .map_err(|_| format!("{}: a scene is UTF-8 JSON text", path.display()))?;
-            Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?
-        }
+        Some(path) => read_scene(path)?,
         None => Scene::default(),
     };
     let width = scene.cell_size * scene.size as f64;
@@ -185,12 +175,33 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     // Without a scene file and without a river, one river rises from the south edge (a
     // scene file stands as it is: a sketch alone, e.g. features of a DEM, is a terrain).
     if args.scene.is_none() && scene.rivers.is_empty() {
-        scene
-            .rivers
-            .push(RiverStroke::from(parse_stroke("0.5,1,0.5,0.35")?));
+        scene.rivers.push(default_river());
     }
     scene.validate()?;
     Ok(scene)
+}
+
+/// Reads a scene file (bounded in size, UTF-8 JSON); errors name the file.
+pub fn read_scene(path: &Path) -> Result<Scene, Box<dyn std::error::Error>> {
+    let bytes =
+        crate::dem::read_bounded(path, crate::scene::MAX_SCENE_BYTES, "a scene file may take")
+            .map_err(|e| format!("{}: {e}", path.display()))?;
+    let text = String::from_utf8(bytes)
+        .map_err(|_| format!("{}: a scene is UTF-8 JSON text", path.display()))?;
+    Ok(Scene::from_json(&text).map_err(|e| format!("{}: {e}", path.display()))?)
+}
+
+/// The scene `strahler generate` runs without a scene file or a river: the defaults and
+/// one river rising from the middle of the south edge.
+pub fn default_scene() -> Scene {
+    let mut scene = Scene::default();
+    scene.rivers.push(default_river());
+    scene
+}
+
+/// The river of [`default_scene`].
+fn default_river() -> RiverStroke {
+    RiverStroke::from(parse_stroke("0.5,1,0.5,0.35").expect("a valid stroke"))
 }
 
 /// Parses `X0,Y0,X1,Y1[:phi=P][:depth=D]`.

@@ -59,7 +59,7 @@ fn is_outlet(g: &Grid, r: usize, c: usize) -> bool {
 /// Uses Barnes et al.'s "pit queue" refinement: a cell raised to just above the cell it was
 /// reached from lies in a depression and is processed from a FIFO before the heap, so only
 /// cells above the current flood level pay for the priority queue.
-fn priority_flood_epsilon(g: &Grid) -> (Vec<f64>, Vec<bool>) {
+pub(super) fn priority_flood_epsilon(g: &Grid) -> (Vec<f64>, Vec<bool>) {
     let (w, h) = (g.w, g.h);
     let mut z = g.z.clone();
     let mut closed: Vec<bool> = z.iter().map(|v| !v.is_finite()).collect();
@@ -112,7 +112,7 @@ fn priority_flood_epsilon(g: &Grid) -> (Vec<f64>, Vec<bool>) {
 
 /// D8 receiver of every cell (`None` for outlets and no-data) with the length of the step.
 /// Non-outlet cells are never on the border, so all their 8 neighbours exist.
-fn d8_receivers(g: &Grid, z: &[f64], outlet: &[bool]) -> Vec<Option<(usize, f64)>> {
+pub(super) fn d8_receivers(g: &Grid, z: &[f64], outlet: &[bool]) -> Vec<Option<(usize, f64)>> {
     let w = g.w as isize;
     let steps: Vec<(isize, f64)> = DIRS8
         .iter()
@@ -139,7 +139,7 @@ fn d8_receivers(g: &Grid, z: &[f64], outlet: &[bool]) -> Vec<Option<(usize, f64)
 }
 
 /// Upstream area (m²) of every cell: its own area plus that of all cells draining to it.
-fn flow_accumulation(g: &Grid, rcv: &[Option<(usize, f64)>]) -> Vec<f64> {
+pub(super) fn flow_accumulation(g: &Grid, rcv: &[Option<(usize, f64)>]) -> Vec<f64> {
     let cell_area = g.cx * g.cy;
     let mut area: Vec<f64> =
         g.z.iter()

@@ -10,6 +10,9 @@
 //!   (Barnes et al. 2014);
 //! * relief and the number of measured cells.
 //!
+//! [`network`] extracts a DEM's channel network (the same fill and D8) as a forest of
+//! channel cells and gives it the river statistics of a generated network.
+//!
 //! Heights are row-major `f32` (row 0 first); non-finite values are no data and are skipped
 //! everywhere. Computation is in `f64`. Only `std` is used.
 
@@ -17,6 +20,7 @@ mod drainage;
 mod geomorphon;
 mod grid;
 mod harmonic;
+pub mod network;
 mod report;
 mod slope;
 mod ssim;
@@ -25,6 +29,7 @@ mod tests;
 
 pub use self::geomorphon::GEOMORPHON_NAMES;
 use self::grid::Grid;
+pub use self::network::{ChannelNetwork, ChannelReport, extract_channels};
 pub use self::report::{BandFit, RealismReport};
 pub use self::ssim::ssim;
 

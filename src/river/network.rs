@@ -29,6 +29,24 @@ impl RiverNetwork {
         self.nodes.len().saturating_sub(1)
     }
 
+    /// Several networks as one forest (each keeps its own estuary, its nodes after those of
+    /// the networks before it), so that [`super::stats::analyse`] pools their statistics.
+    pub fn forest(networks: &[RiverNetwork]) -> RiverNetwork {
+        let mut out = RiverNetwork {
+            link_length: networks.first().map_or(0.0, |n| n.link_length),
+            ..Default::default()
+        };
+        for net in networks {
+            let offset = out.nodes.len() as u32;
+            out.nodes.extend_from_slice(&net.nodes);
+            out.parent
+                .extend(net.parent.iter().map(|p| p.map(|p| p + offset)));
+            out.exterior.extend_from_slice(&net.exterior);
+            out.height.extend_from_slice(&net.height);
+        }
+        out
+    }
+
     /// `(downstream, upstream)` node pairs of every link.
     pub fn link_pairs(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
         self.parent

@@ -51,16 +51,28 @@ pub fn strahler_orders(net: &RiverNetwork) -> Vec<u32> {
 }
 
 /// Computes [`NetworkStats`]. O(nodes).
+///
+/// `net` may be a forest: every node without a parent is an estuary (an outlet), and the
+/// counts pool all its trees (the channel network of a DEM, with one tree per outlet, or
+/// several grown networks merged with [`RiverNetwork::forest`]). On a single tree rooted at
+/// node 0 this is the network's own statistics.
 pub fn analyse(net: &RiverNetwork) -> NetworkStats {
     let n = net.nodes.len();
-    if n < 2 {
+    let links = net.parent.iter().filter(|p| p.is_some()).count();
+    if links == 0 {
         return NetworkStats {
             nodes: n,
             ..Default::default()
         };
     }
     let order = strahler_orders(net);
-    let max_order = order[1..].iter().copied().max().unwrap_or(1);
+    // A link is a node with a parent; an estuary's order is that of its links anyway.
+    let has_link = |node: usize| net.parent[node].is_some();
+    let max_order = (0..n)
+        .filter(|&i| has_link(i))
+        .map(|i| order[i])
+        .max()
+        .unwrap_or(1);
     let mut children: Vec<Vec<usize>> = vec![Vec::new(); n];
     for (p, c) in net.link_pairs() {
         children[p].push(c);
@@ -68,7 +80,7 @@ pub fn analyse(net: &RiverNetwork) -> NetworkStats {
     let k_max = max_order as usize;
     // A link of order k heads a stream when no upstream link continues it at order k.
     let mut streams = vec![0usize; k_max];
-    for node in 1..n {
+    for node in (0..n).filter(|&i| has_link(i)) {
         let k = order[node];
         if !children[node].iter().any(|&c| order[c] == k) {
             streams[k as usize - 1] += 1;
@@ -118,7 +130,7 @@ pub fn analyse(net: &RiverNetwork) -> NetworkStats {
     );
     NetworkStats {
         nodes: n,
-        links: n - 1,
+        links,
         max_order,
         streams_per_order: streams,
         bifurcation_ratio,
@@ -180,5 +192,19 @@ mod tests {
         assert!((stats.bifurcation_ratio.unwrap() - 2.0).abs() < 1e-9);
         // No side tributaries in a perfect binary tree.
         assert!(stats.tokunaga.iter().all(|&t| t == 0.0));
+
+        // Two such trees and a lone order-1 link as one forest: the counts pool, no link
+        // joins the estuaries.
+        let mut lone = RiverNetwork::default();
+        for p in [None, Some(0)] {
+            lone.nodes.push(DVec2::ZERO);
+            lone.parent.push(p);
+            lone.exterior.push(true);
+            lone.height.push(0.0);
+        }
+        let forest = RiverNetwork::forest(&[net.clone(), lone, net]);
+        let stats = analyse(&forest);
+        assert_eq!((stats.nodes, stats.links, stats.max_order), (18, 15, 3));
+        assert_eq!(stats.streams_per_order, vec![9, 4, 2]);
     }
 }

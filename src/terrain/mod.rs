@@ -292,6 +292,14 @@ fn check_strokes(strokes: &[Stroke], sketch: &Sketch) -> Result<(), TerrainError
     Ok(())
 }
 
+/// The river networks [`generate`] grows for `strokes` (its first stage alone, e.g. to
+/// compare their statistics with a real DEM's channel network). O(links).
+pub fn grow_rivers(strokes: &[Stroke], params: &TerrainParams) -> Vec<GrownRiver> {
+    let mut river_params = params.rivers;
+    river_params.map_width_m = params.ridges.map_width_m;
+    river::grow_all(strokes, &river_params, stage_seed(params.seed, "rivers"))
+}
+
 /// Runs the pipeline. Cost: rivers O(L), ridges O(L log L) for L river links, skeleton
 /// O(length in cells), diffusion O(size^2) (multigrid), drainage O(size^2).
 pub async fn generate(
@@ -316,9 +324,7 @@ pub async fn generate(
     };
 
     ctx.checkpoint(0.0, "growing rivers").await?;
-    let mut river_params = params.rivers;
-    river_params.map_width_m = params.ridges.map_width_m;
-    let rivers = river::grow_all(strokes, &river_params, stage_seed(params.seed, "rivers"));
+    let rivers = grow_rivers(strokes, params);
     lap("rivers", &mut stages);
 
     ctx.checkpoint(0.1, "extracting ridges").await?;
