@@ -1177,6 +1177,66 @@ fn absurd_scales_and_counts_are_refused_with_the_limit() {
         &["bench", "--pipeline", "--sizes", "64", "--runs", "0"],
         &["--runs"],
     );
+    refused(&["bench", "--sizes", "64", "--repeat", "0"], &["--repeat"]);
+}
+
+/// Issue 18, point 6: `bench --json` prints one JSON object per run; on the GPU the first
+/// solve builds the kernels and a later one builds none.
+#[test]
+fn bench_json_prints_one_object_per_run() {
+    let out = strahler(&[
+        "bench",
+        "--sizes",
+        "32",
+        "--repeat",
+        "2",
+        "--jacobi-sweeps",
+        "20",
+        "--json",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = text
+        .lines()
+        .map(|line| serde_json::from_str(line).expect("one JSON object per line"))
+        .collect();
+    for row in &rows {
+        for key in [
+            "size",
+            "backend",
+            "method",
+            "run",
+            "ms",
+            "cycles",
+            "pipelines_created",
+            "submissions",
+            "readbacks",
+        ] {
+            assert!(!row[key].is_null(), "{key} missing in {row}");
+        }
+        assert_eq!(row["size"], 32);
+    }
+    let cpu = rows.iter().filter(|r| r["backend"] == "cpu").count();
+    assert_eq!(cpu, 4, "multigrid and Jacobi twice each: {text}");
+    let gpu: Vec<_> = rows.iter().filter(|r| r["backend"] == "gpu").collect();
+    if gpu.is_empty() {
+        assert!(
+            std::env::var_os("STRAHLER_REQUIRE_GPU").is_none(),
+            "no GPU rows: {text}"
+        );
+        return;
+    }
+    assert_eq!(gpu.len(), 4, "{text}");
+    let multigrid: Vec<_> = gpu.iter().filter(|r| r["method"] == "multigrid").collect();
+    assert_eq!(multigrid[0]["pipelines_created"], 6);
+    assert_eq!(multigrid[1]["pipelines_created"], 0);
+    assert_eq!(multigrid[1]["modules_created"], 0);
+    let cycles = multigrid[1]["cycles"].as_u64().unwrap();
+    assert_eq!(multigrid[1]["readbacks"].as_u64(), Some(cycles + 2));
 }
 
 /// Issue 22, points 9 and 11-16: a result that is not what was asked is an error (or a

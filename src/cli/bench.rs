@@ -4,12 +4,11 @@
 //! Jacobi sweeps where it is affordable. The error column is the max |u - u*| over all cells
 //! relative to the fixed heights' range, against a reference solved to a 1e-9 residual.
 
-use std::fmt::Write as _;
-
 use clap::Args;
 
 use crate::compute::Backend;
 use crate::diffusion::{self, Constraints, Method, MultigridParams, demo};
+use crate::gpu::GpuStats;
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
@@ -49,6 +48,19 @@ pub struct BenchArgs {
     /// Time Poisson blending instead (a block of half the side in each size).
     #[arg(long)]
     pub blend: bool,
+    /// Print one JSON object per line and run (size, backend, method, run, ms, cycles,
+    /// sweeps, residual, error and, on the GPU, the pipelines and shader modules created, the
+    /// queue submissions and the readbacks) instead of the diffusion table.
+    #[arg(long)]
+    pub json: bool,
+    /// Solves per size, backend and method in the diffusion benchmark. On the GPU the first
+    /// builds the kernels; later ones reuse them.
+    #[arg(long, default_value_t = 1)]
+    pub repeat: usize,
+    /// Run every GPU solve on a newly created device (created outside the timing), so each
+    /// builds its kernels again: what every solve cost before kernels were cached.
+    #[arg(long)]
+    pub fresh_device: bool,
     /// Time the 3D view instead (texture preparation, chunk selection and GPU frames at four
     /// camera distances; needs a GPU).
     #[arg(long)]
@@ -186,6 +198,12 @@ pub fn check(args: &BenchArgs) -> Result<(), String> {
     if !(1..=MAX_RUNS).contains(&args.runs) {
         return Err(format!("--runs must be 1 to {MAX_RUNS}, got {}", args.runs));
     }
+    if !(1..=MAX_RUNS).contains(&args.repeat) {
+        return Err(format!(
+            "--repeat must be 1 to {MAX_RUNS}, got {}",
+            args.repeat
+        ));
+    }
     if args.max_binding_mib == Some(0) {
         return Err("--max-binding-mib must be at least 1".into());
     }
@@ -226,58 +244,147 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     if want_cpu {
         backends.push(Backend::Cpu);
     }
+    // With --json, stdout carries only the JSON lines; the notes go to stderr.
+    let note = |text: String| {
+        if args.json {
+            eprintln!("{text}");
+        } else {
+            println!("{text}");
+        }
+    };
+    let limit = args.max_binding_mib.map(|mib| mib.max(1) << 20);
+    let new_device = || -> Result<Backend, crate::gpu::GpuError> {
+        let context = pollster::block_on(crate::gpu::GpuContext::headless_with_limits(|limits| {
+            if let Some(bytes) = limit {
+                limits.max_storage_buffer_binding_size =
+                    limits.max_storage_buffer_binding_size.min(bytes);
+                limits.max_buffer_size = limits.max_buffer_size.min(bytes);
+            }
+        }))?;
+        Ok(Backend::Gpu(std::sync::Arc::new(context)))
+    };
     if want_gpu {
-        match (path.gpu(), args.max_binding_mib) {
-            (Some(_), Some(mib)) => {
-                let bytes = mib.max(1) << 20;
-                let small =
-                    pollster::block_on(crate::gpu::GpuContext::headless_with_limits(|limits| {
-                        limits.max_storage_buffer_binding_size =
-                            limits.max_storage_buffer_binding_size.min(bytes);
-                        limits.max_buffer_size = limits.max_buffer_size.min(bytes);
-                    }))?;
-                println!(
-                    "GPU storage bindings limited to {} bytes: larger fields run in bands",
-                    small.caps.max_storage_bytes()
-                );
-                backends.push(Backend::Gpu(std::sync::Arc::new(small)));
+        match (path.gpu(), limit) {
+            (Some(_), Some(_)) => {
+                let small = new_device()?;
+                if let Backend::Gpu(gpu) = &small {
+                    note(format!(
+                        "GPU storage bindings limited to {} bytes: larger fields run in bands",
+                        gpu.caps.max_storage_bytes()
+                    ));
+                }
+                backends.push(small);
             }
             (Some(gpu), None) => backends.push(Backend::Gpu(gpu.clone())),
-            (None, _) => println!("no GPU backend: {path}"),
+            (None, _) => note(format!("no GPU backend: {path}")),
         }
     }
-    println!(
-        "diffusion benchmark: skeleton-like problems, {:.1}% fixed cells; {}",
+    note(format!(
+        "diffusion benchmark: skeleton-like problems, {:.1}% fixed cells; {}{}",
         args.fixed * 100.0,
-        path
-    );
-    println!(
-        "{:>6} {:>8} {:>10} {:>10} {:>8} {:>8} {:>9} {:>10} {:>10}  paper",
-        "size", "backend", "method", "ms", "cycles", "sweeps", "work", "residual", "max error"
-    );
+        path,
+        if args.fresh_device {
+            "; every GPU run on a new device"
+        } else {
+            ""
+        }
+    ));
+    if !args.json {
+        println!(
+            "{:>6} {:>8} {:>10} {:>10} {:>8} {:>8} {:>9} {:>10} {:>10}  paper",
+            "size", "backend", "method", "ms", "cycles", "sweeps", "work", "residual", "max error"
+        );
+    }
     for &size in &args.sizes {
         let problem = demo::skeleton_like(size, args.fixed, 7);
         let reference = reference(&problem)?;
-        let mut rows = Vec::new();
-        for backend in &backends {
-            let method = Method::Multigrid(MultigridParams::default());
-            rows.push(run_one(backend, &problem, method, &reference));
-            if size <= args.jacobi_max_size && args.jacobi_sweeps > 0 {
-                let method = Method::Jacobi {
-                    sweeps: args.jacobi_sweeps,
-                };
-                rows.push(run_one(backend, &problem, method, &reference));
-            }
+        let mut methods = vec![Method::Multigrid(MultigridParams::default())];
+        if size <= args.jacobi_max_size && args.jacobi_sweeps > 0 {
+            methods.push(Method::Jacobi {
+                sweeps: args.jacobi_sweeps,
+            });
         }
-        for (i, row) in rows.into_iter().enumerate() {
-            let note = if i == 0 { paper(size) } else { "" };
-            match row {
-                Ok(line) => println!("{size:>6} {line}  {note}"),
-                Err(err) => println!("{size:>6} failed: {err}"),
+        let mut first = true;
+        for backend in &backends {
+            for method in &methods {
+                for run in 0..args.repeat {
+                    let fresh;
+                    let backend = if args.fresh_device && matches!(backend, Backend::Gpu(_)) {
+                        fresh = new_device()?;
+                        &fresh
+                    } else {
+                        backend
+                    };
+                    let row = run_one(backend, &problem, *method, &reference);
+                    let paper = if first { paper(size) } else { "" };
+                    first = false;
+                    match row {
+                        Ok(row) if args.json => println!("{}", row.json(size, run)),
+                        Ok(row) => println!("{size:>6} {}  {paper}", row.line()),
+                        Err(err) if args.json => println!(
+                            "{}",
+                            serde_json::json!({
+                                "size": size,
+                                "backend": backend.key(),
+                                "method": method.key(),
+                                "run": run,
+                                "error": err.to_string(),
+                            })
+                        ),
+                        Err(err) => println!("{size:>6} failed: {err}"),
+                    }
+                }
             }
         }
     }
     Ok(())
+}
+
+/// One timed solve: what the solver reports, its error against the reference and, on the
+/// GPU, what the device created, submitted and read back meanwhile.
+struct Row {
+    out: diffusion::Filled,
+    error: f32,
+    gpu: Option<GpuStats>,
+}
+
+impl Row {
+    fn line(&self) -> String {
+        let out = &self.out;
+        format!(
+            "{:>8} {:>10} {:>10.1} {:>8} {:>8} {:>9.1} {:>10.1e} {:>10.1e}",
+            out.backend,
+            out.method,
+            out.millis,
+            out.cycles,
+            out.sweeps,
+            out.work_sweeps,
+            out.relative_residual,
+            self.error
+        )
+    }
+
+    fn json(&self, size: usize, run: usize) -> serde_json::Value {
+        let out = &self.out;
+        let gpu = self.gpu.unwrap_or_default();
+        serde_json::json!({
+            "size": size,
+            "backend": out.backend,
+            "method": out.method,
+            "run": run,
+            "ms": out.millis,
+            "cycles": out.cycles,
+            "sweeps": out.sweeps,
+            "work_sweeps": out.work_sweeps,
+            "relative_residual": out.relative_residual,
+            "max_error": self.error,
+            "converged": out.converged,
+            "pipelines_created": gpu.pipelines_created,
+            "modules_created": gpu.modules_created,
+            "submissions": gpu.submissions,
+            "readbacks": gpu.readbacks,
+        })
+    }
 }
 
 /// The problem solved far past the product's tolerance: the "exact" discrete solution.
@@ -301,27 +408,22 @@ fn run_one(
     problem: &Constraints,
     method: Method,
     reference: &Heightfield,
-) -> Result<String, diffusion::DiffusionError> {
+) -> Result<Row, diffusion::DiffusionError> {
+    let stats = |backend: &Backend| match backend {
+        Backend::Gpu(gpu) => Some(gpu.stats()),
+        Backend::Cpu => None,
+    };
+    let before = stats(backend);
     let out = pollster::block_on(diffusion::fill(
         backend,
         problem,
         method,
         &JobCtx::detached(),
     ))?;
+    let gpu = stats(backend)
+        .zip(before)
+        .map(|(after, before)| after.since(&before));
     let range = diffusion::fixed_height_range(problem).max(f32::MIN_POSITIVE);
     let error = out.field.max_abs_diff(reference).unwrap_or(f32::NAN) / range;
-    let mut line = String::new();
-    let _ = write!(
-        line,
-        "{:>8} {:>10} {:>10.1} {:>8} {:>8} {:>9.1} {:>10.1e} {:>10.1e}",
-        out.backend,
-        out.method,
-        out.millis,
-        out.cycles,
-        out.sweeps,
-        out.work_sweeps,
-        out.relative_residual,
-        error
-    );
-    Ok(line)
+    Ok(Row { out, error, gpu })
 }

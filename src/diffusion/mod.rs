@@ -23,6 +23,7 @@ use web_time::Instant;
 
 pub use constraints::{Constraints, ConstraintsError, FixedMask};
 pub use cpu::{jacobi_sweep, max_update};
+pub use gpu::warm as warm_gpu;
 pub use multigrid::{MultigridParams, Solved};
 pub use post::PostFilter;
 

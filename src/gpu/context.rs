@@ -1,11 +1,13 @@
 //! Creating the device: from eframe's render state, or headless.
 
 use std::fmt;
+use std::sync::Arc;
 
 use serde::Serialize;
 use thiserror::Error;
 
 use super::caps::{Capabilities, requested_limits};
+use super::kernels::Kernels;
 
 /// Why the GPU path is unavailable or failed.
 #[derive(Debug, Error)]
@@ -67,7 +69,8 @@ impl AdapterSummary {
     }
 }
 
-/// A device and queue plus what they can do. Cheap to share behind an `Arc`.
+/// A device and queue plus what they can do, and the kernels built on that device
+/// ([`GpuContext::pipelines`]). Cheap to share behind an `Arc`; clones share the kernels.
 #[derive(Clone)]
 pub struct GpuContext {
     pub device: wgpu::Device,
@@ -75,6 +78,7 @@ pub struct GpuContext {
     pub adapter: AdapterSummary,
     pub backend: wgpu::Backend,
     pub caps: Capabilities,
+    pub(super) kernels: Arc<Kernels>,
 }
 
 impl fmt::Debug for GpuContext {
@@ -82,6 +86,7 @@ impl fmt::Debug for GpuContext {
         f.debug_struct("GpuContext")
             .field("adapter", &self.adapter)
             .field("caps", &self.caps)
+            .field("stats", &self.stats())
             .finish_non_exhaustive()
     }
 }
@@ -102,6 +107,7 @@ impl GpuContext {
             adapter: AdapterSummary::of(&info),
             backend: info.backend,
             caps: Capabilities::of(adapter, device),
+            kernels: Arc::default(),
         }
     }
 
@@ -139,7 +145,7 @@ impl GpuContext {
             .map_err(|err| GpuError::RequestDevice(err.to_string()))?;
         // wgpu's default handler panics on an uncaptured error; stages capture theirs with
         // error scopes, so anything left over is logged, never a crash.
-        device.on_uncaptured_error(std::sync::Arc::new(|err: wgpu::Error| {
+        device.on_uncaptured_error(Arc::new(|err: wgpu::Error| {
             log::error!("uncaptured GPU error: {err}");
         }));
         let info = adapter.get_info();
@@ -149,6 +155,7 @@ impl GpuContext {
             queue,
             adapter: AdapterSummary::of(&info),
             backend: info.backend,
+            kernels: Arc::default(),
         };
         if !context.caps.compute {
             return Err(GpuError::NoCompute {

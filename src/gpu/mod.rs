@@ -2,12 +2,16 @@
 //! state (the app shares the device egui draws with) or headlessly (command line, tests).
 //!
 //! Capabilities are decided once, at creation ([`Capabilities`]); stages ask them before they
-//! choose the GPU path. Nothing here depends on egui.
+//! choose the GPU path. Compute kernels are built once per device and cached on the context
+//! ([`GpuContext::pipelines`]), which also counts its work ([`GpuContext::stats`]). Nothing
+//! here depends on egui or on the stages above.
 
 mod caps;
 mod context;
+mod kernels;
 mod readback;
 
 pub use caps::Capabilities;
 pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
+pub use kernels::{GpuStats, Shader};
 pub use readback::{read_bytes, read_f32_buffer, wait_for_submitted_work};

@@ -49,7 +49,8 @@ pub async fn read_bytes(
             label: Some("readback"),
         });
     encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
-    ctx.queue.submit([encoder.finish()]);
+    ctx.submit(encoder.finish());
+    ctx.kernels.count_readback();
 
     let (tx, rx) = oneshot::channel();
     staging.map_async(wgpu::MapMode::Read, .., move |result| {

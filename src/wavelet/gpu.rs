@@ -9,11 +9,14 @@ use wgpu::util::DeviceExt;
 
 use super::synthesis::{Amplified, AmplifyFailure, AmplifyParams, check, prepare};
 use super::{WaveletError, mask::Mask, rng};
-use crate::gpu::{GpuContext, GpuError, read_f32_buffer, wait_for_submitted_work};
+use crate::gpu::{GpuContext, GpuError, Shader, read_f32_buffer, wait_for_submitted_work};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
-const SHADER: &str = include_str!("../../shaders/wavelet.wgsl");
+const SHADER: Shader = Shader {
+    name: "wavelet.wgsl",
+    source: include_str!("../../shaders/wavelet.wgsl"),
+};
 const WORKGROUP: u32 = 16;
 
 #[repr(C)]
@@ -34,6 +37,14 @@ struct Params {
     coef: f32,
     sigma_per_cell: u32,
     _pad: [u32; 2],
+}
+
+/// The entry points: the synthesis fill, then the inverse lifting steps.
+const ENTRIES: [&str; 2] = ["fill", "lift"];
+
+/// Builds the wavelet kernels on `gpu` now (see [`crate::gpu::GpuContext::pipelines`]).
+pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
+    gpu.pipelines(&SHADER, ENTRIES).await.map(|_| ())
 }
 
 fn entry(binding: u32, buffer: &wgpu::Buffer) -> wgpu::BindGroupEntry<'_> {
@@ -99,22 +110,8 @@ pub async fn amplify(
     };
 
     let device = &gpu.device;
+    let [fill, lift] = gpu.pipelines(&SHADER, ENTRIES).await.map_err(gpu_err)?;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("wavelet.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-    });
-    let pipeline = |entry: &str| {
-        device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some(entry),
-            layout: None,
-            module: &module,
-            entry_point: Some(entry),
-            compilation_options: Default::default(),
-            cache: None,
-        })
-    };
-    let (fill, lift) = (pipeline("fill"), pipeline("lift"));
     let storage = |label: &str, data: &[f32]| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
@@ -195,7 +192,7 @@ pub async fn amplify(
             pass.dispatch_workgroups(*gx, *gy, 1);
         }
     }
-    gpu.queue.submit([encoder.finish()]);
+    gpu.submit(encoder.finish());
     if let Some(err) = scope.pop().await {
         return Err(gpu_err(GpuError::Validation(err.to_string())));
     }

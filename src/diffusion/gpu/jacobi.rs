@@ -10,13 +10,14 @@
 use wgpu::util::DeviceExt;
 
 use super::bands::{self, Band};
-use super::{WORKGROUP, bind, pipeline};
+use super::{JACOBI, WORKGROUP, bind};
 use crate::diffusion::{Constraints, DiffusionError};
 use crate::gpu::{GpuContext, GpuError, wait_for_submitted_work};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
-const SHADER: &str = include_str!("../../../shaders/jacobi.wgsl");
+/// The one entry point.
+pub(super) const ENTRIES: [&str; 1] = ["jacobi_sweep"];
 
 /// Cell updates per submission: keeps each submission well under a second on slow GPUs.
 const CELLS_PER_SUBMIT: u64 = 1 << 26;
@@ -51,12 +52,8 @@ pub(in crate::diffusion) async fn jacobi(
     let plan = bands::plan(&[(w, h)], gpu.caps.max_storage_bytes())?;
     let device = &gpu.device;
 
+    let [pipeline] = gpu.pipelines(&JACOBI, ENTRIES).await?;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("jacobi.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-    });
-    let pipeline = pipeline(device, &module, "jacobi_sweep");
     let field_usage =
         wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
     let initial = problem.initial().data();
@@ -161,7 +158,7 @@ pub(in crate::diffusion) async fn jacobi(
                 bands::exchange_ghost_rows(&mut encoder, &rows, &written(s), w);
             }
         }
-        gpu.queue.submit([encoder.finish()]);
+        gpu.submit(encoder.finish());
         if let Some(err) = scope.pop().await {
             return Err(GpuError::Validation(err.to_string()).into());
         }

@@ -11,23 +11,32 @@ pub(super) use jacobi::jacobi;
 pub(super) use multigrid::multigrid;
 pub(super) use post::post_filter;
 
+use crate::gpu::{GpuContext, GpuError, Shader};
+
 /// Side of the square workgroups every diffusion kernel uses.
 const WORKGROUP: u32 = 16;
 
-/// Builds a compute pipeline for `entry` of `module` with the layout derived from the shader.
-fn pipeline(
-    device: &wgpu::Device,
-    module: &wgpu::ShaderModule,
-    entry: &str,
-) -> wgpu::ComputePipeline {
-    device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(entry),
-        layout: None,
-        module,
-        entry_point: Some(entry),
-        compilation_options: Default::default(),
-        cache: None,
-    })
+/// The kernels, built once per device by [`crate::gpu::GpuContext::pipelines`].
+const JACOBI: Shader = Shader {
+    name: "jacobi.wgsl",
+    source: include_str!("../../../shaders/jacobi.wgsl"),
+};
+const MULTIGRID: Shader = Shader {
+    name: "multigrid.wgsl",
+    source: include_str!("../../../shaders/multigrid.wgsl"),
+};
+const POSTFILTER: Shader = Shader {
+    name: "postfilter.wgsl",
+    source: include_str!("../../../shaders/postfilter.wgsl"),
+};
+
+/// Builds every diffusion kernel on `gpu` now, e.g. at start-up, so the first solve does
+/// not pay for them. Later calls cost a few map lookups.
+pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
+    gpu.pipelines(&JACOBI, jacobi::ENTRIES).await?;
+    gpu.pipelines(&MULTIGRID, multigrid::ENTRIES).await?;
+    gpu.pipelines(&POSTFILTER, post::ENTRIES).await?;
+    Ok(())
 }
 
 /// A bind group of whole buffers at bindings `(index, buffer)` for `pipeline`'s group 0.

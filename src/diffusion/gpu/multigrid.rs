@@ -17,7 +17,7 @@
 use wgpu::util::DeviceExt;
 
 use super::bands::{self, Band};
-use super::{WORKGROUP, bind, pipeline};
+use super::{MULTIGRID, WORKGROUP, bind};
 use crate::diffusion::multigrid::hierarchy::{self, Level};
 use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
 use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
@@ -25,7 +25,15 @@ use crate::gpu::{GpuContext, GpuError, read_bytes};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
-const SHADER: &str = include_str!("../../../shaders/multigrid.wgsl");
+/// The entry points [`Pipelines`] holds, in its order.
+pub(super) const ENTRIES: [&str; 6] = [
+    "relax",
+    "restrict_residual",
+    "prolong_add",
+    "prolong_replace",
+    "residual_max",
+    "correction_max",
+];
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -50,6 +58,28 @@ struct Pipelines {
     prolong_replace: wgpu::ComputePipeline,
     residual_max: wgpu::ComputePipeline,
     correction_max: wgpu::ComputePipeline,
+}
+
+impl Pipelines {
+    /// The solver's kernels from the device's cache.
+    async fn of(gpu: &GpuContext) -> Result<Self, GpuError> {
+        let [
+            relax,
+            restrict,
+            prolong_add,
+            prolong_replace,
+            residual_max,
+            correction_max,
+        ] = gpu.pipelines(&MULTIGRID, ENTRIES).await?;
+        Ok(Self {
+            relax,
+            restrict,
+            prolong_add,
+            prolong_replace,
+            residual_max,
+            correction_max,
+        })
+    }
 }
 
 /// One band of a level: its rows, its unknowns and the bind groups of every operator that
@@ -138,19 +168,8 @@ pub(in crate::diffusion) async fn multigrid(
         );
     }
 
+    let pipes = Pipelines::of(gpu).await?;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("multigrid.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-    });
-    let pipes = Pipelines {
-        relax: pipeline(device, &module, "relax"),
-        restrict: pipeline(device, &module, "restrict_residual"),
-        prolong_add: pipeline(device, &module, "prolong_add"),
-        prolong_replace: pipeline(device, &module, "prolong_replace"),
-        residual_max: pipeline(device, &module, "residual_max"),
-        correction_max: pipeline(device, &module, "correction_max"),
-    };
     let pending = std::cell::RefCell::new(Vec::new());
     let (levels, checks, result) = upload(gpu, &pipes, &cpu_levels, plan, &pending);
     if let Some(err) = scope.pop().await {
@@ -180,7 +199,7 @@ pub(in crate::diffusion) async fn multigrid(
         });
         v_cycle(&mut encoder, &pipes, &levels, l, params, &mut stats, finest);
     }
-    gpu.queue.submit([encoder.finish()]);
+    gpu.submit(encoder.finish());
 
     let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
     let mut stop = Stopping::new(params, scale, residual, correction);
@@ -192,7 +211,7 @@ pub(in crate::diffusion) async fn multigrid(
         .await?;
         let mut encoder = device.create_command_encoder(&Default::default());
         v_cycle(&mut encoder, &pipes, &levels, 0, params, &mut stats, finest);
-        gpu.queue.submit([encoder.finish()]);
+        gpu.submit(encoder.finish());
         let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
         stop.record(residual, correction);
     }
@@ -520,7 +539,7 @@ async fn read_checks(
             }
         }
     }
-    gpu.queue.submit([encoder.finish()]);
+    gpu.submit(encoder.finish());
     let bytes = read_bytes(gpu, result, 8).await?;
     let word = |k: usize| {
         f32::from_bits(u32::from_le_bytes([

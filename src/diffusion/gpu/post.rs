@@ -3,13 +3,14 @@
 
 use wgpu::util::DeviceExt;
 
-use super::{WORKGROUP, bind, pipeline};
+use super::{POSTFILTER, WORKGROUP, bind};
 use crate::diffusion::post::{PostFilter, gaussian_taps};
 use crate::gpu::{GpuContext, GpuError, read_f32_buffer, wait_for_submitted_work};
 use crate::heightfield::Heightfield;
 use crate::noise::Perlin;
 
-const SHADER: &str = include_str!("../../../shaders/postfilter.wgsl");
+/// The entry points, in the order `post_filter` takes them.
+pub(super) const ENTRIES: [&str; 3] = ["blur_x", "blur_y", "combine"];
 
 #[repr(C)]
 #[derive(Clone, Copy, Default, bytemuck::Pod, bytemuck::Zeroable)]
@@ -59,11 +60,8 @@ pub async fn post_filter(
     };
 
     let device = &gpu.device;
+    let [blur_x, blur_y, combine] = gpu.pipelines(&POSTFILTER, ENTRIES).await?;
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label: Some("postfilter.wgsl"),
-        source: wgpu::ShaderSource::Wgsl(SHADER.into()),
-    });
     let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some(label),
@@ -92,9 +90,6 @@ pub async fn post_filter(
     let tmp = scratch("post tmp", storage);
     let out = scratch("post out", storage | wgpu::BufferUsages::COPY_SRC);
 
-    let blur_x = pipeline(device, &module, "blur_x");
-    let blur_y = pipeline(device, &module, "blur_y");
-    let combine = pipeline(device, &module, "combine");
     let x_group = bind(
         device,
         &blur_x,
@@ -140,7 +135,7 @@ pub async fn post_filter(
         pass.set_bind_group(0, &c_group, &[]);
         pass.dispatch_workgroups(gx, gy, 1);
     }
-    gpu.queue.submit([encoder.finish()]);
+    gpu.submit(encoder.finish());
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()));
     }

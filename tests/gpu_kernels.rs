@@ -1,0 +1,161 @@
+//! Kernels are built once per device: a second solve (multigrid, Jacobi, post-filter,
+//! wavelet amplify) on the same `GpuContext` creates no shader module and no pipeline, and
+//! gives the same bits as the first and as a solve on a fresh device. On lavapipe in CI.
+
+mod common;
+
+use std::sync::Arc;
+
+use strahler::compute::Backend;
+use strahler::diffusion::{self, Method, MultigridParams, PostFilter, demo};
+use strahler::gpu::{GpuContext, GpuStats};
+use strahler::heightfield::Heightfield;
+use strahler::jobs::JobCtx;
+use strahler::wavelet::{self, AmplifyParams, LocalParams, Scope, fbm};
+
+fn bits(field: &Heightfield) -> Vec<u32> {
+    field.data().iter().map(|v| v.to_bits()).collect()
+}
+
+/// Runs `work` on `gpu` and returns its result with the counters' change.
+fn counted<T>(gpu: &Arc<GpuContext>, work: impl FnOnce(&Backend) -> T) -> (T, GpuStats) {
+    let before = gpu.stats();
+    let out = work(&Backend::Gpu(gpu.clone()));
+    (out, gpu.stats().since(&before))
+}
+
+fn multigrid(backend: &Backend) -> (Heightfield, u32) {
+    let problem = demo::skeleton_like(96, 0.015, 7);
+    let out = pollster::block_on(diffusion::fill(
+        backend,
+        &problem,
+        Method::Multigrid(MultigridParams::default()),
+        &JobCtx::detached(),
+    ))
+    .expect("multigrid");
+    (out.field, out.cycles)
+}
+
+fn jacobi(backend: &Backend) -> Heightfield {
+    let problem = demo::skeleton_like(64, 0.015, 3);
+    pollster::block_on(diffusion::fill(
+        backend,
+        &problem,
+        Method::Jacobi { sweeps: 50 },
+        &JobCtx::detached(),
+    ))
+    .expect("jacobi")
+    .field
+}
+
+fn post(backend: &Backend) -> Heightfield {
+    let field = fbm::diamond_square(80, 48, 0.6, 5).unwrap();
+    let protected = vec![false; 80 * 48];
+    let filter = PostFilter {
+        smooth_sigma: 2.0,
+        fbm_amplitude: 10.0,
+        ..Default::default()
+    };
+    pollster::block_on(diffusion::post_filter(
+        backend, &field, &protected, &filter, 5,
+    ))
+    .expect("post-filter")
+}
+
+fn amplify(backend: &Backend) -> Heightfield {
+    let source = fbm::diamond_square(41, 33, 0.7, 8).unwrap();
+    let params = AmplifyParams {
+        levels: 2,
+        scope: Scope::Local(LocalParams::default()),
+        seed: 4,
+        ..Default::default()
+    };
+    pollster::block_on(wavelet::amplify_on(
+        backend,
+        &source,
+        &params,
+        None,
+        &JobCtx::detached(),
+    ))
+    .expect("amplify")
+    .field
+}
+
+#[test]
+fn a_second_solve_builds_no_kernels_and_gives_the_same_bits() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Arc::new(gpu);
+    let Some(fresh) = common::gpu() else { return };
+    let fresh = Arc::new(fresh);
+
+    // Multigrid: six kernels of one module on the first solve, none after.
+    let ((first, cycles), built) = counted(&gpu, multigrid);
+    assert_eq!((built.modules_created, built.pipelines_created), (1, 6));
+    assert!(built.submissions > 0 && built.readbacks > 0, "{built:?}");
+    let ((second, again), reused) = counted(&gpu, multigrid);
+    assert_eq!((reused.modules_created, reused.pipelines_created), (0, 0));
+    assert_eq!(cycles, again);
+    assert_eq!(bits(&first), bits(&second));
+    // The same work counts the same submissions and readbacks: one readback of the checks
+    // per cycle plus the FMG start's and the result's.
+    assert_eq!(
+        (built.submissions, built.readbacks),
+        (reused.submissions, reused.readbacks)
+    );
+    assert_eq!(reused.readbacks, u64::from(cycles) + 2, "{reused:?}");
+
+    let (first, built) = counted(&gpu, jacobi);
+    assert_eq!((built.modules_created, built.pipelines_created), (1, 1));
+    let (second, reused) = counted(&gpu, jacobi);
+    assert_eq!((reused.modules_created, reused.pipelines_created), (0, 0));
+    assert_eq!(bits(&first), bits(&second));
+
+    let (first, built) = counted(&gpu, post);
+    assert_eq!((built.modules_created, built.pipelines_created), (1, 3));
+    let (second, reused) = counted(&gpu, post);
+    assert_eq!((reused.modules_created, reused.pipelines_created), (0, 0));
+    assert_eq!(bits(&first), bits(&second));
+
+    let (first, built) = counted(&gpu, amplify);
+    assert_eq!((built.modules_created, built.pipelines_created), (1, 2));
+    let (second, reused) = counted(&gpu, amplify);
+    assert_eq!((reused.modules_created, reused.pipelines_created), (0, 0));
+    assert_eq!(bits(&first), bits(&second));
+
+    // A device that builds its kernels afresh gives the same bits as the cached ones.
+    let backend = Backend::Gpu(fresh.clone());
+    assert_eq!(
+        bits(&multigrid(&backend).0),
+        bits(&multigrid(&Backend::Gpu(gpu.clone())).0)
+    );
+    assert_eq!(
+        bits(&post(&backend)),
+        bits(&post(&Backend::Gpu(gpu.clone())))
+    );
+    assert_eq!(
+        bits(&amplify(&backend)),
+        bits(&amplify(&Backend::Gpu(gpu.clone())))
+    );
+    assert_eq!(gpu.stats().pipelines_created, 12);
+    assert_eq!(gpu.stats().modules_created, 4);
+}
+
+#[test]
+fn warming_builds_every_kernel_once() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Arc::new(gpu);
+    pollster::block_on(diffusion::warm_gpu(&gpu)).expect("diffusion kernels");
+    pollster::block_on(wavelet::gpu::warm(&gpu)).expect("wavelet kernels");
+    let warmed = gpu.stats();
+    assert_eq!((warmed.modules_created, warmed.pipelines_created), (4, 12));
+    // Clones of the context share the cache.
+    let clone = Arc::new((*gpu).clone());
+    let ((_, _), built) = counted(&clone, multigrid);
+    let (_, built_post) = counted(&clone, post);
+    assert_eq!(
+        (built.pipelines_created, built_post.pipelines_created),
+        (0, 0)
+    );
+    pollster::block_on(diffusion::warm_gpu(&gpu)).expect("again");
+    assert_eq!(gpu.stats().pipelines_created, 12);
+}
