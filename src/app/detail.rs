@@ -274,7 +274,14 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         }
         if ui.button("Export mask PNG").clicked() {
             match app.mask.to_png() {
-                Ok(png) => match super::files::save("strahler-mask.png", "image/png", &png) {
+                Ok(png) => match super::files::save(
+                    &format!(
+                        "{}.png",
+                        super::files::free_stem("strahler-mask", &[".png"])
+                    ),
+                    "image/png",
+                    &png,
+                ) {
                     Ok(where_to) => app.notice = Some(format!("Mask {where_to}")),
                     Err(err) => app.set_error(err),
                 },

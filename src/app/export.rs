@@ -168,14 +168,12 @@ fn export_now(app: &mut StrahlerApp) {
         d.z_scale * app.scene.vertical_scale as f32,
     )
     .and_then(|out| {
-        let name = format!("strahler-heightmap.{}", d.format.extension());
-        let mut said = super::files::save(&name, d.format.mime(), &out.bytes)?;
+        // A heightmap and its sidecar share a stem no file beside them has yet.
+        let ext = format!(".{}", d.format.extension());
+        let stem = super::files::free_stem("strahler-heightmap", &[&ext, ".json"]);
+        let mut said = super::files::save(&format!("{stem}{ext}"), d.format.mime(), &out.bytes)?;
         if let Some(json) = &out.sidecar {
-            super::files::save(
-                "strahler-heightmap.json",
-                "application/json",
-                json.as_bytes(),
-            )?;
+            super::files::save(&format!("{stem}.json"), "application/json", json.as_bytes())?;
             said.push_str(" and its .json");
         }
         if d.layers {
@@ -188,7 +186,9 @@ fn export_now(app: &mut StrahlerApp) {
                 );
             }
             for (name, png) in &pngs {
-                super::files::save(&format!("strahler-{name}"), "image/png", png)?;
+                let stem = name.trim_end_matches(".png");
+                let stem = super::files::free_stem(&format!("strahler-{stem}"), &[".png"]);
+                super::files::save(&format!("{stem}.png"), "image/png", png)?;
             }
             said.push_str(" with the layers");
         }

@@ -11,12 +11,91 @@ pub fn save(name: &str, mime: &str, bytes: &[u8]) -> Result<String, String> {
     #[cfg(not(target_arch = "wasm32"))]
     {
         let _ = mime;
-        let path = std::env::current_dir()
-            .map_err(|e| e.to_string())?
-            .join(name);
-        std::fs::write(&path, bytes)
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        let dir = std::env::current_dir().map_err(|e| e.to_string())?;
+        save_in(&dir, name, bytes)
+    }
+}
+
+/// [`save`] natively, in `dir`.
+#[cfg(not(target_arch = "wasm32"))]
+fn save_in(dir: &std::path::Path, name: &str, bytes: &[u8]) -> Result<String, String> {
+    {
+        use std::io::Write as _;
+        let path = dir.join(name);
+        // Never replace a file: a name already taken is refused (callers pick free names with
+        // `free_stem`), and a failed write removes what it began.
+        let mut file = std::fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&path)
+            .map_err(|e| format!("cannot create {}: {e}", path.display()))?;
+        if let Err(e) = file.write_all(bytes).and_then(|()| file.sync_all()) {
+            drop(file);
+            let _ = std::fs::remove_file(&path);
+            return Err(format!("cannot write {}: {e}", path.display()));
+        }
         Ok(format!("saved {}", path.display()))
+    }
+}
+
+/// A file stem free for every one of `extensions` in the working directory natively
+/// (`stem`, then `stem-2`, `stem-3`, ...), so a save never replaces a file; in the browser
+/// downloads never overwrite, so `stem` itself.
+pub fn free_stem(stem: &str, extensions: &[&str]) -> String {
+    #[cfg(target_arch = "wasm32")]
+    {
+        let _ = extensions;
+        stem.to_owned()
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        free_stem_in(
+            &std::env::current_dir().unwrap_or_default(),
+            stem,
+            extensions,
+        )
+    }
+}
+
+/// [`free_stem`] natively, in `dir`.
+#[cfg(not(target_arch = "wasm32"))]
+fn free_stem_in(dir: &std::path::Path, stem: &str, extensions: &[&str]) -> String {
+    let taken = |s: &str| {
+        extensions
+            .iter()
+            .any(|e| dir.join(format!("{s}{e}")).exists())
+    };
+    let mut candidate = stem.to_owned();
+    let mut k = 2;
+    while taken(&candidate) && k < 10_000 {
+        candidate = format!("{stem}-{k}");
+        k += 1;
+    }
+    candidate
+}
+
+#[cfg(all(test, not(target_arch = "wasm32")))]
+mod tests {
+    use super::*;
+
+    /// A save never replaces a file: a taken name is refused, and free stems skip names taken
+    /// by any of the extensions saved together (a heightmap and its sidecar).
+    #[test]
+    fn saves_never_replace_a_file() {
+        let dir = std::env::temp_dir().join(format!("strahler-files-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("strahler-heightmap.json"), b"the user's notes").unwrap();
+        let stem = free_stem_in(&dir, "strahler-heightmap", &[".png", ".json"]);
+        assert_eq!(stem, "strahler-heightmap-2");
+        save_in(&dir, &format!("{stem}.png"), b"png").unwrap();
+        assert!(save_in(&dir, "strahler-heightmap.json", b"sidecar").is_err());
+        assert_eq!(
+            std::fs::read(dir.join("strahler-heightmap.json")).unwrap(),
+            b"the user's notes"
+        );
+        let next = free_stem_in(&dir, "strahler-heightmap", &[".png", ".json"]);
+        assert_eq!(next, "strahler-heightmap-3");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }
 

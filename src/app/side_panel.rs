@@ -126,7 +126,11 @@ fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             .clicked()
         {
             let json = app.scene().to_json();
-            match super::files::save("strahler-scene.json", "application/json", json.as_bytes()) {
+            let name = format!(
+                "{}.json",
+                super::files::free_stem("strahler-scene", &[".json"])
+            );
+            match super::files::save(&name, "application/json", json.as_bytes()) {
                 Ok(said) => app.notice = Some(format!("Scene {said}")),
                 Err(err) => app.set_error(err),
             }
