@@ -14,7 +14,7 @@ fn harness() -> Harness<'static, StrahlerApp> {
 /// A taller window, so the whole side panel (down to the compute check and the DEM panel)
 /// is on screen without scrolling.
 fn tall_harness() -> Harness<'static, StrahlerApp> {
-    common::app::harness(1200.0, 1500.0)
+    common::app::harness(1200.0, 2100.0)
 }
 
 /// The app on the CPU path (no GPU renderer): the tests below that do not exercise the GPU
