@@ -57,6 +57,16 @@ pub use self::stage::{
 use self::flow::Network;
 use self::grid::Grid;
 
+/// The phases of one time step, in order.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Phase {
+    Route,
+    Area,
+    Incise,
+    Hillslope,
+    Talus,
+}
+
 /// Time-stepping landscape-evolution solver; see the module docs.
 pub struct Eroder {
     grid: Grid,
@@ -73,6 +83,8 @@ pub struct Eroder {
     scratch: Vec<f32>,
     /// Heights no cell may be lowered below (see [`Eroder::with_floor`]); empty = none.
     floor: Vec<f32>,
+    /// The next phase of the current step ([`Eroder::advance`]).
+    phase: Phase,
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -165,6 +177,7 @@ impl Eroder {
             area: vec![0.0; n],
             scratch,
             floor: Vec::new(),
+            phase: Phase::Route,
         })
     }
 
@@ -182,44 +195,70 @@ impl Eroder {
     /// afterwards (`false` once all are done; further calls do nothing). Each step is
     /// O(cells), so a UI can yield between steps.
     pub fn step(&mut self) -> bool {
+        while !self.advance() {}
+        self.steps_done < self.params.steps
+    }
+
+    /// Runs the next phase of the current step (routing, drainage area, incision, hillslope
+    /// diffusion, talus and the floor): each is O(cells), so a browser job can yield between
+    /// phases and never hold the page for a whole step. Returns true when the step ended
+    /// (or when no step remains); the same bits as [`Eroder::step`].
+    pub fn advance(&mut self) -> bool {
         if self.steps_done >= self.params.steps {
-            return false;
+            return true;
         }
         let g = self.grid;
-        self.net.route(g, &mut self.heights, &self.base);
-        self.net.area(g, &mut self.area);
         let p = self.params;
-        stream_power::Incision {
-            grid: g,
-            uplift: &self.uplift,
-            dir: &self.net.dir,
-            off: self.net.off,
-            stack: &self.net.stack,
-            area: &self.area,
-            dt: self.dt,
-            k: p.erodibility,
-            m: p.m,
-            n: p.n,
+        match self.phase {
+            Phase::Route => {
+                self.net.route(g, &mut self.heights, &self.base);
+                self.phase = Phase::Area;
+            }
+            Phase::Area => {
+                self.net.area(g, &mut self.area);
+                self.phase = Phase::Incise;
+            }
+            Phase::Incise => {
+                stream_power::Incision {
+                    grid: g,
+                    uplift: &self.uplift,
+                    dir: &self.net.dir,
+                    off: self.net.off,
+                    stack: &self.net.stack,
+                    area: &self.area,
+                    dt: self.dt,
+                    k: p.erodibility,
+                    m: p.m,
+                    n: p.n,
+                }
+                .apply(&mut self.heights);
+                self.phase = Phase::Hillslope;
+            }
+            Phase::Hillslope => {
+                if p.diffusivity > 0.0 {
+                    let r = p.diffusivity * self.dt / (g.cell * g.cell);
+                    diffusion::diffuse(g, &mut self.heights, &self.base, r, &mut self.scratch);
+                }
+                self.phase = Phase::Talus;
+            }
+            Phase::Talus => {
+                if let Some(talus) = p.talus_deg {
+                    thermal::relax(g, &mut self.heights, &self.base, talus);
+                }
+                for (h, f) in self.heights.iter_mut().zip(&self.floor) {
+                    *h = h.max(*f);
+                }
+                self.steps_done += 1;
+                self.phase = Phase::Route;
+                if self.steps_done >= p.steps {
+                    // Leave a pit-free surface and the matching drainage area.
+                    self.net.route(g, &mut self.heights, &self.base);
+                    self.net.area(g, &mut self.area);
+                }
+                return true;
+            }
         }
-        .apply(&mut self.heights);
-        if p.diffusivity > 0.0 {
-            let r = p.diffusivity * self.dt / (g.cell * g.cell);
-            diffusion::diffuse(g, &mut self.heights, &self.base, r, &mut self.scratch);
-        }
-        if let Some(talus) = p.talus_deg {
-            thermal::relax(g, &mut self.heights, &self.base, talus);
-        }
-        for (h, f) in self.heights.iter_mut().zip(&self.floor) {
-            *h = h.max(*f);
-        }
-        self.steps_done += 1;
-        let more = self.steps_done < p.steps;
-        if !more {
-            // Leave a pit-free surface and the matching drainage area.
-            self.net.route(g, &mut self.heights, &self.base);
-            self.net.area(g, &mut self.area);
-        }
-        more
+        false
     }
 
     /// Number of completed steps.

@@ -394,16 +394,15 @@ async fn solve(
     let mut eroder =
         Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?.with_floor(floor)?;
     let steps = settings.steps.max(1);
-    loop {
+    // Phase by phase, so the browser gets its turn well within a step.
+    while eroder.steps_done() < steps {
         let done = eroder.steps_done();
         ctx.tick(
             0.6 + 0.3 * done as f32 / steps as f32,
             &format!("eroding: step {} of {steps}", done + 1),
         )
         .await?;
-        if !eroder.step() {
-            break;
-        }
+        eroder.advance();
     }
     let area = eroder.drainage_area().to_vec();
     Ok((eroder.into_heights(), area))

@@ -252,6 +252,10 @@ pub(super) fn install(automation: &Automation) {
         let size = js_sys::Reflect::get(&options, &JsValue::from_str("size"))
             .ok()
             .and_then(|v| v.as_f64());
+        let realism = js_sys::Reflect::get(&options, &JsValue::from_str("realism"))
+            .ok()
+            .and_then(|v| v.as_bool())
+            .unwrap_or(false);
         wasm_bindgen_futures::future_to_promise(async move {
             let path = automation
                 .compute_path()
@@ -269,7 +273,14 @@ pub(super) fn install(automation: &Automation) {
             let backend = crate::compute::BackendChoice::Auto
                 .resolve(&path)
                 .map_err(error)?;
-            let output = crate::pipeline::generate(&scene, &backend, &JobCtx::detached())
+            // The realism measures are one O(cells x 80) pass that cannot yield: only on
+            // request ({realism: true}), so a large generation keeps the page responsive.
+            let options = crate::pipeline::RunOptions {
+                realism,
+                ..crate::pipeline::RunOptions::for_scene(&scene)
+            };
+            let output = crate::pipeline::Pipeline::new()
+                .run(&scene, &options, &backend, &JobCtx::detached())
                 .await
                 .map_err(error)?;
             Ok(to_js(&output.report))
