@@ -544,7 +544,7 @@ pub fn feature_graph(
                     let floor = (sign * z[ca as usize]).min(sign * z[cb as usize]) - dip;
                     let mut ok = true;
                     let p = |c: u32| ((c as usize % width) as i64, (c as usize / width) as i64);
-                    for_line_cells(p(ca), p(cb), |cx, cy| {
+                    crate::skeleton::bresenham(p(ca), p(cb), |cx, cy| {
                         ok &= sign * z[cy as usize * width + cx as usize] >= floor;
                     });
                     if ok {
@@ -842,31 +842,6 @@ pub fn tree_lines(pos: &[[f64; 2]], tree: &[(u32, u32)], alive: &[bool]) -> Vec<
     lines
 }
 
-/// Calls `f(x, y)` for every cell of the Bresenham line from `a` to `b` (both included).
-fn for_line_cells(a: (i64, i64), b: (i64, i64), mut f: impl FnMut(i64, i64)) {
-    let (mut x, mut y) = a;
-    let dx = (b.0 - a.0).abs();
-    let dy = -(b.1 - a.1).abs();
-    let sx = if a.0 < b.0 { 1 } else { -1 };
-    let sy = if a.1 < b.1 { 1 } else { -1 };
-    let mut err = dx + dy;
-    loop {
-        f(x, y);
-        if (x, y) == b {
-            break;
-        }
-        let e2 = 2 * err;
-        if e2 >= dy {
-            err += dy;
-            x += sx;
-        }
-        if e2 <= dx {
-            err += dx;
-            y += sy;
-        }
-    }
-}
-
 /// Bilinear height at `[col, row]`.
 fn bilinear(z: &[f32], width: usize, height: usize, p: [f64; 2]) -> f64 {
     let x = p[0].clamp(0.0, (width - 1) as f64);
@@ -914,7 +889,7 @@ fn finish_lines(
             }
             let cell = |p: [f64; 2]| (p[0].round() as i64, p[1].round() as i64);
             for s in pts.windows(2) {
-                for_line_cells(cell(s[0]), cell(s[1]), |x, y| {
+                crate::skeleton::bresenham(cell(s[0]), cell(s[1]), |x, y| {
                     cells[y as usize * width + x as usize] = true;
                 });
             }
