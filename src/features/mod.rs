@@ -37,7 +37,7 @@
 //!   shorter than two sampling distances are dropped, valleys are oriented mouth first, and
 //!   output is capped ([`MAX_LINES`], [`MAX_POINTS_PER_LINE`], [`MAX_PEAKS`]).
 //!
-//! Everything is `std` only and deterministic. [`extract`] runs the whole pipeline;
+//! Everything is deterministic (lines are walked with [`crate::skeleton::bresenham`]). [`extract`] runs the whole pipeline;
 //! [`Extraction`] runs it in steps so a browser job can yield between stages.
 
 use std::fmt;

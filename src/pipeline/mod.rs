@@ -253,12 +253,7 @@ async fn run_stages(
                 stages.erosion.put(key, Eroded { millis, ..out })
             }
         };
-        times.push(StageTime {
-            name: "erosion",
-            ms: out.millis,
-        });
-        field = out.field.clone();
-        eroded = Some(out);
+        eroded = Some(follow(&mut field, &mut times, "erosion", out));
     }
 
     // 3. Style from real terrain.
@@ -276,12 +271,7 @@ async fn run_stages(
                 stages.style.put(key, out)
             }
         };
-        times.push(StageTime {
-            name: "style",
-            ms: out.millis,
-        });
-        field = out.field.clone();
-        styled = Some(out);
+        styled = Some(follow(&mut field, &mut times, "style", out));
     }
 
     // 4. Wavelet detail under the painted mask.
@@ -296,12 +286,7 @@ async fn run_stages(
                 stages.detail.put(key, out)
             }
         };
-        times.push(StageTime {
-            name: "detail",
-            ms: out.millis,
-        });
-        field = out.field.clone();
-        detailed = Some(out);
+        detailed = Some(follow(&mut field, &mut times, "detail", out));
     }
 
     // 5. Blocks of real terrain.
@@ -316,12 +301,7 @@ async fn run_stages(
                 stages.blend.put(key, out)
             }
         };
-        times.push(StageTime {
-            name: "blend",
-            ms: out.millis,
-        });
-        field = out.field.clone();
-        blended = Some(out);
+        blended = Some(follow(&mut field, &mut times, "blend", out));
     }
     stages.forget_unused(
         scene.erosion.is_some(),
@@ -354,6 +334,41 @@ async fn run_stages(
         report,
         computed,
     })
+}
+
+/// What every stage after hydrology hands on: its terrain and how long it took.
+trait StageOutput {
+    fn field(&self) -> &Arc<Heightfield>;
+    fn millis(&self) -> f64;
+}
+
+macro_rules! stage_output {
+    ($($t:ty),*) => {$(
+        impl StageOutput for $t {
+            fn field(&self) -> &Arc<Heightfield> {
+                &self.field
+            }
+            fn millis(&self) -> f64 {
+                self.millis
+            }
+        }
+    )*};
+}
+stage_output!(Eroded, Styled, Detailed, Blended);
+
+/// A stage's output becomes the terrain the next stage reads; its time joins the report.
+fn follow<T: StageOutput>(
+    field: &mut Arc<Heightfield>,
+    times: &mut Vec<StageTime>,
+    name: &'static str,
+    out: Arc<T>,
+) -> Arc<T> {
+    times.push(StageTime {
+        name,
+        ms: out.millis(),
+    });
+    *field = out.field().clone();
+    out
 }
 
 /// The style stage: the style's missing detail added into the terrain's own levels, faded
