@@ -66,12 +66,18 @@ impl RidgeNoise<'_> {
         if self.amplitude == 0.0 {
             return 0.0;
         }
-        let f = self.fbm.at(x as usize, y as usize);
-        if f >= 0.0 {
-            self.amplitude * f
-        } else {
-            self.amplitude.min(0.5 * relief.max(0.0)) * f
-        }
+        bounded_noise(self.amplitude, self.fbm.at(x as usize, y as usize), relief)
+    }
+}
+
+/// Eq. 5's noise term `amplitude * f` (`f` the fBm's value) on a ridge `relief` metres above
+/// its rivers, lowering it by at most half that relief (see [`RidgeNoise`]). Sketched ridges
+/// take their noise through the same bound.
+pub(super) fn bounded_noise(amplitude: f64, f: f64, relief: f64) -> f64 {
+    if f >= 0.0 {
+        amplitude * f
+    } else {
+        amplitude.min(0.5 * relief.max(0.0)) * f
     }
 }
 

@@ -8,6 +8,7 @@
 
 use glam::DVec2;
 
+use super::raster::bounded_noise;
 use super::{CellKind, NoiseParams, Skeleton, bresenham, to_cell};
 use crate::noise::Perlin;
 use crate::river::RiverNetwork;
@@ -56,7 +57,7 @@ struct Heights<'a> {
 
 impl Heights<'_> {
     /// The `k` nearest river nodes' heights and the distance to the nearest (map units).
-    /// O(river nodes): sketches have few vertices.
+    /// O(river nodes) (a selection, not a sort): sketches have few vertices.
     fn nearest(&self, p: DVec2, k: usize) -> (Vec<f32>, f64) {
         let mut all: Vec<(f64, f32)> = self
             .rivers
@@ -68,16 +69,26 @@ impl Heights<'_> {
                     .map(|(n, h)| (n.distance(p), *h))
             })
             .collect();
+        if all.len() > k {
+            all.select_nth_unstable_by(k, |a, b| a.0.total_cmp(&b.0));
+            all.truncate(k);
+        }
         all.sort_by(|a, b| a.0.total_cmp(&b.0));
         let d = all.first().map_or(0.0, |a| a.0);
-        (all.iter().take(k).map(|a| a.1).collect(), d)
+        (all.iter().map(|a| a.1).collect(), d)
+    }
+
+    /// Eq. 4's two terms at `p`: `max(H_p1, H_p2, H_p3)` and `alpha * d` (metres).
+    fn eq4_terms(&self, p: DVec2) -> (f64, f64) {
+        let (heights, d) = self.nearest(p, 3);
+        let top = heights.iter().copied().fold(0.0f32, f32::max);
+        (f64::from(top), self.alpha * d * self.map_width_m)
     }
 
     /// Eq. 4: `max(H_p1, H_p2, H_p3) + alpha * d`, with `alpha` scaled by `factor`.
     fn eq4(&self, p: DVec2, factor: f64) -> f64 {
-        let (heights, d) = self.nearest(p, 3);
-        let top = heights.iter().copied().fold(0.0f32, f32::max);
-        f64::from(top) + factor * self.alpha * d * self.map_width_m
+        let (top, rise) = self.eq4_terms(p);
+        top + factor * rise
     }
 }
 
@@ -120,22 +131,33 @@ pub fn rasterise(
     };
 
     for line in &sketch.ridges {
-        let vertex_h: Vec<f64> = line
+        // Height and relief above the rivers at each vertex: eq. 4's `alpha * d` for derived
+        // heights, the height above the nearest rivers for given ones.
+        let vertices: Vec<[f64; 2]> = line
             .points
             .iter()
             .enumerate()
-            .map(|(k, p)| line.given(k).unwrap_or_else(|| heights.eq4(*p, 1.0)))
+            .map(|(k, p)| {
+                let (top, rise) = heights.eq4_terms(*p);
+                let h = line.given(k).unwrap_or(top + rise);
+                [h, h - top]
+            })
             .collect();
-        draw_polyline(&line.points, &vertex_h, n, |x, y, h| {
-            let f = noise.amplitude
-                * perlin.fbm(
-                    x as f64 / n as f64,
-                    y as f64 / n as f64,
-                    noise.frequency,
-                    noise.octaves,
-                    noise.roughness,
-                );
-            put(sk, x, y, h + f, CellKind::Ridge);
+        draw_polyline(&line.points, &vertices, n, |x, y, [h, relief]| {
+            let f = perlin.fbm(
+                x as f64 / n as f64,
+                y as f64 / n as f64,
+                noise.frequency,
+                noise.octaves,
+                noise.roughness,
+            );
+            put(
+                sk,
+                x,
+                y,
+                h + bounded_noise(noise.amplitude, f, relief),
+                CellKind::Ridge,
+            );
         });
     }
     for line in &sketch.valleys {
@@ -151,14 +173,15 @@ pub fn rasterise(
             if k > 0 {
                 along += p.distance(line.points[k - 1]);
             }
-            vertex_h.push(
+            vertex_h.push([
                 line.heights
                     .as_ref()
                     .and_then(|h| h.get(k).copied())
                     .unwrap_or(base + slope * along * map_width_m),
-            );
+                0.0,
+            ]);
         }
-        draw_polyline(&line.points, &vertex_h, n, |x, y, h| {
+        draw_polyline(&line.points, &vertex_h, n, |x, y, [h, _]| {
             put(sk, x, y, h, CellKind::Valley)
         });
     }
@@ -175,23 +198,72 @@ pub fn rasterise(
     }
 }
 
-/// Bresenham along each segment with heights linear between the vertices (eq. 5 without
-/// the noise term, which the caller adds where it applies).
+/// Bresenham along each segment with values (height and relief) linear between the vertices
+/// (eq. 5 without the noise term, which the caller adds where it applies).
 fn draw_polyline(
     points: &[DVec2],
-    heights: &[f64],
+    values: &[[f64; 2]],
     n: usize,
-    mut visit: impl FnMut(i64, i64, f64),
+    mut visit: impl FnMut(i64, i64, [f64; 2]),
 ) {
     for k in 1..points.len() {
         let (a, b) = (to_cell(points[k - 1], n), to_cell(points[k], n));
         let len = (((b.0 - a.0).pow(2) + (b.1 - a.1).pow(2)) as f64)
             .sqrt()
             .max(1.0);
-        let (ha, hb) = (heights[k - 1], heights[k]);
+        let (va, vb) = (values[k - 1], values[k]);
         bresenham(a, b, |x, y| {
             let t = ((((x - a.0).pow(2) + (y - a.1).pow(2)) as f64).sqrt() / len).min(1.0);
-            visit(x, y, ha + t * (hb - ha));
+            visit(x, y, [0, 1].map(|i| va[i] + t * (vb[i] - va[i])));
         });
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eq. 5's noise on a sketched ridge lowers it by at most half its relief above the
+    /// rivers, as on the network's ridges (otherwise a low sketched ridge sinks below the
+    /// land it should divide); upwards it keeps its full amplitude.
+    #[test]
+    fn sketched_ridge_noise_lowers_it_by_at_most_half_its_relief() {
+        let n = 128;
+        let (h0, h1) = (20.0, 60.0);
+        let sketch = Sketch {
+            ridges: vec![SketchLine {
+                points: vec![DVec2::new(0.1, 0.5), DVec2::new(0.9, 0.5)],
+                height: None,
+                heights: Some(vec![h0, h1]),
+            }],
+            ..Sketch::default()
+        };
+        let noise = NoiseParams {
+            amplitude: 200.0,
+            ..NoiseParams::default()
+        };
+        let mut sk = Skeleton::empty(n);
+        rasterise(&mut sk, &sketch, &[], 0.1, 0.01, 10_000.0, &noise, 7);
+        let (a, b) = (
+            to_cell(sketch.ridges[0].points[0], n),
+            to_cell(sketch.ridges[0].points[1], n),
+        );
+        let (mut cells, mut raised) = (0, 0);
+        for x in a.0..=b.0 {
+            let i = a.1 as usize * n + x as usize;
+            assert_eq!(sk.kinds[i], CellKind::Ridge);
+            let t = (x - a.0) as f64 / (b.0 - a.0) as f64;
+            // No rivers: the relief is the ridge's whole height.
+            let linear = h0 + t * (h1 - h0);
+            let h = f64::from(sk.heights[i]);
+            assert!(
+                h >= 0.5 * linear - 1e-3,
+                "x {x}: {h} below half of {linear}"
+            );
+            cells += 1;
+            raised += usize::from(h > linear + 0.5 * linear);
+        }
+        assert!(cells > 90);
+        assert!(raised > 0, "the noise still raises parts of the ridge");
     }
 }
