@@ -519,3 +519,40 @@ fn every_scene_field_round_trips_through_the_app() {
     let saved = Scene::from_json(&harness.state().scene().to_json()).unwrap();
     assert_eq!(saved, scene);
 }
+
+#[test]
+fn erosion_shows_before_and_after_and_its_layers_on_the_map() {
+    let mut harness = tall_cpu_harness();
+    wait_idle(&mut harness);
+    // The default scene erodes, so the map offers the erosion stage's layers, off at first.
+    assert!(harness.state().scene().erosion.is_some());
+    assert_eq!(harness.state().erosion_overlays(), Some([false, false]));
+    let after = harness.state().terrain().expect("a terrain").clone();
+
+    harness.get_by_label("drainage area").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().erosion_overlays(), Some([true, false]));
+    harness.get_by_label("erosion depth").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().erosion_overlays(), Some([true, true]));
+
+    // Show before: the map holds the designed terrain, and back.
+    harness.get_by_label("Show before").click();
+    harness.run_steps(2);
+    let before = harness.state().terrain().expect("a terrain").clone();
+    assert_ne!(before.data(), after.data());
+    harness.get_by_label("Show before").click();
+    harness.run_steps(2);
+    assert_eq!(
+        harness.state().terrain().expect("a terrain").data(),
+        after.data()
+    );
+
+    // Without erosion the layers are gone.
+    harness.get_by_label("Erode the terrain").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    assert!(harness.state().scene().erosion.is_none());
+    assert_eq!(harness.state().erosion_overlays(), None);
+    assert!(harness.query_by_label("drainage area").is_none());
+}

@@ -16,6 +16,9 @@ pub struct Layers {
     pub constraints: bool,
     pub mask: bool,
     pub blocks: bool,
+    /// The erosion stage's drainage area (log scale) and erosion depth.
+    pub drainage: bool,
+    pub erosion_depth: bool,
     /// Rivers are drawn from this Strahler order up (creeks would hide the relief).
     pub min_river_order: u32,
 }
@@ -30,6 +33,8 @@ impl Default for Layers {
             constraints: false,
             mask: true,
             blocks: true,
+            drainage: false,
+            erosion_depth: false,
             min_river_order: 3,
         }
     }
@@ -120,8 +125,30 @@ pub fn constraints_image(kinds: &[CellKind], width: usize, height: usize) -> Col
     ColorImage::new([width, height], pixels)
 }
 
-/// The Layers row of the side panel.
-pub(super) fn section(ui: &mut egui::Ui, layers: &mut Layers) {
+/// The erosion stage's layers as map overlays: drainage area in blue, opaque where water
+/// gathers (log scale: the channel network stands out down to the smallest gullies), and
+/// erosion depth in red, opaque where the cut is deepest. O(cells).
+pub fn erosion_images(eroded: &crate::erosion::Eroded, before: &Heightfield) -> [ColorImage; 2] {
+    let size = [eroded.field.width(), eroded.field.height()];
+    let drainage = crate::erosion::drainage_grey(eroded)
+        .into_iter()
+        .map(|g| {
+            let t = f32::from(g.saturating_sub(1)) / 254.0;
+            Color32::from_rgba_unmultiplied(20, 90, 230, (235.0 * t * t).round() as u8)
+        })
+        .collect();
+    let depth = crate::erosion::depth_grey(eroded, before)
+        .into_iter()
+        .map(|g| Color32::from_rgba_unmultiplied(210, 40, 20, (f32::from(g) * 0.85) as u8))
+        .collect();
+    [
+        ColorImage::new(size, drainage),
+        ColorImage::new(size, depth),
+    ]
+}
+
+/// The Layers row of the side panel; `eroded` offers the erosion stage's layers.
+pub(super) fn section(ui: &mut egui::Ui, layers: &mut Layers, eroded: bool) {
     ui.horizontal_wrapped(|ui| {
         ui.label("Layers:");
         ui.checkbox(&mut layers.relief, "relief");
@@ -139,6 +166,14 @@ pub(super) fn section(ui: &mut egui::Ui, layers: &mut Layers) {
             .on_hover_text("Skeleton cells: rivers, ridges, valleys, and MD/MDI enriched points");
         ui.checkbox(&mut layers.mask, "mask");
         ui.checkbox(&mut layers.blocks, "DEM blocks");
+        if eroded {
+            ui.checkbox(&mut layers.drainage, "drainage area")
+                .on_hover_text(
+                    "Where water gathers (log scale of the upstream area), from the erosion stage",
+                );
+            ui.checkbox(&mut layers.erosion_depth, "erosion depth")
+                .on_hover_text("How deep erosion cut into the designed terrain");
+        }
     });
 }
 

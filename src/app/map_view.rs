@@ -63,6 +63,9 @@ pub struct Overlay {
     pub show_relief: bool,
     pub show_constraints: bool,
     pub show_blocks: bool,
+    /// The erosion stage's drainage area and erosion depth layers.
+    pub show_drainage: bool,
+    pub show_erosion_depth: bool,
     /// Contour segments (map units), drawn when `show_contours`.
     pub contours: Vec<(Pos2, Pos2)>,
     pub show_contours: bool,
@@ -132,6 +135,8 @@ pub struct MapView {
     block_from: Option<Pos2>,
     mask_texture: Option<TextureHandle>,
     constraints_texture: Option<TextureHandle>,
+    /// Drainage area and erosion depth ([`MapView::set_erosion_layers`]).
+    erosion_textures: Option<[TextureHandle; 2]>,
     /// Counts [`Self::set_field`] calls, so other views know when the terrain changed.
     version: u64,
 }
@@ -192,6 +197,23 @@ impl MapView {
                     Some(ctx.load_texture("constraints", image, TextureOptions::NEAREST));
             }
         }
+    }
+
+    /// The erosion stage's drainage-area and erosion-depth images (`None`: no erosion ran).
+    pub fn set_erosion_layers(
+        &mut self,
+        ctx: &egui::Context,
+        images: Option<[egui::ColorImage; 2]>,
+    ) {
+        self.erosion_textures = images.map(|[drainage, depth]| {
+            [("drainage area", drainage), ("erosion depth", depth)]
+                .map(|(name, image)| ctx.load_texture(name, image, TextureOptions::LINEAR))
+        });
+    }
+
+    /// Whether the map has the erosion stage's layers to show.
+    pub fn has_erosion_layers(&self) -> bool {
+        self.erosion_textures.is_some()
     }
 
     /// Back to the whole map, centred.
@@ -308,6 +330,14 @@ impl MapView {
                 if let (true, Some(points)) = (overlay.show_constraints, &self.constraints_texture)
                 {
                     painter.image(points.id(), map_rect, uv, Color32::WHITE);
+                }
+                if let Some([drainage, depth]) = &self.erosion_textures {
+                    if overlay.show_erosion_depth {
+                        painter.image(depth.id(), map_rect, uv, Color32::WHITE);
+                    }
+                    if overlay.show_drainage {
+                        painter.image(drainage.id(), map_rect, uv, Color32::WHITE);
+                    }
                 }
                 if overlay.show_contours {
                     let line = Stroke::new(0.8, Color32::from_rgba_unmultiplied(60, 40, 20, 170));

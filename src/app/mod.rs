@@ -227,6 +227,14 @@ impl StrahlerApp {
         self.map.field()
     }
 
+    /// The erosion stage's map overlays, when the terrain has them: whether drainage area and
+    /// erosion depth are shown.
+    pub fn erosion_overlays(&self) -> Option<[bool; 2]> {
+        self.map
+            .has_erosion_layers()
+            .then_some([self.overlay.show_drainage, self.overlay.show_erosion_depth])
+    }
+
     /// The diffusion solver and backend.
     pub fn settings(&self) -> &SolverSettings {
         &self.settings
@@ -444,6 +452,7 @@ impl StrahlerApp {
             summary,
             picture,
             before,
+            erosion_layers,
         } = arrived;
         self.pipeline = pipeline;
         let g = &output.hydrology;
@@ -483,6 +492,7 @@ impl StrahlerApp {
             .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
             .collect();
         self.map.set_constraints(ctx, constraints);
+        self.map.set_erosion_layers(ctx, erosion_layers);
         // The mask stays at the full size, whatever size this run had (the detail stage
         // resamples it), so a preview never blurs what the user painted.
         self.fit_mask(self.scene.size);
@@ -665,6 +675,8 @@ struct Arrived {
     picture: picture::Picture,
     /// With erosion: the picture of the terrain before it.
     before: Option<picture::Picture>,
+    /// With erosion: its drainage-area and erosion-depth overlays.
+    erosion_layers: Option<[egui::ColorImage; 2]>,
 }
 
 impl Arrived {
@@ -694,6 +706,11 @@ impl Arrived {
             }
             None => None,
         };
+        job.tick(1.0, "preparing the map").await?;
+        let erosion_layers = output
+            .erosion
+            .as_ref()
+            .map(|e| layers::erosion_images(e, &output.hydrology.terrain));
         Ok(Self {
             pipeline,
             output,
@@ -701,6 +718,7 @@ impl Arrived {
             summary,
             picture,
             before,
+            erosion_layers,
         })
     }
 }
@@ -812,6 +830,8 @@ impl eframe::App for StrahlerApp {
         self.overlay.show_relief = l.relief;
         self.overlay.show_contours = l.contours;
         self.overlay.show_constraints = l.constraints;
+        self.overlay.show_drainage = l.drainage;
+        self.overlay.show_erosion_depth = l.erosion_depth;
         self.overlay.show_blocks = l.blocks || self.tool == Tool::Block;
         self.overlay.brush_radius = Some(self.brush.radius / self.mask.width().max(2) as f32);
         self.overlay.selected = if self.tool == Tool::Select {

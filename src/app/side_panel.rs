@@ -59,7 +59,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
                 document_row(ui, app);
-                super::layers::section(ui, &mut app.layers);
+                let eroded = app.map.has_erosion_layers();
+                super::layers::section(ui, &mut app.layers, eroded);
                 ui.separator();
                 // What these sections edit (not the mask or the blocks, which are large).
                 let shaping = |app: &StrahlerApp| {

@@ -47,7 +47,7 @@ mod thermal;
 mod tests;
 
 pub use self::error::ErosionError;
-pub use self::layers::layer_pngs;
+pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::stage::{
     Eroded, ErosionReport, ErosionSettings, MAX_SOLVER_SIDE, StageError, base_level, erode_terrain,
