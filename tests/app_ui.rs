@@ -556,3 +556,55 @@ fn erosion_shows_before_and_after_and_its_layers_on_the_map() {
     assert_eq!(harness.state().erosion_overlays(), None);
     assert!(harness.query_by_label("drainage area").is_none());
 }
+
+/// Seed 000's network comparison (Sec. VII) in the DEM panel: the uploaded DEM's channel
+/// network beside the rivers of the terrain on the map, the table `analyze --network` prints.
+#[test]
+fn the_dem_panel_compares_the_dem_channel_network_with_the_generated_one() {
+    let mut harness = tall_cpu_harness();
+    wait_idle(&mut harness);
+    let generated = harness.state().scene();
+    let automation = harness.state().automation().clone();
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/srtm_n44e005_384.tif");
+    automation.push(strahler::app::Command::LoadDem {
+        name: "srtm_n44e005_384.tif".into(),
+        bytes: std::fs::read(path).unwrap(),
+    });
+    harness.run_steps(3);
+    assert!(harness.state().network_comparison().is_none());
+    harness.get_by_label("Compare river networks").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let rows = harness
+        .state()
+        .network_comparison()
+        .expect("the comparison table")
+        .to_vec();
+    let cell = |label: &str| {
+        rows.iter()
+            .find(|(l, _)| l == label)
+            .unwrap_or_else(|| panic!("no row {label}: {rows:?}"))
+            .1
+            .clone()
+    };
+    // A real mountain DEM has a branching network of several orders; the generated column
+    // is the terrain's own rivers (the default scene's one stroke).
+    let orders = cell("Strahler order");
+    let dem_order: u32 = orders[0].parse().unwrap();
+    assert!(dem_order >= 3, "{rows:?}");
+    assert_eq!(
+        cell("basins / networks")[2],
+        generated.rivers.len().to_string()
+    );
+    let generated_order: u32 = orders[2].parse().unwrap();
+    assert!(generated_order >= 3, "{rows:?}");
+    let rb: f64 = cell("bifurcation ratio R_b")[0].parse().unwrap();
+    assert!(
+        (2.0..=6.0).contains(&rb),
+        "Horton's law on a real DEM: {rb}"
+    );
+    // The table is on screen, and the scene did not change.
+    harness.get_by_label("bifurcation ratio R_b");
+    assert_eq!(harness.state().scene(), generated);
+}

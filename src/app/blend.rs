@@ -555,6 +555,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         if let Some(job) = &app.blend.features_job {
             ui.add(ProgressBar::new(job.progress()).text(job.message()));
         }
+        super::networks::section(ui, app);
         preview(ui, app);
         place = ui
             .button("Place block on map")

@@ -12,6 +12,7 @@ mod files;
 mod history;
 mod layers;
 mod map_view;
+mod networks;
 mod picture;
 mod relief;
 mod select;
@@ -127,6 +128,8 @@ pub struct StrahlerApp {
     import_job: Option<JobHandle<detail::Dropped>>,
     /// The uploaded DEM, the placed blocks and the blend stage.
     blend: blend::BlendState,
+    /// The DEM panel's network comparison.
+    networks: networks::Comparison,
     export: export::ExportDialog,
     /// Undo, redo and autosave of the scene.
     history: history::History,
@@ -191,6 +194,7 @@ impl StrahlerApp {
             mask_overlay_stale: false,
             import_job: None,
             blend: Default::default(),
+            networks: Default::default(),
             export: Default::default(),
             history: Default::default(),
             view: ViewKind::Map,
@@ -233,6 +237,12 @@ impl StrahlerApp {
         self.map
             .has_erosion_layers()
             .then_some([self.overlay.show_drainage, self.overlay.show_erosion_depth])
+    }
+
+    /// The DEM panel's network comparison table, once computed (label; DEM, its largest
+    /// basin, generated).
+    pub fn network_comparison(&self) -> Option<&[(String, [String; 3])]> {
+        self.networks.rows()
     }
 
     /// The diffusion solver and backend.
@@ -351,6 +361,7 @@ impl StrahlerApp {
             || self.selftest_job.is_some()
             || self.blend.fill_job.is_some()
             || self.blend.features_job.is_some()
+            || self.networks.busy()
             || self.dirty
     }
 
@@ -598,6 +609,7 @@ impl StrahlerApp {
         }
         self.take_filled_dem(ctx);
         self.take_features();
+        self.take_networks();
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
             self.selftest = Some(result.map_err(|err| err.to_string()));

@@ -111,7 +111,6 @@ fn compare_networks(
 /// The comparison as a table: the DEM (all basins, its largest basin) beside the generated
 /// networks.
 fn network_table(c: &NetworkComparison) -> Vec<String> {
-    let columns = [&c.dem.stats, &c.dem.largest_basin, &c.generated.stats];
     let mut lines = vec![
         format!(
             "channel network (seed 000, Sec. VII): D8 on the Priority-Flood filled DEM, channels from {:.0} m² upstream; generated: the {} scene's grown networks",
@@ -122,45 +121,14 @@ fn network_table(c: &NetworkComparison) -> Vec<String> {
             "", "DEM", "DEM largest", "generated"
         ),
     ];
-    let mut row = |label: &str, cells: [String; 3]| {
+    let rows =
+        crate::realism::network::comparison_rows(&c.dem, &c.generated.stats, c.generated.networks);
+    for (label, cells) in rows {
         lines.push(format!(
             "{label:<24}{:>16}{:>16}{:>16}",
             cells[0], cells[1], cells[2]
         ));
-    };
-    let each = |cell: &dyn Fn(&NetworkStats) -> String| columns.map(cell);
-    let opt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
-    row(
-        "basins / networks",
-        [
-            c.dem.basins.to_string(),
-            c.dem.basins.min(1).to_string(),
-            c.generated.networks.to_string(),
-        ],
-    );
-    row("nodes (channel cells)", each(&|s| s.nodes.to_string()));
-    row("Strahler order", each(&|s| s.max_order.to_string()));
-    let orders = columns.iter().map(|s| s.max_order).max().unwrap_or(0) as usize;
-    for k in 1..=orders {
-        row(
-            &format!("streams of order {k}"),
-            each(&|s| {
-                s.streams_per_order
-                    .get(k - 1)
-                    .map_or("-".into(), |n| n.to_string())
-            }),
-        );
     }
-    row("bifurcation ratio R_b", each(&|s| opt(s.bifurcation_ratio)));
-    let tk = columns.iter().map(|s| s.tokunaga.len()).max().unwrap_or(0);
-    for m in 1..=tk {
-        row(
-            &format!("Tokunaga T_{m}"),
-            each(&|s| opt(s.tokunaga.get(m - 1).copied())),
-        );
-    }
-    row("Tokunaga fit a", each(&|s| opt(s.tokunaga_a)));
-    row("Tokunaga fit c", each(&|s| opt(s.tokunaga_c)));
     lines
 }
 

@@ -91,6 +91,54 @@ impl ChannelNetwork {
     }
 }
 
+/// A DEM's channel network beside generated river networks, row by row: a label and the
+/// values for the DEM's whole network, its largest basin and the generated networks
+/// (`networks` of them, pooled in `generated`). The table of `strahler analyze --network`
+/// and of the app's DEM panel.
+pub fn comparison_rows(
+    dem: &ChannelReport,
+    generated: &NetworkStats,
+    networks: usize,
+) -> Vec<(String, [String; 3])> {
+    let columns = [&dem.stats, &dem.largest_basin, generated];
+    let mut rows = Vec::new();
+    let mut row = |label: &str, cells: [String; 3]| rows.push((label.to_owned(), cells));
+    let each = |cell: &dyn Fn(&NetworkStats) -> String| columns.map(cell);
+    let opt = |v: Option<f64>| v.map_or("-".into(), |v| format!("{v:.2}"));
+    row(
+        "basins / networks",
+        [
+            dem.basins.to_string(),
+            dem.basins.min(1).to_string(),
+            networks.to_string(),
+        ],
+    );
+    row("nodes (channel cells)", each(&|s| s.nodes.to_string()));
+    row("Strahler order", each(&|s| s.max_order.to_string()));
+    let orders = columns.iter().map(|s| s.max_order).max().unwrap_or(0) as usize;
+    for k in 1..=orders {
+        row(
+            &format!("streams of order {k}"),
+            each(&|s| {
+                s.streams_per_order
+                    .get(k - 1)
+                    .map_or("-".into(), |n| n.to_string())
+            }),
+        );
+    }
+    row("bifurcation ratio R_b", each(&|s| opt(s.bifurcation_ratio)));
+    let tk = columns.iter().map(|s| s.tokunaga.len()).max().unwrap_or(0);
+    for m in 1..=tk {
+        row(
+            &format!("Tokunaga T_{m}"),
+            each(&|s| opt(s.tokunaga.get(m - 1).copied())),
+        );
+    }
+    row("Tokunaga fit a", each(&|s| opt(s.tokunaga_a)));
+    row("Tokunaga fit c", each(&|s| opt(s.tokunaga_c)));
+    rows
+}
+
 /// Extracts the channel network of a `width x height` row-major heightmap (cells `cell_x_m`
 /// along a row by `cell_y_m` along a column; non-finite heights are no data).
 /// `channel_area_m2` of `None` (or not positive / not finite) uses

@@ -1,0 +1,149 @@
+//! The network comparison of seed paper 000 (Sec. VII, Fig. 8) in the DEM panel: the
+//! uploaded DEM's channel network (D8 flow accumulation on the filled DEM, channels from the
+//! realism report's initiation area) beside the river networks the scene grew, with the
+//! same statistics (Strahler orders, streams per order, bifurcation ratio, Tokunaga T_k);
+//! `strahler analyze --network` prints the same table.
+
+use egui::{ProgressBar, RichText};
+
+use super::StrahlerApp;
+use crate::jobs::JobHandle;
+use crate::realism::ChannelReport;
+use crate::river::{NetworkStats, RiverNetwork, stats};
+
+/// The comparison's state: the extraction job and the last table.
+#[derive(Default)]
+pub struct Comparison {
+    job: Option<JobHandle<Result<ChannelReport, String>>>,
+    /// The generated networks' pooled statistics and count, taken when the job started.
+    generated: Option<(NetworkStats, usize)>,
+    /// The DEM's file name and the table rows (label; DEM, its largest basin, generated).
+    table: Option<(String, f64, Vec<(String, [String; 3])>)>,
+}
+
+impl Comparison {
+    pub fn busy(&self) -> bool {
+        self.job.is_some()
+    }
+
+    /// The last table's rows, if any (label; DEM, its largest basin, generated).
+    pub fn rows(&self) -> Option<&[(String, [String; 3])]> {
+        self.table.as_ref().map(|t| t.2.as_slice())
+    }
+}
+
+impl StrahlerApp {
+    /// Extracts the uploaded DEM's channel network as a job, to compare with the networks of
+    /// the terrain on the map. O(cells log cells) (the Priority-Flood fill).
+    pub(super) fn compare_networks(&mut self, ctx: &egui::Context) {
+        let Some(loaded) = &self.blend.dem else {
+            self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
+            return;
+        };
+        let Some(output) = &self.output else {
+            self.set_error(
+                "Generate a terrain first: its rivers are compared with the DEM's.".into(),
+            );
+            return;
+        };
+        let networks: Vec<RiverNetwork> = output
+            .hydrology
+            .rivers
+            .iter()
+            .map(|r| r.network.clone())
+            .collect();
+        self.networks.generated = Some((
+            stats::analyse(&RiverNetwork::forest(&networks)),
+            networks.len(),
+        ));
+        let field = loaded.dem.field.clone();
+        let (w, h) = (field.width(), field.height());
+        let (cx, cy) = loaded.dem.georef.cell_size_m(h).unwrap_or((30.0, 30.0));
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "networks",
+            move |job| async move {
+                job.tick(0.1, "extracting the DEM's channel network")
+                    .await
+                    .map_err(|e| e.to_string())?;
+                crate::realism::extract_channels(field.data(), w, h, cx, cy, None)
+                    .map(|c| c.report())
+                    .ok_or_else(|| "the DEM's cell size is not positive".to_owned())
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.networks.job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// A finished extraction becomes the table.
+    pub(super) fn take_networks(&mut self) {
+        let Some(result) = self.networks.job.as_ref().and_then(JobHandle::try_take) else {
+            return;
+        };
+        self.networks.job = None;
+        match (result, self.networks.generated.take()) {
+            (Ok(dem), Some((generated, count))) => {
+                let name = self
+                    .blend
+                    .dem
+                    .as_ref()
+                    .map_or(String::new(), |d| d.name.clone());
+                let rows = crate::realism::network::comparison_rows(&dem, &generated, count);
+                self.networks.table = Some((name, dem.channel_area_m2, rows));
+            }
+            (Err(err), _) if err == "cancelled" => {}
+            (Err(err), _) => self.set_error(format!("Network comparison failed: {err}")),
+            (Ok(_), None) => {}
+        }
+    }
+}
+
+/// The DEM panel's part: the button, progress and the table.
+pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    let clicked = ui
+        .add_enabled(
+            app.output.is_some() && !app.networks.busy(),
+            egui::Button::new("Compare river networks"),
+        )
+        .on_hover_text(
+            "The DEM's channel network (D8 flow accumulation, seed paper 000 Sec. VII) beside \
+             the rivers of the terrain on the map: Strahler orders, bifurcation ratio, \
+             Tokunaga T_k",
+        )
+        .clicked();
+    if let Some(job) = &app.networks.job {
+        ui.add(ProgressBar::new(job.progress()).text(job.message()));
+    }
+    if let Some((name, area, rows)) = &app.networks.table {
+        ui.label(
+            RichText::new(format!(
+                "{name}: channels from {:.2} km² upstream",
+                area / 1e6
+            ))
+            .weak(),
+        );
+        egui::Grid::new("network comparison")
+            .num_columns(4)
+            .striped(true)
+            .show(ui, |ui| {
+                for header in ["", "DEM", "largest basin", "generated"] {
+                    ui.label(RichText::new(header).strong());
+                }
+                ui.end_row();
+                for (label, cells) in rows {
+                    ui.label(label);
+                    for cell in cells {
+                        ui.label(cell);
+                    }
+                    ui.end_row();
+                }
+            });
+    }
+    if clicked {
+        let ctx = ui.ctx().clone();
+        app.compare_networks(&ctx);
+    }
+}
