@@ -241,7 +241,7 @@ impl StrahlerApp {
 
     /// The DEM panel's network comparison table, once computed (label; DEM, its largest
     /// basin, generated).
-    pub fn network_comparison(&self) -> Option<&[(String, [String; 3])]> {
+    pub fn network_comparison(&self) -> Option<&[networks::Row]> {
         self.networks.rows()
     }
 

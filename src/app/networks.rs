@@ -17,8 +17,20 @@ pub struct Comparison {
     job: Option<JobHandle<Result<ChannelReport, String>>>,
     /// The generated networks' pooled statistics and count, taken when the job started.
     generated: Option<(NetworkStats, usize)>,
-    /// The DEM's file name and the table rows (label; DEM, its largest basin, generated).
-    table: Option<(String, f64, Vec<(String, [String; 3])>)>,
+    table: Option<Table>,
+}
+
+/// A row of the table: its label and the values for the DEM, its largest basin and the
+/// generated networks.
+pub type Row = (String, [String; 3]);
+
+/// The last comparison.
+struct Table {
+    /// The DEM's file name.
+    dem: String,
+    /// The channel initiation area used, m².
+    channel_area_m2: f64,
+    rows: Vec<Row>,
 }
 
 impl Comparison {
@@ -27,8 +39,8 @@ impl Comparison {
     }
 
     /// The last table's rows, if any (label; DEM, its largest basin, generated).
-    pub fn rows(&self) -> Option<&[(String, [String; 3])]> {
-        self.table.as_ref().map(|t| t.2.as_slice())
+    pub fn rows(&self) -> Option<&[Row]> {
+        self.table.as_ref().map(|t| t.rows.as_slice())
     }
 }
 
@@ -92,7 +104,11 @@ impl StrahlerApp {
                     .as_ref()
                     .map_or(String::new(), |d| d.name.clone());
                 let rows = crate::realism::network::comparison_rows(&dem, &generated, count);
-                self.networks.table = Some((name, dem.channel_area_m2, rows));
+                self.networks.table = Some(Table {
+                    dem: name,
+                    channel_area_m2: dem.channel_area_m2,
+                    rows,
+                });
             }
             (Err(err), _) if err == "cancelled" => {}
             (Err(err), _) => self.set_error(format!("Network comparison failed: {err}")),
@@ -117,11 +133,12 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     if let Some(job) = &app.networks.job {
         ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }
-    if let Some((name, area, rows)) = &app.networks.table {
+    if let Some(table) = &app.networks.table {
         ui.label(
             RichText::new(format!(
-                "{name}: channels from {:.2} km² upstream",
-                area / 1e6
+                "{}: channels from {:.2} km² upstream",
+                table.dem,
+                table.channel_area_m2 / 1e6
             ))
             .weak(),
         );
@@ -133,7 +150,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     ui.label(RichText::new(header).strong());
                 }
                 ui.end_row();
-                for (label, cells) in rows {
+                for (label, cells) in &table.rows {
                     ui.label(label);
                     for cell in cells {
                         ui.label(cell);
