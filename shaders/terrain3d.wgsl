@@ -57,7 +57,7 @@ struct VertexOut {
 
 // The surface (metres) at p (cells): the subdivision limit, the same at every level.
 fn height_at(p: vec2<f32>) -> f32 {
-    return bspline_height(height_tex, p);
+    return bspline_height(p);
 }
 
 fn uv_of(cell: vec2<f32>) -> vec2<f32> {

@@ -10,7 +10,7 @@ use strahler::view3d::subdivision;
 use wgpu::util::DeviceExt;
 
 const WRAPPER: &str = r#"
-@group(0) @binding(0) var control: texture_2d<f32>;
+@group(0) @binding(0) var height_tex: texture_2d<f32>;
 @group(0) @binding(1) var<storage, read> points: array<vec2<f32>>;
 @group(0) @binding(2) var<storage, read_write> heights: array<f32>;
 
@@ -18,7 +18,7 @@ const WRAPPER: &str = r#"
 fn main(@builtin(global_invocation_id) id: vec3<u32>) {
     let i = id.x;
     if (i < arrayLength(&heights)) {
-        heights[i] = bspline_height(control, points[i]);
+        heights[i] = bspline_height(points[i]);
     }
 }
 "#;
