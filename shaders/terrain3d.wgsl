@@ -2,8 +2,11 @@
 //
 // Terrain: one shared grid of (n x n) vertices plus a skirt ring, drawn once per chunk
 // instance (src/view3d/lod.rs). The vertex stage reads heights from a texture (no storage
-// buffers, so this runs on WebGL2 too); in chunks finer than the field it adds seed 004's
-// multifractal detail (eqs. 4-6). The fragment stage mixes seed 003's four elevation
+// buffers, so this runs on WebGL2 too): every vertex lies on the bicubic B-spline through
+// the field's samples, seed 004's subdivision limit (eqs. 2-3, shaders/bspline.wgsl, which
+// the renderer prepends), so chunks of any level share one surface, smooth below the
+// field's resolution; in chunks finer than the field it adds seed 004's multifractal
+// detail (eqs. 4-6) with the terrain's own Hurst exponent and wavelet roughness. The fragment stage mixes seed 003's four elevation
 // textures (land, grassland 1, grassland 2, moss; Sec. 3.3.3) by an elevation-and-slope
 // mask, adds snow (its Fig. 22), rivers as water, sun lighting and aerial fog, and writes
 // gamma-encoded colour (egui shows the target as an Rgba8Unorm image).
@@ -20,13 +23,19 @@ struct Globals {
     heights: vec4<f32>,
     // x: rivers as water (1/0); y: water plane (1/0); z: detail amplitude (metres); w: skirts.
     flags: vec4<f32>,
+    // x: eq. 4's octave gain 2^-H; y: H (from the terrain's spectral slope, maps.rs).
+    detail: vec4<f32>,
 };
 
 @group(0) @binding(0) var<uniform> g: Globals;
+// The B-spline's control points (src/view3d/subdivision.rs), not the samples.
 @group(0) @binding(1) var height_tex: texture_2d<f32>;
 @group(0) @binding(2) var gradient_tex: texture_2d<f32>;
 @group(0) @binding(3) var water_tex: texture_2d<f32>;
 @group(0) @binding(4) var linear_sampler: sampler;
+// Eq. 5's roughness e: local standard deviation of the finest wavelet detail (seed 001's
+// LSA), 0.5 = the map's average (maps.rs).
+@group(0) @binding(5) var roughness_tex: texture_2d<f32>;
 
 struct VertexIn {
     // Grid column, row (0..=n-1) and 1 on the skirt ring.
@@ -46,18 +55,9 @@ struct VertexOut {
     @location(3) detail_gradient: vec2<f32>,
 };
 
+// The surface (metres) at p (cells): the subdivision limit, the same at every level.
 fn height_at(p: vec2<f32>) -> f32 {
-    let size = vec2<i32>(g.map.xy);
-    let q = clamp(p, vec2<f32>(0.0), g.map.xy - vec2<f32>(1.0));
-    let base = floor(q);
-    let t = q - base;
-    let i = vec2<i32>(base);
-    let j = min(i + vec2<i32>(1), size - vec2<i32>(1));
-    let h00 = textureLoad(height_tex, i, 0).r;
-    let h10 = textureLoad(height_tex, vec2<i32>(j.x, i.y), 0).r;
-    let h01 = textureLoad(height_tex, vec2<i32>(i.x, j.y), 0).r;
-    let h11 = textureLoad(height_tex, j, 0).r;
-    return mix(mix(h00, h10, t.x), mix(h01, h11, t.x), t.y);
+    return bspline_height(p);
 }
 
 fn uv_of(cell: vec2<f32>) -> vec2<f32> {
@@ -89,7 +89,8 @@ fn perlin(p: vec2<f32>) -> f32 {
     return mix(mix(n00, n10, u.x), mix(n01, n11, u.x), u.y);
 }
 
-// Eq. 4 with lacunarity 2, k0 = 0 and `octaves` = subdivisions beyond the field; H = 0.8.
+// Eq. 4 with lacunarity 2, k0 = 0 and `octaves` = subdivisions beyond the field; H from the
+// terrain's spectral slope (gamma = 2H + 2, seed 001), so each octave weighs 2^-H.
 fn fractal(p: vec2<f32>, octaves: i32) -> f32 {
     var sum = 0.0;
     var frequency = 1.0;
@@ -97,24 +98,20 @@ fn fractal(p: vec2<f32>, octaves: i32) -> f32 {
     for (var l = 0; l < octaves; l = l + 1) {
         sum = sum + perlin(p * frequency) * weight;
         frequency = frequency * 2.0;
-        weight = weight * 0.57435; // 2^-H
+        weight = weight * g.detail.x;
     }
     return sum;
 }
 
 // Eq. 5's multifractal weight M(h, s, e), linear as the paper suggests: low ground is
-// smooth, steep and rough ground (slope s, curvature e) gets more detail.
-fn detail_weight(p: vec2<f32>) -> f32 {
+// smooth, steep ground (slope s) and rough ground (e: seed 001's local detail deviation,
+// the paper's surface roughness) get more detail. `height` is the surface at p (metres).
+fn detail_weight(p: vec2<f32>, height: f32) -> f32 {
     let uv = uv_of(p);
-    let texel = vec2<f32>(1.0) / g.map.xy;
     let grad = textureSampleLevel(gradient_tex, linear_sampler, uv, 0.0).xy;
-    let gx = textureSampleLevel(gradient_tex, linear_sampler, uv + vec2<f32>(texel.x, 0.0), 0.0).x
-        - textureSampleLevel(gradient_tex, linear_sampler, uv - vec2<f32>(texel.x, 0.0), 0.0).x;
-    let gy = textureSampleLevel(gradient_tex, linear_sampler, uv + vec2<f32>(0.0, texel.y), 0.0).y
-        - textureSampleLevel(gradient_tex, linear_sampler, uv - vec2<f32>(0.0, texel.y), 0.0).y;
-    let h = clamp((height_at(p) - g.heights.x) / max(g.heights.y - g.heights.x, 1e-3), 0.0, 1.0);
+    let e = textureSampleLevel(roughness_tex, linear_sampler, uv, 0.0).r;
+    let h = clamp((height - g.heights.x) / max(g.heights.y - g.heights.x, 1e-3), 0.0, 1.0);
     let s = min(length(grad), 1.0);
-    let e = min(abs(gx + gy) * 2.0, 1.0);
     return 0.2 + 0.3 * h + 0.3 * s + 0.2 * e;
 }
 
@@ -128,7 +125,7 @@ fn vs_terrain(in: VertexIn) -> VertexOut {
     if (stride < 0.99 && g.flags.z > 0.0) {
         // Eq. 6: V_d = sum_l Noise(2^l V) 2^(-H l) M(h, s, e), one octave per level below 0.
         let octaves = i32(round(-log2(stride)));
-        let amplitude = g.flags.z * detail_weight(cell);
+        let amplitude = g.flags.z * detail_weight(cell, h);
         h = h + amplitude * fractal(cell, octaves);
         let e = 0.25;
         let dx = fractal(cell + vec2<f32>(e, 0.0), octaves) - fractal(cell - vec2<f32>(e, 0.0), octaves);

@@ -4,8 +4,10 @@
 //! same regular grid of `n = CHUNK_QUADS + 1` samples per side; a chunk of level `L` samples
 //! the heightfield every `2^L` cells, so level 0 is the field's own resolution and the root
 //! covers the whole map with `n^2` samples. Levels below zero (at most
-//! [`LodParams::detail_levels`]) are finer than the field: the renderer interpolates and adds
-//! seed 004's multifractal detail there (see `shaders/terrain3d.wgsl`).
+//! [`LodParams::detail_levels`]) are finer than the field: the renderer adds seed 004's
+//! multifractal detail there (see `shaders/terrain3d.wgsl`). Every vertex, at every level,
+//! lies on one surface, the bicubic B-spline that passes through the samples (seed 004's
+//! subdivision limit, [`super::subdivision`]), so a vertex two levels share has one height.
 //!
 //! Refinement follows seed 004's triangle-density rule, eq. 7: a chunk of size `D`, seen from
 //! distance `x` by an eye `h` above it, subtends about `D h / x^2` radians along the view
@@ -80,7 +82,11 @@ struct Level {
 }
 
 impl ChunkTree {
-    /// Builds the min/max pyramid of `field` (non-finite cells are ignored). O(cells).
+    /// Builds the min/max pyramid of `field` (non-finite cells are ignored), each chunk's
+    /// range taken over its cells and the ring of cells around them: with `field` the
+    /// B-spline control points, the surface over the chunk lies within it (the basis is
+    /// non-negative and sums to one; the border's ghosts keep that, see
+    /// `super::subdivision`). O(cells).
     pub fn new(field: &Heightfield) -> Self {
         let (w, h) = (field.width(), field.height());
         let chunks = |cells: usize, side: usize| (cells.saturating_sub(1)).div_ceil(side).max(1);
@@ -88,13 +94,15 @@ impl ChunkTree {
         let data = field.data();
         let mut ranges = vec![(f32::INFINITY, f32::NEG_INFINITY); cols * rows];
         for (cy, row) in ranges.chunks_mut(cols).enumerate() {
-            let y0 = cy * CHUNK_QUADS;
-            let y1 = (y0 + CHUNK_QUADS).min(h.saturating_sub(1));
+            // One cell of margin: the B-spline over a chunk reaches one control point past
+            // its edge (see `super::subdivision`).
+            let y0 = (cy * CHUNK_QUADS).saturating_sub(1);
+            let y1 = (cy * CHUNK_QUADS + CHUNK_QUADS + 1).min(h.saturating_sub(1));
             for y in y0..=y1 {
                 let line = &data[y * w..(y + 1) * w];
                 for (cx, range) in row.iter_mut().enumerate() {
-                    let x0 = cx * CHUNK_QUADS;
-                    let x1 = (x0 + CHUNK_QUADS).min(w - 1);
+                    let x0 = (cx * CHUNK_QUADS).saturating_sub(1);
+                    let x1 = (cx * CHUNK_QUADS + CHUNK_QUADS + 1).min(w - 1);
                     for &z in &line[x0..=x1] {
                         if z.is_finite() {
                             range.0 = range.0.min(z);
@@ -384,9 +392,10 @@ mod tests {
         let root = tree.chunk(3, 0, 0).unwrap();
         let (lo, hi) = field.finite_range().unwrap();
         assert_eq!((root.zmin, root.zmax), (lo, hi));
-        // A level-0 chunk's range is exactly that of its 33 x 33 cells.
+        // A level-0 chunk's range is exactly that of its 33 x 33 cells and the ring around
+        // them (the control points its B-spline surface reaches).
         let c = tree.chunk(0, 2, 5).unwrap();
-        let cells = (160..=192).flat_map(|y| (64..=96).map(move |x| (x, y)));
+        let cells = (159..=193).flat_map(|y| (63..=97).map(move |x| (x, y)));
         let zs: Vec<f32> = cells.map(|(x, y)| field.get(x, y).unwrap()).collect();
         let min = zs.iter().copied().fold(f32::INFINITY, f32::min);
         let max = zs.iter().copied().fold(f32::NEG_INFINITY, f32::max);

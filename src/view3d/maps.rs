@@ -1,18 +1,41 @@
-//! The rasters the 3D shader reads, prepared once per terrain on the CPU.
+//! The rasters the 3D shader reads, prepared once per terrain on the CPU (natively on a
+//! worker thread, in the page as a job that yields: the app's "3D view" job).
 //!
-//! - heights (`R32Float`, read with `textureLoad`, so no float filtering is needed: WebGL2
-//!   and WebGPU both have it),
+//! - B-spline control points (`R32Float`, read with `textureLoad`, so no float filtering is
+//!   needed: WebGL2 and WebGPU both have it): the control points whose bicubic B-spline,
+//!   the limit of seed 004's subdivision (eqs. 2-3), passes through every sample (see
+//!   [`super::subdivision`]); the vertex stage evaluates that surface,
 //! - surface gradients `(dz/dx, dz/dy)` in metres per metre (`Rg16Float`, filterable
-//!   everywhere), from which the shader derives per-pixel normals for any exaggeration,
-//! - a water mask of the river network (`R8Unorm`).
+//!   everywhere), central differences of the samples, from which the shader derives
+//!   per-pixel normals for any exaggeration,
+//! - roughness `e` of seed 004's eq. 5 (`R8Unorm`): seed 001's local-scope statistic, the
+//!   local standard deviation of the finest wavelet level's detail ([`roughness`]),
+//! - the Hurst exponent `H` of eq. 4 from seed 001's spectral slope ([`hurst_from_gamma`]),
+//! - a water mask of the river network (`R8Unorm`, [`water_mask`]).
 //!
 //! A field larger than the device's texture limit is box-filtered down by an integer factor
 //! (the 3D view then shows that resolution; exports are unaffected). O(cells).
 
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::wavelet::analysis::{self, AnalysisParams, Transformed};
+use crate::wavelet::lifting::Band;
 
 use super::lod::ChunkTree;
+use super::subdivision;
+
+/// Eq. 4's `H` when the terrain gives no spectral fit (flat or tiny): the fixed value the
+/// view used before it measured one.
+pub const DEFAULT_HURST: f32 = 0.8;
+
+/// The range `H` is clamped to: fBm needs `0 < H < 1`; below 0.1 the detail's octaves
+/// hardly decay (white noise, one spike per vertex), at 1 they decay as fast as a smooth
+/// surface's. Real land measures gamma 2.5 to 4.5 (seed 001), H 0.25 to 1.25.
+pub const HURST_RANGE: (f32, f32) = (0.1, 1.0);
+
+/// Half-width (cells) of the window of [`roughness`]: 9 x 9 cells, about 40 detail
+/// coefficients (3/4 of the cells hold one), enough for a standard deviation within ~10 %.
+pub const ROUGHNESS_RADIUS: usize = 4;
 
 /// The prepared rasters of one terrain.
 #[derive(Clone, Debug)]
@@ -21,12 +44,20 @@ pub struct TerrainMaps {
     pub height: usize,
     /// Metres per cell (after any reduction).
     pub cell: f32,
-    /// Heights in metres, non-finite cells replaced by the lowest height.
-    pub heights: Vec<f32>,
+    /// The bicubic B-spline control points (metres) whose surface passes through the
+    /// heights ([`subdivision::interpolating`]); non-finite cells were replaced by the lowest
+    /// height first.
+    pub control: Vec<f32>,
     /// `(dz/dx, dz/dy)` per cell as IEEE half floats.
     pub gradients: Vec<[u16; 2]>,
+    /// Eq. 5's roughness `e` per cell, 0..=255 for 0..=1 ([`roughness`]).
+    pub roughness: Vec<u8>,
+    /// Eq. 4's Hurst exponent, from the terrain's own spectral slope ([`hurst_from_gamma`]).
+    pub hurst: f32,
+    /// The lowest and highest sample (metres).
     pub zmin: f32,
     pub zmax: f32,
+    /// Height ranges of the chunks, from the control points (the surface lies within them).
     pub tree: ChunkTree,
 }
 
@@ -35,18 +66,15 @@ impl TerrainMaps {
     /// `max_side` texels wide.
     pub fn new(field: &Heightfield, cell: f32, max_side: usize) -> Self {
         let base = Base::of(field, cell, max_side);
-        let gradients = gradient_rows(
-            &base.heights,
-            base.width,
-            base.height,
-            base.cell,
-            0..base.height,
-        );
-        base.finish(gradients)
+        let (w, h) = (base.width, base.height);
+        let gradients = gradient_rows(&base.heights, w, h, base.cell, 0..h);
+        let (hurst, roughness) = spectral(&base.heights, w, h);
+        let control = subdivision::interpolating(&base.heights, w, h);
+        base.finish(gradients, control, roughness, hurst)
     }
 
-    /// [`Self::new`] as a job: yields between bands of rows (the browser keeps painting) and
-    /// stops when cancelled.
+    /// [`Self::new`] as a job: yields between bands of rows and between stages (the browser
+    /// keeps painting) and stops when cancelled.
     pub async fn prepare(
         field: &Heightfield,
         cell: f32,
@@ -57,25 +85,43 @@ impl TerrainMaps {
         let (w, h) = (base.width, base.height);
         let mut gradients = Vec::with_capacity(w * h);
         for start in (0..h).step_by(256) {
-            job.checkpoint(start as f32 / h as f32, "3D view: surface normals")
+            job.checkpoint(0.3 * start as f32 / h as f32, "3D view: surface normals")
                 .await?;
             let rows = start..(start + 256).min(h);
             gradients.extend(gradient_rows(&base.heights, w, h, base.cell, rows));
         }
-        Ok(base.finish(gradients))
+        job.checkpoint(0.3, "3D view: wavelet roughness").await?;
+        let (hurst, roughness) = spectral(&base.heights, w, h);
+        let mut control = base.heights.clone();
+        for start in (0..h).step_by(256) {
+            job.checkpoint(
+                0.6 + 0.2 * start as f32 / h as f32,
+                "3D view: smooth surface",
+            )
+            .await?;
+            subdivision::interpolate_rows(&mut control, w, start..(start + 256).min(h));
+        }
+        for start in (0..w).step_by(256) {
+            job.checkpoint(
+                0.8 + 0.2 * start as f32 / w as f32,
+                "3D view: smooth surface",
+            )
+            .await?;
+            subdivision::interpolate_columns(&mut control, w, h, start..(start + 256).min(w));
+        }
+        Ok(base.finish(gradients, control, roughness, hurst))
     }
 
-    /// Height (metres) at world position `(x, y)` metres, bilinear, clamped to the map.
+    /// Height (metres) of the drawn surface (without the synthetic detail) at world position
+    /// `(x, y)` metres, clamped to the map: the B-spline the shader evaluates.
     pub fn ground(&self, x: f32, y: f32) -> f32 {
-        let fx = (x / self.cell).clamp(0.0, (self.width - 1) as f32);
-        let fy = (y / self.cell).clamp(0.0, (self.height - 1) as f32);
-        let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
-        let (x1, y1) = ((x0 + 1).min(self.width - 1), (y0 + 1).min(self.height - 1));
-        let (tx, ty) = (fx - x0 as f32, fy - y0 as f32);
-        let at = |x: usize, y: usize| self.heights[y * self.width + x];
-        let top = at(x0, y0) * (1.0 - tx) + at(x1, y0) * tx;
-        let bottom = at(x0, y1) * (1.0 - tx) + at(x1, y1) * tx;
-        top * (1.0 - ty) + bottom * ty
+        subdivision::evaluate(
+            &self.control,
+            self.width,
+            self.height,
+            x / self.cell,
+            y / self.cell,
+        )
     }
 
     /// World size of the map (metres).
@@ -122,21 +168,134 @@ impl Base {
         }
     }
 
-    fn finish(self, gradients: Vec<[u16; 2]>) -> TerrainMaps {
-        let field = Heightfield::from_vec(self.width, self.height, self.heights)
+    fn finish(
+        self,
+        gradients: Vec<[u16; 2]>,
+        control: Vec<f32>,
+        roughness: Vec<u8>,
+        hurst: f32,
+    ) -> TerrainMaps {
+        drop(self.heights);
+        let field = Heightfield::from_vec(self.width, self.height, control)
             .expect("a prepared field is valid");
         let tree = ChunkTree::new(&field);
         TerrainMaps {
             width: self.width,
             height: self.height,
             cell: self.cell,
-            heights: field.into_vec(),
+            control: field.into_vec(),
             gradients,
+            roughness,
+            hurst,
             zmin: self.zmin,
             zmax: self.zmax,
             tree,
         }
     }
+}
+
+/// Eq. 4's `H` from seed 001's spectral slope `gamma` of the wavelet detail variances
+/// (`gamma = 2 H + 2` for fBm with the L2-normalised bank, seed 001 Sec. 2.3), clamped to
+/// [`HURST_RANGE`]; [`DEFAULT_HURST`] without a finite slope.
+pub fn hurst_from_gamma(gamma: Option<f64>) -> f32 {
+    match gamma {
+        Some(g) if g.is_finite() => (((g - 2.0) / 2.0) as f32).clamp(HURST_RANGE.0, HURST_RANGE.1),
+        _ => DEFAULT_HURST,
+    }
+}
+
+/// Eq. 4's `H` and eq. 5's roughness of a `w x h` grid of heights, from one wavelet
+/// transform (seed 001): `H` from the spectral slope the realism report prints (the bands'
+/// mean gamma of [`analysis::analyze_transformed`]), the roughness from the finest level's
+/// detail ([`roughness`]). A grid too small to transform gets [`DEFAULT_HURST`] and a
+/// middling roughness (0.5) everywhere. O(cells).
+pub fn spectral(heights: &[f32], w: usize, h: usize) -> (f32, Vec<u8>) {
+    let fallback = || (DEFAULT_HURST, vec![128u8; w * h]);
+    let Ok(field) = Heightfield::from_vec(w, h, heights[..w * h].to_vec()) else {
+        return fallback();
+    };
+    let Ok(mut t) = Transformed::of(&field) else {
+        return fallback();
+    };
+    drop(field);
+    let global = analysis::analyze_transformed(&t, &AnalysisParams::default());
+    let gammas: Vec<f64> = global.fits.iter().flatten().map(|f| f.gamma).collect();
+    let gamma = (!gammas.is_empty()).then(|| gammas.iter().sum::<f64>() / gammas.len() as f64);
+    let hurst = hurst_from_gamma(gamma);
+    (hurst, roughness(&mut t.data, w, h))
+}
+
+/// Eq. 5's roughness `e` per cell from a grid transformed at least one level
+/// (`src/wavelet/lifting.rs`, CDF 5/3, interleaved: the finest level's detail coefficients
+/// sit on the cells with an odd coordinate): the standard deviation of the L2-normalised
+/// finest detail in a `(2 r + 1)^2` window ([`ROUGHNESS_RADIUS`]), seed 001's local scope
+/// (LSA, Sec. 3.3.1, eq. 8's windowed variance at the finest level), divided by twice its
+/// root mean square over the map and clamped to 1: 0.5 is ground as rough as the map's
+/// average, 1 twice as rough or more, 0 smooth. Uses `data` as scratch. O(cells).
+pub fn roughness(data: &mut [f32], w: usize, h: usize) -> Vec<u8> {
+    let r = ROUGHNESS_RADIUS;
+    // Squared normalised detail; 0 on the coarse (even, even) cells.
+    let (mut total, mut count) = (0.0f64, 0usize);
+    for y in 0..h {
+        for x in 0..w {
+            let v = &mut data[y * w + x];
+            *v = match Band::at(x % 2 == 1, y % 2 == 1) {
+                Some(band) => {
+                    let d = f64::from(*v) * band.normalisation(1);
+                    total += d * d;
+                    count += 1;
+                    (d * d) as f32
+                }
+                None => 0.0,
+            };
+        }
+    }
+    let mean = if count > 0 { total / count as f64 } else { 0.0 };
+    if mean <= 0.0 || !mean.is_finite() {
+        return vec![0u8; w * h];
+    }
+    // Horizontal window sums, in place (a prefix sum per row).
+    let mut prefix = vec![0.0f64; w + 1];
+    for row in data.chunks_mut(w) {
+        for (x, &v) in row.iter().enumerate() {
+            prefix[x + 1] = prefix[x] + f64::from(v);
+        }
+        for (x, v) in row.iter_mut().enumerate() {
+            *v = (prefix[(x + r + 1).min(w)] - prefix[x.saturating_sub(r)]) as f32;
+        }
+    }
+    // Vertical window sums, running per column; the count of detail cells per window is the
+    // window's cells less its (even, even) ones.
+    let evens = |a: usize, b: usize| b / 2 - a.div_ceil(2) + 1;
+    let scale = 1.0 / (2.0 * mean.sqrt());
+    let mut sums = vec![0.0f64; w];
+    for y in 0..r.min(h) {
+        for (s, &v) in sums.iter_mut().zip(&data[y * w..(y + 1) * w]) {
+            *s += f64::from(v);
+        }
+    }
+    let mut out = vec![0u8; w * h];
+    for y in 0..h {
+        if y + r < h {
+            for (s, &v) in sums.iter_mut().zip(&data[(y + r) * w..(y + r + 1) * w]) {
+                *s += f64::from(v);
+            }
+        }
+        if y > r {
+            for (s, &v) in sums.iter_mut().zip(&data[(y - r - 1) * w..(y - r) * w]) {
+                *s -= f64::from(v);
+            }
+        }
+        let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
+        for x in 0..w {
+            let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
+            let cells = (x1 - x0 + 1) * (y1 - y0 + 1);
+            let n = cells - evens(x0, x1) * evens(y0, y1);
+            let sigma = (sums[x].max(0.0) / n.max(1) as f64).sqrt();
+            out[y * w + x] = ((sigma * scale).min(1.0) * 255.0).round() as u8;
+        }
+    }
+    out
 }
 
 /// Box filter by `factor` (finite cells only).
@@ -323,7 +482,7 @@ mod tests {
         let maps = TerrainMaps::new(&field, 1.0, 256);
         assert!(maps.width <= 256 && maps.height <= 256);
         assert_eq!(maps.cell, 4.0);
-        assert!(maps.heights.iter().all(|&z| z == 7.0));
+        assert!(maps.control.iter().all(|&z| (z - 7.0).abs() < 1e-4));
     }
 
     #[test]
@@ -331,7 +490,60 @@ mod tests {
         let mut field = Heightfield::filled(64, 64, 3.0).unwrap();
         field.data_mut()[100] = f32::NAN;
         let maps = TerrainMaps::new(&field, 1.0, 4096);
-        assert!(maps.heights.iter().all(|z| z.is_finite()));
+        assert!(maps.control.iter().all(|z| z.is_finite()));
+    }
+
+    #[test]
+    fn the_hurst_exponent_follows_the_spectral_slope() {
+        // gamma = 2H + 2, clamped to the sane range, the old fixed value without a fit.
+        assert!((hurst_from_gamma(Some(3.6)) - 0.8).abs() < 1e-6);
+        assert!((hurst_from_gamma(Some(3.0)) - 0.5).abs() < 1e-6);
+        assert_eq!(hurst_from_gamma(Some(1.0)), HURST_RANGE.0);
+        assert_eq!(hurst_from_gamma(Some(9.0)), HURST_RANGE.1);
+        assert_eq!(hurst_from_gamma(None), DEFAULT_HURST);
+        assert_eq!(hurst_from_gamma(Some(f64::NAN)), DEFAULT_HURST);
+        // Fields of known H (seed 001's check: gamma within 0.35 of 2H + 2, so H within 0.175).
+        for hurst in [0.4f32, 0.8] {
+            let field = crate::wavelet::fbm::diamond_square(257, 257, hurst, 11).unwrap();
+            let maps = TerrainMaps::new(&field, 10.0, 4096);
+            assert!(
+                (maps.hurst - hurst).abs() <= 0.175,
+                "H {hurst}: measured {}",
+                maps.hurst
+            );
+        }
+        let rough = crate::wavelet::fbm::diamond_square(257, 257, 0.3, 2).unwrap();
+        let smooth = crate::wavelet::fbm::diamond_square(257, 257, 0.9, 2).unwrap();
+        let (hr, hs) = (
+            TerrainMaps::new(&rough, 10.0, 4096).hurst,
+            TerrainMaps::new(&smooth, 10.0, 4096).hurst,
+        );
+        assert!(hs > hr + 0.3, "rough {hr}, smooth {hs}");
+    }
+
+    #[test]
+    fn roughness_is_high_where_the_finest_detail_is_strong() {
+        // A gentle slope everywhere, with cell-scale noise on the right half only.
+        let n = 96;
+        let data = (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n, i / n);
+                let mut v = (i as u32).wrapping_mul(2_654_435_761);
+                v ^= v >> 15;
+                let noise = (v & 0xff) as f32 / 255.0 - 0.5;
+                0.3 * x as f32 + 0.1 * y as f32 + if x >= n / 2 { 4.0 * noise } else { 0.0 }
+            })
+            .collect();
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let maps = TerrainMaps::new(&field, 10.0, 4096);
+        let at = |x: usize, y: usize| maps.roughness[y * n + x];
+        // A plane has no detail (the 5/3 predictor is exact on it): e = 0 on the left.
+        assert!(at(10, 40) <= 2, "{}", at(10, 40));
+        assert!(at(80, 40) >= 150, "{}", at(80, 40));
+        // e = sigma / (2 rms of the map): the right half holds all the detail, so its mean
+        // square is twice the map's and e = sqrt 2 / 2 = 0.71 there.
+        let right = (50..90).map(|x| f32::from(at(x, 50))).sum::<f32>() / 40.0 / 255.0;
+        assert!((right - 0.71).abs() < 0.12, "{right}");
     }
 
     #[test]

@@ -8,6 +8,8 @@
 //! - [`lod`]: the chunk quadtree and eq. 7 selection (pure, CPU).
 //! - [`maps`]: the textures the shader reads, prepared on the CPU from the heightfield.
 //! - [`mesh`]: the grid (with its skirt) every chunk is drawn with.
+//! - [`subdivision`]: seed 004's smooth subdivision (eqs. 2-3) and its limit, the bicubic
+//!   B-spline the vertex stage evaluates (CPU reference).
 //! - [`renderer`]: wgpu pipelines drawing the chunks into an offscreen colour + depth target,
 //!   on WebGPU, WebGL2 (vertex buffers and textures only, no storage buffers) and natively.
 //! - [`target`]: that target, and reading it back.
@@ -20,6 +22,7 @@ pub mod lod;
 pub mod maps;
 pub mod mesh;
 pub mod renderer;
+pub mod subdivision;
 pub mod target;
 
 pub use camera::{Camera, CameraMode};

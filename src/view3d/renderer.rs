@@ -19,7 +19,14 @@ use super::target::{COLOR_FORMAT, DEPTH_FORMAT, Target};
 use super::{Camera, TerrainMaps, View3dSettings};
 use crate::gpu::{GpuContext, GpuError};
 
-const SHADER: &str = include_str!("../../shaders/terrain3d.wgsl");
+/// The B-spline evaluation (seed 004's subdivision limit) the terrain shader calls; tests
+/// wrap it in a compute shader to check it against [`super::subdivision::evaluate`].
+pub const BSPLINE_WGSL: &str = include_str!("../../shaders/bspline.wgsl");
+
+const SHADER: &str = concat!(
+    include_str!("../../shaders/bspline.wgsl"),
+    include_str!("../../shaders/terrain3d.wgsl")
+);
 
 /// Background (the shader's sky colour, gamma-encoded).
 pub const CLEAR: [f64; 3] = [0.7681, 0.8469, 0.9301];
@@ -44,6 +51,7 @@ struct Globals {
     map: [f32; 4],
     heights: [f32; 4],
     flags: [f32; 4],
+    detail: [f32; 4],
 }
 
 struct TerrainTextures {
@@ -107,6 +115,7 @@ impl Renderer {
                     ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
                     count: None,
                 },
+                texture_entry(5, true),
             ],
         });
         let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
@@ -272,12 +281,20 @@ impl Renderer {
         };
         let (w, h) = (maps.width, maps.height);
         let heights = texture(
-            "terrain3d heights",
+            "terrain3d control points",
             wgpu::TextureFormat::R32Float,
             w,
             h,
-            bytemuck::cast_slice(&maps.heights),
+            bytemuck::cast_slice(&maps.control),
             4,
+        );
+        let roughness = texture(
+            "terrain3d roughness",
+            wgpu::TextureFormat::R8Unorm,
+            w,
+            h,
+            &maps.roughness,
+            1,
         );
         let gradients = texture(
             "terrain3d gradients",
@@ -325,6 +342,10 @@ impl Renderer {
                 wgpu::BindGroupEntry {
                     binding: 4,
                     resource: wgpu::BindingResource::Sampler(&self.sampler),
+                },
+                wgpu::BindGroupEntry {
+                    binding: 5,
+                    resource: wgpu::BindingResource::TextureView(&view(&roughness)),
                 },
             ],
         });
@@ -413,6 +434,7 @@ impl Renderer {
                 detail_amplitude,
                 f32::from(u8::from(settings.skirts)),
             ],
+            detail: [2f32.powf(-maps.hurst), maps.hurst, 0.0, 0.0],
         };
         queue.write_buffer(&self.globals, 0, bytemuck::bytes_of(&globals));
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
