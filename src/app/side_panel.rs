@@ -356,11 +356,20 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.add(DragValue::new(&mut scene.params.enrich.passes).range(0..=16))
                 .labelled_by(label.id);
             ui.end_row();
-            let label = ui
-                .label("L (cells)")
-                .on_hover_text("Distance limit L: no point is added farther from the skeleton.");
-            ui.add(DragValue::new(&mut scene.params.enrich.distance_limit).range(1..=64))
-                .labelled_by(label.id);
+            let label = ui.label("L (cells)").on_hover_text(
+                "Distance limit L. From the skeleton: no point is added farther than L cells \
+                 from the rivers and ridges. Between points (the paper as written): no point \
+                 is interpolated from points more than L cells apart; on 3 x 3 squares that \
+                 limits nothing from L = 3, and the passes alone bound the flanks.",
+            );
+            ui.horizontal(|ui| {
+                ui.add(DragValue::new(&mut scene.params.enrich.distance_limit).range(1..=64))
+                    .labelled_by(label.id);
+                use crate::skeleton::enrich::DistanceRule;
+                let rule = &mut scene.params.enrich.distance_rule;
+                ui.selectable_value(rule, DistanceRule::Skeleton, "from skeleton");
+                ui.selectable_value(rule, DistanceRule::Points, "between points");
+            });
             ui.end_row();
         });
 }

@@ -52,6 +52,10 @@ pub struct GenerateArgs {
     /// Enrichment distance limit L in cells [default: 3].
     #[arg(long)]
     pub distance_limit: Option<u32>,
+    /// What L limits: the distance from the skeleton (`skeleton`, default) or, as the paper
+    /// writes it, the distance between the points interpolated from (`points`).
+    #[arg(long, value_name = "RULE", value_parser = parse_distance_rule)]
+    pub distance_rule: Option<crate::skeleton::enrich::DistanceRule>,
     /// Gaussian smoothing of the filled terrain, sigma in cells, kept off the rivers [default: 0].
     #[arg(long)]
     pub smooth: Option<f32>,
@@ -130,6 +134,9 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.distance_limit {
         scene.params.enrich.distance_limit = v;
+    }
+    if let Some(v) = args.distance_rule {
+        scene.params.enrich.distance_rule = v;
     }
     match args.style.as_deref() {
         None => {}
@@ -388,5 +395,14 @@ mod tests {
                 .unwrap_err()
                 .contains("unknown river option")
         );
+    }
+}
+
+fn parse_distance_rule(text: &str) -> Result<crate::skeleton::enrich::DistanceRule, String> {
+    use crate::skeleton::enrich::DistanceRule;
+    match text {
+        "skeleton" => Ok(DistanceRule::Skeleton),
+        "points" => Ok(DistanceRule::Points),
+        _ => Err(format!("expected skeleton or points, got {text:?}")),
     }
 }

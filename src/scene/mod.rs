@@ -123,6 +123,10 @@ pub struct EnrichSettings {
     pub passes: u32,
     /// Distance limit L in cells.
     pub distance_limit: u32,
+    /// What L limits: "skeleton" (no point farther than L cells from the skeleton; the
+    /// default) or "points" (the paper as written: no interpolation between points more than
+    /// L cells apart).
+    pub distance_rule: crate::skeleton::enrich::DistanceRule,
 }
 
 impl Default for EnrichSettings {
@@ -131,6 +135,7 @@ impl Default for EnrichSettings {
         Self {
             passes: e.passes,
             distance_limit: e.distance_limit,
+            distance_rule: e.rule,
         }
     }
 }
@@ -776,6 +781,7 @@ impl Scene {
         t.noise.roughness = self.params.noise.roughness;
         t.enrich.passes = self.params.enrich.passes;
         t.enrich.distance_limit = self.params.enrich.distance_limit;
+        t.enrich.rule = self.params.enrich.distance_rule;
         t.sketch = self.sketch.to_sketch();
         t.post = self.params.post;
         t

@@ -11,8 +11,17 @@
 //!   neighbours, or a square centre between four known corners) take their mean, filling the
 //!   holes MDI leaves.
 //!
-//! The distance limit L (in cells): no point is added farther than L cells from the original
-//! skeleton, since interpolating from far points adds errors (the paper stops when d > L).
+//! The distance limit L (in cells), by one of two rules ([`DistanceRule`]):
+//! - **Points** (the paper as written: "as the distance d between the two points becomes
+//!   long, error of the interpolation using these two points becomes large ... When d > L,
+//!   we stop the interpolation"): an interpolation is made only from points at most L cells
+//!   apart. On this grid's 3 x 3 squares those distances are fixed by the stencil: 2 cells
+//!   for an MD edge midpoint (an axis pair), 2 sqrt 2 for an MD square centre (a diagonal
+//!   pair), sqrt 2 for an MDI corner from its square's centre. So L >= 3 limits nothing, and
+//!   only the number of passes bounds how far the flanks reach.
+//! - **Skeleton** (the default, our reading): no point is added farther than L cells (passes)
+//!   from the original skeleton, so L bounds the flanks' width whatever the passes. The README
+//!   compares the two.
 //! Updates of a pass are computed from the state before it and then applied, so the result
 //! does not depend on visiting order. O(passes x skeleton cells).
 //!
@@ -34,6 +43,8 @@ pub struct EnrichParams {
     pub passes: u32,
     /// Distance limit L in cells.
     pub distance_limit: u32,
+    /// What L limits.
+    pub rule: DistanceRule,
 }
 
 impl Default for EnrichParams {
@@ -41,6 +52,44 @@ impl Default for EnrichParams {
         Self {
             passes: 2,
             distance_limit: 3,
+            rule: DistanceRule::Skeleton,
+        }
+    }
+}
+
+/// What the distance limit L limits (see the module's documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DistanceRule {
+    /// No point farther than L cells from the original skeleton.
+    #[default]
+    Skeleton,
+    /// The paper as written: no interpolation between points more than L cells apart.
+    Points,
+}
+
+impl EnrichParams {
+    /// Whether a cell `dist` passes from the skeleton may still be added or read as an MDI
+    /// square centre (`centre`: the corner it fills is one pass farther).
+    fn reaches(&self, dist: u8, centre: bool) -> bool {
+        match self.rule {
+            DistanceRule::Skeleton if centre => u32::from(dist) < self.distance_limit,
+            DistanceRule::Skeleton => u32::from(dist) <= self.distance_limit,
+            // MDI interpolates a corner from its square's centre, sqrt 2 cells away.
+            DistanceRule::Points => self.distance_limit.pow(2) >= 2,
+        }
+    }
+
+    /// The weight (0 or 1) of an MD pair of points `diagonal` or not: under
+    /// [`DistanceRule::Points`] a pair farther apart than L (2 cells on an axis, 2 sqrt 2 on a
+    /// diagonal) is not interpolated from.
+    fn md_pair(&self, diagonal: bool) -> u32 {
+        match self.rule {
+            DistanceRule::Skeleton => 1,
+            DistanceRule::Points => {
+                let d2 = if diagonal { 8 } else { 4 };
+                u32::from(self.distance_limit.pow(2) >= d2)
+            }
         }
     }
 }
@@ -111,9 +160,9 @@ impl<'a> Enrichment<'a> {
         // The per-cell state from the skeleton, in a band of rows per thread.
         let band = n.div_ceil(crate::parallel::threads()).max(1);
         let bands: Vec<_> = (0..n).step_by(band).map(|y| y..(y + band).min(n)).collect();
-        let limit = params.distance_limit;
+        let params = *params;
         crate::parallel::for_each_item(enrichment.rows_mut(&bands), |mut rows| {
-            rows.fill(limit);
+            rows.fill(&params);
         });
         enrichment.find_banks();
         enrichment
@@ -265,7 +314,8 @@ impl<'a> Enrichment<'a> {
     /// [`Self::mdi_updates_into`] does.
     pub fn md_updates_into(&self, rows: Range<usize>, updates: &mut Vec<Update>) {
         let (sk, n) = (&*self.sk, self.sk.size);
-        let limit = self.params.distance_limit;
+        let params = &self.params;
+        let (axis, diagonal) = (params.md_pair(false), params.md_pair(true));
         updates.clear();
         if n < 3 {
             return;
@@ -289,15 +339,16 @@ impl<'a> Enrichment<'a> {
                     midpoints &= midpoints - 1;
                     let f = y * n + x;
                     let pairs = [
-                        (f - 1, f + 1),
-                        (f - n, f + n),
-                        (f - n - 1, f + n + 1),
-                        (f - n + 1, f + n - 1),
+                        (f - 1, f + 1, axis),
+                        (f - n, f + n, axis),
+                        (f - n - 1, f + n + 1, diagonal),
+                        (f - n + 1, f + n - 1, diagonal),
                     ];
                     let (mut total, mut count, mut sides, mut d) = (0.0f64, 0u32, 0i32, FAR);
-                    // Branch-free: a pair with an unknown end is weighted by 0.
-                    for (a, b) in pairs {
-                        let both = u32::from(known(a) & known(b));
+                    // Branch-free: a pair with an unknown end (or farther apart than the
+                    // rule allows) is weighted by 0.
+                    for (a, b, allowed) in pairs {
+                        let both = u32::from(known(a) & known(b)) & allowed;
                         total +=
                             f64::from(both) * (f64::from(sk.heights[a]) + f64::from(sk.heights[b]));
                         count += 2 * both;
@@ -305,7 +356,7 @@ impl<'a> Enrichment<'a> {
                         let far = self.dist[a].max(self.dist[b]);
                         d = d.min(if both == 1 { far } else { FAR });
                     }
-                    if u32::from(d) <= limit {
+                    if count > 0 && params.reaches(d, false) {
                         updates.push(self.above_banks(Update::mean(x, y, total, count, sides, d)));
                     }
                 }
@@ -316,10 +367,10 @@ impl<'a> Enrichment<'a> {
     /// Applies the updates `parts[k]` of the rows `bands[k]` (ascending, disjoint), on all
     /// threads natively.
     pub fn apply_bands(&mut self, bands: &[Range<usize>], parts: &[Vec<Update>]) {
-        let limit = self.params.distance_limit;
+        let params = self.params;
         let items: Vec<_> = self.rows_mut(bands).into_iter().zip(parts).collect();
         crate::parallel::for_each_item(items, |(mut rows, updates)| {
-            rows.apply(updates, limit);
+            rows.apply(updates, &params);
         });
         self.added += parts.iter().map(Vec::len).sum::<usize>();
     }
@@ -372,7 +423,7 @@ struct Rows<'s> {
 impl Rows<'_> {
     /// The state of a fresh skeleton: unknown cells hold 0 m (so a square's sum may add all
     /// nine cells, `centre_row`), skeleton cells are at distance 0 on their flank.
-    fn fill(&mut self, distance_limit: u32) {
+    fn fill(&mut self, params: &EnrichParams) {
         for (h, k) in self.heights.iter_mut().zip(self.kinds.iter()) {
             *h = if *k == CellKind::Free { 0.0 } else { *h };
         }
@@ -399,13 +450,13 @@ impl Rows<'_> {
                 matches!(k, CellKind::River | CellKind::Valley)
             });
             fill_bits(&mut self.centres[row], sides, |s| {
-                *s != 0 && distance_limit > 0
+                *s != 0 && params.reaches(0, true)
             });
         }
     }
 
     /// Writes `updates` (all in these rows).
-    fn apply(&mut self, updates: &[Update], distance_limit: u32) {
+    fn apply(&mut self, updates: &[Update], params: &EnrichParams) {
         for u in updates {
             let (x, y) = (usize::from(u.x), usize::from(u.y) - self.first_row);
             let i = y * self.n + x;
@@ -415,7 +466,7 @@ impl Rows<'_> {
             self.dist[i] = u.dist;
             let (w, b) = (y * self.words + x / 64, x % 64);
             self.known[w] |= 1 << b;
-            if u.side != 0 && u32::from(u.dist) < distance_limit {
+            if u.side != 0 && params.reaches(u.dist, true) {
                 self.centres[w] |= 1 << b;
             }
         }
@@ -650,6 +701,7 @@ mod tests {
             &EnrichParams {
                 passes: 2,
                 distance_limit: 3,
+                ..EnrichParams::default()
             },
             0.1,
             10.0,
@@ -770,25 +822,36 @@ mod tests {
                         }
                         let (mut total, mut count, mut sides, mut d) = (0.0, 0u32, 0i32, u32::MAX);
                         if md {
-                            for (a, b) in [
-                                (k - 1, k + 1),
-                                (k - n, k + n),
-                                (k - n - 1, k + n + 1),
-                                (k - n + 1, k + n - 1),
+                            // Squared lengths of the pairs, in cells.
+                            for (a, b, len2) in [
+                                (k - 1, k + 1, 4),
+                                (k - n, k + n, 4),
+                                (k - n - 1, k + n + 1, 8),
+                                (k - n + 1, k + n - 1, 8),
                             ] {
-                                if known(a) && known(b) {
+                                let near = params.rule == DistanceRule::Skeleton
+                                    || params.distance_limit.pow(2) >= len2;
+                                if known(a) && known(b) && near {
                                     total += f64::from(sk.heights[a]) + f64::from(sk.heights[b]);
                                     count += 2;
                                     sides += i32::from(side[a]) + i32::from(side[b]);
                                     d = d.min(dist[a].max(dist[b]));
                                 }
                             }
-                            if d > params.distance_limit {
+                            if count == 0
+                                || (params.rule == DistanceRule::Skeleton
+                                    && d > params.distance_limit)
+                            {
                                 continue;
                             }
                         } else {
                             for c in [k - n - 1, k - n + 1, k + n - 1, k + n + 1] {
-                                if known(c) && side[c] != 0 && dist[c] < params.distance_limit {
+                                let near = match params.rule {
+                                    DistanceRule::Skeleton => dist[c] < params.distance_limit,
+                                    // The corner is sqrt 2 cells from the centre.
+                                    DistanceRule::Points => params.distance_limit.pow(2) >= 2,
+                                };
+                                if known(c) && side[c] != 0 && near {
                                     total +=
                                         square_mean(c) + f64::from(side[c]) * alpha * diagonal_m;
                                     count += 1;
@@ -855,10 +918,19 @@ mod tests {
                 sk.heights[i] = base + (x * 3 + y) as f32 * 0.37;
             });
         }
-        for (passes, distance_limit) in [(1, 3), (2, 3), (3, 2), (4, 6)] {
+        let (skeleton, points) = (DistanceRule::Skeleton, DistanceRule::Points);
+        for (passes, distance_limit, rule) in [
+            (1, 3, skeleton),
+            (2, 3, skeleton),
+            (3, 2, skeleton),
+            (4, 6, skeleton),
+            (3, 2, points),
+            (4, 3, points),
+        ] {
             let params = EnrichParams {
                 passes,
                 distance_limit,
+                rule,
             };
             let mut expected = sk.clone();
             reference(&mut expected, &params, 0.13, 7.5);
@@ -875,13 +947,13 @@ mod tests {
             assert!(enrichment.added() > 500, "{}", enrichment.added());
             assert_eq!(
                 got.kinds, expected.kinds,
-                "passes {passes} L {distance_limit}"
+                "passes {passes} L {distance_limit} {rule:?}"
             );
             let bits = |s: &Skeleton| s.heights.iter().map(|h| h.to_bits()).collect::<Vec<_>>();
             assert_eq!(
                 bits(&got),
                 bits(&expected),
-                "passes {passes} L {distance_limit}"
+                "passes {passes} L {distance_limit} {rule:?}"
             );
         }
     }
@@ -895,7 +967,7 @@ mod tests {
                 &mut sk,
                 &EnrichParams {
                     passes: 0,
-                    distance_limit: 3
+                    ..EnrichParams::default()
                 },
                 0.1,
                 1.0
@@ -903,5 +975,32 @@ mod tests {
             0
         );
         assert_eq!(sk.heights, before);
+    }
+
+    /// The two readings of L on a straight river: the skeleton rule stops the flanks L cells
+    /// from the line whatever the passes; the paper's rule (points at most L apart) limits
+    /// nothing on 3 x 3 squares once L >= 3, so the passes alone set the reach; with L = 1
+    /// no stencil's points are that close and nothing is added.
+    #[test]
+    fn the_distance_limit_bounds_the_flanks_by_the_chosen_rule() {
+        let reach = |passes: u32, distance_limit: u32, rule: DistanceRule| {
+            let mut sk = line_skeleton(CellKind::River, 10.0);
+            let params = EnrichParams {
+                passes,
+                distance_limit,
+                rule,
+            };
+            enrich(&mut sk, &params, 0.1, 10.0);
+            let n = sk.size;
+            (0..n * n)
+                .filter(|&i| sk.kinds[i] == CellKind::Enriched)
+                .map(|i| (i / n).abs_diff(10))
+                .max()
+                .unwrap_or(0)
+        };
+        assert_eq!(reach(6, 3, DistanceRule::Skeleton), 3);
+        assert_eq!(reach(2, 3, DistanceRule::Skeleton), 2);
+        assert_eq!(reach(6, 3, DistanceRule::Points), 6);
+        assert_eq!(reach(6, 1, DistanceRule::Points), 0);
     }
 }
