@@ -9,7 +9,7 @@
 // 2. Lakes (Planchon & Darboux 2001): `root_init` + `root_jump` (pointer jumping) find the
 //    terminal cell of every flow path; cells whose path ends in a pit start at BIG, the rest
 //    at their height, and `lake_pass` lowers the water level W_i towards
-//    max(h_i, min_j W_j + eps) (Jacobi). `lake_apply` fills the cells that found an outlet.
+//    max(h_i, min_j W_j + eps) (Jacobi, iterated within 16 x 16 tiles in workgroup memory). `lake_apply` fills the cells that found an outlet.
 // 3. Drainage area by pointer jumping (`area_init`, `area_jump`): with M the donor-to-
 //    receiver matrix (nilpotent on a forest), A = (I - M)^-1 a = prod_k (I + M^(2^k)) a, so
 //    log2(cells) passes, each adding every cell's partial sum to the cell 2^k hops downstream
@@ -168,36 +168,84 @@ fn next_up(v: f32) -> f32 {
 @group(0) @binding(3) var<storage, read> level_in: array<f32>;
 @group(0) @binding(4) var<storage, read_write> level_next: array<f32>;
 
+// One global pass: each 16 x 16 tile loads its cells and a one-cell halo into workgroup
+// memory and runs LOCAL_ITERS Jacobi iterations of Planchon-Darboux there (the halo held at
+// the last global pass's levels), so a level travels up to 16 cells per pass instead of one.
+// Deterministic: Jacobi with two buffers in workgroup memory, barriers between iterations.
+const TILE_SIDE: u32 = 18u;
+const TILE_CELLS: u32 = 324u;
+const LOCAL_ITERS: u32 = 24u;
+var<workgroup> tile_h: array<f32, 324>;
+var<workgroup> tile_w: array<array<f32, 324>, 2>;
+var<workgroup> open_count: atomic<u32>;
+var<workgroup> open_flag: u32;
+
 @compute @workgroup_size(16, 16, 1)
-fn lake_pass(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = cell_of(gid);
-    if (i == NONE) {
+fn lake_pass(
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(workgroup_id) wid: vec3<u32>,
+) {
+    let ox = i32(wid.x * 16u) - 1;
+    let oy = i32(wid.y * 16u) - 1;
+    for (var t = lid.y * 16u + lid.x; t < TILE_CELLS; t += 256u) {
+        let gx = ox + i32(t % TILE_SIDE);
+        let gy = oy + i32(t / TILE_SIDE);
+        var hv = BIG;
+        var wv = BIG;
+        if (gx >= 0 && gy >= 0 && gx < i32(params.width) && gy < i32(params.height)) {
+            let g = u32(gy) * params.width + u32(gx);
+            hv = lake_heights[g];
+            wv = level_in[g];
+        }
+        tile_h[t] = hv;
+        tile_w[0][t] = wv;
+        tile_w[1][t] = wv;
+    }
+    workgroupBarrier();
+    let gx = wid.x * 16u + lid.x;
+    let gy = wid.y * 16u + lid.y;
+    let inside = gx < params.width && gy < params.height;
+    let k = (lid.y + 1u) * TILE_SIDE + lid.x + 1u;
+    let hi = tile_h[k];
+    // Most tiles hold no lake: nothing in them can change.
+    if (inside && tile_w[0][k] > hi) {
+        atomicAdd(&open_count, 1u);
+    }
+    workgroupBarrier();
+    if (lid.x == 0u && lid.y == 0u) {
+        open_flag = atomicLoad(&open_count);
+    }
+    if (workgroupUniformLoad(&open_flag) == 0u) {
+        if (inside) {
+            level_next[gy * params.width + gx] = tile_w[0][k];
+        }
         return;
     }
-    let wi = level_in[i];
-    let hi = lake_heights[i];
-    if (wi <= hi) {
-        level_next[i] = wi; // settled: drains at its own height
-        return;
+    for (var it = 0u; it < LOCAL_ITERS; it++) {
+        let src = it % 2u;
+        var w = tile_w[src][k];
+        if (inside && w > hi) {
+            for (var d = 0u; d < 8u; d++) {
+                let c = select(d, d + 1u, d >= 4u);
+                let kj = (lid.y + c / 3u) * TILE_SIDE + lid.x + c % 3u;
+                let wj = tile_w[src][kj];
+                if (wj >= BIG) {
+                    continue;
+                }
+                let e = next_up(wj);
+                if (hi >= e) {
+                    w = hi;
+                    break;
+                }
+                w = min(w, e);
+            }
+        }
+        tile_w[1u - src][k] = w;
+        workgroupBarrier();
     }
-    var w = wi;
-    for (var d = 0u; d < 8u; d++) {
-        let j = neighbour(gid.x, gid.y, d);
-        if (j == NONE) {
-            continue;
-        }
-        let wj = level_in[j];
-        if (wj >= BIG) {
-            continue;
-        }
-        let e = next_up(wj);
-        if (hi >= e) {
-            w = hi;
-            break;
-        }
-        w = min(w, e);
+    if (inside) {
+        level_next[gy * params.width + gx] = tile_w[LOCAL_ITERS % 2u][k];
     }
-    level_next[i] = w;
 }
 
 @group(0) @binding(1) var<storage, read> level: array<f32>;

@@ -12,7 +12,9 @@
 //!    46: W = h where the path reaches base level, W = +inf in the pits' catchments, then
 //!    parallel passes `W_i = max(h_i, min_j W_j + eps)`, eps one `f32` ulp as the CPU's
 //!    Priority-Flood + epsilon. Every finite W has a strictly descending path to base level
-//!    at every pass, so a bounded number of passes ([`LAKE_PASSES`]) is safe: a lake whose
+//!    at every pass, so a bounded number of passes ([`LAKE_PASSES`], each iterating
+//!    within 16 x 16 tiles in workgroup memory so that a level crosses a tile per pass) is
+//!    safe: a lake whose
 //!    level is not found by then stays a pit for this step (a local sink, as if it were
 //!    dry), and the next step tries again. The lakes found are filled (instant
 //!    sedimentation, as on the CPU) and receivers are recomputed.
@@ -89,9 +91,10 @@ const ENTRIES: [&str; 18] = [
     "apply_floor",
 ];
 
-/// Planchon–Darboux passes per step for the lakes (a lake whose outlet is farther than this
-/// many cells from its farthest cell stays a pit for the step).
-pub const LAKE_PASSES: u32 = 48;
+/// Planchon–Darboux passes per step for the lakes, each 24 iterations within 16 x 16 tiles
+/// (a level crosses up to 16 cells of a tile per pass, one tile border per pass): lakes
+/// whose level takes more stay pits for the step.
+pub const LAKE_PASSES: u32 = 32;
 /// Jacobi passes of the exact incision rule after the pointer-jumping solve.
 pub const POLISH_PASSES: u32 = 4;
 
