@@ -155,9 +155,12 @@ struct Params {
     m: f32,
 }
 
-/// Whether `gpu` can hold the solver's fields for a `width` x `height` grid.
+/// Whether `gpu` can hold the solver's fields for a `width` x `height` grid: its widest
+/// field (`b`, `c` of the implicit update) has 8 bytes per cell, as many as a `f32` field of
+/// twice the rows, and its kernels bind up to 5 storage buffers.
 pub fn fits(gpu: &GpuContext, width: usize, height: usize) -> bool {
-    gpu.caps.fits_field(width, height) && gpu.caps.max_storage_buffers_per_shader_stage >= 5
+    gpu.caps.fits_field(width, height.saturating_mul(2))
+        && gpu.caps.max_storage_buffers_per_shader_stage >= 5
 }
 
 /// Builds the erosion kernels on `gpu` now (later calls cost a few map lookups).
@@ -199,7 +202,16 @@ pub async fn erode(
     if !base_level.contains(&true) {
         return Err(ErosionError::NoBaseLevel.into());
     }
-    gpu.check_field(w, h)?;
+    gpu.check_compute()?;
+    if !fits(gpu, w, h) {
+        return Err(GpuError::TooLarge {
+            width: w,
+            height: h,
+            bytes: n as u64 * 8,
+            limit: gpu.caps.max_storage_bytes(),
+        }
+        .into());
+    }
 
     let k = gpu.pipelines(&EROSION, ENTRIES).await?;
     let device = &gpu.device;
