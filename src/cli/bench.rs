@@ -53,7 +53,8 @@ pub struct BenchArgs {
     /// queue submissions and the readbacks) instead of the diffusion table.
     #[arg(long)]
     pub json: bool,
-    /// Solves per size, backend and method in the diffusion benchmark. On the GPU the first
+    /// Solves per size, backend and method in the diffusion benchmark (runs per size and
+    /// backend in the erosion one). On the GPU the first
     /// builds the kernels; later ones reuse them.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
@@ -61,6 +62,13 @@ pub struct BenchArgs {
     /// builds its kernels again: what every solve cost before kernels were cached.
     #[arg(long)]
     pub fresh_device: bool,
+    /// Time a preset's full erosion run instead, on the CPU and the WGSL solver (see
+    /// `--erosion-preset`; `--repeat` runs per size and backend, the best kept).
+    #[arg(long)]
+    pub erosion: bool,
+    /// The erosion preset the `--erosion` table runs.
+    #[arg(long, default_value = "young-mountains")]
+    pub erosion_preset: String,
     /// Time the 3D view instead (texture preparation, chunk selection and GPU frames at four
     /// camera distances; needs a GPU).
     #[arg(long)]
@@ -228,6 +236,22 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         return super::bench_view3d::run(&args.sizes, gpu);
     }
     let mut backends = Vec::new();
+    if args.erosion {
+        let mut list = Vec::new();
+        if want_cpu {
+            list.push(Backend::Cpu);
+        }
+        if want_gpu {
+            match path.gpu() {
+                Some(gpu) => list.push(Backend::Gpu(gpu.clone())),
+                None if args.backend == "gpu" => {
+                    return Err(format!("the GPU backend was requested but: {path}").into());
+                }
+                None => println!("no GPU backend: {path}"),
+            }
+        }
+        return super::bench_erosion::run(&args.sizes, &list, &args.erosion_preset, args.repeat);
+    }
     if args.wavelet || args.blend {
         let mut list = Vec::new();
         if want_cpu {

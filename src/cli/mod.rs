@@ -4,6 +4,7 @@ mod amplify;
 mod analyze;
 mod bench;
 mod bench_blend;
+mod bench_erosion;
 mod bench_view3d;
 mod bench_wavelet;
 mod blend;

@@ -36,6 +36,7 @@ mod diffusion;
 mod error;
 mod fill;
 mod flow;
+pub mod gpu;
 mod grid;
 mod layers;
 mod params;
@@ -50,8 +51,8 @@ pub use self::error::ErosionError;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::stage::{
-    Eroded, ErosionReport, ErosionSettings, MAX_SOLVER_SIDE, StageError, base_level, erode_terrain,
-    nearest_channel, roughen, uplift_from_design,
+    Eroded, ErosionReport, ErosionSettings, MAX_SOLVER_SIDE, Prepared, StageError, base_level,
+    erode_terrain, nearest_channel, roughen, uplift_from_design,
 };
 
 use self::flow::Network;

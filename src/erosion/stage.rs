@@ -7,7 +7,9 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
+use super::gpu::{self, GpuErosionError, GpuInput};
 use super::{Eroder, ErosionError, ErosionParams};
+use crate::compute::Backend;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::skeleton::CellKind;
@@ -149,6 +151,9 @@ pub struct ErosionReport {
     /// Drainage of the eroded terrain (after depression filling).
     pub drainage: drainage::Drainage,
     pub conditioning: drainage::Conditioning,
+    /// Where the solver ran: "cpu" or "gpu" (the GPU when the pipeline's backend is one and
+    /// it holds the solver's fields, see [`super::gpu`]).
+    pub backend: &'static str,
     pub millis: f64,
 }
 
@@ -374,23 +379,84 @@ fn floor_near_rivers(channel: &[f32], steps_away: &[u32], cells: u32) -> Vec<f32
         .collect()
 }
 
+/// The solver's inputs for `field` (square, cells `cell_m` wide) with the rivers of `kinds`
+/// as base level: the roughened heights, base level, uplift (m/yr) and near-river floor. The
+/// CPU and the GPU solver start from exactly these.
+pub struct Prepared {
+    pub heights: Vec<f32>,
+    pub base: Vec<bool>,
+    pub uplift: Vec<f32>,
+    pub floor: Vec<f32>,
+}
+
+impl Prepared {
+    /// O(cells x band).
+    pub fn new(
+        field: &Heightfield,
+        kinds: &[CellKind],
+        settings: &ErosionSettings,
+        seed: u64,
+    ) -> Self {
+        let n = field.width();
+        let base = base_level(kinds, n, settings.river_band);
+        let (channel, steps_away) = nearest_channel(field, kinds);
+        let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
+        let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
+        let mut heights = field.data().to_vec();
+        roughen(&mut heights, &base, settings.roughness_m, seed);
+        Self {
+            heights,
+            base,
+            uplift,
+            floor,
+        }
+    }
+}
+
 /// Runs the solver on `field` (square, cells `cell_m` wide) with the rivers of `kinds` as
-/// base level; returns the eroded heights and the last drainage area. O(cells) per step.
+/// base level, on the GPU when `backend` is one that holds the fields (else, or if the GPU
+/// fails, on the CPU); returns the eroded heights, the last drainage area and the backend
+/// that ran. O(cells) per step.
 async fn solve(
     field: &Heightfield,
     kinds: &[CellKind],
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
+    backend: &Backend,
     ctx: &JobCtx,
-) -> Result<(Vec<f32>, Vec<f32>), StageError> {
+) -> Result<(Vec<f32>, Vec<f32>, &'static str), StageError> {
     let n = field.width();
-    let base = base_level(kinds, n, settings.river_band);
-    let (channel, steps_away) = nearest_channel(field, kinds);
-    let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
-    let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
-    let mut start = field.data().to_vec();
-    roughen(&mut start, &base, settings.roughness_m, seed);
+    let Prepared {
+        heights: start,
+        base,
+        uplift,
+        floor,
+    } = Prepared::new(field, kinds, settings, seed);
+    if let Backend::Gpu(context) = backend {
+        if gpu::fits(context, n, n) {
+            let input = GpuInput {
+                heights: &start,
+                width: n,
+                height: n,
+                cell_m,
+                base_level: &base,
+                uplift: &uplift,
+                floor: Some(&floor),
+                params: settings.params(),
+            };
+            match gpu::erode(context, input, ctx).await {
+                Ok(out) => return Ok((out.heights, out.area, "gpu")),
+                Err(GpuErosionError::Gpu(err)) => {
+                    log::warn!("erosion on the GPU failed ({err}): eroding on the CPU");
+                }
+                Err(GpuErosionError::Input(err)) => return Err(err.into()),
+                Err(GpuErosionError::Cancelled(c)) => return Err(c.into()),
+            }
+        } else {
+            log::warn!("a {n} x {n} erosion grid does not fit this GPU: eroding on the CPU");
+        }
+    }
     let mut eroder =
         Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?.with_floor(floor)?;
     let steps = settings.steps.max(1);
@@ -405,7 +471,7 @@ async fn solve(
         eroder.advance();
     }
     let area = eroder.drainage_area().to_vec();
-    Ok((eroder.into_heights(), area))
+    Ok((eroder.into_heights(), area, "cpu"))
 }
 
 /// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
@@ -418,6 +484,7 @@ pub async fn erode_terrain(
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
+    backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Eroded, StageError> {
     let field = &hydrology.terrain;
@@ -426,17 +493,18 @@ pub async fn erode_terrain(
     let base = base_level(kinds, n, settings.river_band);
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(MAX_SOLVER_SIDE);
-    let (heights, area) = if factor <= 1 {
-        solve(field, kinds, settings, cell_m, seed, ctx).await?
+    let (heights, area, ran_on) = if factor <= 1 {
+        solve(field, kinds, settings, cell_m, seed, backend, ctx).await?
     } else {
         let (coarse, coarse_kinds) = reduce(field, kinds, factor);
         let m = coarse.width();
-        let (eroded, area) = solve(
+        let (eroded, area, ran_on) = solve(
             &coarse,
             &coarse_kinds,
             settings,
             cell_m * factor as f64,
             seed,
+            backend,
             ctx,
         )
         .await?;
@@ -457,7 +525,7 @@ pub async fn erode_terrain(
             .zip(&floor)
             .map(|(((h, d), fixed), f)| if *fixed { *h } else { (h + d).max(*f) })
             .collect();
-        (heights, expand(&area, m, factor, n))
+        (heights, expand(&area, m, factor, n), ran_on)
     };
     let area = Heightfield::from_vec(n, n, area)?;
     let mut eroded = Heightfield::from_vec(n, n, heights)?;
@@ -480,6 +548,7 @@ pub async fn erode_terrain(
             max_depth_m: max.max(0.0),
             drainage,
             conditioning,
+            backend: ran_on,
             millis: 0.0,
         },
         millis: 0.0,

@@ -242,12 +242,19 @@ async fn run_stages(
                 let clock = Instant::now();
                 ctx.checkpoint(0.0, "eroding").await?;
                 let seed = stage_seed(scene.seed, "erosion");
-                let out = erosion::erode_terrain(&hydrology, settings, scene.cell_size, seed, ctx)
-                    .await
-                    .map_err(|e| match e {
-                        erosion::StageError::Cancelled(c) => PipelineError::Cancelled(c),
-                        other => PipelineError::Erosion(other.to_string()),
-                    })?;
+                let out = erosion::erode_terrain(
+                    &hydrology,
+                    settings,
+                    scene.cell_size,
+                    seed,
+                    backend,
+                    ctx,
+                )
+                .await
+                .map_err(|e| match e {
+                    erosion::StageError::Cancelled(c) => PipelineError::Cancelled(c),
+                    other => PipelineError::Erosion(other.to_string()),
+                })?;
                 computed.push("erosion");
                 let millis = clock.elapsed().as_secs_f64() * 1e3;
                 stages.erosion.put(key, Eroded { millis, ..out })

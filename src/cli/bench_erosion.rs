@@ -1,0 +1,172 @@
+//! `strahler bench --erosion`: a preset's full erosion run (all its steps) on the CPU solver
+//! and on the WGSL solver, for square maps of each size.
+//!
+//! The terrain: diamond-square noise of 400 m relief over a 10 km map rising away from one
+//! river down the middle (the river and a band of one cell as base level, as the erosion
+//! stage sets it up, with the stage's uplift and near-river floor: [`Prepared`]). The GPU
+//! time includes the upload, every step, the one readback and the final routing on the CPU
+//! (shown apart); its kernels are built before timing.
+
+use crate::compute::Backend;
+use crate::erosion::gpu::{self, GpuInput};
+use crate::erosion::{Eroder, ErosionSettings, Prepared};
+use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
+use crate::skeleton::CellKind;
+use crate::wavelet::fbm;
+
+/// The map's width in metres (the scene's default).
+const MAP_M: f64 = 10_000.0;
+
+pub fn run(
+    sizes: &[usize],
+    backends: &[Backend],
+    preset: &str,
+    runs: usize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let settings = ErosionSettings::preset(preset).ok_or_else(|| {
+        format!(
+            "unknown erosion preset {preset:?}: use one of {}",
+            crate::erosion::PRESETS.join(", ")
+        )
+    })?;
+    let params = settings.params();
+    for backend in backends {
+        if let Backend::Gpu(context) = backend {
+            pollster::block_on(gpu::warm(context))?;
+            println!("GPU: {} ({:?})", context.adapter.name, context.backend);
+        }
+    }
+    println!(
+        "erosion benchmark: {preset}, {} steps over {} years; best of {runs}; times in ms",
+        params.steps, params.years
+    );
+    println!(
+        "{:>6} {:>7} {:>6} {:>10} {:>10} {:>10} {:>12}",
+        "size", "backend", "steps", "total", "solver", "routing", "|dh|/relief"
+    );
+    for &n in sizes {
+        let (field, kinds) = terrain(n)?;
+        let cell = MAP_M / n as f64;
+        let prepared = Prepared::new(&field, &kinds, &settings, 1);
+        let mut cpu_heights: Option<Vec<f32>> = None;
+        for backend in backends {
+            let mut best = (f64::INFINITY, 0.0, 0.0);
+            let mut last = Vec::new();
+            for _ in 0..runs.max(1) {
+                let clock = web_time::Instant::now();
+                let (heights, solver, routing) = match backend {
+                    Backend::Cpu => {
+                        let mut e = Eroder::new(
+                            prepared.heights.clone(),
+                            n,
+                            n,
+                            cell,
+                            prepared.base.clone(),
+                            prepared.uplift.clone(),
+                            params,
+                        )?
+                        .with_floor(prepared.floor.clone())?;
+                        while e.step() {}
+                        (e.into_heights(), f64::NAN, f64::NAN)
+                    }
+                    Backend::Gpu(context) => {
+                        let out = pollster::block_on(gpu::erode(
+                            context,
+                            GpuInput {
+                                heights: &prepared.heights,
+                                width: n,
+                                height: n,
+                                cell_m: cell,
+                                base_level: &prepared.base,
+                                uplift: &prepared.uplift,
+                                floor: Some(&prepared.floor),
+                                params,
+                            },
+                            &JobCtx::detached(),
+                        ))?;
+                        (out.heights, out.gpu_ms, out.route_ms)
+                    }
+                };
+                let ms = clock.elapsed().as_secs_f64() * 1e3;
+                if ms < best.0 {
+                    best = (ms, solver, routing);
+                }
+                last = heights;
+            }
+            let diff = match (&cpu_heights, backend) {
+                (Some(cpu), Backend::Gpu(_)) => format!("{:.3}%", 100.0 * relative(cpu, &last)),
+                _ => "-".to_owned(),
+            };
+            let opt = |v: f64| {
+                if v.is_nan() {
+                    "-".to_owned()
+                } else {
+                    format!("{v:.1}")
+                }
+            };
+            println!(
+                "{:>6} {:>7} {:>6} {:>10.1} {:>10} {:>10} {:>12}",
+                format!("{n}^2"),
+                backend.key(),
+                params.steps,
+                best.0,
+                opt(best.1),
+                opt(best.2),
+                diff
+            );
+            if matches!(backend, Backend::Cpu) {
+                cpu_heights = Some(last);
+            }
+        }
+    }
+    println!(
+        "solver = upload + steps + readback on the GPU, routing = the final Priority-Flood and \
+         drainage area on the CPU; target (issue #19): <= 100 ms for 1024^2 on a desktop GPU"
+    );
+    Ok(())
+}
+
+/// Mean |a - b| over the cells, relative to the range of `a`.
+fn relative(a: &[f32], b: &[f32]) -> f64 {
+    let (lo, hi) = a
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| {
+            (l.min(*v), h.max(*v))
+        });
+    let mean = a
+        .iter()
+        .zip(b)
+        .map(|(x, y)| f64::from((x - y).abs()))
+        .sum::<f64>()
+        / a.len().max(1) as f64;
+    mean / f64::from(hi - lo).max(1e-6)
+}
+
+/// The benchmark's terrain and channel kinds (a river down the middle column).
+fn terrain(n: usize) -> Result<(Heightfield, Vec<CellKind>), Box<dyn std::error::Error>> {
+    let noise = fbm::diamond_square(n, n, 0.7, 3)?;
+    let (lo, hi) = noise.finite_range().unwrap_or((0.0, 1.0));
+    let span = (hi - lo).max(1e-6);
+    let mid = n / 2;
+    let mut kinds = vec![CellKind::Free; n * n];
+    let mut z = vec![0.0f32; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let i = y * n + x;
+            // The river falls 50 m from the top edge to the bottom one.
+            let river = 50.0 * (n - 1 - y) as f32 / n as f32;
+            let away = (x as f32 - mid as f32).abs() / n as f32;
+            if x == mid {
+                kinds[i] = CellKind::River;
+                z[i] = river;
+            } else {
+                z[i] = river + 2.0 + 300.0 * away + 400.0 * (noise.data()[i] - lo) / span;
+            }
+        }
+    }
+    // Depressions filled, as the hydrology stage leaves its terrain.
+    let base = crate::erosion::base_level(&kinds, n, 1);
+    let z = crate::erosion::receivers_and_area(&z, n, n, MAP_M / n as f64, &base)?.heights;
+    Ok((Heightfield::from_vec(n, n, z)?, kinds))
+}

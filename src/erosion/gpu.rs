@@ -1,0 +1,486 @@
+//! The erosion solver on the GPU (`shaders/erosion.wgsl`): the same equation and time steps
+//! as [`Eroder`](super::Eroder), parallel per cell in the spirit of Schott et al. (2023),
+//! "Large-scale terrain authoring through interactive erosion simulation", ACM TOG 42(5).
+//!
+//! One step (all on the GPU, no readback; the host only records dispatches):
+//! 1. **Receivers**: D8 steepest descent with the CPU's tie rule (first direction in D8
+//!    order, strict descent), the same `f32` slopes, so the same heights give the same
+//!    receivers.
+//! 2. **Lakes**: where a flow path ends in a pit (found by pointer jumping to each path's
+//!    terminal cell), the water level is found by Planchon & Darboux (2001), "A fast, simple
+//!    and versatile algorithm to fill the depressions of digital elevation models", Catena
+//!    46: W = h where the path reaches base level, W = +inf in the pits' catchments, then
+//!    parallel passes `W_i = max(h_i, min_j W_j + eps)`, eps one `f32` ulp as the CPU's
+//!    Priority-Flood + epsilon. Every finite W has a strictly descending path to base level
+//!    at every pass, so a bounded number of passes ([`LAKE_PASSES`], each iterating
+//!    within 16 x 16 tiles in workgroup memory so that a level crosses a tile per pass) is
+//!    safe: a lake whose
+//!    level is not found by then stays a pit for this step (a local sink, as if it were
+//!    dry), and the next step tries again. The lakes found are filled (instant
+//!    sedimentation, as on the CPU) and receivers are recomputed.
+//! 3. **Drainage area** to convergence every step, not carried over from the previous step
+//!    with a few propagation passes as Schott et al. do: their steps are short (interactive
+//!    rates), ours are the preset's 20 steps of 10^4-10^5 years, and drainage carried with k
+//!    passes per step would travel only k cells per step. Instead of the O(path length)
+//!    Jacobi propagation `A_i = a + sum_donors A_j` we use pointer jumping: with `M` the
+//!    donor-to-receiver matrix (nilpotent on the receiver forest),
+//!    `A = (I - M)^-1 a = prod_k (I + M^(2^k)) a`, so `ceil(log2 cells)` passes, each adding
+//!    every cell's partial sum to the cell `2^k` hops downstream. Areas are integer cell
+//!    counts summed with `atomicAdd`: exact, and the same on every run.
+//! 4. **Incision**, the implicit stream-power update of Braun & Willett (2013), eq. 22 for
+//!    `n = 1`: `h_i' = (h_i + dt U_i + F_i h_r') / (1 + F_i)`, `F_i = K dt A_i^m / L_ir`.
+//!    This is the linear recurrence `h_i' = b_i + c_i h_r'` along the receiver tree, which
+//!    the CPU solves in stack order; here it is solved by the same pointer jumping (`b_i +=
+//!    c_i b_p`, `c_i *= c_p`), exact in `log2` passes where Jacobi iteration of the update
+//!    would need as many passes as the longest river is long (its contraction `F / (1 + F)`
+//!    is close to 1 on channels). [`POLISH_PASSES`] Jacobi passes of the CPU's exact rule
+//!    follow: a cell whose receiver ends higher gets its uplift only, and for `n != 1` (where
+//!    the jumping uses `F` linearised around the step's initial slope) Newton's method.
+//! 5. **Hillslope diffusion**: the CPU's red-black Gauss-Seidel sweeps of backward Euler,
+//!    one dispatch per colour (a colour's cells are independent).
+//! 6. **Talus**: the CPU's relaxation in Jacobi form (every cell sheds half its largest
+//!    excess at once and gathers what its neighbours shed): the CPU updates in place in scan
+//!    order, which is sequential.
+//! 7. The near-river floor.
+//!
+//! After the last step the heights are read back once and routed on the CPU exactly as the
+//! CPU solver's last step does (Priority-Flood of every remaining pit, stack and drainage
+//! area), so the stage's guarantees (no pit, every cell reaching base level) hold whatever
+//! the GPU's lakes left.
+//!
+//! Why it is not bit-exact with the CPU: talus in Jacobi form, `f32` on the GPU where the
+//! CPU's incision works in `f64`, the tree solved in another order (other rounding), lakes
+//! filled by bounded passes; a different bit can flip a receiver at a near-tie, and then
+//! the drainage network (and the valleys it carves) differs locally.
+//!
+//! Memory: 15 four-byte fields per cell on the GPU (about 60 MiB at 1024^2).
+
+use wgpu::util::DeviceExt;
+
+use super::params::ErosionParams;
+use super::thermal::THERMAL_PASSES;
+use super::{ErosionError, check_finite, check_grid, check_len, receivers_and_area};
+use crate::gpu::{GpuContext, GpuError, Shader, read_f32_buffer, wait_for_submitted_work};
+use crate::jobs::{Cancelled, JobCtx};
+
+/// The erosion kernels, built once per device by [`GpuContext::pipelines`].
+pub(super) const EROSION: Shader = Shader {
+    name: "erosion.wgsl",
+    source: include_str!("../../shaders/erosion.wgsl"),
+};
+
+/// Entry points of `shaders/erosion.wgsl`, in the order [`Kernels`] takes them.
+const ENTRIES: [&str; 18] = [
+    "receivers",
+    "root_init",
+    "root_jump",
+    "lake_init",
+    "lake_pass",
+    "lake_apply",
+    "area_init",
+    "area_jump",
+    "lift",
+    "implicit_init",
+    "implicit_jump",
+    "implicit_take",
+    "implicit_polish",
+    "diffuse_red",
+    "diffuse_black",
+    "talus_share",
+    "talus_apply",
+    "apply_floor",
+];
+
+/// Planchon–Darboux passes per step for the lakes, each 24 iterations within 16 x 16 tiles
+/// (a level crosses up to 16 cells of a tile per pass, one tile border per pass): lakes
+/// whose level takes more stay pits for the step.
+pub const LAKE_PASSES: u32 = 32;
+/// Jacobi passes of the exact incision rule after the pointer-jumping solve.
+pub const POLISH_PASSES: u32 = 4;
+
+const WORKGROUP: u32 = 16;
+
+/// Why the GPU solver failed.
+#[derive(Debug, thiserror::Error)]
+pub enum GpuErosionError {
+    #[error("{0}")]
+    Input(#[from] ErosionError),
+    #[error("{0}")]
+    Gpu(#[from] GpuError),
+    #[error("cancelled")]
+    Cancelled(#[from] Cancelled),
+}
+
+/// What the GPU solver is given (as [`Eroder::new`](super::Eroder::new) and
+/// [`Eroder::with_floor`](super::Eroder::with_floor)).
+#[derive(Clone, Copy, Debug)]
+pub struct GpuInput<'a> {
+    pub heights: &'a [f32],
+    pub width: usize,
+    pub height: usize,
+    pub cell_m: f64,
+    pub base_level: &'a [bool],
+    /// Uplift rate, m/yr.
+    pub uplift: &'a [f32],
+    /// Heights no cell is lowered below after each step, or none.
+    pub floor: Option<&'a [f32]>,
+    pub params: ErosionParams,
+}
+
+/// The GPU solver's result.
+#[derive(Clone, Debug)]
+pub struct GpuEroded {
+    /// Heights after the last step, routed (pits filled) on the CPU.
+    pub heights: Vec<f32>,
+    /// Drainage area (m^2) of the final surface.
+    pub area: Vec<f32>,
+    /// Milliseconds on the GPU side (upload, steps, readback) and of the final CPU routing.
+    pub gpu_ms: f64,
+    pub route_ms: f64,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
+struct Params {
+    width: u32,
+    height: u32,
+    _pad: [u32; 2],
+    r: f32,
+    limit_axis: f32,
+    limit_diag: f32,
+    n: f32,
+    coef_axis: f32,
+    coef_diag: f32,
+    cell_area: f32,
+    m: f32,
+}
+
+/// Whether `gpu` can hold the solver's fields for a `width` x `height` grid: its widest
+/// field (`b`, `c` of the implicit update) has 8 bytes per cell, as many as a `f32` field of
+/// twice the rows, and its kernels bind up to 5 storage buffers.
+pub fn fits(gpu: &GpuContext, width: usize, height: usize) -> bool {
+    gpu.caps.fits_field(width, height.saturating_mul(2))
+        && gpu.caps.max_storage_buffers_per_shader_stage >= 5
+}
+
+/// Builds the erosion kernels on `gpu` now (later calls cost a few map lookups).
+pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
+    gpu.pipelines(&EROSION, ENTRIES).await.map(|_| ())
+}
+
+/// Runs all `params.steps` steps on `gpu` and routes the result on the CPU; see the module
+/// docs. Inputs are validated as in [`Eroder::new`](super::Eroder::new).
+pub async fn erode(
+    gpu: &GpuContext,
+    input: GpuInput<'_>,
+    ctx: &JobCtx,
+) -> Result<GpuEroded, GpuErosionError> {
+    let clock = web_time::Instant::now();
+    let GpuInput {
+        heights,
+        width: w,
+        height: h,
+        cell_m,
+        base_level,
+        uplift,
+        floor,
+        params: p,
+    } = input;
+    let grid = check_grid(w, h, cell_m)?;
+    let n = grid.len();
+    check_len("heights", heights.len(), n)?;
+    check_len("base_level", base_level.len(), n)?;
+    check_len("uplift", uplift.len(), n)?;
+    check_finite("heights", heights)?;
+    check_finite("uplift", uplift)?;
+    if let Some(f) = floor {
+        check_len("floor", f.len(), n)?;
+        check_finite("floor", f)?;
+    }
+    p.validate()
+        .map_err(|(field, problem)| ErosionError::InvalidParam { field, problem })?;
+    if !base_level.contains(&true) {
+        return Err(ErosionError::NoBaseLevel.into());
+    }
+    gpu.check_compute()?;
+    if !fits(gpu, w, h) {
+        return Err(GpuError::TooLarge {
+            width: w,
+            height: h,
+            bytes: n as u64 * 8,
+            limit: gpu.caps.max_storage_bytes(),
+        }
+        .into());
+    }
+
+    let k = gpu.pipelines(&EROSION, ENTRIES).await?;
+    let device = &gpu.device;
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+
+    let dt = p.years / f64::from(p.steps);
+    let r = p.diffusivity * dt / (cell_m * cell_m);
+    let tan = p.talus_deg.map_or(0.0, |t| t.to_radians().tan());
+    let kdt = p.erodibility * dt;
+    let uniform = Params {
+        width: w as u32,
+        height: h as u32,
+        _pad: [0; 2],
+        r: r as f32,
+        limit_axis: (tan * cell_m) as f32,
+        limit_diag: (tan * std::f64::consts::SQRT_2 * cell_m) as f32,
+        n: p.n as f32,
+        coef_axis: (kdt / cell_m.powf(p.n)) as f32,
+        coef_diag: (kdt / (std::f64::consts::SQRT_2 * cell_m).powf(p.n)) as f32,
+        cell_area: (cell_m * cell_m) as f32,
+        m: p.m as f32,
+    };
+    let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some(label),
+            contents,
+            usage,
+        })
+    };
+    let rw =
+        wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
+    let empty = |label: &str, bytes_per_cell: u64| {
+        device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some(label),
+            size: n as u64 * bytes_per_cell,
+            usage: rw,
+            mapped_at_creation: false,
+        })
+    };
+    let params = init(
+        "erosion params",
+        bytemuck::bytes_of(&uniform),
+        wgpu::BufferUsages::UNIFORM,
+    );
+    let mut words = vec![0u32; n.div_ceil(32)];
+    for (i, _) in base_level.iter().enumerate().filter(|(_, b)| **b) {
+        words[i / 32] |= 1 << (i % 32);
+    }
+    let base = init(
+        "base level",
+        bytemuck::cast_slice(&words),
+        wgpu::BufferUsages::STORAGE,
+    );
+    let heights_buf = init("heights", bytemuck::cast_slice(heights), rw);
+    let uplift_dt: Vec<f32> = uplift.iter().map(|u| (f64::from(*u) * dt) as f32).collect();
+    let uplift_buf = init("uplift dt", bytemuck::cast_slice(&uplift_dt), rw);
+    let floor_buf = floor.map(|f| init("floor", bytemuck::cast_slice(f), rw));
+    let rcv = empty("receivers", 4);
+    let ptr = [empty("jump a", 4), empty("jump b", 4)];
+    let cells = [empty("cells a", 4), empty("cells b", 4)];
+    let level = [empty("level a", 4), empty("level b", 4)];
+    let start = empty("start", 4);
+    let tmp = empty("scratch", 4);
+    let coef = empty("coef", 4);
+    let bc = [empty("bc a", 8), empty("bc b", 8)];
+
+    let b = |pipe: usize, entries: &[(u32, &wgpu::Buffer)]| -> wgpu::BindGroup {
+        let mut all = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: params.as_entire_binding(),
+        }];
+        all.extend(
+            entries
+                .iter()
+                .map(|(binding, buffer)| wgpu::BindGroupEntry {
+                    binding: *binding,
+                    resource: buffer.as_entire_binding(),
+                }),
+        );
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some(ENTRIES[pipe]),
+            layout: &k[pipe].get_bind_group_layout(0),
+            entries: &all,
+        })
+    };
+    // Bind groups, built once for the whole run.
+    let g_receivers = b(0, &[(1, &base), (2, &heights_buf), (3, &rcv)]);
+    let g_root_init = b(1, &[(1, &rcv), (2, &ptr[0])]);
+    let g_root_jump = [0, 1].map(|s| b(2, &[(1, &ptr[s]), (2, &ptr[1 - s])]));
+    let levels = levels(n);
+    let root = (levels % 2) as usize; // where the roots end up
+    let g_lake_init = b(
+        3,
+        &[
+            (1, &base),
+            (2, &heights_buf),
+            (3, &ptr[root]),
+            (4, &level[0]),
+        ],
+    );
+    let g_lake_pass =
+        [0, 1].map(|s| b(4, &[(2, &heights_buf), (3, &level[s]), (4, &level[1 - s])]));
+    let lake_last = (LAKE_PASSES % 2) as usize;
+    let g_lake_apply = b(5, &[(1, &level[lake_last]), (2, &heights_buf)]);
+    let g_area_init = b(6, &[(1, &rcv), (2, &ptr[0]), (3, &cells[0])]);
+    let g_area_jump = [0, 1].map(|s| {
+        b(
+            7,
+            &[
+                (1, &ptr[s]),
+                (2, &cells[s]),
+                (3, &ptr[1 - s]),
+                (4, &cells[1 - s]),
+            ],
+        )
+    });
+    // Pointer jumping starts in buffer 0 and ends in buffer `levels % 2`.
+    let area_last = (levels % 2) as usize;
+    let g_lift = b(
+        8,
+        &[(1, &base), (2, &heights_buf), (3, &uplift_buf), (4, &start)],
+    );
+    let g_implicit_init = b(
+        9,
+        &[
+            (1, &rcv),
+            (2, &cells[area_last]),
+            (3, &start),
+            (4, &coef),
+            (5, &bc[0]),
+        ],
+    );
+    let g_implicit_jump = [0, 1].map(|s| {
+        b(
+            10,
+            &[(1, &ptr[s]), (2, &bc[s]), (3, &ptr[1 - s]), (4, &bc[1 - s])],
+        )
+    });
+    let g_implicit_take = b(11, &[(1, &bc[area_last]), (2, &heights_buf)]);
+    let g_polish = b(
+        12,
+        &[
+            (1, &start),
+            (2, &coef),
+            (3, &rcv),
+            (4, &heights_buf),
+            (5, &tmp),
+        ],
+    );
+    let g_diffuse = [13, 14].map(|e| b(e, &[(1, &base), (2, &start), (3, &heights_buf)]));
+    let g_talus_share = b(15, &[(1, &base), (2, &heights_buf), (3, &tmp)]);
+    let g_talus_apply = b(16, &[(1, &base), (2, &heights_buf), (3, &tmp), (4, &coef)]);
+    let g_floor = floor_buf
+        .as_ref()
+        .map(|f| b(17, &[(1, f), (2, &heights_buf)]));
+    if let Some(err) = scope.pop().await {
+        return Err(GpuError::Validation(err.to_string()).into());
+    }
+
+    let groups = (
+        (w as u32).div_ceil(WORKGROUP),
+        (h as u32).div_ceil(WORKGROUP),
+    );
+    let bytes = n as u64 * 4;
+    let sweeps = ((r as f32).sqrt().ceil() as usize).clamp(2, 8);
+    let steps = p.steps;
+    for step in 0..steps {
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("erosion step"),
+        });
+        let run = |encoder: &mut wgpu::CommandEncoder, list: &[(usize, &wgpu::BindGroup)]| {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("erosion"),
+                timestamp_writes: None,
+            });
+            for (pipe, group) in list {
+                pass.set_pipeline(&k[*pipe]);
+                pass.set_bind_group(0, *group, &[]);
+                pass.dispatch_workgroups(groups.0, groups.1, 1);
+            }
+        };
+        // 1-2. Receivers, lakes, receivers again.
+        let mut list = vec![(0, &g_receivers), (1, &g_root_init)];
+        for l in 0..levels {
+            list.push((2, &g_root_jump[(l % 2) as usize]));
+        }
+        list.push((3, &g_lake_init));
+        for l in 0..LAKE_PASSES {
+            list.push((4, &g_lake_pass[(l % 2) as usize]));
+        }
+        list.extend([(5, &g_lake_apply), (0, &g_receivers), (6, &g_area_init)]);
+        run(&mut encoder, &list);
+        // 3. Drainage area: each level adds to a copy of the partial sums.
+        for l in 0..levels {
+            let s = (l % 2) as usize;
+            encoder.copy_buffer_to_buffer(&cells[s], 0, &cells[1 - s], 0, bytes);
+            run(&mut encoder, &[(7, &g_area_jump[s])]);
+        }
+        // 4. Incision.
+        run(&mut encoder, &[(8, &g_lift), (9, &g_implicit_init)]);
+        encoder.copy_buffer_to_buffer(&rcv, 0, &ptr[0], 0, bytes);
+        let mut list = Vec::new();
+        for l in 0..levels {
+            list.push((10, &g_implicit_jump[(l % 2) as usize]));
+        }
+        list.push((11, &g_implicit_take));
+        run(&mut encoder, &list);
+        for _ in 0..POLISH_PASSES {
+            run(&mut encoder, &[(12, &g_polish)]);
+            encoder.copy_buffer_to_buffer(&tmp, 0, &heights_buf, 0, bytes);
+        }
+        // 5. Diffusion: the right-hand side is the heights after incision.
+        if p.diffusivity > 0.0 {
+            encoder.copy_buffer_to_buffer(&heights_buf, 0, &start, 0, bytes);
+            let mut list = Vec::new();
+            for _ in 0..sweeps {
+                list.extend([(13, &g_diffuse[0]), (14, &g_diffuse[1])]);
+            }
+            run(&mut encoder, &list);
+        }
+        // 6. Talus (the share in `tmp`, the new heights in `coef`, no longer needed).
+        if p.talus_deg.is_some() {
+            for _ in 0..THERMAL_PASSES {
+                run(&mut encoder, &[(15, &g_talus_share), (16, &g_talus_apply)]);
+                encoder.copy_buffer_to_buffer(&coef, 0, &heights_buf, 0, bytes);
+            }
+        }
+        // 7. The floor.
+        if let Some(g) = &g_floor {
+            run(&mut encoder, &[(17, g)]);
+        }
+        gpu.submit(encoder.finish());
+        if let Some(err) = scope.pop().await {
+            return Err(GpuError::Validation(err.to_string()).into());
+        }
+        wait_for_submitted_work(gpu).await?;
+        ctx.checkpoint(
+            0.6 + 0.3 * (step + 1) as f32 / steps as f32,
+            &format!("eroding: step {} of {steps} (GPU)", step + 1),
+        )
+        .await?;
+    }
+    let eroded = read_f32_buffer(gpu, &heights_buf, n).await?;
+    let gpu_ms = clock.elapsed().as_secs_f64() * 1e3;
+    let clock = web_time::Instant::now();
+    let routed = receivers_and_area(&eroded, w, h, cell_m, base_level)?;
+    Ok(GpuEroded {
+        heights: routed.heights,
+        area: routed.area,
+        gpu_ms,
+        route_ms: clock.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// Pointer-jumping passes that cover any path on `cells` cells: `ceil(log2 cells)`, at
+/// least 1.
+fn levels(cells: usize) -> u32 {
+    (usize::BITS - cells.saturating_sub(1).leading_zeros()).max(1)
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn levels_cover_every_path() {
+        assert_eq!(super::levels(1), 1);
+        assert_eq!(super::levels(2), 1);
+        assert_eq!(super::levels(3), 2);
+        assert_eq!(super::levels(1024 * 1024), 20);
+        assert_eq!(super::levels(1024 * 1024 + 1), 21);
+    }
+}
