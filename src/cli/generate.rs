@@ -375,6 +375,15 @@ fn layers(out: &Output) -> Result<Vec<Layer>, Box<dyn std::error::Error>> {
     Ok(layers)
 }
 
+fn parse_distance_rule(text: &str) -> Result<crate::skeleton::enrich::DistanceRule, String> {
+    use crate::skeleton::enrich::DistanceRule;
+    match text {
+        "skeleton" => Ok(DistanceRule::Skeleton),
+        "points" => Ok(DistanceRule::Points),
+        _ => Err(format!("expected skeleton or points, got {text:?}")),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -395,14 +404,5 @@ mod tests {
                 .unwrap_err()
                 .contains("unknown river option")
         );
-    }
-}
-
-fn parse_distance_rule(text: &str) -> Result<crate::skeleton::enrich::DistanceRule, String> {
-    use crate::skeleton::enrich::DistanceRule;
-    match text {
-        "skeleton" => Ok(DistanceRule::Skeleton),
-        "points" => Ok(DistanceRule::Points),
-        _ => Err(format!("expected skeleton or points, got {text:?}")),
     }
 }

@@ -22,6 +22,7 @@
 //! - **Skeleton** (the default, our reading): no point is added farther than L cells (passes)
 //!   from the original skeleton, so L bounds the flanks' width whatever the passes. The README
 //!   compares the two.
+//!
 //! Updates of a pass are computed from the state before it and then applied, so the result
 //! does not depend on visiting order. O(passes x skeleton cells).
 //!
