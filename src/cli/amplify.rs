@@ -70,7 +70,12 @@ struct AmplifyReport {
     backend: String,
     masked: bool,
     gamma: [Option<f64>; 3],
+    /// The realism report's spectral slope (bands pooled) of the source and of the output.
+    spectral_gamma_source: Option<f64>,
+    spectral_gamma_output: Option<f64>,
     millis: f64,
+    /// Milliseconds per phase: analysis, fill, inverse.
+    phases: wavelet::synthesis::Timings,
     checksum: String,
 }
 
@@ -162,7 +167,12 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
             backend: backend.key().to_owned(),
             masked: mask.is_some(),
             gamma: amplified.analysis.fits.map(|f| f.map(|f| f.gamma)),
+            spectral_gamma_source: amplified.analysis.pooled_gamma(),
+            spectral_gamma_output: wavelet::analyze(field, &AnalysisParams::default())
+                .ok()
+                .and_then(|a| a.pooled_gamma()),
             millis,
+            phases: amplified.timings,
             checksum: field.checksum(),
         };
         outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
