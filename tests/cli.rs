@@ -498,6 +498,16 @@ fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
     assert_eq!(dem.georef.geo_keys, source.georef.geo_keys, "CRS kept");
     let json: serde_json::Value = serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     assert_eq!(json["size"][0], 441);
+    // Issue #20: the output continues the source's spectral slope (bands pooled).
+    let (src_gamma, out_gamma) = (
+        json["spectral_gamma_source"].as_f64().unwrap(),
+        json["spectral_gamma_output"].as_f64().unwrap(),
+    );
+    assert!(
+        (out_gamma - src_gamma).abs() <= 0.35,
+        "spectral slope {src_gamma} -> {out_gamma}"
+    );
+    assert!(json["phases"]["fill"].as_f64().unwrap() >= 0.0);
 
     // An all-white mask: no synthetic detail, every source sample kept.
     let smooth = dir.join("olinda-smooth.tif");

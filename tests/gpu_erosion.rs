@@ -216,7 +216,16 @@ fn gpu_reaches_the_analytic_steady_state() {
 #[test]
 fn gpu_stage_keeps_rivers_and_drainage() {
     let Some(gpu) = common::gpu() else { return };
-    let backend = Backend::Gpu(Arc::new(gpu));
+    // Beside a software rasteriser (lavapipe) erosion stays on the CPU unless every stage
+    // is asked for on the GPU (`--backend gpu`).
+    if gpu.is_software() {
+        let out = run(
+            &scene(64, PRESETS[0], 1),
+            &Backend::Gpu(Arc::new(gpu.clone())),
+        );
+        assert_eq!(out.report.erosion.expect("a report").backend, "cpu");
+    }
+    let backend = Backend::Gpu(Arc::new(gpu.with_all_stages()));
     for (k, preset) in PRESETS.iter().enumerate() {
         let scene = scene(128, preset, 3 + k as u64);
         let out = run(&scene, &backend);

@@ -169,6 +169,77 @@ fn real_dem_slopes_survive_amplification_globally_and_locally() {
     }
 }
 
+/// Issue #20's target on the real DEMs here, with the realism report's estimator (the bands'
+/// fitted gammas pooled): the output's spectral slope within 0.35 of the source's, 2 levels,
+/// global and local scope.
+#[test]
+fn real_dem_pooled_spectral_slope_continues_within_0_35() {
+    for name in [
+        "olinda.tif",
+        "volcano_maungawhau.tif",
+        "srtm_n44e005_crop.tif",
+        "srtm_n44e005_384.tif",
+    ] {
+        let source = dem(name);
+        let pooled = |f: &Heightfield| {
+            analyze(f, &AnalysisParams::default())
+                .expect("analysis")
+                .pooled_gamma()
+                .expect("a fitted line")
+        };
+        let before = pooled(&source);
+        for scope in [Scope::Global, Scope::Local(LocalParams::default())] {
+            let params = AmplifyParams {
+                levels: 2,
+                scope,
+                seed: 20,
+                ..Default::default()
+            };
+            let after = pooled(&amplify(&source, &params, None));
+            assert!(
+                (after - before).abs() <= 0.35,
+                "{name} {scope:?}: spectral slope {before:.3} -> {after:.3}"
+            );
+        }
+    }
+}
+
+/// The synthetic levels carry the variance the fitted line gives there (eqs. 2 and 7), as the
+/// analysis of the output measures it: a gain error of the synthesis (the lifting-domain
+/// scale of a CDF 5/3 level, the L2 normalisation) would move these points off the line.
+/// Output depth `d` is source depth `d - K`; the normalisation of a level `K` levels deeper
+/// in a grid is `2^K` larger, so its log2 variance reads `2K` higher.
+#[test]
+fn synthetic_levels_carry_the_fitted_variance() {
+    let source = dem("srtm_n44e005_384.tif");
+    let fits = analyze(&source, &AnalysisParams::default())
+        .expect("analysis")
+        .fits;
+    for levels in 1..=2u32 {
+        let params = AmplifyParams {
+            levels,
+            seed: 21,
+            ..Default::default()
+        };
+        let out = analyze(&amplify(&source, &params, None), &AnalysisParams::default())
+            .expect("analysis");
+        for band in Band::ALL {
+            let line = fits[band.index()].expect("a fitted line");
+            for stats in out.levels.iter().take(levels as usize) {
+                let depth = stats.depth as i32 - levels as i32;
+                let expected = line.log2_variance(depth) + 2.0 * f64::from(levels);
+                let got = stats.variances[band.index()].log2();
+                assert!(
+                    (got - expected).abs() <= 0.1,
+                    "{levels} levels, {band:?} at output depth {}: log2 variance {got:.3}, \
+                     the line gives {expected:.3}",
+                    stats.depth
+                );
+            }
+        }
+    }
+}
+
 /// RMS of `out - reference` over the cells where `inside(x, y)` holds.
 fn rms_where(
     out: &Heightfield,

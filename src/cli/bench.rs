@@ -53,9 +53,9 @@ pub struct BenchArgs {
     /// queue submissions and the readbacks) instead of the diffusion table.
     #[arg(long)]
     pub json: bool,
-    /// Solves per size, backend and method in the diffusion benchmark (runs per size and
-    /// backend in the erosion one). On the GPU the first
-    /// builds the kernels; later ones reuse them.
+    /// Solves per size, backend and method in the diffusion benchmark (runs per case with
+    /// --wavelet, which prints medians; runs per size and backend with --erosion, the best
+    /// kept). On the GPU the first builds the kernels; later ones reuse them.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
     /// Run every GPU solve on a newly created device (created outside the timing), so each
@@ -263,7 +263,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         if args.blend {
             return super::bench_blend::run(&args.sizes, &list);
         }
-        return super::bench_wavelet::run(&args.sizes, &list);
+        return super::bench_wavelet::run(&args.sizes, &list, args.repeat);
     }
     if want_cpu {
         backends.push(Backend::Cpu);

@@ -70,10 +70,15 @@ impl BackendChoice {
         [BackendChoice::Auto, BackendChoice::Cpu, BackendChoice::Gpu];
 
     /// Picks the backend. `Gpu` without a computing GPU is an error rather than a silent
-    /// fallback, so a user who asked for the GPU learns why they did not get it.
+    /// fallback, so a user who asked for the GPU learns why they did not get it. `Gpu` also
+    /// runs every stage on the GPU, software rasteriser or not; `Auto` keeps erosion on the
+    /// CPU beside one ([`crate::gpu::GpuContext::runs_heavy_stages`]).
     pub fn resolve(self, path: &ComputePath) -> Result<Backend, NoGpuError> {
         match (self, path) {
             (BackendChoice::Cpu, _) => Ok(Backend::Cpu),
+            (BackendChoice::Gpu, ComputePath::Gpu { context, .. }) => Ok(Backend::Gpu(Arc::new(
+                context.as_ref().clone().with_all_stages(),
+            ))),
             (_, ComputePath::Gpu { context, .. }) => Ok(Backend::Gpu(Arc::clone(context))),
             (BackendChoice::Auto, ComputePath::Cpu { .. }) => Ok(Backend::Cpu),
             (BackendChoice::Gpu, ComputePath::Cpu { reason }) => Err(NoGpuError {

@@ -433,7 +433,9 @@ async fn solve(
         uplift,
         floor,
     } = Prepared::new(field, kinds, settings, seed);
-    if let Backend::Gpu(context) = backend {
+    if let Backend::Gpu(context) = backend
+        && context.runs_heavy_stages()
+    {
         if gpu::fits(context, n, n) {
             let input = GpuInput {
                 heights: &start,

@@ -79,6 +79,9 @@ pub struct GpuContext {
     pub backend: wgpu::Backend,
     pub caps: Capabilities,
     pub(super) kernels: Arc<Kernels>,
+    /// Run every stage with a WGSL version here, software rasteriser or not
+    /// ([`GpuContext::runs_heavy_stages`]).
+    all_stages: bool,
 }
 
 impl fmt::Debug for GpuContext {
@@ -92,6 +95,28 @@ impl fmt::Debug for GpuContext {
 }
 
 impl GpuContext {
+    /// Whether the adapter is a software rasteriser (Mesa's lavapipe, or the browser's
+    /// fallback adapter such as SwiftShader): correct, but slower than the CPU for work
+    /// like erosion.
+    pub fn is_software(&self) -> bool {
+        self.adapter.device_type == "Cpu"
+    }
+
+    /// Whether stages whose GPU version only pays on real hardware (erosion: hundreds of
+    /// dependent passes per step) run on this device. The diffusion and the wavelets run on
+    /// any GPU; erosion runs on the CPU beside a software rasteriser unless
+    /// [`GpuContext::with_all_stages`] asked for it.
+    pub fn runs_heavy_stages(&self) -> bool {
+        !self.is_software() || self.all_stages
+    }
+
+    /// The same device with every stage on the GPU, software rasteriser or not (tests of
+    /// the WGSL stages on lavapipe; `--backend gpu`).
+    pub fn with_all_stages(mut self) -> Self {
+        self.all_stages = true;
+        self
+    }
+
     /// Shares a device created elsewhere, e.g. the one eframe draws with (see
     /// [`device_descriptor`], which the app passes to eframe so that device carries the
     /// adapter's full limits).
@@ -108,6 +133,7 @@ impl GpuContext {
             backend: info.backend,
             caps: Capabilities::of(adapter, device),
             kernels: Arc::default(),
+            all_stages: false,
         }
     }
 
@@ -156,6 +182,7 @@ impl GpuContext {
             adapter: AdapterSummary::of(&info),
             backend: info.backend,
             kernels: Arc::default(),
+            all_stages: false,
         };
         if !context.caps.compute {
             return Err(GpuError::NoCompute {

@@ -55,8 +55,7 @@ impl RealismReport {
                 })
             })
             .collect();
-        let spectral_gamma = (!wavelet_fits.is_empty())
-            .then(|| wavelet_fits.iter().map(|f| f.gamma).sum::<f64>() / wavelet_fits.len() as f64);
+        let spectral_gamma = analysis.as_ref().and_then(wavelet::Analysis::pooled_gamma);
         let log2_variance = analysis
             .iter()
             .flat_map(|a| {

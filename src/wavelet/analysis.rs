@@ -85,6 +85,15 @@ pub struct Analysis {
     pub fits: [Option<LineFit>; 3],
 }
 
+impl Analysis {
+    /// The realism report's spectral slope: the mean of the bands' fitted gammas ("bands
+    /// pooled"); `None` without any fit.
+    pub fn pooled_gamma(&self) -> Option<f64> {
+        let gammas: Vec<f64> = self.fits.iter().flatten().map(|f| f.gamma).collect();
+        (!gammas.is_empty()).then(|| gammas.iter().sum::<f64>() / gammas.len() as f64)
+    }
+}
+
 /// The forward transform of a terrain kept for the local analysis.
 pub struct Transformed {
     pub width: usize,

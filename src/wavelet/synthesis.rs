@@ -77,6 +77,27 @@ pub fn output_len(n: usize, levels: u32) -> usize {
 pub struct Amplified {
     pub field: Heightfield,
     pub analysis: Analysis,
+    /// Milliseconds per phase (`strahler bench --wavelet`, `amplify --report`).
+    pub timings: Timings,
+}
+
+/// Wall-clock milliseconds of the phases of [`amplify`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Timings {
+    /// Forward transform of the source, the line fits (and the local fits), sigma tables.
+    pub analysis: f64,
+    /// Gaussian coefficients (and the mask factors) written into the output grid.
+    pub fill: f64,
+    /// The inverse lifting of the new levels (on the GPU: upload, kernels and readback).
+    pub inverse: f64,
+}
+
+/// Milliseconds since `clock`, restarting it.
+pub(crate) fn lap(clock: &mut web_time::Instant) -> f64 {
+    let now = web_time::Instant::now();
+    let ms = (now - *clock).as_secs_f64() * 1e3;
+    *clock = now;
+    ms
 }
 
 /// Checks parameters and sizes before any allocation.
@@ -282,7 +303,10 @@ pub async fn amplify(
     let (ow, oh) = check(source, params)?;
     ctx.checkpoint(0.0, "analysing the wavelet statistics")
         .await?;
+    let mut clock = web_time::Instant::now();
+    let mut timings = Timings::default();
     let (analysis, sigma) = prepare(source, params)?;
+    timings.analysis = lap(&mut clock);
     ctx.checkpoint(0.15, "drawing detail coefficients").await?;
     let mask_grid = mask.filter(|m| !m.is_clear()).map(|m| m.resampled(ow, oh));
     let inputs = FillInputs {
@@ -309,13 +333,19 @@ pub async fn amplify(
             .await?;
     }
     drop(mask_grid);
+    timings.fill = lap(&mut clock);
     for t in (0..params.levels).rev() {
         lifting::inverse_level(&mut out, ow, oh, 1 << t);
         ctx.checkpoint(0.95, "inverse wavelet transform").await?;
     }
+    timings.inverse = lap(&mut clock);
     let field =
         Heightfield::from_vec(ow, oh, out).map_err(|e| WaveletError::Internal(e.to_string()))?;
-    Ok(Amplified { field, analysis })
+    Ok(Amplified {
+        field,
+        analysis,
+        timings,
+    })
 }
 
 /// Why [`amplify`] stopped.
