@@ -201,18 +201,24 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             let label = ui.label("Scope").on_hover_text(
                 "Global (GSA): one line per band for the whole map. Local (LSA): a line per \
                  location from a window of coefficients, so rough and smooth areas keep their \
-                 character.",
+                 character; calibrated so each level's energy follows the global line. Local \
+                 (paper): eq. 8 exactly as written, each location's raw fit.",
             );
             ComboBox::from_id_salt("detail scope")
                 .selected_text(app.scene.detail.scope.clone())
                 .show_ui(ui, |ui| {
                     ui.selectable_value(&mut app.scene.detail.scope, "global".to_owned(), "global");
                     ui.selectable_value(&mut app.scene.detail.scope, "local".to_owned(), "local");
+                    ui.selectable_value(
+                        &mut app.scene.detail.scope,
+                        "local-paper".to_owned(),
+                        "local (paper)",
+                    );
                 })
                 .response
                 .labelled_by(label.id);
             ui.end_row();
-            if app.scene.detail.scope == "local" {
+            if app.scene.detail.scope.starts_with("local") {
                 ui.label("Window");
                 let mut half = (app.scene.detail.window / 2) as u32;
                 ui.add(Slider::new(&mut half, 0..=8).custom_formatter(|v, _| {

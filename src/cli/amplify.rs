@@ -16,8 +16,10 @@ use crate::wavelet::{self, AmplifyParams, AnalysisParams, LocalParams, Mask, Sco
 pub enum ScopeArg {
     /// One fitted line per band (GSA).
     Global,
-    /// One fitted line per band and location (LSA).
+    /// One fitted line per band and location (LSA), calibrated to the global line.
     Local,
+    /// LSA with eq. 8 exactly as the paper writes it (raw local fits, no calibration).
+    LocalPaper,
 }
 
 #[derive(Debug, Args)]
@@ -30,7 +32,7 @@ pub struct AmplifyArgs {
     /// Where the detail variances come from.
     #[arg(long, value_enum, default_value = "global")]
     pub scope: ScopeArg,
-    /// Window side in coefficients for --scope local (odd).
+    /// Window side in coefficients for --scope local and local-paper (odd).
     #[arg(long, default_value_t = LocalParams::default().window)]
     pub window: usize,
     /// Energy-reduction mask: greyscale PNG, white removes the synthetic detail.
@@ -105,8 +107,9 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
     };
     let scope = match args.scope {
         ScopeArg::Global => Scope::Global,
-        ScopeArg::Local => Scope::Local(LocalParams {
+        ScopeArg::Local | ScopeArg::LocalPaper => Scope::Local(LocalParams {
             window: args.window,
+            as_written: args.scope == ScopeArg::LocalPaper,
             ..Default::default()
         }),
     };

@@ -83,6 +83,7 @@ pub fn run(
                 };
                 let (scope_name, window) = match scope {
                     Scope::Global => ("global", "-".to_owned()),
+                    Scope::Local(l) if l.as_written => ("local-paper", l.window.to_string()),
                     Scope::Local(l) => ("local", l.window.to_string()),
                 };
                 let mut runs = Vec::with_capacity(repeat);

@@ -338,7 +338,8 @@ impl StyleSettings {
 pub struct DetailSettings {
     /// New levels, 0 (off) to 3; each turns `n` cells into `2n - 1` per side.
     pub levels: u32,
-    /// "global" (GSA) or "local" (LSA).
+    /// "global" (GSA), "local" (LSA, calibrated) or "local-paper" (LSA with eq. 8 exactly
+    /// as written).
     pub scope: String,
     /// LSA window in coefficients (odd, 1 to 65).
     pub window: usize,
@@ -365,13 +366,13 @@ impl DetailSettings {
         use crate::wavelet::{AmplifyParams, LocalParams, Scope};
         AmplifyParams {
             levels: self.levels.max(1),
-            scope: if self.scope == "local" {
-                Scope::Local(LocalParams {
+            scope: match self.scope.as_str() {
+                "local" | "local-paper" => Scope::Local(LocalParams {
                     window: self.window,
+                    as_written: self.scope == "local-paper",
                     ..Default::default()
-                })
-            } else {
-                Scope::Global
+                }),
+                _ => Scope::Global,
             },
             seed,
             ..Default::default()
@@ -529,10 +530,13 @@ impl Scene {
                 ),
             );
         }
-        if d.scope != "global" && d.scope != "local" {
+        if !["global", "local", "local-paper"].contains(&d.scope.as_str()) {
             return bad(
                 "detail.scope",
-                format!("must be \"global\" or \"local\", got {:?}", d.scope),
+                format!(
+                    "must be \"global\", \"local\" or \"local-paper\", got {:?}",
+                    d.scope
+                ),
             );
         }
         if d.window == 0 || d.window > 65 || d.window.is_multiple_of(2) {

@@ -210,6 +210,10 @@ pub struct LocalParams {
     pub window: usize,
     /// How many of the finest levels enter each local fit (at least 2).
     pub levels: u32,
+    /// Eq. 8 exactly as written: each location's raw fit of eq. 7 gives its coefficients'
+    /// variance, with no bias correction, no shrinkage towards the global slope and no
+    /// calibration of the levels' energy (see [`local_fit`]). Off: the calibrated scope.
+    pub as_written: bool,
 }
 
 impl Default for LocalParams {
@@ -217,6 +221,7 @@ impl Default for LocalParams {
         Self {
             window: 3,
             levels: 3,
+            as_written: false,
         }
     }
 }
@@ -232,6 +237,9 @@ pub struct LocalFit {
     pub gamma: [Vec<f32>; 3],
     /// log2 variance at depth 0 per band (eq. 8's `a^t(r)` shifted to depth 0).
     pub intercept: [Vec<f32>; 3],
+    /// Whether the synthesis calibrates each level's mean energy to the global line (the
+    /// calibrated scope) or takes eq. 8's variances as they are ([`LocalParams::as_written`]).
+    pub calibrated: bool,
 }
 
 impl LocalFit {
@@ -316,6 +324,12 @@ fn nearest_coefficient(x: usize, s: usize, p: usize) -> usize {
 ///
 /// Windows with zero energy are floored at a millionth of the level's global variance, so
 /// flat areas extrapolate to (almost) no detail rather than to NaN.
+///
+/// With [`LocalParams::as_written`] the fit is the paper's alone (Sec. 3.3.1-3.3.3): the
+/// least-squares line of eq. 7 through the windows' log-variances, `gamma^t(r)` its slope
+/// and `a^t(r)` its ordinate, unclamped, and eq. 8's `2^(a - n gamma)` is the new
+/// coefficients' variance as it stands (only the zero-energy floor remains, since a log of 0
+/// has no line).
 pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> LocalFit {
     let levels = params.levels.clamp(2, t.levels);
     let window = params.window.max(1);
@@ -324,7 +338,11 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
     let mean_depth = depths.iter().sum::<f64>() / depths.len() as f64;
     let sxx: f64 = depths.iter().map(|d| (d - mean_depth).powi(2)).sum();
     let n_window = (window * window) as f64;
-    let log_bias = 1.0 / (n_window * std::f64::consts::LN_2);
+    let log_bias = if params.as_written {
+        0.0
+    } else {
+        1.0 / (n_window * std::f64::consts::LN_2)
+    };
     let analytic_log_var = 2.0 / n_window / std::f64::consts::LN_2.powi(2);
     let mut gamma: [Vec<f32>; 3] = Default::default();
     let mut intercept: [Vec<f32>; 3] = Default::default();
@@ -373,7 +391,11 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
         let mut g = vec![0.0f32; w * h];
         let mut a = vec![0.0f32; w * h];
         for i in 0..w * h {
-            let slope = (centre + keep * (raw_slope[i] - centre)).clamp(0.0, MAX_LOCAL_GAMMA);
+            let slope = if params.as_written {
+                raw_slope[i]
+            } else {
+                (centre + keep * (raw_slope[i] - centre)).clamp(0.0, MAX_LOCAL_GAMMA)
+            };
             g[i] = slope as f32;
             a[i] = (mean_logs[i] - slope * mean_depth) as f32;
         }
@@ -385,11 +407,12 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
         height: h,
         gamma,
         intercept,
+        calibrated: !params.as_written,
     }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
     #[test]
@@ -415,5 +438,71 @@ mod tests {
         let field = Heightfield::filled(65, 65, 120.0).unwrap();
         let analysis = analyze(&field, &AnalysisParams::default()).unwrap();
         assert!(analysis.fits.iter().all(Option::is_none));
+    }
+
+    /// A transformed 33 x 33 grid whose horizontal-band details have normalised value 1, 2
+    /// and 4 at depths 1, 2 and 3 (every other coefficient 0).
+    pub(crate) fn doubling_details() -> Transformed {
+        let (w, h) = (33, 33);
+        let mut data = vec![0.0f32; w * h];
+        let band = Band::Horizontal;
+        let (px, py) = band.parities();
+        for depth in 1..=3u32 {
+            let s = 1usize << (depth - 1);
+            let value = (1u32 << (depth - 1)) as f64 / band.normalisation(depth as i32);
+            let (nx, ny) = (lifting::count_at(w, s), lifting::count_at(h, s));
+            for j in (py..ny).step_by(2) {
+                for i in (px..nx).step_by(2) {
+                    data[j * s * w + i * s] = value as f32;
+                }
+            }
+        }
+        Transformed {
+            width: w,
+            height: h,
+            levels: 5,
+            data,
+        }
+    }
+
+    /// Eq. 8 as written against a hand computation: the windows' mean squared normalised
+    /// details are 1, 4 and 16 at depths 1, 2, 3, so log2 Var = 0, 2, 4: the line of eq. 7 has
+    /// slope gamma = 2 and, at depth 0, ordinate 0 - 2 = -2 at every location. The calibrated
+    /// scope adds the log bias of a 9-sample mean (1 / (9 ln 2)) to the ordinate instead.
+    #[test]
+    fn local_fit_as_written_is_the_papers_line_through_the_window_variances() {
+        let t = doubling_details();
+        let global = analyze_transformed(&t, &AnalysisParams::default());
+        let params = LocalParams {
+            window: 3,
+            levels: 3,
+            as_written: true,
+        };
+        let fit = local_fit(&t, &global, &params);
+        let b = Band::Horizontal.index();
+        assert!(!fit.calibrated);
+        for i in [0, 16 * 33 + 16, 33 * 33 - 1] {
+            assert!((fit.gamma[b][i] - 2.0).abs() < 1e-5, "{}", fit.gamma[b][i]);
+            assert!((fit.intercept[b][i] + 2.0).abs() < 1e-5, "{}", fit.intercept[b][i]);
+            // Eq. 8 at the first new level (depth 0) and the next (depth -1).
+            assert!((fit.log2_variance(Band::Horizontal, i, 0) + 2.0).abs() < 1e-5);
+            assert!((fit.log2_variance(Band::Horizontal, i, -1) + 4.0).abs() < 1e-5);
+        }
+        let calibrated = local_fit(
+            &t,
+            &global,
+            &LocalParams {
+                as_written: false,
+                ..params
+            },
+        );
+        let centre = 16 * 33 + 16;
+        let bias = 1.0 / (9.0 * std::f64::consts::LN_2);
+        assert!(calibrated.calibrated);
+        assert!(
+            (f64::from(calibrated.intercept[b][centre]) - (-2.0 + bias)).abs() < 1e-4,
+            "{}",
+            calibrated.intercept[b][centre]
+        );
     }
 }

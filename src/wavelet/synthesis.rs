@@ -9,7 +9,8 @@
 //! - global (GSA, eqs. 2 and 7): `sigma^2 = 2^(a^t - n gamma^t)`, one per level and band;
 //! - local (LSA, eq. 8): `sigma^2(r) = 2^(a^t(r) - n gamma^t(r))` from the fit at the source
 //!   cell `r` nearest to the coefficient, each level's mean over the map calibrated to the
-//!   global line (the local fit places the energy, the global one sets its total).
+//!   global line (the local fit places the energy, the global one sets its total); or, with
+//!   [`LocalParams::as_written`], eq. 8's variance exactly as the paper writes it.
 //!
 //! The energy-reduction mask (MGR, eq. 9) scales each coefficient by
 //! `sqrt(1 - sum_{(k,l)} c_{k,l} ||psi||_{D(k,l)})`: the mask is summed under the squared taps
@@ -148,6 +149,9 @@ impl SigmaTables {
                 let to_sigma = |log2_var: f64| ((log2_var.exp2()).sqrt() / norm) as f32;
                 let table = match (local, analysis.fits[band.index()]) {
                     (_, None) => vec![0.0],
+                    (Some(fit), _) if !fit.calibrated => (0..w * h)
+                        .map(|i| to_sigma(fit.log2_variance(band, i, depth)))
+                        .collect(),
                     (Some(fit), Some(line)) => {
                         // Eq. 8 per cell, the level's mean energy calibrated to the line.
                         let log2_var: Vec<f64> = (0..w * h)
@@ -408,3 +412,30 @@ pub fn detail_rms(
         masked: (covered_n > 0).then(|| (covered / covered_n as f64).sqrt()),
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Eq. 8 as written gives the new coefficients `sigma^2 = 2^(a - n gamma)` with no
+    /// calibration: on the doubling details (gamma 2, ordinate -2 at depth 0) the first new
+    /// level's horizontal details have variance 2^-2 and the next 2^-4, in normalised units.
+    #[test]
+    fn eq_8_as_written_sets_the_new_levels_variances() {
+        let t = super::analysis::tests::doubling_details();
+        let global = analysis::analyze_transformed(&t, &AnalysisParams::default());
+        let local = LocalParams {
+            as_written: true,
+            ..LocalParams::default()
+        };
+        let fit = analysis::local_fit(&t, &global, &local);
+        let tables = SigmaTables::build(&global, Some(&fit), 2, t.width, t.height);
+        let band = Band::Horizontal;
+        for (k, log2_var) in [(1u32, -2.0f64), (2, -4.0)] {
+            let depth = 1 - k as i32;
+            let sigma = f64::from(tables.sigma(k, band, 16, 16)) * band.normalisation(depth);
+            assert!((sigma * sigma - log2_var.exp2()).abs() < 1e-5, "level {k}: {sigma}");
+        }
+    }
+}
+
