@@ -32,6 +32,9 @@ fuzz_target!(|data: &[u8]| {
     if let Ok(output) = pollster::block_on(pipeline.run(&scene, &options, &Backend::Cpu, &ctx)) {
         let terrain = &output.field;
         assert!(terrain.width() >= SIZE && terrain.height() >= 1);
-        assert!(terrain.data().iter().all(|h| h.is_finite()), "non-finite heights");
+        assert!(
+            terrain.data().iter().all(|h| h.is_finite()),
+            "non-finite heights"
+        );
     }
 });
