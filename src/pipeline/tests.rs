@@ -250,6 +250,7 @@ fn every_field_scene() -> Scene {
     scene.params.noise.roughness = 0.6;
     scene.params.enrich.passes = 3;
     scene.params.enrich.distance_limit = 4;
+    scene.params.enrich.distance_rule = crate::skeleton::enrich::DistanceRule::Points;
     scene.params.post.smooth_sigma = 0.5;
     scene.params.post.fbm_amplitude = 2.0;
     scene.params.post.fbm_octaves = 3;
