@@ -93,19 +93,7 @@ fn gpu_matches_cpu_on_a_real_terrain() {
         .expect("valid input");
         while cpu.step() {}
         let cpu = cpu.into_heights();
-        let out = gpu_erode(
-            &gpu,
-            GpuInput {
-                heights: &prepared.heights,
-                width: n,
-                height: n,
-                cell_m: cell,
-                base_level: &prepared.base,
-                uplift: &prepared.uplift,
-                floor: Some(&prepared.floor),
-                params: settings.params(),
-            },
-        );
+        let out = gpu_erode(&gpu, prepared.gpu_input(n, cell, settings.params()));
         let free: Vec<usize> = (0..n * n).filter(|i| !prepared.base[*i]).collect();
         let (lo, hi) = free
             .iter()

@@ -373,7 +373,7 @@ fn absurd_parameters_and_voids_are_named_errors() {
     let bad_window = AmplifyParams {
         scope: Scope::Local(LocalParams {
             window: 4,
-            levels: 3,
+            ..Default::default()
         }),
         ..Default::default()
     };

@@ -8,7 +8,7 @@
 //! (shown apart); its kernels are built before timing.
 
 use crate::compute::Backend;
-use crate::erosion::gpu::{self, GpuInput};
+use crate::erosion::gpu;
 use crate::erosion::{Eroder, ErosionSettings, Prepared};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
@@ -73,16 +73,7 @@ pub fn run(
                     Backend::Gpu(context) => {
                         let out = pollster::block_on(gpu::erode(
                             context,
-                            GpuInput {
-                                heights: &prepared.heights,
-                                width: n,
-                                height: n,
-                                cell_m: cell,
-                                base_level: &prepared.base,
-                                uplift: &prepared.uplift,
-                                floor: Some(&prepared.floor),
-                                params,
-                            },
+                            prepared.gpu_input(n, cell, params),
                             &JobCtx::detached(),
                         ))?;
                         (out.heights, out.gpu_ms, out.route_ms)

@@ -390,6 +390,20 @@ pub struct Prepared {
 }
 
 impl Prepared {
+    /// The GPU solver's input for these fields (an `n` x `n` grid of `cell_m` cells).
+    pub fn gpu_input(&self, n: usize, cell_m: f64, params: ErosionParams) -> GpuInput<'_> {
+        GpuInput {
+            heights: &self.heights,
+            width: n,
+            height: n,
+            cell_m,
+            base_level: &self.base,
+            uplift: &self.uplift,
+            floor: Some(&self.floor),
+            params,
+        }
+    }
+
     /// O(cells x band).
     pub fn new(
         field: &Heightfield,
@@ -427,26 +441,12 @@ async fn solve(
     ctx: &JobCtx,
 ) -> Result<(Vec<f32>, Vec<f32>, &'static str), StageError> {
     let n = field.width();
-    let Prepared {
-        heights: start,
-        base,
-        uplift,
-        floor,
-    } = Prepared::new(field, kinds, settings, seed);
+    let prepared = Prepared::new(field, kinds, settings, seed);
     if let Backend::Gpu(context) = backend
         && context.runs_heavy_stages()
     {
         if gpu::fits(context, n, n) {
-            let input = GpuInput {
-                heights: &start,
-                width: n,
-                height: n,
-                cell_m,
-                base_level: &base,
-                uplift: &uplift,
-                floor: Some(&floor),
-                params: settings.params(),
-            };
+            let input = prepared.gpu_input(n, cell_m, settings.params());
             match gpu::erode(context, input, ctx).await {
                 Ok(out) => return Ok((out.heights, out.area, "gpu")),
                 Err(GpuErosionError::Gpu(err)) => {
@@ -459,6 +459,12 @@ async fn solve(
             log::warn!("a {n} x {n} erosion grid does not fit this GPU: eroding on the CPU");
         }
     }
+    let Prepared {
+        heights: start,
+        base,
+        uplift,
+        floor,
+    } = prepared;
     let mut eroder =
         Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?.with_floor(floor)?;
     let steps = settings.steps.max(1);

@@ -483,7 +483,11 @@ pub(crate) mod tests {
         assert!(!fit.calibrated);
         for i in [0, 16 * 33 + 16, 33 * 33 - 1] {
             assert!((fit.gamma[b][i] - 2.0).abs() < 1e-5, "{}", fit.gamma[b][i]);
-            assert!((fit.intercept[b][i] + 2.0).abs() < 1e-5, "{}", fit.intercept[b][i]);
+            assert!(
+                (fit.intercept[b][i] + 2.0).abs() < 1e-5,
+                "{}",
+                fit.intercept[b][i]
+            );
             // Eq. 8 at the first new level (depth 0) and the next (depth -1).
             assert!((fit.log2_variance(Band::Horizontal, i, 0) + 2.0).abs() < 1e-5);
             assert!((fit.log2_variance(Band::Horizontal, i, -1) + 4.0).abs() < 1e-5);

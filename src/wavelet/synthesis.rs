@@ -434,8 +434,10 @@ mod tests {
         for (k, log2_var) in [(1u32, -2.0f64), (2, -4.0)] {
             let depth = 1 - k as i32;
             let sigma = f64::from(tables.sigma(k, band, 16, 16)) * band.normalisation(depth);
-            assert!((sigma * sigma - log2_var.exp2()).abs() < 1e-5, "level {k}: {sigma}");
+            assert!(
+                (sigma * sigma - log2_var.exp2()).abs() < 1e-5,
+                "level {k}: {sigma}"
+            );
         }
     }
 }
-
