@@ -69,6 +69,10 @@ pub struct BenchArgs {
     /// The erosion preset the `--erosion` table runs.
     #[arg(long, default_value = "young-mountains")]
     pub erosion_preset: String,
+    /// With --erosion: also time each phase of the WGSL solver's steps (each phase submitted
+    /// and waited for on its own), to see where the GPU time goes.
+    #[arg(long, requires = "erosion")]
+    pub phases: bool,
     /// Time the 3D view instead (texture preparation, chunk selection and GPU frames at four
     /// camera distances; needs a GPU).
     #[arg(long)]
@@ -250,7 +254,13 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
                 None => println!("no GPU backend: {path}"),
             }
         }
-        return super::bench_erosion::run(&args.sizes, &list, &args.erosion_preset, args.repeat);
+        return super::bench_erosion::run(
+            &args.sizes,
+            &list,
+            &args.erosion_preset,
+            args.repeat,
+            args.phases,
+        );
     }
     if args.wavelet || args.blend {
         let mut list = Vec::new();

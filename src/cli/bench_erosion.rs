@@ -23,6 +23,7 @@ pub fn run(
     backends: &[Backend],
     preset: &str,
     runs: usize,
+    phases: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let settings = ErosionSettings::preset(preset).ok_or_else(|| {
         format!(
@@ -115,6 +116,39 @@ pub fn run(
         "solver = upload + steps + readback on the GPU, routing = the final Priority-Flood and \
          drainage area on the CPU; target (issue #19): <= 100 ms for 1024^2 on a desktop GPU"
     );
+    if phases {
+        phase_table(sizes, backends, &settings)?;
+    }
+    Ok(())
+}
+
+/// `--phases`: the WGSL solver's wall time per phase, summed over the steps (ms).
+fn phase_table(
+    sizes: &[usize],
+    backends: &[Backend],
+    settings: &ErosionSettings,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let Some(Backend::Gpu(context)) = backends.iter().find(|b| matches!(b, Backend::Gpu(_)))
+    else {
+        println!("--phases: no GPU backend to profile");
+        return Ok(());
+    };
+    println!(
+        "{:>6} {}",
+        "size",
+        gpu::PHASES.map(|p| format!("{p:>16}")).join("")
+    );
+    for &n in sizes {
+        let (field, kinds) = terrain(n)?;
+        let prepared = Prepared::new(&field, &kinds, settings, 1);
+        let input = prepared.gpu_input(n, MAP_M / n as f64, settings.params());
+        let (_, times) = pollster::block_on(gpu::profile(context, input))?;
+        println!(
+            "{:>6} {}",
+            format!("{n}^2"),
+            times.map(|t| format!("{t:>16.1}")).join("")
+        );
+    }
     Ok(())
 }
 

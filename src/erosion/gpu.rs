@@ -175,6 +175,60 @@ pub async fn erode(
     input: GpuInput<'_>,
     ctx: &JobCtx,
 ) -> Result<GpuEroded, GpuErosionError> {
+    erode_with(gpu, input, ctx, None).await
+}
+
+/// The phases of a step, as [`profile`] times them.
+pub const PHASES: [&str; 6] = [
+    "receivers+lakes",
+    "area",
+    "incision",
+    "diffusion",
+    "talus",
+    "floor",
+];
+
+/// [`erode`] with every phase of every step submitted on its own and waited for, so the
+/// wall time of each phase (summed over the steps, milliseconds, in [`PHASES`]' order) can
+/// be read (`strahler bench --erosion --phases`). Slower than [`erode`]: for finding where
+/// the time goes, not for use.
+pub async fn profile(
+    gpu: &GpuContext,
+    input: GpuInput<'_>,
+) -> Result<(GpuEroded, [f64; 6]), GpuErosionError> {
+    let mut times = [0.0; 6];
+    let out = erode_with(gpu, input, &JobCtx::detached(), Some(&mut times)).await?;
+    Ok((out, times))
+}
+
+/// Submits what `encoder` holds, waits for it and adds the wall time since `clock` to `slot`
+/// (profiling only).
+async fn flush(
+    gpu: &GpuContext,
+    encoder: &mut wgpu::CommandEncoder,
+    clock: &mut web_time::Instant,
+    slot: &mut f64,
+) -> Result<(), GpuError> {
+    let done = std::mem::replace(
+        encoder,
+        gpu.device
+            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+                label: Some("erosion step"),
+            }),
+    );
+    gpu.submit(done.finish());
+    wait_for_submitted_work(gpu).await?;
+    *slot += clock.elapsed().as_secs_f64() * 1e3;
+    *clock = web_time::Instant::now();
+    Ok(())
+}
+
+async fn erode_with(
+    gpu: &GpuContext,
+    input: GpuInput<'_>,
+    ctx: &JobCtx,
+    mut profile: Option<&mut [f64; 6]>,
+) -> Result<GpuEroded, GpuErosionError> {
     let clock = web_time::Instant::now();
     let GpuInput {
         heights,
@@ -405,11 +459,18 @@ pub async fn erode(
         }
         list.extend([(5, &g_lake_apply), (0, &g_receivers), (6, &g_area_init)]);
         run(&mut encoder, &list);
+        let mut phase_clock = web_time::Instant::now();
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[0]).await?;
+        }
         // 3. Drainage area: each level adds to a copy of the partial sums.
         for l in 0..levels {
             let s = (l % 2) as usize;
             encoder.copy_buffer_to_buffer(&cells[s], 0, &cells[1 - s], 0, bytes);
             run(&mut encoder, &[(7, &g_area_jump[s])]);
+        }
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[1]).await?;
         }
         // 4. Incision.
         run(&mut encoder, &[(8, &g_lift), (9, &g_implicit_init)]);
@@ -424,6 +485,9 @@ pub async fn erode(
             run(&mut encoder, &[(12, &g_polish)]);
             encoder.copy_buffer_to_buffer(&tmp, 0, &heights_buf, 0, bytes);
         }
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[2]).await?;
+        }
         // 5. Diffusion: the right-hand side is the heights after incision.
         if p.diffusivity > 0.0 {
             encoder.copy_buffer_to_buffer(&heights_buf, 0, &start, 0, bytes);
@@ -433,6 +497,9 @@ pub async fn erode(
             }
             run(&mut encoder, &list);
         }
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[3]).await?;
+        }
         // 6. Talus (the share in `tmp`, the new heights in `coef`, no longer needed).
         if p.talus_deg.is_some() {
             for _ in 0..THERMAL_PASSES {
@@ -440,9 +507,15 @@ pub async fn erode(
                 encoder.copy_buffer_to_buffer(&coef, 0, &heights_buf, 0, bytes);
             }
         }
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[4]).await?;
+        }
         // 7. The floor.
         if let Some(g) = &g_floor {
             run(&mut encoder, &[(17, g)]);
+        }
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[5]).await?;
         }
         gpu.submit(encoder.finish());
         if let Some(err) = scope.pop().await {
