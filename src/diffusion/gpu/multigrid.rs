@@ -38,8 +38,9 @@ use crate::jobs::JobCtx;
 const CHECK_EVERY: u32 = 4;
 
 /// The entry points [`Pipelines`] holds, in its order.
-pub(super) const ENTRIES: [&str; 6] = [
+pub(super) const ENTRIES: [&str; 7] = [
     "relax",
+    "solve_coarsest",
     "restrict_residual",
     "prolong_add",
     "prolong_replace",
@@ -60,11 +61,14 @@ struct Params {
     coarse_row0: u32,
     own_start: u32,
     own_end: u32,
-    _pad: [u32; 2],
+    /// Red-black sweeps of `solve_coarsest`.
+    sweeps: u32,
+    _pad: u32,
 }
 
 struct Pipelines {
     relax: wgpu::ComputePipeline,
+    solve_coarsest: wgpu::ComputePipeline,
     restrict: wgpu::ComputePipeline,
     prolong_add: wgpu::ComputePipeline,
     prolong_replace: wgpu::ComputePipeline,
@@ -77,6 +81,7 @@ impl Pipelines {
     async fn of(gpu: &GpuContext) -> Result<Self, GpuError> {
         let [
             relax,
+            solve_coarsest,
             restrict,
             prolong_add,
             prolong_replace,
@@ -85,6 +90,7 @@ impl Pipelines {
         ] = gpu.pipelines(&MULTIGRID, ENTRIES).await?;
         Ok(Self {
             relax,
+            solve_coarsest,
             restrict,
             prolong_add,
             prolong_replace,
@@ -101,6 +107,8 @@ struct GpuBand {
     u: wgpu::Buffer,
     /// Relax with colour 0 and 1.
     relax: [wgpu::BindGroup; 2],
+    /// All of the coarsest level's sweeps in one dispatch (the coarsest level only).
+    coarsest: Option<wgpu::BindGroup>,
     /// Operators between this band and the next coarser level (absent on the coarsest).
     restrict: Option<wgpu::BindGroup>,
     prolong_add: Option<wgpu::BindGroup>,
@@ -220,7 +228,7 @@ pub(in crate::diffusion) async fn multigrid(
     // Full-multigrid start and the first cycles, one submission: the start's checks in slot 0,
     // then the cycles'.
     let mut encoder = device.create_command_encoder(&Default::default());
-    relax(&mut encoder, &pipes, &levels[last], COARSEST_SWEEPS);
+    solve_coarsest(&mut encoder, &pipes, &levels[last]);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (0..last).rev() {
         prolong(&mut encoder, &pipes.prolong_replace, &levels[l], |b| {
@@ -374,7 +382,8 @@ fn upload<'a>(
                         coarse_row0: ck.map_or(0, |ck| plan[l + 1][ck].stored.start as u32),
                         own_start: band.owned.start as u32,
                         own_end: band.owned.end as u32,
-                        _pad: [0; 2],
+                        sweeps: COARSEST_SWEEPS,
+                        _pad: 0,
                     }),
                     usage: wgpu::BufferUsages::UNIFORM,
                 })
@@ -387,6 +396,13 @@ fn upload<'a>(
                     device,
                     &pipes.relax,
                     &[(0, &params[c]), (1, f), (2, u), (3, b)],
+                )
+            });
+            let coarsest = (l + 1 == cpu.len()).then(|| {
+                bind(
+                    device,
+                    &pipes.solve_coarsest,
+                    &[(0, &params[0]), (1, f), (2, u), (3, b)],
                 )
             });
             let (restrict, prolong_add, prolong_replace) = match ck {
@@ -427,6 +443,7 @@ fn upload<'a>(
                 rows: band.clone(),
                 u: u.clone(),
                 relax,
+                coarsest,
                 restrict,
                 prolong_add,
                 prolong_replace,
@@ -519,6 +536,22 @@ fn relax(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel
     }
 }
 
+/// [`COARSEST_SWEEPS`] red-black sweeps on the coarsest level (at most 4 x 4 cells) in one
+/// dispatch of one workgroup, with a storage barrier between colours: the bits of as many
+/// `relax` dispatches, without the 2 x `COARSEST_SWEEPS` dispatches' overhead per cycle.
+fn solve_coarsest(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel) {
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    pass.set_pipeline(&pipes.solve_coarsest);
+    for band in &level.bands {
+        let group = band
+            .coarsest
+            .as_ref()
+            .expect("the coarsest level has its bind group");
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+}
+
 /// Encodes one V-cycle from level `top` (correction scheme, as on the CPU).
 fn v_cycle(
     encoder: &mut wgpu::CommandEncoder,
@@ -538,7 +571,7 @@ fn v_cycle(
             encoder.clear_buffer(&band.u, 0, None);
         }
     }
-    relax(encoder, pipes, &levels[last], COARSEST_SWEEPS);
+    solve_coarsest(encoder, pipes, &levels[last]);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (top..last).rev() {
         prolong(encoder, &pipes.prolong_add, &levels[l], |b| {
