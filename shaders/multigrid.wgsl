@@ -10,6 +10,8 @@
 //
 // Entry points (all 16 x 16 workgroups):
 //   relax             one colour of a red-black Gauss-Seidel sweep on the fine level
+//   solve_coarsest    p.sweeps whole red-black sweeps on a level of at most 16 x 16 cells, in
+//                     one workgroup: the same arithmetic, in the same order, as relax
 //   restrict_residual coarse b = sum of the fine residual over the 2 x 2 children
 //   prolong_add       fine u += bilinear interpolation of the coarse correction (free cells)
 //   prolong_replace   fine u  = bilinear interpolation of the coarse solution (free cells)
@@ -29,7 +31,8 @@ struct Params {
     // Fine rows this dispatch computes (restriction: their parents).
     own_start: u32,
     own_end: u32,
-    _pad0: u32,
+    // Sweeps of solve_coarsest.
+    sweeps: u32,
     _pad1: u32,
 }
 
@@ -134,6 +137,30 @@ fn relax(@builtin(global_invocation_id) gid: vec3<u32>) {
     let n = neighbours(x, y);
     if (n.y > 0.0) {
         u[i] = (rhs(i) + n.x) / n.y;
+    }
+}
+
+// One invocation per cell of the (untiled) level; every colour's updates read only the other
+// colour's cells, so the storage barrier between colours makes this the same as 2 * p.sweeps
+// relax dispatches.
+@compute @workgroup_size(16, 16, 1)
+fn solve_coarsest(@builtin(local_invocation_id) lid: vec3<u32>) {
+    let x = lid.x;
+    let y = lid.y;
+    let inside = x < p.fine_w && y < p.fine_h;
+    for (var s = 0u; s < p.sweeps; s += 1u) {
+        for (var colour = 0u; colour < 2u; colour += 1u) {
+            if (inside && ((x + y + colour) & 1u) == 0u) {
+                let i = fine_index(x, y);
+                if (!is_fixed(i)) {
+                    let n = neighbours(x, y);
+                    if (n.y > 0.0) {
+                        u[i] = (rhs(i) + n.x) / n.y;
+                    }
+                }
+            }
+            storageBarrier();
+        }
     }
 }
 

@@ -1242,11 +1242,16 @@ fn bench_json_prints_one_object_per_run() {
     }
     assert_eq!(gpu.len(), 4, "{text}");
     let multigrid: Vec<_> = gpu.iter().filter(|r| r["method"] == "multigrid").collect();
-    assert_eq!(multigrid[0]["pipelines_created"], 6);
+    assert_eq!(multigrid[0]["pipelines_created"], 7);
     assert_eq!(multigrid[1]["pipelines_created"], 0);
     assert_eq!(multigrid[1]["modules_created"], 0);
     let cycles = multigrid[1]["cycles"].as_u64().unwrap();
-    assert_eq!(multigrid[1]["readbacks"].as_u64(), Some(cycles + 2));
+    // The checks come back once per batch of 4 V-cycles, the result once.
+    let readbacks = multigrid[1]["readbacks"].as_u64().unwrap();
+    assert!(
+        4 * readbacks <= cycles + 8,
+        "{readbacks} readbacks, {cycles} cycles"
+    );
 }
 
 /// Issue 22, points 9 and 11-16: a result that is not what was asked is an error (or a

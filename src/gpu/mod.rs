@@ -14,4 +14,4 @@ mod readback;
 pub use caps::Capabilities;
 pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
 pub use kernels::{GpuStats, Shader};
-pub use readback::{read_bytes, read_f32_buffer, wait_for_submitted_work};
+pub use readback::{read_bytes, read_f32_buffer, read_staging, wait_for_submitted_work};

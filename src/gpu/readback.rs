@@ -50,10 +50,22 @@ pub async fn read_bytes(
         });
     encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
     ctx.submit(encoder.finish());
-    ctx.kernels.count_readback();
 
+    read_staging(ctx, &staging, bytes).await
+}
+
+/// Maps the first `bytes` bytes of `staging` (a `MAP_READ | COPY_DST` buffer the caller
+/// keeps and reuses, e.g. one per solve), returns them and unmaps it again, so later
+/// submissions may copy into it. The work writing it must already be submitted. Counts one
+/// readback. Natively this waits for the queue; on the web it only awaits the map callback.
+pub async fn read_staging(
+    ctx: &GpuContext,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<u8>, GpuError> {
+    ctx.kernels.count_readback();
     let (tx, rx) = oneshot::channel();
-    staging.map_async(wgpu::MapMode::Read, .., move |result| {
+    staging.map_async(wgpu::MapMode::Read, 0..bytes, move |result| {
         let _ = tx.send(result);
     });
     poll_until_done(ctx)?;
@@ -61,7 +73,7 @@ pub async fn read_bytes(
         .map_err(|_| GpuError::Readback("the map callback was dropped".into()))?
         .map_err(|err| GpuError::Readback(err.to_string()))?;
     let values = staging
-        .get_mapped_range(..)
+        .get_mapped_range(0..bytes)
         .map_err(|err| GpuError::Readback(err.to_string()))?
         .to_vec();
     staging.unmap();

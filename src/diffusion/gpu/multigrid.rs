@@ -3,11 +3,20 @@
 //! on the GPU.
 //!
 //! The level hierarchy (constraint-aware restriction of the fixed cells and their heights) is
-//! built once on the CPU in O(cells) and uploaded; all iterations run on the GPU. Each V-cycle
-//! is one submission followed by a 4-byte readback of the residual (an `atomicMax` reduction),
-//! awaited without blocking the browser; between cycles the job reports progress and honours
-//! cancel. Memory: per level the unknowns, the right-hand side (not on the finest level of a
-//! Laplace problem) and the fixed-cell bits.
+//! built once on the CPU in O(cells) and uploaded; all iterations run on the GPU.
+//!
+//! Convergence checks without a stall per cycle: after every V-cycle two `atomicMax`
+//! reductions (the finest level's `max |r_i| / n_i` and the last coarse correction) are
+//! copied into that cycle's 8-byte slot of one staging buffer made per solve. The cycles are
+//! recorded [`CHECK_EVERY`] to a submission (the full-multigrid start and the first
+//! `CHECK_EVERY - 1` cycles share the first), and the staging buffer is mapped once per
+//! submission, awaited without blocking the browser. The stopping rule replays every
+//! cycle's values in order, so it means what it means on the CPU; the solve ends with the
+//! batch in which it fired, up to `CHECK_EVERY - 1` cycles later (more accurate, never less).
+//! Readbacks per solve: `ceil((cycles + 1) / CHECK_EVERY)` checks plus the result, at most
+//! `cycles / 4 + 2`. Between batches the job reports progress and honours cancel. Memory:
+//! per level the unknowns, the right-hand side (not on the finest level of a Laplace
+//! problem) and the fixed-cell bits.
 //!
 //! A level larger than one storage binding is tiled into bands of rows ([`super::bands`]):
 //! each operator is then one dispatch per band, and the ghost rows are exchanged after each
@@ -21,13 +30,17 @@ use super::{MULTIGRID, WORKGROUP, bind};
 use crate::diffusion::multigrid::hierarchy::{self, Level};
 use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
 use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
-use crate::gpu::{GpuContext, GpuError, read_bytes};
+use crate::gpu::{GpuContext, GpuError, read_staging};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
+/// V-cycles per submission and per readback of the convergence checks (see the module docs).
+const CHECK_EVERY: u32 = 4;
+
 /// The entry points [`Pipelines`] holds, in its order.
-pub(super) const ENTRIES: [&str; 6] = [
+pub(super) const ENTRIES: [&str; 7] = [
     "relax",
+    "solve_coarsest",
     "restrict_residual",
     "prolong_add",
     "prolong_replace",
@@ -48,11 +61,14 @@ struct Params {
     coarse_row0: u32,
     own_start: u32,
     own_end: u32,
-    _pad: [u32; 2],
+    /// Red-black sweeps of `solve_coarsest`.
+    sweeps: u32,
+    _pad: u32,
 }
 
 struct Pipelines {
     relax: wgpu::ComputePipeline,
+    solve_coarsest: wgpu::ComputePipeline,
     restrict: wgpu::ComputePipeline,
     prolong_add: wgpu::ComputePipeline,
     prolong_replace: wgpu::ComputePipeline,
@@ -65,6 +81,7 @@ impl Pipelines {
     async fn of(gpu: &GpuContext) -> Result<Self, GpuError> {
         let [
             relax,
+            solve_coarsest,
             restrict,
             prolong_add,
             prolong_replace,
@@ -73,6 +90,7 @@ impl Pipelines {
         ] = gpu.pipelines(&MULTIGRID, ENTRIES).await?;
         Ok(Self {
             relax,
+            solve_coarsest,
             restrict,
             prolong_add,
             prolong_replace,
@@ -89,6 +107,8 @@ struct GpuBand {
     u: wgpu::Buffer,
     /// Relax with colour 0 and 1.
     relax: [wgpu::BindGroup; 2],
+    /// All of the coarsest level's sweeps in one dispatch (the coarsest level only).
+    coarsest: Option<wgpu::BindGroup>,
     /// Operators between this band and the next coarser level (absent on the coarsest).
     restrict: Option<wgpu::BindGroup>,
     prolong_add: Option<wgpu::BindGroup>,
@@ -189,9 +209,26 @@ pub(in crate::diffusion) async fn multigrid(
     let mut stats = Work::default();
     let last = levels.len() - 1;
 
-    // Full-multigrid start, one submission.
+    // Per cycle, the reductions land in a slot of one staging buffer, read once per batch.
+    let slots = CHECK_EVERY.min(params.max_cycles.saturating_add(1)).max(1);
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("multigrid checks staging"),
+        size: u64::from(slots) * 8,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let batch = Batch {
+        pipes: &pipes,
+        levels: &levels,
+        checks: &checks,
+        result: &result,
+        staging: &staging,
+    };
+
+    // Full-multigrid start and the first cycles, one submission: the start's checks in slot 0,
+    // then the cycles'.
     let mut encoder = device.create_command_encoder(&Default::default());
-    relax(&mut encoder, &pipes, &levels[last], COARSEST_SWEEPS);
+    solve_coarsest(&mut encoder, &pipes, &levels[last]);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (0..last).rev() {
         prolong(&mut encoder, &pipes.prolong_replace, &levels[l], |b| {
@@ -199,21 +236,30 @@ pub(in crate::diffusion) async fn multigrid(
         });
         v_cycle(&mut encoder, &pipes, &levels, l, params, &mut stats, finest);
     }
+    batch.check(&mut encoder, 0);
+    let first = (slots - 1).min(params.max_cycles);
+    batch.cycles(&mut encoder, 1, first, params, &mut stats, finest);
     gpu.submit(encoder.finish());
-
-    let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
+    let values = batch.read(gpu, first + 1).await?;
+    let (residual, correction) = values[0];
     let mut stop = Stopping::new(params, scale, residual, correction);
+    for &(residual, correction) in &values[1..] {
+        stop.record(residual, correction);
+    }
+    // Then batches of up to CHECK_EVERY cycles, one submission and one readback each.
     while stop.keep_going() {
         ctx.checkpoint(
             stop.progress(),
             &format!("multigrid on the GPU, {}", stop.describe()),
         )
         .await?;
+        let n = CHECK_EVERY.min(params.max_cycles - stop.cycles);
         let mut encoder = device.create_command_encoder(&Default::default());
-        v_cycle(&mut encoder, &pipes, &levels, 0, params, &mut stats, finest);
+        batch.cycles(&mut encoder, 0, n, params, &mut stats, finest);
         gpu.submit(encoder.finish());
-        let (residual, correction) = read_checks(gpu, &pipes, &levels, &checks, &result).await?;
-        stop.record(residual, correction);
+        for (residual, correction) in batch.read(gpu, n).await? {
+            stop.record(residual, correction);
+        }
     }
     let (rows, buffers) = levels[0].unknowns();
     let data = bands::read_owned_rows(gpu, &rows, &buffers, w).await?;
@@ -336,7 +382,8 @@ fn upload<'a>(
                         coarse_row0: ck.map_or(0, |ck| plan[l + 1][ck].stored.start as u32),
                         own_start: band.owned.start as u32,
                         own_end: band.owned.end as u32,
-                        _pad: [0; 2],
+                        sweeps: COARSEST_SWEEPS,
+                        _pad: 0,
                     }),
                     usage: wgpu::BufferUsages::UNIFORM,
                 })
@@ -349,6 +396,13 @@ fn upload<'a>(
                     device,
                     &pipes.relax,
                     &[(0, &params[c]), (1, f), (2, u), (3, b)],
+                )
+            });
+            let coarsest = (l + 1 == cpu.len()).then(|| {
+                bind(
+                    device,
+                    &pipes.solve_coarsest,
+                    &[(0, &params[0]), (1, f), (2, u), (3, b)],
                 )
             });
             let (restrict, prolong_add, prolong_replace) = match ck {
@@ -389,6 +443,7 @@ fn upload<'a>(
                 rows: band.clone(),
                 u: u.clone(),
                 relax,
+                coarsest,
                 restrict,
                 prolong_add,
                 prolong_replace,
@@ -481,6 +536,22 @@ fn relax(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel
     }
 }
 
+/// [`COARSEST_SWEEPS`] red-black sweeps on the coarsest level (at most 4 x 4 cells) in one
+/// dispatch of one workgroup, with a storage barrier between colours: the bits of as many
+/// `relax` dispatches, without the 2 x `COARSEST_SWEEPS` dispatches' overhead per cycle.
+fn solve_coarsest(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel) {
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    pass.set_pipeline(&pipes.solve_coarsest);
+    for band in &level.bands {
+        let group = band
+            .coarsest
+            .as_ref()
+            .expect("the coarsest level has its bind group");
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+}
+
 /// Encodes one V-cycle from level `top` (correction scheme, as on the CPU).
 fn v_cycle(
     encoder: &mut wgpu::CommandEncoder,
@@ -500,7 +571,7 @@ fn v_cycle(
             encoder.clear_buffer(&band.u, 0, None);
         }
     }
-    relax(encoder, pipes, &levels[last], COARSEST_SWEEPS);
+    solve_coarsest(encoder, pipes, &levels[last]);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (top..last).rev() {
         prolong(encoder, &pipes.prolong_add, &levels[l], |b| {
@@ -511,43 +582,65 @@ fn v_cycle(
     }
 }
 
-/// `max |r_i| / n_i` on the finest level and the largest coarse correction of the last
-/// cycle, reduced on the GPU and read back (8 bytes).
-async fn read_checks(
-    gpu: &GpuContext,
-    pipes: &Pipelines,
-    levels: &[GpuLevel],
-    checks: &Checks,
-    result: &wgpu::Buffer,
-) -> Result<(f32, f32), DiffusionError> {
-    gpu.queue.write_buffer(result, 0, &[0u8; 8]);
-    let mut encoder = gpu.device.create_command_encoder(&Default::default());
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipes.residual_max);
-        for (band, group) in levels[0].bands.iter().zip(&checks.residual) {
-            let (x, y) = band.groups(levels[0].w);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(x, y, 1);
+/// What encodes V-cycles with their convergence checks and reads the checks back.
+struct Batch<'a> {
+    pipes: &'a Pipelines,
+    levels: &'a [GpuLevel],
+    checks: &'a Checks,
+    /// The reductions' target, cleared before each check.
+    result: &'a wgpu::Buffer,
+    /// One 8-byte slot per cycle of a batch, mapped once per batch.
+    staging: &'a wgpu::Buffer,
+}
+
+impl Batch<'_> {
+    /// Encodes `n` V-cycles from the finest level, each followed by its checks into slots
+    /// `first..first + n`.
+    fn cycles(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        first: u32,
+        n: u32,
+        params: &MultigridParams,
+        stats: &mut Work,
+        finest: usize,
+    ) {
+        for slot in first..first + n {
+            v_cycle(encoder, self.pipes, self.levels, 0, params, stats, finest);
+            self.check(encoder, slot);
         }
-        if let Some(level) = levels.get(1) {
-            pass.set_pipeline(&pipes.correction_max);
-            for (band, group) in level.bands.iter().zip(&checks.correction) {
-                let (x, y) = band.groups(level.w);
+    }
+
+    /// Encodes `max |r_i| / n_i` on the finest level and the largest coarse correction of the
+    /// last cycle, reduced on the GPU into `result` and copied into staging slot `slot`.
+    fn check(&self, encoder: &mut wgpu::CommandEncoder, slot: u32) {
+        let (pipes, levels, checks) = (self.pipes, self.levels, self.checks);
+        encoder.clear_buffer(self.result, 0, None);
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipes.residual_max);
+            for (band, group) in levels[0].bands.iter().zip(&checks.residual) {
+                let (x, y) = band.groups(levels[0].w);
                 pass.set_bind_group(0, group, &[]);
                 pass.dispatch_workgroups(x, y, 1);
             }
+            if let Some(level) = levels.get(1) {
+                pass.set_pipeline(&pipes.correction_max);
+                for (band, group) in level.bands.iter().zip(&checks.correction) {
+                    let (x, y) = band.groups(level.w);
+                    pass.set_bind_group(0, group, &[]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
+            }
         }
+        encoder.copy_buffer_to_buffer(self.result, 0, self.staging, u64::from(slot) * 8, 8);
     }
-    gpu.submit(encoder.finish());
-    let bytes = read_bytes(gpu, result, 8).await?;
-    let word = |k: usize| {
-        f32::from_bits(u32::from_le_bytes([
-            bytes[k],
-            bytes[k + 1],
-            bytes[k + 2],
-            bytes[k + 3],
-        ]))
-    };
-    Ok((word(0), word(4)))
+
+    /// The (residual, correction) pairs of slots `0..n`, after their submission: one
+    /// readback of `8 n` bytes.
+    async fn read(&self, gpu: &GpuContext, n: u32) -> Result<Vec<(f32, f32)>, DiffusionError> {
+        let bytes = read_staging(gpu, self.staging, u64::from(n) * 8).await?;
+        let words: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
+        Ok(words.chunks_exact(2).map(|w| (w[0], w[1])).collect())
+    }
 }

@@ -2,6 +2,14 @@
 //! `multigrid`): residual below `tolerance`, estimated error below `error_tolerance`, both
 //! relative to the fixed heights' range; give up after `max_cycles`, or when two cycles in a
 //! row reduce neither the residual nor the correction (the `f32` rounding floor).
+//!
+//! The rule is evaluated after every cycle, from that cycle's residual and correction. The
+//! CPU stops at the first cycle where it fires. The GPU reads these values only every few
+//! cycles (one readback per batch, see `crate::diffusion::gpu`), records the batch's cycles
+//! in order and stops at the end of the batch in which the rule fired: up to a batch minus
+//! one more cycles than the CPU would run, each only reducing the error further. Once the
+//! tolerances were met the solve counts as converged, even if a later cycle's residual
+//! wanders at the rounding floor.
 
 use super::MultigridParams;
 
@@ -17,6 +25,8 @@ pub(crate) struct Stopping {
     pub estimate: f32,
     pub cycles: u32,
     stalled: u32,
+    /// Whether some cycle met both tolerances.
+    reached: bool,
 }
 
 impl Stopping {
@@ -33,6 +43,7 @@ impl Stopping {
             estimate: f32::INFINITY,
             cycles: 0,
             stalled: 0,
+            reached: false,
         }
     }
 
@@ -42,6 +53,10 @@ impl Stopping {
     }
 
     pub fn converged(&self) -> bool {
+        self.reached || self.meets_tolerances()
+    }
+
+    fn meets_tolerances(&self) -> bool {
         self.residual <= self.target && self.estimate <= self.error_target
     }
 
@@ -53,6 +68,7 @@ impl Stopping {
         self.estimate = error_estimate(self.last_correction, correction);
         self.residual = residual;
         self.last_correction = correction;
+        self.reached |= self.meets_tolerances();
     }
 
     /// Progress as the fraction of the residual's way (in orders of magnitude) to the target.
