@@ -179,6 +179,8 @@ var<workgroup> tile_h: array<f32, 324>;
 var<workgroup> tile_w: array<array<f32, 324>, 2>;
 var<workgroup> open_count: atomic<u32>;
 var<workgroup> open_flag: u32;
+var<workgroup> changed_count: atomic<u32>;
+var<workgroup> changed_flag: u32;
 
 @compute @workgroup_size(16, 16, 1)
 fn lake_pass(
@@ -221,9 +223,15 @@ fn lake_pass(
         }
         return;
     }
+    // The halo is fixed during a pass, so once an iteration changes no cell of the tile the
+    // tile is at its fixed point and the remaining iterations would change nothing: stop
+    // (a filled lake keeps its tile open, and most passes find it already settled). Both
+    // buffers then hold the fixed point.
+    var last = LOCAL_ITERS % 2u;
     for (var it = 0u; it < LOCAL_ITERS; it++) {
         let src = it % 2u;
-        var w = tile_w[src][k];
+        let before = tile_w[src][k];
+        var w = before;
         if (inside && w > hi) {
             for (var d = 0u; d < 8u; d++) {
                 let c = select(d, d + 1u, d >= 4u);
@@ -241,10 +249,20 @@ fn lake_pass(
             }
         }
         tile_w[1u - src][k] = w;
+        if (w != before) {
+            atomicAdd(&changed_count, 1u);
+        }
         workgroupBarrier();
+        if (lid.x == 0u && lid.y == 0u) {
+            changed_flag = atomicExchange(&changed_count, 0u);
+        }
+        if (workgroupUniformLoad(&changed_flag) == 0u) {
+            last = 1u - src;
+            break;
+        }
     }
     if (inside) {
-        level_next[gy * params.width + gx] = tile_w[LOCAL_ITERS % 2u][k];
+        level_next[gy * params.width + gx] = tile_w[last][k];
     }
 }
 
