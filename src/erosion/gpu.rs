@@ -179,8 +179,9 @@ pub async fn erode(
 }
 
 /// The phases of a step, as [`profile`] times them.
-pub const PHASES: [&str; 6] = [
-    "receivers+lakes",
+pub const PHASES: [&str; 7] = [
+    "receivers",
+    "lakes",
     "area",
     "incision",
     "diffusion",
@@ -195,8 +196,8 @@ pub const PHASES: [&str; 6] = [
 pub async fn profile(
     gpu: &GpuContext,
     input: GpuInput<'_>,
-) -> Result<(GpuEroded, [f64; 6]), GpuErosionError> {
-    let mut times = [0.0; 6];
+) -> Result<(GpuEroded, [f64; 7]), GpuErosionError> {
+    let mut times = [0.0; 7];
     let out = erode_with(gpu, input, &JobCtx::detached(), Some(&mut times)).await?;
     Ok((out, times))
 }
@@ -227,7 +228,7 @@ async fn erode_with(
     gpu: &GpuContext,
     input: GpuInput<'_>,
     ctx: &JobCtx,
-    mut profile: Option<&mut [f64; 6]>,
+    mut profile: Option<&mut [f64; 7]>,
 ) -> Result<GpuEroded, GpuErosionError> {
     let clock = web_time::Instant::now();
     let GpuInput {
@@ -449,19 +450,23 @@ async fn erode_with(
             }
         };
         // 1-2. Receivers, lakes, receivers again.
+        let mut phase_clock = web_time::Instant::now();
         let mut list = vec![(0, &g_receivers), (1, &g_root_init)];
         for l in 0..levels {
             list.push((2, &g_root_jump[(l % 2) as usize]));
         }
-        list.push((3, &g_lake_init));
+        run(&mut encoder, &list);
+        if let Some(t) = profile.as_deref_mut() {
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[0]).await?;
+        }
+        let mut list = vec![(3, &g_lake_init)];
         for l in 0..LAKE_PASSES {
             list.push((4, &g_lake_pass[(l % 2) as usize]));
         }
         list.extend([(5, &g_lake_apply), (0, &g_receivers), (6, &g_area_init)]);
         run(&mut encoder, &list);
-        let mut phase_clock = web_time::Instant::now();
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[0]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[1]).await?;
         }
         // 3. Drainage area: each level adds to a copy of the partial sums.
         for l in 0..levels {
@@ -470,7 +475,7 @@ async fn erode_with(
             run(&mut encoder, &[(7, &g_area_jump[s])]);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[1]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[2]).await?;
         }
         // 4. Incision.
         run(&mut encoder, &[(8, &g_lift), (9, &g_implicit_init)]);
@@ -486,7 +491,7 @@ async fn erode_with(
             encoder.copy_buffer_to_buffer(&tmp, 0, &heights_buf, 0, bytes);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[2]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[3]).await?;
         }
         // 5. Diffusion: the right-hand side is the heights after incision.
         if p.diffusivity > 0.0 {
@@ -498,7 +503,7 @@ async fn erode_with(
             run(&mut encoder, &list);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[3]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[4]).await?;
         }
         // 6. Talus (the share in `tmp`, the new heights in `coef`, no longer needed).
         if p.talus_deg.is_some() {
@@ -508,14 +513,14 @@ async fn erode_with(
             }
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[4]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[5]).await?;
         }
         // 7. The floor.
         if let Some(g) = &g_floor {
             run(&mut encoder, &[(17, g)]);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[5]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[6]).await?;
         }
         gpu.submit(encoder.finish());
         if let Some(err) = scope.pop().await {
