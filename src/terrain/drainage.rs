@@ -7,6 +7,7 @@ use serde::Serialize;
 use super::radix_heap::{RadixHeap, ordered_key};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::parallel;
 use crate::skeleton::CellKind;
 
 /// Drainage measures of a terrain (`strahler generate --report`, tests).
@@ -84,6 +85,143 @@ fn rows_have_pits(field: &Heightfield, rows: Range<usize>) -> bool {
     })
 }
 
+/// No D8 receiver (a pit, a flat or a border cell that drains off the map).
+const NO_RECEIVER: u32 = u32::MAX;
+
+/// D8 receivers of row `y` into `out` (`w` entries), [`NO_RECEIVER`] where
+/// [`receivers_of_rows`] gives `None`: the same neighbours in the same order, so ties go the
+/// same way. Interior cells skip the bounds checks.
+fn receivers_of_row(z: &[f32], w: usize, h: usize, y: usize, out: &mut [u32]) {
+    let interior_row = y > 0 && y + 1 < h;
+    let offsets = NEIGHBOURS.map(|(dx, dy, dist)| (dy as isize * w as isize + dx as isize, dist));
+    for (x, r) in out.iter_mut().enumerate() {
+        let i = y * w + x;
+        let c = z[i];
+        let mut best = NO_RECEIVER;
+        let mut steepest = 0.0f32;
+        if interior_row && x > 0 && x + 1 < w {
+            for (off, dist) in offsets {
+                let j = i.wrapping_add_signed(off);
+                let slope = (c - z[j]) / dist;
+                if slope > steepest {
+                    steepest = slope;
+                    best = j as u32;
+                }
+            }
+        } else {
+            for (dx, dy, dist) in NEIGHBOURS {
+                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
+                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+                    continue;
+                }
+                let j = ny as usize * w + nx as usize;
+                let slope = (c - z[j]) / dist;
+                if slope > steepest {
+                    steepest = slope;
+                    best = j as u32;
+                }
+            }
+        }
+        *r = best;
+    }
+}
+
+/// Rows per parallel step: [`row_bands`]' step on each thread, so one thread (wasm) keeps
+/// the steps of about 2^16 cells between the job's ticks.
+fn parallel_steps(w: usize, h: usize) -> impl Iterator<Item = Range<usize>> {
+    let rows = ((1usize << 16) / w.max(1)).max(1) * parallel::threads();
+    (0..h)
+        .step_by(rows)
+        .map(move |start| start..(start + rows).min(h))
+}
+
+/// Splits `rows` into one band per thread and calls `f` on each with its part of `out`
+/// (`w` entries a row, `out` starting at row `rows.start`).
+fn for_rows_of_step<T: Send>(
+    w: usize,
+    rows: Range<usize>,
+    out: &mut [T],
+    f: impl Fn(Range<usize>, &mut [T]) + Sync,
+) {
+    let band_rows = rows.len().div_ceil(parallel::threads()).max(1);
+    parallel::for_each_band(out, band_rows * w, |k, part| {
+        let start = rows.start + k * band_rows;
+        f(start..start + part.len() / w, part);
+    });
+}
+
+/// Counts of one band of the drainage measure (no fates: see [`measure_fast`]).
+#[derive(Default)]
+struct BandCounts {
+    river_cells: usize,
+    river_cells_draining: usize,
+    pit_cells: usize,
+}
+
+/// Pits and river counts of `rows`, whose receivers are `recv` (`w` a row).
+fn count_band(
+    kinds: &[CellKind],
+    w: usize,
+    h: usize,
+    rows: Range<usize>,
+    recv: &[u32],
+) -> BandCounts {
+    let mut c = BandCounts::default();
+    for (y, row) in rows.zip(recv.chunks(w)) {
+        let border_row = y == 0 || y + 1 == h;
+        for (x, &r) in row.iter().enumerate() {
+            let i = y * w + x;
+            let border = border_row || x == 0 || x + 1 == w;
+            if r == NO_RECEIVER && !border {
+                c.pit_cells += 1;
+            }
+            if kinds[i] == CellKind::River {
+                c.river_cells += 1;
+                let ok = if r == NO_RECEIVER {
+                    border
+                } else {
+                    kinds[r as usize] == CellKind::River
+                };
+                if ok {
+                    c.river_cells_draining += 1;
+                }
+            }
+        }
+    }
+    c
+}
+
+/// Resolves the D8 fate of the cells of `starts` on `recv`, each cell once along its descent
+/// path (memoised in `fate`: 0 = unknown, 1 = reaches an outlet, 2 = ends in a pit or flat).
+fn resolve_fates(
+    recv: &[u32],
+    fate: &mut [u8],
+    path: &mut Vec<u32>,
+    starts: Range<usize>,
+    w: usize,
+    h: usize,
+) {
+    for start in starts {
+        let mut i = start;
+        // Paths descend strictly (a NaN cell has no receiver and is nobody's), so they end.
+        while fate[i] == 0 {
+            path.push(i as u32);
+            match recv[i] {
+                NO_RECEIVER => {
+                    fate[i] = if is_border(i, w, h) { 1 } else { 2 };
+                    break;
+                }
+                j => i = j as usize,
+            }
+        }
+        let result = fate[i];
+        for &p in path.iter() {
+            fate[p as usize] = result;
+        }
+        path.clear();
+    }
+}
+
 /// Whether any interior cell has no strictly lower neighbour (a pit or a flat). O(cells).
 /// A harmonic fill obeys the maximum principle, so pits can only sit on fixed cells; most
 /// terrains have none and skip the flooding below.
@@ -128,6 +266,38 @@ impl Flood {
                 closed[i] = true;
                 heap.push(ordered_key(z[i]), i as u32);
             }
+        }
+        Self {
+            closed,
+            heap,
+            result: Conditioning::default(),
+        }
+    }
+
+    /// Seeds a flood of the cells marked in `inside` only (interior cells), from the cells
+    /// around them. When every other cell already has a strictly descending path to the
+    /// border, this ends with the same heights as [`Flood::new`]: the flood's result is the
+    /// least `z' >= z` with `z'[i] = max(z[i], next_up(min of z' over i's neighbours))` inside
+    /// and `z' = z` on the border, which is unique and leaves draining cells as they are.
+    pub fn around(field: &Heightfield, inside: &[bool]) -> Self {
+        let (w, h) = (field.width(), field.height());
+        let z = field.data();
+        let closed: Vec<bool> = inside.iter().map(|&b| !b).collect();
+        let mut seeds = Vec::new();
+        for (i, _) in inside.iter().enumerate().filter(|(_, b)| **b) {
+            debug_assert!(!is_border(i, w, h));
+            for (dx, dy, _) in NEIGHBOURS {
+                let j = (i as i64 + dy * w as i64 + dx) as usize;
+                if !inside[j] {
+                    seeds.push(j as u32);
+                }
+            }
+        }
+        seeds.sort_unstable();
+        seeds.dedup();
+        let mut heap = RadixHeap::new();
+        for j in seeds {
+            heap.push(ordered_key(z[j as usize]), j);
         }
         Self {
             closed,
@@ -289,48 +459,115 @@ pub fn measure(field: &Heightfield, kinds: &[CellKind]) -> Drainage {
     m.finish()
 }
 
+/// Receivers of `field` into `recv` and the band counts, rows in parallel.
+async fn count_in_steps(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    recv: &mut [u32],
+    ctx: &JobCtx,
+) -> Result<BandCounts, Cancelled> {
+    const STAGE: &str = "checking drainage";
+    let (w, h) = (field.width(), field.height());
+    let z = field.data();
+    let total = std::sync::Mutex::new(BandCounts::default());
+    for rows in parallel_steps(w, h) {
+        let out = &mut recv[rows.start * w..rows.end * w];
+        for_rows_of_step(w, rows, out, |band, part| {
+            for (y, row) in band.clone().zip(part.chunks_mut(w)) {
+                receivers_of_row(z, w, h, y, row);
+            }
+            let c = count_band(kinds, w, h, band, part);
+            let mut t = total
+                .lock()
+                .unwrap_or_else(std::sync::PoisonError::into_inner);
+            t.river_cells += c.river_cells;
+            t.river_cells_draining += c.river_cells_draining;
+            t.pit_cells += c.pit_cells;
+        });
+        ctx.tick(0.96, STAGE).await?;
+    }
+    Ok(total
+        .into_inner()
+        .unwrap_or_else(std::sync::PoisonError::into_inner))
+}
+
+/// Resolves every cell's fate on `recv` in steps; the cells ending in a pit or flat.
+async fn fates_in_steps(
+    recv: &[u32],
+    w: usize,
+    h: usize,
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, Cancelled> {
+    let mut fate = vec![0u8; recv.len()];
+    let mut path = Vec::new();
+    for rows in row_bands(w, h) {
+        resolve_fates(
+            recv,
+            &mut fate,
+            &mut path,
+            rows.start * w..rows.end * w,
+            w,
+            h,
+        );
+        ctx.tick(0.97, "checking drainage").await?;
+    }
+    Ok(fate)
+}
+
 /// Floods the depressions of `field` if it has pits, then measures its drainage: the same
 /// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps of about
-/// 2^16 cells with [`JobCtx::tick`] between them, so the browser keeps painting while a
-/// large terrain is checked. O(cells log range).
+/// 2^16 cells a thread with [`JobCtx::tick`] between them, so the browser keeps painting
+/// while a large terrain is checked.
+///
+/// Fast path, the same bits as the reference: the D8 receivers (rows on all threads) find
+/// the pits; only the cells whose descent ends in one (their basins; every other cell keeps
+/// its height under Priority-Flood, see [`Flood::around`]) go through the flood. A terrain
+/// with no interior cell without receiver drains every cell to the border (descent paths
+/// strictly descend, so they end, and only at the border), so the measure needs no fates.
+/// O(cells) plus O(b log range) for b cells in basins.
 pub async fn condition_and_measure(
     field: &mut Heightfield,
     kinds: &[CellKind],
     ctx: &JobCtx,
 ) -> Result<(Conditioning, Drainage), Cancelled> {
-    const STAGE: &str = "checking drainage";
     let (w, h) = (field.width(), field.height());
-    let mut pits = false;
-    for rows in row_bands(w, h) {
-        // A pit's neighbours in the rows around it are read from the whole field.
-        if rows_have_pits(field, rows) {
-            pits = true;
-            break;
-        }
-        ctx.tick(0.95, STAGE).await?;
-    }
+    let n = w * h;
+    let mut recv = vec![0u32; n];
+    let mut counts = count_in_steps(field, kinds, &mut recv, ctx).await?;
     let mut conditioning = Conditioning::default();
-    if pits {
-        let mut flood = Flood::new(field);
+    if counts.pit_cells > 0 {
+        let fate = fates_in_steps(&recv, w, h, ctx).await?;
+        let inside: Vec<bool> = fate
+            .iter()
+            .enumerate()
+            .map(|(i, &f)| f == 2 && !is_border(i, w, h))
+            .collect();
+        drop(fate);
+        let mut flood = Flood::around(field, &inside);
+        drop(inside);
         while !flood.run(field, 1 << 16) {
             ctx.tick(0.95, "filling depressions").await?;
         }
         conditioning = flood.result();
+        counts = count_in_steps(field, kinds, &mut recv, ctx).await?;
     }
-    let mut m = Measuring::new(field);
-    for rows in row_bands(w, h) {
-        receivers_of_rows(field, rows, &mut m.recv);
-        ctx.tick(0.96, STAGE).await?;
-    }
-    for rows in row_bands(w, h) {
-        m.resolve(rows.start * w..rows.end * w);
-        ctx.tick(0.97, STAGE).await?;
-    }
-    for rows in row_bands(w, h) {
-        m.tally(kinds, rows.start * w..rows.end * w);
-        ctx.tick(0.98, STAGE).await?;
-    }
-    Ok((conditioning, m.finish()))
+    let cells_to_outlet = if counts.pit_cells == 0 {
+        n
+    } else {
+        // Only a field with NaN heights keeps pits after the flood.
+        let fate = fates_in_steps(&recv, w, h, ctx).await?;
+        fate.iter().filter(|&&f| f == 1).count()
+    };
+    let drainage = Drainage {
+        river_cells: counts.river_cells,
+        river_cells_draining: counts.river_cells_draining,
+        river_fraction: counts.river_cells_draining as f64 / counts.river_cells.max(1) as f64,
+        cells_to_outlet,
+        outlet_fraction: cells_to_outlet as f64 / n as f64,
+        pit_cells: counts.pit_cells,
+        pit_fraction: counts.pit_cells as f64 / n as f64,
+    };
+    Ok((conditioning, drainage))
 }
 
 #[cfg(test)]
@@ -362,6 +599,108 @@ mod tests {
         let d = measure(&bowl, &kinds);
         assert_eq!((d.pit_cells, d.outlet_fraction), (0, 1.0));
         assert!(!has_pits(&bowl));
+    }
+
+    /// Terrains with pits, flats and ties: pseudo-random heights on a few levels, plateaus,
+    /// bowls and planes.
+    fn test_terrains() -> Vec<Heightfield> {
+        let mut rng = 987654321u64;
+        let mut next = move || {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut fields = Vec::new();
+        for (w, h) in [
+            (1, 1),
+            (1, 6),
+            (2, 2),
+            (3, 3),
+            (4, 7),
+            (9, 5),
+            (64, 48),
+            (257, 130),
+        ] {
+            let cells = w * h;
+            // Few levels: ties and flats everywhere.
+            let levels: Vec<f32> = (0..cells).map(|_| (next() * 4.0).floor()).collect();
+            // A tilted plane with quantised noise: depressions and plateaus, many ties.
+            let tilted: Vec<f32> = (0..cells)
+                .map(|i| ((i % w) as f32 * 0.25).floor() + (next() * 3.0).floor())
+                .collect();
+            // A flat field: every interior cell is a flat.
+            let flat = vec![1.5f32; cells];
+            // Bowls on a ramp, rim cells tied with the border.
+            let bowls: Vec<f32> = (0..cells)
+                .map(|i| {
+                    let (x, y) = ((i % w) as f32, (i / w) as f32);
+                    let b = ((x * 0.7).sin() * (y * 0.5).cos() * 3.0).round();
+                    b + y * 0.01
+                })
+                .collect();
+            // Smooth noise, a few f32 steps apart: raises of one ulp meet existing heights.
+            let ulps: Vec<f32> = (0..cells)
+                .map(|_| f32::from_bits(1000.0f32.to_bits() + (next() * 6.0) as u32))
+                .collect();
+            for data in [levels, tilted, flat, bowls, ulps] {
+                fields.push(Heightfield::from_vec(w, h, data).unwrap());
+            }
+        }
+        fields
+    }
+
+    /// The fast path (receivers, basins, a flood of the basins only, counts) gives the
+    /// reference Priority-Flood's heights bit for bit and the reference measure's counts.
+    #[test]
+    fn fast_conditioning_equals_the_reference_priority_flood_bit_for_bit() {
+        let mut flooded = 0;
+        for reference in test_terrains() {
+            let (w, h) = (reference.width(), reference.height());
+            let kinds: Vec<CellKind> = (0..w * h)
+                .map(|i| {
+                    if i % 7 < 2 {
+                        CellKind::River
+                    } else {
+                        CellKind::Free
+                    }
+                })
+                .collect();
+            let mut reference = reference;
+            let mut fast = reference.clone();
+            let c1 = fill_depressions(&mut reference);
+            let d1 = measure(&reference, &kinds);
+            let (c2, d2) = pollster::block_on(condition_and_measure(
+                &mut fast,
+                &kinds,
+                &JobCtx::detached(),
+            ))
+            .unwrap();
+            let bits = |f: &Heightfield| f.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&reference), bits(&fast), "{w}x{h}");
+            assert_eq!(c1.raised_cells, c2.raised_cells, "{w}x{h}");
+            assert_eq!(c1.max_raise.to_bits(), c2.max_raise.to_bits(), "{w}x{h}");
+            assert_eq!(
+                (
+                    d1.river_cells,
+                    d1.river_cells_draining,
+                    d1.cells_to_outlet,
+                    d1.pit_cells
+                ),
+                (
+                    d2.river_cells,
+                    d2.river_cells_draining,
+                    d2.cells_to_outlet,
+                    d2.pit_cells
+                ),
+                "{w}x{h}"
+            );
+            // The guarantees: no pit, every cell reaches an outlet.
+            assert_eq!((d2.pit_cells, d2.cells_to_outlet), (0, w * h), "{w}x{h}");
+            assert!(!has_pits(&fast));
+            flooded += usize::from(c2.raised_cells > 0);
+        }
+        assert!(flooded >= 20, "{flooded}");
     }
 
     /// The stepped version gives what the one-shot functions give, pits and all.
