@@ -36,14 +36,6 @@ const NEIGHBOURS: [(i64, i64, f32); 8] = [
     (1, 1, std::f32::consts::SQRT_2),
 ];
 
-/// Rows per step of [`condition_and_measure`]: about 2^16 cells, a few milliseconds.
-fn row_bands(w: usize, h: usize) -> impl Iterator<Item = Range<usize>> {
-    let rows = ((1usize << 16) / w.max(1)).max(1);
-    (0..h)
-        .step_by(rows)
-        .map(move |start| start..(start + rows).min(h))
-}
-
 /// D8 receivers of the cells of `rows`: the neighbour of steepest descent, `None` for a cell
 /// with no lower neighbour. Border cells drain off the map when nothing inside is lower.
 fn receivers_of_rows(field: &Heightfield, rows: Range<usize>, out: &mut Vec<Option<u32>>) {
@@ -88,46 +80,75 @@ fn rows_have_pits(field: &Heightfield, rows: Range<usize>) -> bool {
 /// No D8 receiver (a pit, a flat or a border cell that drains off the map).
 const NO_RECEIVER: u32 = u32::MAX;
 
-/// D8 receivers of row `y` into `out` (`w` entries), [`NO_RECEIVER`] where
-/// [`receivers_of_rows`] gives `None`: the same neighbours in the same order, so ties go the
-/// same way. Interior cells skip the bounds checks.
-fn receivers_of_row(z: &[f32], w: usize, h: usize, y: usize, out: &mut [u32]) {
-    let interior_row = y > 0 && y + 1 < h;
-    let offsets = NEIGHBOURS.map(|(dx, dy, dist)| (dy as isize * w as isize + dx as isize, dist));
-    for (x, r) in out.iter_mut().enumerate() {
-        let i = y * w + x;
-        let c = z[i];
-        let mut best = NO_RECEIVER;
-        let mut steepest = 0.0f32;
-        if interior_row && x > 0 && x + 1 < w {
-            for (off, dist) in offsets {
-                let j = i.wrapping_add_signed(off);
-                let slope = (c - z[j]) / dist;
-                if slope > steepest {
-                    steepest = slope;
-                    best = j as u32;
-                }
-            }
-        } else {
-            for (dx, dy, dist) in NEIGHBOURS {
-                let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
-                    continue;
-                }
-                let j = ny as usize * w + nx as usize;
-                let slope = (c - z[j]) / dist;
-                if slope > steepest {
-                    steepest = slope;
-                    best = j as u32;
-                }
+/// D8 receiver of cell `i`, [`NO_RECEIVER`] where [`receivers_of_rows`] gives `None`: the
+/// same neighbours in the same order, so ties go the same way.
+#[inline]
+fn receiver_at(z: &[f32], w: usize, h: usize, i: usize) -> u32 {
+    let (x, y) = ((i % w) as i64, (i / w) as i64);
+    let c = z[i];
+    let mut best = NO_RECEIVER;
+    let mut steepest = 0.0f32;
+    for (dx, dy, dist) in NEIGHBOURS {
+        let (nx, ny) = (x + dx, y + dy);
+        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+            continue;
+        }
+        let j = ny as usize * w + nx as usize;
+        let slope = (c - z[j]) / dist;
+        if slope > steepest {
+            steepest = slope;
+            best = j as u32;
+        }
+    }
+    best
+}
+
+/// D8 receivers of row `y` into `out` (`w` entries), as [`receiver_at`] gives them. The
+/// interior cells go direction by direction along the row (the same comparisons in the same
+/// order for each cell, so the same receivers), which the compiler vectorises.
+fn receivers_of_row(
+    z: &[f32],
+    w: usize,
+    h: usize,
+    y: usize,
+    out: &mut [u32],
+    steepest: &mut Vec<f32>,
+) {
+    let row = y * w;
+    if y == 0 || y + 1 == h || w < 3 {
+        for (x, r) in out.iter_mut().enumerate() {
+            *r = receiver_at(z, w, h, row + x);
+        }
+        return;
+    }
+    out[0] = receiver_at(z, w, h, row);
+    out[w - 1] = receiver_at(z, w, h, row + w - 1);
+    let centre = &z[row + 1..row + w - 1];
+    let best = &mut out[1..w - 1];
+    best.fill(NO_RECEIVER);
+    steepest.clear();
+    steepest.resize(w - 2, 0.0);
+    for (dx, dy, dist) in NEIGHBOURS {
+        // The neighbour of the row's second cell.
+        let start = (row + 1).wrapping_add_signed(dy as isize * w as isize + dx as isize);
+        let neighbours = &z[start..start + w - 2];
+        for (k, ((s, b), (&c, &n))) in steepest
+            .iter_mut()
+            .zip(best.iter_mut())
+            .zip(centre.iter().zip(neighbours))
+            .enumerate()
+        {
+            let slope = (c - n) / dist;
+            if slope > *s {
+                *s = slope;
+                *b = (start + k) as u32;
             }
         }
-        *r = best;
     }
 }
 
-/// Rows per parallel step: [`row_bands`]' step on each thread, so one thread (wasm) keeps
-/// the steps of about 2^16 cells between the job's ticks.
+/// Rows per step of [`condition_and_measure`]: about 2^16 cells a thread (a few
+/// milliseconds), so one thread (wasm) yields every 2^16 cells.
 fn parallel_steps(w: usize, h: usize) -> impl Iterator<Item = Range<usize>> {
     let rows = ((1usize << 16) / w.max(1)).max(1) * parallel::threads();
     (0..h)
@@ -135,91 +156,94 @@ fn parallel_steps(w: usize, h: usize) -> impl Iterator<Item = Range<usize>> {
         .map(move |start| start..(start + rows).min(h))
 }
 
-/// Splits `rows` into one band per thread and calls `f` on each with its part of `out`
-/// (`w` entries a row, `out` starting at row `rows.start`).
-fn for_rows_of_step<T: Send>(
-    w: usize,
-    rows: Range<usize>,
-    out: &mut [T],
-    f: impl Fn(Range<usize>, &mut [T]) + Sync,
-) {
-    let band_rows = rows.len().div_ceil(parallel::threads()).max(1);
-    parallel::for_each_band(out, band_rows * w, |k, part| {
-        let start = rows.start + k * band_rows;
-        f(start..start + part.len() / w, part);
-    });
-}
-
-/// Counts of one band of the drainage measure (no fates: see [`measure_fast`]).
+/// The drainage counts (no fates: see [`condition_and_measure`]) and the pits.
 #[derive(Default)]
-struct BandCounts {
+struct Counts {
     river_cells: usize,
     river_cells_draining: usize,
     pit_cells: usize,
+    /// Interior cells without receiver (filled by [`count_rows`] only).
+    pits: Vec<u32>,
 }
 
-/// Pits and river counts of `rows`, whose receivers are `recv` (`w` a row).
-fn count_band(
-    kinds: &[CellKind],
-    w: usize,
-    h: usize,
-    rows: Range<usize>,
-    recv: &[u32],
-) -> BandCounts {
-    let mut c = BandCounts::default();
-    for (y, row) in rows.zip(recv.chunks(w)) {
-        let border_row = y == 0 || y + 1 == h;
-        for (x, &r) in row.iter().enumerate() {
-            let i = y * w + x;
-            let border = border_row || x == 0 || x + 1 == w;
-            if r == NO_RECEIVER && !border {
-                c.pit_cells += 1;
+impl Counts {
+    /// Adds (`sign` true) or removes cell `i` with receiver `r`.
+    #[inline]
+    fn cell(&mut self, kinds: &[CellKind], w: usize, h: usize, i: usize, r: u32, sign: bool) {
+        let border = is_border(i, w, h);
+        let step = |v: &mut usize| {
+            if sign {
+                *v += 1;
+            } else {
+                *v -= 1;
             }
-            if kinds[i] == CellKind::River {
-                c.river_cells += 1;
-                let ok = if r == NO_RECEIVER {
-                    border
-                } else {
-                    kinds[r as usize] == CellKind::River
-                };
-                if ok {
-                    c.river_cells_draining += 1;
-                }
+        };
+        if r == NO_RECEIVER && !border {
+            step(&mut self.pit_cells);
+        }
+        if kinds[i] == CellKind::River {
+            step(&mut self.river_cells);
+            let ok = if r == NO_RECEIVER {
+                border
+            } else {
+                kinds[r as usize] == CellKind::River
+            };
+            if ok {
+                step(&mut self.river_cells_draining);
+            }
+        }
+    }
+
+    fn add(&mut self, other: Counts) {
+        self.river_cells += other.river_cells;
+        self.river_cells_draining += other.river_cells_draining;
+        self.pit_cells += other.pit_cells;
+        self.pits.extend(other.pits);
+    }
+}
+
+/// Counts of `rows`, receivers computed row by row.
+fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Counts {
+    let (w, h) = (field.width(), field.height());
+    let z = field.data();
+    let (mut recv, mut steepest) = (vec![0u32; w], Vec::new());
+    let mut c = Counts::default();
+    for y in rows {
+        receivers_of_row(z, w, h, y, &mut recv, &mut steepest);
+        for (x, &r) in recv.iter().enumerate() {
+            let i = y * w + x;
+            c.cell(kinds, w, h, i, r, true);
+            if r == NO_RECEIVER && !is_border(i, w, h) {
+                c.pits.push(i as u32);
             }
         }
     }
     c
 }
 
-/// Resolves the D8 fate of the cells of `starts` on `recv`, each cell once along its descent
-/// path (memoised in `fate`: 0 = unknown, 1 = reaches an outlet, 2 = ends in a pit or flat).
-fn resolve_fates(
-    recv: &[u32],
-    fate: &mut [u8],
-    path: &mut Vec<u32>,
-    starts: Range<usize>,
-    w: usize,
-    h: usize,
-) {
-    for start in starts {
-        let mut i = start;
-        // Paths descend strictly (a NaN cell has no receiver and is nobody's), so they end.
-        while fate[i] == 0 {
-            path.push(i as u32);
-            match recv[i] {
-                NO_RECEIVER => {
-                    fate[i] = if is_border(i, w, h) { 1 } else { 2 };
-                    break;
-                }
-                j => i = j as usize,
+/// The interior cells whose D8 descent ends in one of `pits` (the pits' basins, pits
+/// included), found upstream from the pits: a neighbour joins when its receiver is a basin
+/// cell. Border cells are left out (they keep their heights), and so are the cells above
+/// them, which descend to the border. O(basin cells).
+fn basins(z: &[f32], w: usize, h: usize, pits: &[u32], inside: &mut [bool]) -> Vec<u32> {
+    let mut cells = pits.to_vec();
+    for &p in pits {
+        inside[p as usize] = true;
+    }
+    let mut k = 0;
+    while k < cells.len() {
+        let j = cells[k] as usize;
+        k += 1;
+        for (dx, dy, _) in NEIGHBOURS {
+            // Basin cells are interior: all their neighbours exist.
+            let i = (j as i64 + dy * w as i64 + dx) as usize;
+            if !inside[i] && !is_border(i, w, h) && receiver_at(z, w, h, i) == j as u32 {
+                inside[i] = true;
+                cells.push(i as u32);
             }
         }
-        let result = fate[i];
-        for &p in path.iter() {
-            fate[p as usize] = result;
-        }
-        path.clear();
     }
+    cells
 }
 
 /// Whether any interior cell has no strictly lower neighbour (a pit or a flat). O(cells).
@@ -274,21 +298,24 @@ impl Flood {
         }
     }
 
-    /// Seeds a flood of the cells marked in `inside` only (interior cells), from the cells
+    /// Seeds a flood of the cells of `inside` only (interior cells), from the cells
     /// around them. When every other cell already has a strictly descending path to the
     /// border, this ends with the same heights as [`Flood::new`]: the flood's result is the
     /// least `z' >= z` with `z'[i] = max(z[i], next_up(min of z' over i's neighbours))` inside
     /// and `z' = z` on the border, which is unique and leaves draining cells as they are.
-    pub fn around(field: &Heightfield, inside: &[bool]) -> Self {
-        let (w, h) = (field.width(), field.height());
+    pub fn around(field: &Heightfield, inside: &[u32]) -> Self {
+        let w = field.width();
         let z = field.data();
-        let closed: Vec<bool> = inside.iter().map(|&b| !b).collect();
+        let mut closed = vec![true; z.len()];
+        for &i in inside {
+            closed[i as usize] = false;
+        }
         let mut seeds = Vec::new();
-        for (i, _) in inside.iter().enumerate().filter(|(_, b)| **b) {
-            debug_assert!(!is_border(i, w, h));
+        for &i in inside {
+            debug_assert!(!is_border(i as usize, w, field.height()));
             for (dx, dy, _) in NEIGHBOURS {
-                let j = (i as i64 + dy * w as i64 + dx) as usize;
-                if !inside[j] {
+                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
+                if closed[j] {
                     seeds.push(j as u32);
                 }
             }
@@ -459,59 +486,31 @@ pub fn measure(field: &Heightfield, kinds: &[CellKind]) -> Drainage {
     m.finish()
 }
 
-/// Receivers of `field` into `recv` and the band counts, rows in parallel.
+/// [`count_rows`] of the whole field, rows on all threads, in steps.
 async fn count_in_steps(
     field: &Heightfield,
     kinds: &[CellKind],
-    recv: &mut [u32],
     ctx: &JobCtx,
-) -> Result<BandCounts, Cancelled> {
-    const STAGE: &str = "checking drainage";
+) -> Result<Counts, Cancelled> {
     let (w, h) = (field.width(), field.height());
-    let z = field.data();
-    let total = std::sync::Mutex::new(BandCounts::default());
+    let threads = parallel::threads();
+    let mut total = Counts::default();
     for rows in parallel_steps(w, h) {
-        let out = &mut recv[rows.start * w..rows.end * w];
-        for_rows_of_step(w, rows, out, |band, part| {
-            for (y, row) in band.clone().zip(part.chunks_mut(w)) {
-                receivers_of_row(z, w, h, y, row);
-            }
-            let c = count_band(kinds, w, h, band, part);
-            let mut t = total
-                .lock()
-                .unwrap_or_else(std::sync::PoisonError::into_inner);
-            t.river_cells += c.river_cells;
-            t.river_cells_draining += c.river_cells_draining;
-            t.pit_cells += c.pit_cells;
+        let band = rows.len().div_ceil(threads).max(1);
+        let mut parts: Vec<(Range<usize>, Counts)> = rows
+            .clone()
+            .step_by(band)
+            .map(|s| (s..(s + band).min(rows.end), Counts::default()))
+            .collect();
+        parallel::for_each_item(parts.iter_mut().collect(), |(rows, c)| {
+            *c = count_rows(field, kinds, rows.clone());
         });
-        ctx.tick(0.96, STAGE).await?;
+        for (_, c) in parts {
+            total.add(c);
+        }
+        ctx.tick(0.96, "checking drainage").await?;
     }
-    Ok(total
-        .into_inner()
-        .unwrap_or_else(std::sync::PoisonError::into_inner))
-}
-
-/// Resolves every cell's fate on `recv` in steps; the cells ending in a pit or flat.
-async fn fates_in_steps(
-    recv: &[u32],
-    w: usize,
-    h: usize,
-    ctx: &JobCtx,
-) -> Result<Vec<u8>, Cancelled> {
-    let mut fate = vec![0u8; recv.len()];
-    let mut path = Vec::new();
-    for rows in row_bands(w, h) {
-        resolve_fates(
-            recv,
-            &mut fate,
-            &mut path,
-            rows.start * w..rows.end * w,
-            w,
-            h,
-        );
-        ctx.tick(0.97, "checking drainage").await?;
-    }
-    Ok(fate)
+    Ok(total)
 }
 
 /// Floods the depressions of `field` if it has pits, then measures its drainage: the same
@@ -519,12 +518,14 @@ async fn fates_in_steps(
 /// 2^16 cells a thread with [`JobCtx::tick`] between them, so the browser keeps painting
 /// while a large terrain is checked.
 ///
-/// Fast path, the same bits as the reference: the D8 receivers (rows on all threads) find
-/// the pits; only the cells whose descent ends in one (their basins; every other cell keeps
-/// its height under Priority-Flood, see [`Flood::around`]) go through the flood. A terrain
-/// with no interior cell without receiver drains every cell to the border (descent paths
-/// strictly descend, so they end, and only at the border), so the measure needs no fates.
-/// O(cells) plus O(b log range) for b cells in basins.
+/// The same bits as the reference, faster: one pass of D8 receivers (rows on all threads)
+/// counts and finds the pits; only the pits' basins (the cells whose descent ends in one;
+/// every other cell keeps its height under Priority-Flood, see [`Flood::around`]) are
+/// flooded, and only the cells whose receivers that can change (the basins and their
+/// neighbours) are counted again. A terrain whose interior cells all have a receiver
+/// drains every cell to the border (descent paths strictly descend, so they end, and only
+/// at the border), so the measure needs no fates. O(cells) plus O(b log range) for b cells
+/// in basins.
 pub async fn condition_and_measure(
     field: &mut Heightfield,
     kinds: &[CellKind],
@@ -532,40 +533,53 @@ pub async fn condition_and_measure(
 ) -> Result<(Conditioning, Drainage), Cancelled> {
     let (w, h) = (field.width(), field.height());
     let n = w * h;
-    let mut recv = vec![0u32; n];
-    let mut counts = count_in_steps(field, kinds, &mut recv, ctx).await?;
+    let mut counts = count_in_steps(field, kinds, ctx).await?;
     let mut conditioning = Conditioning::default();
     if counts.pit_cells > 0 {
-        let fate = fates_in_steps(&recv, w, h, ctx).await?;
-        let inside: Vec<bool> = fate
-            .iter()
-            .enumerate()
-            .map(|(i, &f)| f == 2 && !is_border(i, w, h))
-            .collect();
-        drop(fate);
-        let mut flood = Flood::around(field, &inside);
+        let pits = std::mem::take(&mut counts.pits);
+        let mut inside = vec![false; n];
+        let basin = basins(field.data(), w, h, &pits, &mut inside);
+        // The cells whose receivers the flood can change, counted out before and back in after.
+        let mut touched = basin.clone();
+        for &i in &basin {
+            for (dx, dy, _) in NEIGHBOURS {
+                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
+                if !inside[j] {
+                    touched.push(j as u32);
+                }
+            }
+        }
         drop(inside);
+        touched.sort_unstable();
+        touched.dedup();
+        for &i in &touched {
+            let r = receiver_at(field.data(), w, h, i as usize);
+            counts.cell(kinds, w, h, i as usize, r, false);
+        }
+        ctx.tick(0.95, "filling depressions").await?;
+        let mut flood = Flood::around(field, &basin);
+        drop(basin);
         while !flood.run(field, 1 << 16) {
             ctx.tick(0.95, "filling depressions").await?;
         }
         conditioning = flood.result();
-        counts = count_in_steps(field, kinds, &mut recv, ctx).await?;
+        for &i in &touched {
+            let r = receiver_at(field.data(), w, h, i as usize);
+            counts.cell(kinds, w, h, i as usize, r, true);
+        }
     }
-    let cells_to_outlet = if counts.pit_cells == 0 {
-        n
-    } else {
-        // Only a field with NaN heights keeps pits after the flood.
-        let fate = fates_in_steps(&recv, w, h, ctx).await?;
-        fate.iter().filter(|&&f| f == 1).count()
-    };
+    if counts.pit_cells > 0 {
+        // Only NaN heights leave pits after the flood: measure them the long way.
+        return Ok((conditioning, measure(field, kinds)));
+    }
     let drainage = Drainage {
         river_cells: counts.river_cells,
         river_cells_draining: counts.river_cells_draining,
         river_fraction: counts.river_cells_draining as f64 / counts.river_cells.max(1) as f64,
-        cells_to_outlet,
-        outlet_fraction: cells_to_outlet as f64 / n as f64,
-        pit_cells: counts.pit_cells,
-        pit_fraction: counts.pit_cells as f64 / n as f64,
+        cells_to_outlet: n,
+        outlet_fraction: n as f64 / n as f64,
+        pit_cells: 0,
+        pit_fraction: 0.0,
     };
     Ok((conditioning, drainage))
 }
@@ -701,6 +715,23 @@ mod tests {
             flooded += usize::from(c2.raised_cells > 0);
         }
         assert!(flooded >= 20, "{flooded}");
+    }
+
+    /// The row-wise (vectorised) receivers are the reference's, ties included.
+    #[test]
+    fn row_receivers_equal_the_reference_receivers() {
+        for field in test_terrains() {
+            let (w, h) = (field.width(), field.height());
+            let mut reference = Vec::new();
+            receivers_of_rows(&field, 0..h, &mut reference);
+            let (mut row, mut steepest) = (vec![0u32; w], Vec::new());
+            for y in 0..h {
+                receivers_of_row(field.data(), w, h, y, &mut row, &mut steepest);
+                for (x, &r) in row.iter().enumerate() {
+                    assert_eq!(reference[y * w + x], (r != NO_RECEIVER).then_some(r));
+                }
+            }
+        }
     }
 
     /// The stepped version gives what the one-shot functions give, pits and all.
