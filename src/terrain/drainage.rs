@@ -169,8 +169,7 @@ struct Counts {
 impl Counts {
     /// Adds (`sign` true) or removes cell `i` with receiver `r`.
     #[inline]
-    fn cell(&mut self, kinds: &[CellKind], w: usize, h: usize, i: usize, r: u32, sign: bool) {
-        let border = is_border(i, w, h);
+    fn cell(&mut self, kinds: &[CellKind], i: usize, border: bool, r: u32, sign: bool) {
         let step = |v: &mut usize| {
             if sign {
                 *v += 1;
@@ -207,14 +206,28 @@ fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Co
     let (w, h) = (field.width(), field.height());
     let z = field.data();
     let (mut recv, mut steepest) = (vec![0u32; w], Vec::new());
+    let all_kinds = kinds;
     let mut c = Counts::default();
     for y in rows {
         receivers_of_row(z, w, h, y, &mut recv, &mut steepest);
-        for (x, &r) in recv.iter().enumerate() {
-            let i = y * w + x;
-            c.cell(kinds, w, h, i, r, true);
-            if r == NO_RECEIVER && !is_border(i, w, h) {
-                c.pits.push(i as u32);
+        let border_row = y == 0 || y + 1 == h;
+        let kinds = &kinds[y * w..(y + 1) * w];
+        for (x, (&r, &kind)) in recv.iter().zip(kinds).enumerate() {
+            let border = border_row || x == 0 || x + 1 == w;
+            if r == NO_RECEIVER {
+                if !border {
+                    c.pit_cells += 1;
+                    c.pits.push((y * w + x) as u32);
+                }
+            }
+            if kind == CellKind::River {
+                c.river_cells += 1;
+                let ok = if r == NO_RECEIVER {
+                    border
+                } else {
+                    all_kinds[r as usize] == CellKind::River
+                };
+                c.river_cells_draining += usize::from(ok);
             }
         }
     }
@@ -554,7 +567,7 @@ pub async fn condition_and_measure(
         touched.dedup();
         for &i in &touched {
             let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, w, h, i as usize, r, false);
+            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, false);
         }
         ctx.tick(0.95, "filling depressions").await?;
         let mut flood = Flood::around(field, &basin);
@@ -565,7 +578,7 @@ pub async fn condition_and_measure(
         conditioning = flood.result();
         for &i in &touched {
             let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, w, h, i as usize, r, true);
+            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, true);
         }
     }
     if counts.pit_cells > 0 {
