@@ -214,11 +214,9 @@ fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Co
         let kinds = &kinds[y * w..(y + 1) * w];
         for (x, (&r, &kind)) in recv.iter().zip(kinds).enumerate() {
             let border = border_row || x == 0 || x + 1 == w;
-            if r == NO_RECEIVER {
-                if !border {
-                    c.pit_cells += 1;
-                    c.pits.push((y * w + x) as u32);
-                }
+            if r == NO_RECEIVER && !border {
+                c.pit_cells += 1;
+                c.pits.push((y * w + x) as u32);
             }
             if kind == CellKind::River {
                 c.river_cells += 1;
@@ -590,7 +588,7 @@ pub async fn condition_and_measure(
         river_cells_draining: counts.river_cells_draining,
         river_fraction: counts.river_cells_draining as f64 / counts.river_cells.max(1) as f64,
         cells_to_outlet: n,
-        outlet_fraction: n as f64 / n as f64,
+        outlet_fraction: 1.0,
         pit_cells: 0,
         pit_fraction: 0.0,
     };
