@@ -105,7 +105,7 @@ fn receiver_at(z: &[f32], w: usize, h: usize, i: usize) -> u32 {
 
 /// D8 receivers of row `y` into `out` (`w` entries), as [`receiver_at`] gives them. The
 /// interior cells go direction by direction along the row (the same comparisons in the same
-/// order for each cell, so the same receivers), which the compiler vectorises.
+/// order for each cell, so the same receivers) over contiguous slices.
 fn receivers_of_row(
     z: &[f32],
     w: usize,
