@@ -7,6 +7,7 @@ use serde::Serialize;
 use super::radix_heap::{RadixHeap, ordered_key};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::parallel;
 use crate::skeleton::CellKind;
 
 /// Drainage measures of a terrain (`strahler generate --report`, tests).
@@ -34,14 +35,6 @@ const NEIGHBOURS: [(i64, i64, f32); 8] = [
     (-1, 1, std::f32::consts::SQRT_2),
     (1, 1, std::f32::consts::SQRT_2),
 ];
-
-/// Rows per step of [`condition_and_measure`]: about 2^16 cells, a few milliseconds.
-fn row_bands(w: usize, h: usize) -> impl Iterator<Item = Range<usize>> {
-    let rows = ((1usize << 16) / w.max(1)).max(1);
-    (0..h)
-        .step_by(rows)
-        .map(move |start| start..(start + rows).min(h))
-}
 
 /// D8 receivers of the cells of `rows`: the neighbour of steepest descent, `None` for a cell
 /// with no lower neighbour. Border cells drain off the map when nothing inside is lower.
@@ -82,6 +75,186 @@ fn rows_have_pits(field: &Heightfield, rows: Range<usize>) -> bool {
                 .any(|(dx, dy, _)| z[((y + dy) * w + x + dx) as usize] < c)
         })
     })
+}
+
+/// No D8 receiver (a pit, a flat or a border cell that drains off the map).
+const NO_RECEIVER: u32 = u32::MAX;
+
+/// D8 receiver of cell `i`, [`NO_RECEIVER`] where [`receivers_of_rows`] gives `None`: the
+/// same neighbours in the same order, so ties go the same way.
+#[inline]
+fn receiver_at(z: &[f32], w: usize, h: usize, i: usize) -> u32 {
+    let (x, y) = ((i % w) as i64, (i / w) as i64);
+    let c = z[i];
+    let mut best = NO_RECEIVER;
+    let mut steepest = 0.0f32;
+    for (dx, dy, dist) in NEIGHBOURS {
+        let (nx, ny) = (x + dx, y + dy);
+        if nx < 0 || ny < 0 || nx >= w as i64 || ny >= h as i64 {
+            continue;
+        }
+        let j = ny as usize * w + nx as usize;
+        let slope = (c - z[j]) / dist;
+        if slope > steepest {
+            steepest = slope;
+            best = j as u32;
+        }
+    }
+    best
+}
+
+/// D8 receivers of row `y` into `out` (`w` entries), as [`receiver_at`] gives them. The
+/// interior cells go direction by direction along the row (the same comparisons in the same
+/// order for each cell, so the same receivers) over contiguous slices.
+fn receivers_of_row(
+    z: &[f32],
+    w: usize,
+    h: usize,
+    y: usize,
+    out: &mut [u32],
+    steepest: &mut Vec<f32>,
+) {
+    let row = y * w;
+    if y == 0 || y + 1 == h || w < 3 {
+        for (x, r) in out.iter_mut().enumerate() {
+            *r = receiver_at(z, w, h, row + x);
+        }
+        return;
+    }
+    out[0] = receiver_at(z, w, h, row);
+    out[w - 1] = receiver_at(z, w, h, row + w - 1);
+    let centre = &z[row + 1..row + w - 1];
+    let best = &mut out[1..w - 1];
+    best.fill(NO_RECEIVER);
+    steepest.clear();
+    steepest.resize(w - 2, 0.0);
+    for (dx, dy, dist) in NEIGHBOURS {
+        // The neighbour of the row's second cell.
+        let start = (row + 1).wrapping_add_signed(dy as isize * w as isize + dx as isize);
+        let neighbours = &z[start..start + w - 2];
+        for (k, ((s, b), (&c, &n))) in steepest
+            .iter_mut()
+            .zip(best.iter_mut())
+            .zip(centre.iter().zip(neighbours))
+            .enumerate()
+        {
+            let slope = (c - n) / dist;
+            if slope > *s {
+                *s = slope;
+                *b = (start + k) as u32;
+            }
+        }
+    }
+}
+
+/// Rows per step of [`condition_and_measure`]: about 2^16 cells a thread (a few
+/// milliseconds), so one thread (wasm) yields every 2^16 cells.
+fn parallel_steps(w: usize, h: usize) -> impl Iterator<Item = Range<usize>> {
+    let rows = ((1usize << 16) / w.max(1)).max(1) * parallel::threads();
+    (0..h)
+        .step_by(rows)
+        .map(move |start| start..(start + rows).min(h))
+}
+
+/// The drainage counts (no fates: see [`condition_and_measure`]) and the pits.
+#[derive(Default)]
+struct Counts {
+    river_cells: usize,
+    river_cells_draining: usize,
+    pit_cells: usize,
+    /// Interior cells without receiver (filled by [`count_rows`] only).
+    pits: Vec<u32>,
+}
+
+impl Counts {
+    /// Adds (`sign` true) or removes cell `i` with receiver `r`.
+    #[inline]
+    fn cell(&mut self, kinds: &[CellKind], i: usize, border: bool, r: u32, sign: bool) {
+        let step = |v: &mut usize| {
+            if sign {
+                *v += 1;
+            } else {
+                *v -= 1;
+            }
+        };
+        if r == NO_RECEIVER && !border {
+            step(&mut self.pit_cells);
+        }
+        if kinds[i] == CellKind::River {
+            step(&mut self.river_cells);
+            let ok = if r == NO_RECEIVER {
+                border
+            } else {
+                kinds[r as usize] == CellKind::River
+            };
+            if ok {
+                step(&mut self.river_cells_draining);
+            }
+        }
+    }
+
+    fn add(&mut self, other: Counts) {
+        self.river_cells += other.river_cells;
+        self.river_cells_draining += other.river_cells_draining;
+        self.pit_cells += other.pit_cells;
+        self.pits.extend(other.pits);
+    }
+}
+
+/// Counts of `rows`, receivers computed row by row.
+fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Counts {
+    let (w, h) = (field.width(), field.height());
+    let z = field.data();
+    let (mut recv, mut steepest) = (vec![0u32; w], Vec::new());
+    let all_kinds = kinds;
+    let mut c = Counts::default();
+    for y in rows {
+        receivers_of_row(z, w, h, y, &mut recv, &mut steepest);
+        let border_row = y == 0 || y + 1 == h;
+        let kinds = &kinds[y * w..(y + 1) * w];
+        for (x, (&r, &kind)) in recv.iter().zip(kinds).enumerate() {
+            let border = border_row || x == 0 || x + 1 == w;
+            if r == NO_RECEIVER && !border {
+                c.pit_cells += 1;
+                c.pits.push((y * w + x) as u32);
+            }
+            if kind == CellKind::River {
+                c.river_cells += 1;
+                let ok = if r == NO_RECEIVER {
+                    border
+                } else {
+                    all_kinds[r as usize] == CellKind::River
+                };
+                c.river_cells_draining += usize::from(ok);
+            }
+        }
+    }
+    c
+}
+
+/// The interior cells whose D8 descent ends in one of `pits` (the pits' basins, pits
+/// included), found upstream from the pits: a neighbour joins when its receiver is a basin
+/// cell. Border cells are left out (they keep their heights), and so are the cells above
+/// them, which descend to the border. O(basin cells).
+fn basins(z: &[f32], w: usize, h: usize, pits: &[u32], inside: &mut [bool]) -> Vec<u32> {
+    let mut cells = pits.to_vec();
+    for &p in pits {
+        inside[p as usize] = true;
+    }
+    let mut k = 0;
+    while k < cells.len() {
+        let j = cells[k] as usize;
+        k += 1;
+        for (dx, dy, _) in NEIGHBOURS {
+            // Basin cells are interior: all their neighbours exist.
+            let i = (j as i64 + dy * w as i64 + dx) as usize;
+            if !inside[i] && !is_border(i, w, h) && receiver_at(z, w, h, i) == j as u32 {
+                inside[i] = true;
+                cells.push(i as u32);
+            }
+        }
+    }
+    cells
 }
 
 /// Whether any interior cell has no strictly lower neighbour (a pit or a flat). O(cells).
@@ -128,6 +301,41 @@ impl Flood {
                 closed[i] = true;
                 heap.push(ordered_key(z[i]), i as u32);
             }
+        }
+        Self {
+            closed,
+            heap,
+            result: Conditioning::default(),
+        }
+    }
+
+    /// Seeds a flood of the cells of `inside` only (interior cells), from the cells
+    /// around them. When every other cell already has a strictly descending path to the
+    /// border, this ends with the same heights as [`Flood::new`]: the flood's result is the
+    /// least `z' >= z` with `z'[i] = max(z[i], next_up(min of z' over i's neighbours))` inside
+    /// and `z' = z` on the border, which is unique and leaves draining cells as they are.
+    pub fn around(field: &Heightfield, inside: &[u32]) -> Self {
+        let w = field.width();
+        let z = field.data();
+        let mut closed = vec![true; z.len()];
+        for &i in inside {
+            closed[i as usize] = false;
+        }
+        let mut seeds = Vec::new();
+        for &i in inside {
+            debug_assert!(!is_border(i as usize, w, field.height()));
+            for (dx, dy, _) in NEIGHBOURS {
+                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
+                if closed[j] {
+                    seeds.push(j as u32);
+                }
+            }
+        }
+        seeds.sort_unstable();
+        seeds.dedup();
+        let mut heap = RadixHeap::new();
+        for j in seeds {
+            heap.push(ordered_key(z[j as usize]), j);
         }
         Self {
             closed,
@@ -289,48 +497,102 @@ pub fn measure(field: &Heightfield, kinds: &[CellKind]) -> Drainage {
     m.finish()
 }
 
+/// [`count_rows`] of the whole field, rows on all threads, in steps.
+async fn count_in_steps(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    ctx: &JobCtx,
+) -> Result<Counts, Cancelled> {
+    let (w, h) = (field.width(), field.height());
+    let threads = parallel::threads();
+    let mut total = Counts::default();
+    for rows in parallel_steps(w, h) {
+        let band = rows.len().div_ceil(threads).max(1);
+        let mut parts: Vec<(Range<usize>, Counts)> = rows
+            .clone()
+            .step_by(band)
+            .map(|s| (s..(s + band).min(rows.end), Counts::default()))
+            .collect();
+        parallel::for_each_item(parts.iter_mut().collect(), |(rows, c)| {
+            *c = count_rows(field, kinds, rows.clone());
+        });
+        for (_, c) in parts {
+            total.add(c);
+        }
+        ctx.tick(0.96, "checking drainage").await?;
+    }
+    Ok(total)
+}
+
 /// Floods the depressions of `field` if it has pits, then measures its drainage: the same
 /// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps of about
-/// 2^16 cells with [`JobCtx::tick`] between them, so the browser keeps painting while a
-/// large terrain is checked. O(cells log range).
+/// 2^16 cells a thread with [`JobCtx::tick`] between them, so the browser keeps painting
+/// while a large terrain is checked.
+///
+/// The same bits as the reference, faster: one pass of D8 receivers (rows on all threads)
+/// counts and finds the pits; only the pits' basins (the cells whose descent ends in one;
+/// every other cell keeps its height under Priority-Flood, see [`Flood::around`]) are
+/// flooded, and only the cells whose receivers that can change (the basins and their
+/// neighbours) are counted again. A terrain whose interior cells all have a receiver
+/// drains every cell to the border (descent paths strictly descend, so they end, and only
+/// at the border), so the measure needs no fates. O(cells) plus O(b log range) for b cells
+/// in basins.
 pub async fn condition_and_measure(
     field: &mut Heightfield,
     kinds: &[CellKind],
     ctx: &JobCtx,
 ) -> Result<(Conditioning, Drainage), Cancelled> {
-    const STAGE: &str = "checking drainage";
     let (w, h) = (field.width(), field.height());
-    let mut pits = false;
-    for rows in row_bands(w, h) {
-        // A pit's neighbours in the rows around it are read from the whole field.
-        if rows_have_pits(field, rows) {
-            pits = true;
-            break;
-        }
-        ctx.tick(0.95, STAGE).await?;
-    }
+    let n = w * h;
+    let mut counts = count_in_steps(field, kinds, ctx).await?;
     let mut conditioning = Conditioning::default();
-    if pits {
-        let mut flood = Flood::new(field);
+    if counts.pit_cells > 0 {
+        let pits = std::mem::take(&mut counts.pits);
+        let mut inside = vec![false; n];
+        let basin = basins(field.data(), w, h, &pits, &mut inside);
+        // The cells whose receivers the flood can change, counted out before and back in after.
+        let mut touched = basin.clone();
+        for &i in &basin {
+            for (dx, dy, _) in NEIGHBOURS {
+                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
+                if !inside[j] {
+                    touched.push(j as u32);
+                }
+            }
+        }
+        drop(inside);
+        touched.sort_unstable();
+        touched.dedup();
+        for &i in &touched {
+            let r = receiver_at(field.data(), w, h, i as usize);
+            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, false);
+        }
+        ctx.tick(0.95, "filling depressions").await?;
+        let mut flood = Flood::around(field, &basin);
+        drop(basin);
         while !flood.run(field, 1 << 16) {
             ctx.tick(0.95, "filling depressions").await?;
         }
         conditioning = flood.result();
+        for &i in &touched {
+            let r = receiver_at(field.data(), w, h, i as usize);
+            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, true);
+        }
     }
-    let mut m = Measuring::new(field);
-    for rows in row_bands(w, h) {
-        receivers_of_rows(field, rows, &mut m.recv);
-        ctx.tick(0.96, STAGE).await?;
+    if counts.pit_cells > 0 {
+        // Only NaN heights leave pits after the flood: measure them the long way.
+        return Ok((conditioning, measure(field, kinds)));
     }
-    for rows in row_bands(w, h) {
-        m.resolve(rows.start * w..rows.end * w);
-        ctx.tick(0.97, STAGE).await?;
-    }
-    for rows in row_bands(w, h) {
-        m.tally(kinds, rows.start * w..rows.end * w);
-        ctx.tick(0.98, STAGE).await?;
-    }
-    Ok((conditioning, m.finish()))
+    let drainage = Drainage {
+        river_cells: counts.river_cells,
+        river_cells_draining: counts.river_cells_draining,
+        river_fraction: counts.river_cells_draining as f64 / counts.river_cells.max(1) as f64,
+        cells_to_outlet: n,
+        outlet_fraction: 1.0,
+        pit_cells: 0,
+        pit_fraction: 0.0,
+    };
+    Ok((conditioning, drainage))
 }
 
 #[cfg(test)]
@@ -362,6 +624,125 @@ mod tests {
         let d = measure(&bowl, &kinds);
         assert_eq!((d.pit_cells, d.outlet_fraction), (0, 1.0));
         assert!(!has_pits(&bowl));
+    }
+
+    /// Terrains with pits, flats and ties: pseudo-random heights on a few levels, plateaus,
+    /// bowls and planes.
+    fn test_terrains() -> Vec<Heightfield> {
+        let mut rng = 987654321u64;
+        let mut next = move || {
+            rng = rng
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (rng >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let mut fields = Vec::new();
+        for (w, h) in [
+            (1, 1),
+            (1, 6),
+            (2, 2),
+            (3, 3),
+            (4, 7),
+            (9, 5),
+            (64, 48),
+            (257, 130),
+        ] {
+            let cells = w * h;
+            // Few levels: ties and flats everywhere.
+            let levels: Vec<f32> = (0..cells).map(|_| (next() * 4.0).floor()).collect();
+            // A tilted plane with quantised noise: depressions and plateaus, many ties.
+            let tilted: Vec<f32> = (0..cells)
+                .map(|i| ((i % w) as f32 * 0.25).floor() + (next() * 3.0).floor())
+                .collect();
+            // A flat field: every interior cell is a flat.
+            let flat = vec![1.5f32; cells];
+            // Bowls on a ramp, rim cells tied with the border.
+            let bowls: Vec<f32> = (0..cells)
+                .map(|i| {
+                    let (x, y) = ((i % w) as f32, (i / w) as f32);
+                    let b = ((x * 0.7).sin() * (y * 0.5).cos() * 3.0).round();
+                    b + y * 0.01
+                })
+                .collect();
+            // Smooth noise, a few f32 steps apart: raises of one ulp meet existing heights.
+            let ulps: Vec<f32> = (0..cells)
+                .map(|_| f32::from_bits(1000.0f32.to_bits() + (next() * 6.0) as u32))
+                .collect();
+            for data in [levels, tilted, flat, bowls, ulps] {
+                fields.push(Heightfield::from_vec(w, h, data).unwrap());
+            }
+        }
+        fields
+    }
+
+    /// The fast path (receivers, basins, a flood of the basins only, counts) gives the
+    /// reference Priority-Flood's heights bit for bit and the reference measure's counts.
+    #[test]
+    fn fast_conditioning_equals_the_reference_priority_flood_bit_for_bit() {
+        let mut flooded = 0;
+        for reference in test_terrains() {
+            let (w, h) = (reference.width(), reference.height());
+            let kinds: Vec<CellKind> = (0..w * h)
+                .map(|i| {
+                    if i % 7 < 2 {
+                        CellKind::River
+                    } else {
+                        CellKind::Free
+                    }
+                })
+                .collect();
+            let mut reference = reference;
+            let mut fast = reference.clone();
+            let c1 = fill_depressions(&mut reference);
+            let d1 = measure(&reference, &kinds);
+            let (c2, d2) = pollster::block_on(condition_and_measure(
+                &mut fast,
+                &kinds,
+                &JobCtx::detached(),
+            ))
+            .unwrap();
+            let bits = |f: &Heightfield| f.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
+            assert_eq!(bits(&reference), bits(&fast), "{w}x{h}");
+            assert_eq!(c1.raised_cells, c2.raised_cells, "{w}x{h}");
+            assert_eq!(c1.max_raise.to_bits(), c2.max_raise.to_bits(), "{w}x{h}");
+            assert_eq!(
+                (
+                    d1.river_cells,
+                    d1.river_cells_draining,
+                    d1.cells_to_outlet,
+                    d1.pit_cells
+                ),
+                (
+                    d2.river_cells,
+                    d2.river_cells_draining,
+                    d2.cells_to_outlet,
+                    d2.pit_cells
+                ),
+                "{w}x{h}"
+            );
+            // The guarantees: no pit, every cell reaches an outlet.
+            assert_eq!((d2.pit_cells, d2.cells_to_outlet), (0, w * h), "{w}x{h}");
+            assert!(!has_pits(&fast));
+            flooded += usize::from(c2.raised_cells > 0);
+        }
+        assert!(flooded >= 20, "{flooded}");
+    }
+
+    /// The row-wise (vectorised) receivers are the reference's, ties included.
+    #[test]
+    fn row_receivers_equal_the_reference_receivers() {
+        for field in test_terrains() {
+            let (w, h) = (field.width(), field.height());
+            let mut reference = Vec::new();
+            receivers_of_rows(&field, 0..h, &mut reference);
+            let (mut row, mut steepest) = (vec![0u32; w], Vec::new());
+            for y in 0..h {
+                receivers_of_row(field.data(), w, h, y, &mut row, &mut steepest);
+                for (x, &r) in row.iter().enumerate() {
+                    assert_eq!(reference[y * w + x], (r != NO_RECEIVER).then_some(r));
+                }
+            }
+        }
     }
 
     /// The stepped version gives what the one-shot functions give, pits and all.
