@@ -128,8 +128,7 @@ fn phase_table(
     backends: &[Backend],
     settings: &ErosionSettings,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let Some(Backend::Gpu(context)) = backends.iter().find(|b| matches!(b, Backend::Gpu(_)))
-    else {
+    let Some(Backend::Gpu(context)) = backends.iter().find(|b| matches!(b, Backend::Gpu(_))) else {
         println!("--phases: no GPU backend to profile");
         return Ok(());
     };
