@@ -43,10 +43,10 @@
 //!    order, which is sequential.
 //! 7. The near-river floor.
 //!
-//! After the last step the heights are read back once and routed on the CPU exactly as the
-//! CPU solver's last step does (Priority-Flood of every remaining pit, stack and drainage
-//! area), so the stage's guarantees (no pit, every cell reaching base level) hold whatever
-//! the GPU's lakes left.
+//! After the last step the heights and the last step's drainage area are read back once, as
+//! the CPU solver leaves them; the erosion stage then conditions the surface
+//! (Priority-Flood + epsilon of the basins of any pit left, as after the CPU solver), so its
+//! guarantees (no pit, every cell reaching an outlet) hold whatever the GPU's lakes left.
 //!
 //! Why it is not bit-exact with the CPU: talus in Jacobi form, `f32` on the GPU where the
 //! CPU's incision works in `f64`, the tree solved in another order (other rounding), lakes
@@ -59,8 +59,10 @@ use wgpu::util::DeviceExt;
 
 use super::params::ErosionParams;
 use super::thermal::THERMAL_PASSES;
-use super::{ErosionError, check_finite, check_grid, check_len, receivers_and_area};
-use crate::gpu::{GpuContext, GpuError, Shader, read_f32_buffer, wait_for_submitted_work};
+use super::{ErosionError, check_finite, check_grid, check_len};
+use crate::gpu::{
+    GpuContext, GpuError, Shader, read_bytes, read_f32_buffer, wait_for_submitted_work,
+};
 use crate::jobs::{Cancelled, JobCtx};
 
 /// The erosion kernels, built once per device by [`GpuContext::pipelines`].
@@ -127,16 +129,17 @@ pub struct GpuInput<'a> {
     pub params: ErosionParams,
 }
 
-/// The GPU solver's result.
+/// The GPU solver's result, as the CPU solver leaves it: the heights after the last step
+/// (pits the bounded lake passes or the hillslope passes left are filled by the stage's
+/// conditioning, [`crate::terrain::drainage::condition_and_measure`], as after the CPU
+/// solver) and the drainage area the last step routed.
 #[derive(Clone, Debug)]
 pub struct GpuEroded {
-    /// Heights after the last step, routed (pits filled) on the CPU.
     pub heights: Vec<f32>,
-    /// Drainage area (m^2) of the final surface.
+    /// Drainage area (m^2) of the last step's routing.
     pub area: Vec<f32>,
-    /// Milliseconds on the GPU side (upload, steps, readback) and of the final CPU routing.
+    /// Milliseconds on the GPU side: upload, steps, the two readbacks.
     pub gpu_ms: f64,
-    pub route_ms: f64,
 }
 
 #[repr(C)]
@@ -168,7 +171,7 @@ pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
     gpu.pipelines(&EROSION, ENTRIES).await.map(|_| ())
 }
 
-/// Runs all `params.steps` steps on `gpu` and routes the result on the CPU; see the module
+/// Runs all `params.steps` steps on `gpu` and reads the result back; see the module
 /// docs. Inputs are validated as in [`Eroder::new`](super::Eroder::new).
 pub async fn erode(
     gpu: &GpuContext,
@@ -533,15 +536,17 @@ async fn erode_with(
         )
         .await?;
     }
-    let eroded = read_f32_buffer(gpu, &heights_buf, n).await?;
-    let gpu_ms = clock.elapsed().as_secs_f64() * 1e3;
-    let clock = web_time::Instant::now();
-    let routed = receivers_and_area(&eroded, w, h, cell_m, base_level)?;
+    let heights = read_f32_buffer(gpu, &heights_buf, n).await?;
+    let counts = read_bytes(gpu, &cells[area_last], n as u64 * 4).await?;
+    let cell_area = (cell_m * cell_m) as f32;
+    let area = counts
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]) as f32 * cell_area)
+        .collect();
     Ok(GpuEroded {
-        heights: routed.heights,
-        area: routed.area,
-        gpu_ms,
-        route_ms: clock.elapsed().as_secs_f64() * 1e3,
+        heights,
+        area,
+        gpu_ms: clock.elapsed().as_secs_f64() * 1e3,
     })
 }
 
