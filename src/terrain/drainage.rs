@@ -599,6 +599,16 @@ pub async fn condition_and_measure(
 mod tests {
     use super::*;
 
+    /// A measure's cell counts (river cells, those draining, cells reaching an outlet, pits).
+    fn counts(d: &Drainage) -> (usize, usize, usize, usize) {
+        (
+            d.river_cells,
+            d.river_cells_draining,
+            d.cells_to_outlet,
+            d.pit_cells,
+        )
+    }
+
     #[test]
     fn a_tilted_plane_drains_and_a_bowl_has_one_pit() {
         let n = 9;
@@ -705,21 +715,7 @@ mod tests {
             assert_eq!(bits(&reference), bits(&fast), "{w}x{h}");
             assert_eq!(c1.raised_cells, c2.raised_cells, "{w}x{h}");
             assert_eq!(c1.max_raise.to_bits(), c2.max_raise.to_bits(), "{w}x{h}");
-            assert_eq!(
-                (
-                    d1.river_cells,
-                    d1.river_cells_draining,
-                    d1.cells_to_outlet,
-                    d1.pit_cells
-                ),
-                (
-                    d2.river_cells,
-                    d2.river_cells_draining,
-                    d2.cells_to_outlet,
-                    d2.pit_cells
-                ),
-                "{w}x{h}"
-            );
+            assert_eq!(counts(&d1), counts(&d2), "{w}x{h}");
             // The guarantees: no pit, every cell reaches an outlet.
             assert_eq!((d2.pit_cells, d2.cells_to_outlet), (0, w * h), "{w}x{h}");
             assert!(!has_pits(&fast));
@@ -785,20 +781,7 @@ mod tests {
             (c1.raised_cells, c1.max_raise),
             (c2.raised_cells, c2.max_raise)
         );
-        assert_eq!(
-            (
-                d1.river_cells,
-                d1.river_cells_draining,
-                d1.cells_to_outlet,
-                d1.pit_cells
-            ),
-            (
-                d2.river_cells,
-                d2.river_cells_draining,
-                d2.cells_to_outlet,
-                d2.pit_cells
-            )
-        );
+        assert_eq!(counts(&d1), counts(&d2));
         assert_eq!((d2.pit_cells, d2.outlet_fraction), (0, 1.0));
     }
 }
