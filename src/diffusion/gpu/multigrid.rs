@@ -2,8 +2,11 @@
 //! `crate::diffusion::multigrid`, with every level's sweeps, restrictions and prolongations
 //! on the GPU.
 //!
-//! The level hierarchy (constraint-aware restriction of the fixed cells and their heights) is
-//! built once on the CPU in O(cells) and uploaded; all iterations run on the GPU.
+//! Only the finest level goes up (its heights and fixed-cell bits); the coarser levels of the
+//! hierarchy (constraint-aware restriction of the fixed cells and their heights,
+//! `shaders/multigrid_levels.wgsl`) are built on the GPU at the start of the first
+//! submission, one pass per level, O(cells) in all. No CPU copy of any level is made, and
+//! every iteration runs on the GPU.
 //!
 //! Convergence checks without a stall per cycle: after every V-cycle two `atomicMax`
 //! reductions (the finest level's `max |r_i| / n_i` and the last coarse correction) are
@@ -26,8 +29,8 @@
 use wgpu::util::DeviceExt;
 
 use super::bands::{self, Band};
-use super::{MULTIGRID, WORKGROUP, bind};
-use crate::diffusion::multigrid::hierarchy::{self, Level};
+use super::{MULTIGRID, MULTIGRID_LEVELS, WORKGROUP, bind};
+use crate::diffusion::multigrid::hierarchy;
 use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
 use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
 use crate::gpu::{GpuContext, GpuError, read_staging};
@@ -47,6 +50,9 @@ pub(super) const ENTRIES: [&str; 7] = [
     "residual_max",
     "correction_max",
 ];
+
+/// The entry point of `shaders/multigrid_levels.wgsl`.
+pub(super) const LEVEL_ENTRIES: [&str; 1] = ["restrict_problem"];
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -74,6 +80,8 @@ struct Pipelines {
     prolong_replace: wgpu::ComputePipeline,
     residual_max: wgpu::ComputePipeline,
     correction_max: wgpu::ComputePipeline,
+    /// Builds a coarse level of the problem from the one above it.
+    restrict_problem: wgpu::ComputePipeline,
 }
 
 impl Pipelines {
@@ -88,6 +96,7 @@ impl Pipelines {
             residual_max,
             correction_max,
         ] = gpu.pipelines(&MULTIGRID, ENTRIES).await?;
+        let [restrict_problem] = gpu.pipelines(&MULTIGRID_LEVELS, LEVEL_ENTRIES).await?;
         Ok(Self {
             relax,
             solve_coarsest,
@@ -96,6 +105,7 @@ impl Pipelines {
             prolong_replace,
             residual_max,
             correction_max,
+            restrict_problem,
         })
     }
 }
@@ -105,6 +115,11 @@ impl Pipelines {
 struct GpuBand {
     rows: Band,
     u: wgpu::Buffer,
+    /// The fixed-cell bits of the stored rows (bit `i % 32` of word `i / 32`); on a coarse
+    /// level, valid on the owned rows (ghost rows' bits are never read). Held for the tests,
+    /// which read the built levels back; the kernels reach it through the bind groups.
+    #[cfg(test)]
+    fixed: wgpu::Buffer,
     /// Relax with colour 0 and 1.
     relax: [wgpu::BindGroup; 2],
     /// All of the coarsest level's sweeps in one dispatch (the coarsest level only).
@@ -113,6 +128,8 @@ struct GpuBand {
     restrict: Option<wgpu::BindGroup>,
     prolong_add: Option<wgpu::BindGroup>,
     prolong_replace: Option<wgpu::BindGroup>,
+    /// Builds the next coarser level's problem from this band (absent on the coarsest).
+    build: Option<wgpu::BindGroup>,
 }
 
 impl GpuBand {
@@ -177,33 +194,8 @@ pub(in crate::diffusion) async fn multigrid(
     let scale = fixed_height_range(problem).max(f32::MIN_POSITIVE);
     let device = &gpu.device;
 
-    let cpu_levels = hierarchy::for_problem(problem, None, ctx).await?;
-    let dims: Vec<(usize, usize)> = cpu_levels.iter().map(Level::dims).collect();
-    let plan = bands::plan(&dims, gpu.caps.max_storage_bytes())?;
-    if plan[0].len() > 1 {
-        log::info!(
-            "a {w} x {h} field exceeds one storage binding ({} bytes): multigrid in {} bands",
-            gpu.caps.max_storage_bytes(),
-            plan[0].len()
-        );
-    }
-
     let pipes = Pipelines::of(gpu).await?;
-    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-    let pending = std::cell::RefCell::new(Vec::new());
-    let (levels, checks, result) = upload(gpu, &pipes, &cpu_levels, plan, &pending);
-    if let Some(err) = scope.pop().await {
-        return Err(GpuError::Validation(err.to_string()).into());
-    }
-    // The heights go up in slices of 1 MiB with the job's ticks between them: one 64 MiB
-    // copy would hold the browser's main thread.
-    for (buffer, data) in pending.take() {
-        for (k, part) in data.chunks(1 << 20).enumerate() {
-            gpu.queue.write_buffer(&buffer, (k << 20) as u64, part);
-            ctx.tick(0.0, "multigrid: uploading the levels").await?;
-        }
-    }
-    drop(cpu_levels);
+    let (levels, checks, result) = prepare(gpu, &pipes, problem, ctx).await?;
 
     let finest = w * h;
     let mut stats = Work::default();
@@ -225,9 +217,10 @@ pub(in crate::diffusion) async fn multigrid(
         staging: &staging,
     };
 
-    // Full-multigrid start and the first cycles, one submission: the start's checks in slot 0,
-    // then the cycles'.
+    // The coarse levels, the full-multigrid start and the first cycles, one submission: the
+    // start's checks in slot 0, then the cycles'.
     let mut encoder = device.create_command_encoder(&Default::default());
+    build_levels(&mut encoder, &pipes, &levels);
     solve_coarsest(&mut encoder, &pipes, &levels[last]);
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (0..last).rev() {
@@ -276,6 +269,42 @@ pub(in crate::diffusion) async fn multigrid(
     })
 }
 
+/// The solver's levels on `gpu`: every band's buffers and bind groups, the finest level's
+/// heights written (in slices, with the job's ticks between them), the coarser levels still
+/// to be built by [`build_levels`] at the start of the first submission.
+async fn prepare(
+    gpu: &GpuContext,
+    pipes: &Pipelines,
+    problem: &Constraints,
+    ctx: &JobCtx,
+) -> Result<(Vec<GpuLevel>, Checks, wgpu::Buffer), DiffusionError> {
+    let (w, h) = (problem.width(), problem.height());
+    let dims = hierarchy::dims(w, h);
+    let plan = bands::plan(&dims, gpu.caps.max_storage_bytes())?;
+    if plan[0].len() > 1 {
+        log::info!(
+            "a {w} x {h} field exceeds one storage binding ({} bytes): multigrid in {} bands",
+            gpu.caps.max_storage_bytes(),
+            plan[0].len()
+        );
+    }
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let pending = std::cell::RefCell::new(Vec::new());
+    let prepared = upload(gpu, pipes, problem, &dims, plan, &pending);
+    if let Some(err) = scope.pop().await {
+        return Err(GpuError::Validation(err.to_string()).into());
+    }
+    // The heights go up in slices of 1 MiB with the job's ticks between them: one 64 MiB
+    // copy would hold the browser's main thread.
+    for (buffer, data) in pending.take() {
+        for (k, part) in data.chunks(1 << 20).enumerate() {
+            gpu.queue.write_buffer(&buffer, (k << 20) as u64, part);
+            ctx.tick(0.0, "multigrid: uploading the problem").await?;
+        }
+    }
+    Ok(prepared)
+}
+
 /// Bind groups of the two reductions read after each cycle, one per band.
 struct Checks {
     residual: Vec<wgpu::BindGroup>,
@@ -287,12 +316,15 @@ struct Checks {
 type Pending<'a> = std::cell::RefCell<Vec<(wgpu::Buffer, &'a [u8])>>;
 
 /// Creates every band's buffers and bind groups; returns the levels with the reductions'
-/// bind groups and their result buffer. The unknowns and right-hand sides are created empty
-/// and listed in `pending` with their contents, for the caller to write.
+/// bind groups and their result buffer. The finest level's unknowns are created empty and
+/// listed in `pending` with their contents (the problem's heights), for the caller to write;
+/// its fixed bits go up with their buffer. Every coarser level's buffers start zeroed, for
+/// [`build_levels`] to fill.
 fn upload<'a>(
     gpu: &GpuContext,
     pipes: &Pipelines,
-    cpu: &'a [Level],
+    problem: &'a Constraints,
+    dims: &[(usize, usize)],
     plan: Vec<Vec<Band>>,
     pending: &Pending<'a>,
 ) -> (Vec<GpuLevel>, Checks, wgpu::Buffer) {
@@ -305,66 +337,61 @@ fn upload<'a>(
         })
     };
     let copy = wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST;
-    let field = |label: &str, data: &'a [u8]| {
-        let buffer = device.create_buffer(&wgpu::BufferDescriptor {
+    let zeroed = |label: &str, bytes: usize| {
+        device.create_buffer(&wgpu::BufferDescriptor {
             label: Some(label),
-            size: data.len() as u64,
+            size: bytes.max(4) as u64,
             usage: wgpu::BufferUsages::STORAGE | copy,
             mapped_at_creation: false,
-        });
-        pending.borrow_mut().push((buffer.clone(), data));
-        buffer
+        })
     };
     // Bound where a Laplace problem's finest level has no right-hand side (never read).
     let dummy = storage("no rhs", &[0u8; 16], wgpu::BufferUsages::empty());
     let result = storage("residual and correction max", &[0u8; 8], copy);
-    let rows = |values: &'a [f32], w: usize, band: &Band| -> &'a [u8] {
-        bytemuck::cast_slice(&values[band.stored.start * w..band.stored.end * w])
+    let finest_rows = |band: &Band| -> &'a [u8] {
+        let w = problem.width();
+        bytemuck::cast_slice(&problem.initial().data()[band.stored.start * w..band.stored.end * w])
     };
-    // Per level and band: unknowns, right-hand side (if any), fixed bits.
-    let us: Vec<Vec<wgpu::Buffer>> = cpu
-        .iter()
-        .zip(&plan)
-        .map(|(l, bands)| {
-            bands
-                .iter()
-                .map(|b| field("u", rows(&l.u, l.w, b)))
-                .collect()
-        })
-        .collect();
-    let bs: Vec<Vec<Option<wgpu::Buffer>>> = cpu
-        .iter()
-        .zip(&plan)
-        .map(|(l, bands)| {
-            bands
-                .iter()
-                .map(|b| (!l.b.is_empty()).then(|| field("b", rows(&l.b, l.w, b))))
-                .collect()
-        })
-        .collect();
-    let fixed: Vec<Vec<wgpu::Buffer>> = cpu
-        .iter()
-        .zip(&plan)
-        .map(|(l, bands)| {
-            bands
-                .iter()
-                .map(|b| {
-                    let words = bands::fixed_words(&l.fixed, b);
-                    storage(
-                        "fixed",
-                        bytemuck::cast_slice(&words),
-                        wgpu::BufferUsages::empty(),
-                    )
-                })
-                .collect()
-        })
-        .collect();
+    // Per level and band: unknowns, right-hand side (none on the finest), fixed bits.
+    let per_band = |make: &dyn Fn(usize, usize, &Band) -> wgpu::Buffer| -> Vec<Vec<wgpu::Buffer>> {
+        dims.iter()
+            .zip(&plan)
+            .enumerate()
+            .map(|(l, (&(w, _), bands))| bands.iter().map(|b| make(l, w, b)).collect())
+            .collect()
+    };
+    let us = per_band(&|l, w, band| {
+        if l == 0 {
+            let buffer = zeroed("u", band.stored_cells(w) * 4);
+            pending
+                .borrow_mut()
+                .push((buffer.clone(), finest_rows(band)));
+            buffer
+        } else {
+            zeroed("u", band.stored_cells(w) * 4)
+        }
+    });
+    let bs = per_band(&|l, w, band| {
+        if l == 0 {
+            dummy.clone()
+        } else {
+            zeroed("b", band.stored_cells(w) * 4)
+        }
+    });
+    let fixed = per_band(&|l, w, band| {
+        if l == 0 {
+            let words = bands::fixed_words(problem.fixed(), band);
+            storage("fixed", bytemuck::cast_slice(&words), copy)
+        } else {
+            zeroed("fixed", band.stored_cells(w).div_ceil(32) * 4)
+        }
+    });
 
     let mut residual = Vec::new();
     let mut correction = Vec::new();
-    let mut levels = Vec::with_capacity(cpu.len());
-    for (l, level) in cpu.iter().enumerate() {
-        let coarse = cpu.get(l + 1);
+    let mut levels = Vec::with_capacity(dims.len());
+    for (l, &(level_w, level_h)) in dims.iter().enumerate() {
+        let coarse = dims.get(l + 1);
         let mut gpu_bands = Vec::with_capacity(plan[l].len());
         for (k, band) in plan[l].iter().enumerate() {
             let ck = plan.get(l + 1).map(|c| bands::coarse_band(c, k));
@@ -372,12 +399,12 @@ fn upload<'a>(
                 device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("multigrid params"),
                     contents: bytemuck::bytes_of(&Params {
-                        fine_w: level.w as u32,
-                        fine_h: level.h as u32,
-                        coarse_w: coarse.map_or(0, |c| c.w as u32),
-                        coarse_h: coarse.map_or(0, |c| c.h as u32),
+                        fine_w: level_w as u32,
+                        fine_h: level_h as u32,
+                        coarse_w: coarse.map_or(0, |c| c.0 as u32),
+                        coarse_h: coarse.map_or(0, |c| c.1 as u32),
                         colour,
-                        has_rhs: u32::from(bs[l][k].is_some()),
+                        has_rhs: u32::from(l > 0),
                         fine_row0: band.stored.start as u32,
                         coarse_row0: ck.map_or(0, |ck| plan[l + 1][ck].stored.start as u32),
                         own_start: band.owned.start as u32,
@@ -389,8 +416,7 @@ fn upload<'a>(
                 })
             };
             let params = [make_params(0), make_params(1)];
-            let (u, f) = (&us[l][k], &fixed[l][k]);
-            let b = bs[l][k].as_ref().unwrap_or(&dummy);
+            let (u, f, b) = (&us[l][k], &fixed[l][k], &bs[l][k]);
             let relax = [0, 1].map(|c| {
                 bind(
                     device,
@@ -398,17 +424,18 @@ fn upload<'a>(
                     &[(0, &params[c]), (1, f), (2, u), (3, b)],
                 )
             });
-            let coarsest = (l + 1 == cpu.len()).then(|| {
+            let coarsest = (l + 1 == dims.len()).then(|| {
                 bind(
                     device,
                     &pipes.solve_coarsest,
                     &[(0, &params[0]), (1, f), (2, u), (3, b)],
                 )
             });
-            let (restrict, prolong_add, prolong_replace) = match ck {
+            let (restrict, prolong_add, prolong_replace, build) = match ck {
                 Some(ck) => {
-                    let coarse_b = bs[l + 1][ck].as_ref().unwrap_or(&dummy);
+                    let coarse_b = &bs[l + 1][ck];
                     let coarse_u = &us[l + 1][ck];
+                    let coarse_fixed = &fixed[l + 1][ck];
                     let base = [(0, &params[0]), (1, f), (2, u)];
                     let with = |pipeline, extra| {
                         Some(bind(device, pipeline, &[base[0], base[1], base[2], extra]))
@@ -421,9 +448,14 @@ fn upload<'a>(
                         )),
                         with(&pipes.prolong_add, (4, coarse_u)),
                         with(&pipes.prolong_replace, (4, coarse_u)),
+                        Some(bind(
+                            device,
+                            &pipes.restrict_problem,
+                            &[base[0], base[1], base[2], (3, coarse_fixed), (4, coarse_u)],
+                        )),
                     )
                 }
-                None => (None, None, None),
+                None => (None, None, None, None),
             };
             if l == 1 {
                 correction.push(bind(
@@ -442,16 +474,19 @@ fn upload<'a>(
             gpu_bands.push(GpuBand {
                 rows: band.clone(),
                 u: u.clone(),
+                #[cfg(test)]
+                fixed: f.clone(),
                 relax,
                 coarsest,
                 restrict,
                 prolong_add,
                 prolong_replace,
+                build,
             });
         }
         levels.push(GpuLevel {
-            w: level.w as u32,
-            h: level.h as u32,
+            w: level_w as u32,
+            h: level_h as u32,
             bands: gpu_bands,
         });
     }
@@ -463,6 +498,26 @@ fn upload<'a>(
         },
         result,
     )
+}
+
+/// Builds every coarse level's problem from the one above it, finest first: one pass per
+/// level (so each reads the level the previous pass wrote), then the new level's ghost rows.
+/// O(cells) in all.
+fn build_levels(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, levels: &[GpuLevel]) {
+    for pair in levels.windows(2) {
+        let (fine, coarse) = (&pair[0], &pair[1]);
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&pipes.restrict_problem);
+            for band in &fine.bands {
+                let Some(group) = &band.build else { continue };
+                let (x, y) = band.coarse_groups(coarse.w);
+                pass.set_bind_group(0, group, &[]);
+                pass.dispatch_workgroups(x, y, 1);
+            }
+        }
+        coarse.exchange(encoder);
+    }
 }
 
 /// One dispatch of `pipeline` per band of `level` with the group `group` picks, over the
@@ -642,5 +697,108 @@ impl Batch<'_> {
         let bytes = read_staging(gpu, self.staging, u64::from(n) * 8).await?;
         let words: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
         Ok(words.chunks_exact(2).map(|w| (w[0], w[1])).collect())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::diffusion::FixedMask;
+    use crate::gpu::read_bytes;
+
+    /// A problem with scattered fixed cells and lines, heights from a hash.
+    fn problem(w: usize, h: usize) -> Constraints {
+        let mut fixed = FixedMask::new(w, h);
+        let mut heights = vec![0.0f32; w * h];
+        for y in 0..h {
+            for x in 0..w {
+                let hash = (x * 7919 + y * 104_729) ^ (x * y * 31);
+                heights[y * w + x] = (hash % 1000) as f32 * 0.37;
+                if hash % 13 == 0 || x == w / 3 || y == 2 * h / 3 {
+                    fixed.fix(x, y);
+                }
+            }
+        }
+        let initial = Heightfield::from_vec(w, h, heights).expect("sizes match");
+        Constraints::new(initial, fixed).expect("valid problem")
+    }
+
+    /// Every level the GPU builds holds the CPU hierarchy's fixed bits exactly and its
+    /// heights to rounding (WGSL's division is not correctly rounded), untiled and in bands.
+    #[test]
+    fn levels_built_on_the_gpu_are_the_cpu_hierarchy() {
+        let contexts = [
+            pollster::block_on(GpuContext::headless()),
+            pollster::block_on(GpuContext::headless_with_limits(|limits| {
+                limits.max_storage_buffer_binding_size = 16 * 1024;
+            })),
+        ];
+        for gpu in contexts {
+            let gpu = match gpu {
+                Ok(gpu) => gpu,
+                Err(err) => {
+                    assert!(
+                        std::env::var_os("STRAHLER_REQUIRE_GPU").is_none(),
+                        "STRAHLER_REQUIRE_GPU is set but no GPU was found: {err}"
+                    );
+                    return;
+                }
+            };
+            let problem = problem(77, 150);
+            let ctx = JobCtx::detached();
+            let cpu = pollster::block_on(hierarchy::for_problem(&problem, None, &ctx))
+                .expect("not cancelled");
+            let pipes = pollster::block_on(Pipelines::of(&gpu)).expect("kernels");
+            let (levels, _, _) =
+                pollster::block_on(prepare(&gpu, &pipes, &problem, &ctx)).expect("levels");
+            let mut encoder = gpu.device.create_command_encoder(&Default::default());
+            build_levels(&mut encoder, &pipes, &levels);
+            gpu.submit(encoder.finish());
+
+            assert_eq!(levels.len(), cpu.len());
+            let tiled = levels[0].is_tiled();
+            for (l, (gpu_level, cpu_level)) in levels.iter().zip(&cpu).enumerate() {
+                let w = cpu_level.w;
+                for band in &gpu_level.bands {
+                    let cells = band.rows.stored_cells(w);
+                    let u: Vec<f32> = bytemuck::pod_collect_to_vec(
+                        &pollster::block_on(read_bytes(&gpu, &band.u, cells as u64 * 4))
+                            .expect("u"),
+                    );
+                    let words: Vec<u32> = bytemuck::pod_collect_to_vec(
+                        &pollster::block_on(read_bytes(
+                            &gpu,
+                            &band.fixed,
+                            cells.div_ceil(32) as u64 * 4,
+                        ))
+                        .expect("fixed bits"),
+                    );
+                    for row in band.rows.owned.clone() {
+                        for x in 0..w {
+                            let (i, j) = (row * w + x, (row - band.rows.stored.start) * w + x);
+                            let fixed = (words[j / 32] >> (j % 32)) & 1 == 1;
+                            assert_eq!(fixed, cpu_level.fixed.is_fixed_index(i), "level {l}");
+                            let (a, b) = (u[j], cpu_level.u[i]);
+                            assert!(
+                                (a - b).abs() <= 1e-6 * b.abs().max(1.0),
+                                "level {l} ({x}, {row}): {a} on the GPU, {b} on the CPU"
+                            );
+                        }
+                    }
+                    // Ghost rows mirror their neighbours' heights.
+                    for row in band.rows.stored.clone() {
+                        let j = (row - band.rows.stored.start) * w;
+                        let i = row * w;
+                        for x in 0..w {
+                            let (a, b) = (u[j + x], cpu_level.u[i + x]);
+                            assert!((a - b).abs() <= 1e-6 * b.abs().max(1.0), "level {l}");
+                        }
+                    }
+                }
+            }
+            if gpu.caps.max_storage_bytes() <= 16 * 1024 {
+                assert!(tiled, "the small device tiles the finest level");
+            }
+        }
     }
 }

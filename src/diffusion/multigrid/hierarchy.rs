@@ -64,13 +64,25 @@ pub async fn for_problem(
     Ok(levels)
 }
 
+/// The sides of every level of a `w` x `h` problem, finest first: each half the previous
+/// one (rounded up) until both sides are at most [`COARSEST_SIDE`]. O(log(max(w, h))).
+pub fn dims(w: usize, h: usize) -> Vec<(usize, usize)> {
+    let mut dims = vec![(w, h)];
+    while let Some(next) = coarser_dims(dims[dims.len() - 1]) {
+        dims.push(next);
+    }
+    dims
+}
+
+/// The sides of the level below one of sides `(w, h)`; `None` for the coarsest.
+fn coarser_dims((w, h): (usize, usize)) -> Option<(usize, usize)> {
+    (w > COARSEST_SIDE || h > COARSEST_SIDE).then(|| (w.div_ceil(2), h.div_ceil(2)))
+}
+
 /// The next coarser level of `fine` (half its size, rounded up), still empty; `None` once
 /// `fine` is the coarsest.
 fn next_coarser(fine: &Level) -> Option<Level> {
-    if fine.w <= COARSEST_SIDE && fine.h <= COARSEST_SIDE {
-        return None;
-    }
-    let (w, h) = (fine.w.div_ceil(2), fine.h.div_ceil(2));
+    let (w, h) = coarser_dims(fine.dims())?;
     Some(Level {
         w,
         h,
@@ -139,8 +151,9 @@ mod tests {
             restrict_rows(&levels[levels.len() - 1], &mut coarse, 0..h);
             levels.push(coarse);
         }
-        let dims: Vec<_> = levels.iter().map(Level::dims).collect();
-        assert_eq!(dims, vec![(37, 10), (19, 5), (10, 3), (5, 2), (3, 1)]);
+        let sides: Vec<_> = levels.iter().map(Level::dims).collect();
+        assert_eq!(sides, vec![(37, 10), (19, 5), (10, 3), (5, 2), (3, 1)]);
+        assert_eq!(dims(w, h), sides);
         for level in &levels {
             // The corner constraint survives on every level with its height.
             let i = level.cells() - 1;
