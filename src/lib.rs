@@ -33,6 +33,7 @@ pub mod jobs;
 pub mod noise;
 pub mod parallel;
 pub mod pipeline;
+pub mod radix_heap;
 pub mod realism;
 pub mod ridge;
 pub mod river;

@@ -4,10 +4,10 @@ use std::ops::Range;
 
 use serde::Serialize;
 
-use super::radix_heap::{RadixHeap, ordered_key};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::parallel;
+use crate::radix_heap::{RadixHeap, ordered_key};
 use crate::skeleton::CellKind;
 
 /// Drainage measures of a terrain (`strahler generate --report`, tests).

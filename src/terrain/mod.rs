@@ -5,7 +5,6 @@
 //! so editing one stage's parameters never reshuffles another's randomness.
 
 pub mod drainage;
-mod radix_heap;
 
 use serde::Serialize;
 use thiserror::Error;

@@ -1,5 +1,5 @@
 //! A monotone priority queue (radix heap, Ahuja, Mehlhorn, Orlin and Tarjan 1990) for the
-//! Priority-Flood: the heights it pops never decrease, which is exactly what flooding from
+//! Priority-Floods (the terrain's conditioning and the realism report's drainage): the heights it pops never decrease, which is exactly what flooding from
 //! the border needs, and its operations are bucket pushes and pops instead of a binary
 //! heap's sift through memory. Amortised O(log range) per element with a small constant.
 
@@ -15,22 +15,62 @@ pub fn ordered_key(v: f32) -> u32 {
     }
 }
 
+/// [`ordered_key`] for `f64`.
+#[inline]
+pub fn ordered_key_f64(v: f64) -> u64 {
+    let bits = v.to_bits();
+    if bits >> 63 == 1 {
+        !bits
+    } else {
+        bits | (1 << 63)
+    }
+}
+
+/// An unsigned key a [`RadixHeap`] sorts by its bits.
+pub trait RadixKey: Copy + Ord {
+    /// Bits in the key.
+    const BITS: usize;
+    /// One more than the index of the highest bit in which `self` and `other` differ; 0
+    /// when they are equal.
+    fn differing_bits(self, other: Self) -> usize;
+    /// The smallest key.
+    const ZERO: Self;
+}
+
+impl RadixKey for u32 {
+    const BITS: usize = 32;
+    const ZERO: Self = 0;
+    #[inline]
+    fn differing_bits(self, other: Self) -> usize {
+        32 - (self ^ other).leading_zeros() as usize
+    }
+}
+
+impl RadixKey for u64 {
+    const BITS: usize = 64;
+    const ZERO: Self = 0;
+    #[inline]
+    fn differing_bits(self, other: Self) -> usize {
+        64 - (self ^ other).leading_zeros() as usize
+    }
+}
+
 /// Pops `(key, value)` pairs in non-decreasing key order; pushes must not be below the last
-/// key popped.
-pub struct RadixHeap {
+/// key popped. Pairs with equal keys pop in no particular order.
+pub struct RadixHeap<K: RadixKey = u32> {
     /// The last key popped (every key in the heap is at least this).
-    last: u32,
+    last: K,
     /// Bucket `b` holds keys whose highest bit differing from `last` is bit `b - 1`
-    /// (bucket 0: keys equal to `last`).
-    buckets: [Vec<(u32, u32)>; 33],
+    /// (bucket 0: keys equal to `last`); `K::BITS + 1` of them.
+    buckets: Vec<Vec<(K, u32)>>,
     len: usize,
 }
 
-impl RadixHeap {
+impl<K: RadixKey> RadixHeap<K> {
     pub fn new() -> Self {
         Self {
-            last: 0,
-            buckets: std::array::from_fn(|_| Vec::new()),
+            last: K::ZERO,
+            buckets: (0..=K::BITS).map(|_| Vec::new()).collect(),
             len: 0,
         }
     }
@@ -40,14 +80,14 @@ impl RadixHeap {
     }
 
     #[inline]
-    fn bucket(&self, key: u32) -> usize {
-        32 - (key ^ self.last).leading_zeros() as usize
+    fn bucket(&self, key: K) -> usize {
+        key.differing_bits(self.last)
     }
 
     /// Adds `value` with `key` (at least the last key popped; smaller keys are treated as
     /// equal to it).
     #[inline]
-    pub fn push(&mut self, key: u32, value: u32) {
+    pub fn push(&mut self, key: K, value: u32) {
         let key = key.max(self.last);
         let b = self.bucket(key);
         self.buckets[b].push((key, value));
@@ -55,9 +95,9 @@ impl RadixHeap {
     }
 
     /// The pair with the smallest key.
-    pub fn pop(&mut self) -> Option<(u32, u32)> {
+    pub fn pop(&mut self) -> Option<(K, u32)> {
         if self.buckets[0].is_empty() {
-            let b = (1..33).find(|&b| !self.buckets[b].is_empty())?;
+            let b = (1..=K::BITS).find(|&b| !self.buckets[b].is_empty())?;
             let moved = std::mem::take(&mut self.buckets[b]);
             self.last = moved.iter().map(|&(k, _)| k).min().unwrap_or(self.last);
             for (k, v) in moved.iter().copied() {
@@ -79,7 +119,7 @@ impl RadixHeap {
     }
 }
 
-impl Default for RadixHeap {
+impl<K: RadixKey> Default for RadixHeap<K> {
     fn default() -> Self {
         Self::new()
     }
@@ -94,12 +134,14 @@ mod tests {
         let values = [-1e30f32, -2.5, -0.0, 0.0, 1e-30, 0.5, 3.0, 7e20];
         for pair in values.windows(2) {
             assert!(ordered_key(pair[0]) <= ordered_key(pair[1]), "{pair:?}");
+            let (a, b) = (f64::from(pair[0]), f64::from(pair[1]));
+            assert!(ordered_key_f64(a) <= ordered_key_f64(b), "{pair:?}");
         }
     }
 
     #[test]
     fn pops_in_key_order_with_monotone_pushes() {
-        let mut heap = RadixHeap::new();
+        let mut heap = RadixHeap::<u32>::new();
         let mut state = 12345u32;
         let mut next = || {
             state ^= state << 13;
