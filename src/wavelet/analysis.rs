@@ -282,6 +282,20 @@ impl WindowSums {
         Self { nx, ny, table }
     }
 
+    /// `log2(max(mean_around(i, j), floor)) + bias` for every coefficient (i, j) of the
+    /// level, row-major (`nx` per row): what each cell's fit reads, computed once per
+    /// coefficient rather than once per cell (a level of stride `s` has a `4 s^2`-th as many
+    /// coefficients as the grid has cells). O(coefficients).
+    fn log_means(&self, window: usize, floor: f64, bias: f64) -> Vec<f64> {
+        let mut out = Vec::with_capacity(self.nx * self.ny);
+        for j in 0..self.ny {
+            for i in 0..self.nx {
+                out.push(self.mean_around(i, j, window).max(floor).log2() + bias);
+            }
+        }
+        out
+    }
+
     /// Mean over a `window`-wide square around coefficient (i, j), shifted inside the grid so
     /// that it always holds the same number of coefficients where the grid allows.
     fn mean_around(&self, i: usize, j: usize, window: usize) -> f64 {
@@ -306,6 +320,14 @@ impl WindowSums {
 fn nearest_coefficient(x: usize, s: usize, p: usize) -> usize {
     let pos = x as f64 / s as f64 - p as f64;
     (pos / 2.0).round().max(0.0) as usize
+}
+
+/// For each of `len` grid cells along an axis, the nearest of the `n` coefficients at stride
+/// `s` and parity `p` (clamped to the last, as [`WindowSums::mean_around`] clamps).
+fn nearest(len: usize, s: usize, p: usize, n: usize) -> Vec<usize> {
+    (0..len)
+        .map(|x| nearest_coefficient(x, s, p).min(n - 1))
+        .collect()
 }
 
 /// Local scope estimation (LSA, Sec. 3.3.1): for every cell of the analysed grid and every
@@ -349,10 +371,19 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
     for band in Band::ALL {
         let b = band.index();
         let (px, py) = band.parities();
-        let sums: Vec<WindowSums> = (1..=levels).map(|d| WindowSums::new(t, d, band)).collect();
-        let floors: Vec<f64> = (1..=levels)
-            .map(|d| (global.levels[d as usize - 1].variances[b] * 1e-6).max(1e-30))
-            .collect();
+        // Per level: the windows' log-variances per coefficient, and the coefficient
+        // nearest to each column and row of the grid.
+        let mut log_means = Vec::new();
+        let mut columns = Vec::new();
+        let mut rows = Vec::new();
+        for d in 1..=levels {
+            let sums = WindowSums::new(t, d, band);
+            let floor = (global.levels[d as usize - 1].variances[b] * 1e-6).max(1e-30);
+            log_means.push((sums.nx, sums.log_means(window, floor, log_bias)));
+            let s = 1usize << (d - 1);
+            columns.push(nearest(w, s, px, sums.nx));
+            rows.push(nearest(h, s, py, sums.ny));
+        }
         // Pass 1: raw local slopes and mean logs, and the spread statistics.
         let mut raw_slope = vec![0.0f64; w * h];
         let mut mean_logs = vec![0.0f64; w * h];
@@ -360,11 +391,8 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
         let (mut slope_sum, mut slope_sq) = (0.0f64, 0.0f64);
         for y in 0..h {
             for x in 0..w {
-                for (k, table) in sums.iter().enumerate() {
-                    let s = 1usize << k;
-                    let i = nearest_coefficient(x, s, px);
-                    let j = nearest_coefficient(y, s, py);
-                    logs[k] = table.mean_around(i, j, window).max(floors[k]).log2() + log_bias;
+                for (k, (nx, level)) in log_means.iter().enumerate() {
+                    logs[k] = level[rows[k][y] * nx + columns[k][x]];
                 }
                 let mean_log = logs.iter().sum::<f64>() / logs.len() as f64;
                 let sxy: f64 = depths
