@@ -608,3 +608,38 @@ fn the_dem_panel_compares_the_dem_channel_network_with_the_generated_one() {
     harness.get_by_label("bifurcation ratio R_b");
     assert_eq!(harness.state().scene(), generated);
 }
+
+/// On the GPU path the app builds every GPU stage's kernels at start, beside the first
+/// terrain: an edit that then turns on a GPU stage not run yet (wavelet detail) creates no
+/// pipeline.
+#[test]
+fn kernels_are_built_at_start_so_the_first_edit_creates_none() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = harness();
+    common::app::wait_until(&mut harness, "the kernels built", |h| {
+        h.state().kernels_ready()
+    });
+    wait_idle(&mut harness);
+    let gpu = harness
+        .state()
+        .compute_path()
+        .gpu()
+        .cloned()
+        .expect("the GPU path");
+    let before = gpu.stats();
+    assert!(before.pipelines_created > 0, "{before:?}");
+    let mut scene = harness.state().scene();
+    scene.size = 256;
+    scene.detail.levels = 1;
+    harness.state_mut().load_scene(&scene);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let status = harness.state().automation().status();
+    let detail = status.detail.expect("detail on the map");
+    assert_eq!(detail.backend, "gpu", "the detail stage ran on the GPU");
+    let work = gpu.stats().since(&before);
+    assert_eq!(work.pipelines_created, 0, "{work:?}");
+    assert!(work.submissions > 0, "{work:?}");
+}

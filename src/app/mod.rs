@@ -95,6 +95,9 @@ pub struct StrahlerApp {
     output: Option<Output>,
     terrain_summary: Option<String>,
     selftest_job: Option<JobHandle<Result<SelfTest, DiffusionError>>>,
+    /// Builds the GPU kernels at start (see [`crate::pipeline::warm_kernels`]); `None` once
+    /// done, or on the CPU path.
+    kernels_job: Option<JobHandle<Result<(), crate::pipeline::WarmError>>>,
     last_run: Option<(usize, RunSummary)>,
     selftest: Option<Result<SelfTest, String>>,
     error: Option<String>,
@@ -174,6 +177,7 @@ impl StrahlerApp {
             output: None,
             terrain_summary: None,
             selftest_job: None,
+            kernels_job: None,
             last_run: None,
             selftest: None,
             error: None,
@@ -212,6 +216,7 @@ impl StrahlerApp {
             None => {}
         }
         app.fit_mask(app.scene.size);
+        app.start_warming_kernels(&cc.egui_ctx);
         let first = app.scene();
         app.history.start(first);
         app.start_generate(&cc.egui_ctx);
@@ -420,6 +425,30 @@ impl StrahlerApp {
             .is_some_and(|o| o.hydrology.terrain.width() < self.scene.size)
     }
 
+    /// Builds the GPU stages' kernels in the background, beside the first terrain, so the
+    /// first edit finds them ready (in the browser, pipeline creation would otherwise fall in
+    /// that edit's job).
+    fn start_warming_kernels(&mut self, ctx: &egui::Context) {
+        let Some(gpu) = self.path.gpu().cloned() else {
+            return;
+        };
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "GPU kernels",
+            move |job| async move { crate::pipeline::warm_kernels(&gpu, &job).await },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.kernels_job = Some(handle),
+            Err(err) => log::warn!("the GPU kernels will be built on first use: {err}"),
+        }
+    }
+
+    /// Whether the GPU kernels are built (or there is no GPU path to build them for).
+    pub fn kernels_ready(&self) -> bool {
+        self.kernels_job.is_none()
+    }
+
     /// Runs the CPU/GPU self-test in the background.
     pub fn start_selftest(&mut self, ctx: &egui::Context) {
         let path = self.path.clone();
@@ -610,6 +639,12 @@ impl StrahlerApp {
         self.take_filled_dem(ctx);
         self.take_features();
         self.take_networks();
+        if let Some(result) = self.kernels_job.as_ref().and_then(JobHandle::try_take) {
+            self.kernels_job = None;
+            if let Err(err) = result {
+                log::warn!("{err}; each stage builds its kernels when it first runs");
+            }
+        }
         if let Some(result) = self.selftest_job.as_ref().and_then(JobHandle::try_take) {
             self.selftest_job = None;
             self.selftest = Some(result.map_err(|err| err.to_string()));

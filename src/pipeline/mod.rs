@@ -35,6 +35,7 @@ use crate::blend::{self, BlendError, BlockSolve};
 use crate::compute::Backend;
 use crate::diffusion::Method;
 use crate::erosion::{self, Eroded};
+use crate::gpu::{GpuContext, GpuError};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::scene::{Scene, SceneError};
@@ -476,6 +477,33 @@ async fn blend_blocks(
         millis: clock.elapsed().as_secs_f64() * 1e3,
         backend: backend.key(),
     })
+}
+
+/// Why the kernels could not be built ahead of time (the stage that needs one builds it, or
+/// reports why, when it runs).
+#[derive(Debug, Error)]
+pub enum WarmError {
+    #[error("building the GPU kernels: {0}")]
+    Gpu(#[from] GpuError),
+    #[error("cancelled")]
+    Cancelled(#[from] Cancelled),
+}
+
+/// Builds every compute kernel the pipeline's GPU stages use on `gpu` (diffusion, the
+/// post-filters and blending; the wavelet detail; erosion where the device runs it), yielding
+/// between them, so that the first run on the device, in the browser the first edit, does not
+/// wait for them. Later calls cost a few map lookups.
+pub async fn warm_kernels(gpu: &GpuContext, ctx: &JobCtx) -> Result<(), WarmError> {
+    ctx.checkpoint(0.0, "building the GPU kernels").await?;
+    crate::diffusion::warm_gpu(gpu).await?;
+    ctx.checkpoint(0.5, "building the GPU kernels").await?;
+    wavelet::gpu::warm(gpu).await?;
+    if gpu.runs_heavy_stages() {
+        ctx.checkpoint(0.8, "building the GPU kernels").await?;
+        erosion::gpu::warm(gpu).await?;
+    }
+    ctx.set_progress(1.0, "GPU kernels built");
+    Ok(())
 }
 
 /// Runs `scene` once at its own size on `backend` (the command line and scripts).
