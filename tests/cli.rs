@@ -1229,6 +1229,17 @@ fn bench_json_prints_one_object_per_run() {
             assert!(!row[key].is_null(), "{key} missing in {row}");
         }
         assert_eq!(row["size"], 32);
+        // The GPU's own time: null on the CPU and where the adapter has no timestamp queries,
+        // else above zero and within the run's wall time.
+        let gpu_ms = row.get("gpu_ms").expect("gpu_ms in every row");
+        match gpu_ms.as_f64() {
+            Some(gpu_ms) => {
+                assert_eq!(row["backend"], "gpu", "{row}");
+                let ms = row["ms"].as_f64().unwrap();
+                assert!(gpu_ms > 0.0 && gpu_ms <= ms, "{row}");
+            }
+            None => assert!(gpu_ms.is_null(), "{row}"),
+        }
     }
     let cpu = rows.iter().filter(|r| r["backend"] == "cpu").count();
     assert_eq!(cpu, 4, "multigrid and Jacobi twice each: {text}");
@@ -1252,6 +1263,51 @@ fn bench_json_prints_one_object_per_run() {
         4 * readbacks <= cycles + 8,
         "{readbacks} readbacks, {cycles} cycles"
     );
+}
+
+/// Issue 18, point 6: `bench --pipeline --backend gpu` runs the pipeline on the GPU and adds
+/// a row of GPU times, the diffusion's measured and the CPU stages' shown as `-`.
+#[test]
+fn bench_pipeline_on_the_gpu_gives_the_stages_gpu_time() {
+    let out = strahler(&[
+        "bench",
+        "--pipeline",
+        "--backend",
+        "gpu",
+        "--sizes",
+        "32",
+        "--runs",
+        "1",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    if !out.status.success() {
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            std::env::var_os("STRAHLER_REQUIRE_GPU").is_none()
+                && err.contains("the GPU backend was requested"),
+            "{text}{err}"
+        );
+        return;
+    }
+    assert!(text.contains("GPU: "), "{text}");
+    if text.contains("no timestamp queries") {
+        assert!(!text.contains("gpu ms"), "{text}");
+        return;
+    }
+    let row: Vec<&str> = text
+        .lines()
+        .find(|line| line.trim_start().starts_with("gpu ms"))
+        .unwrap_or_else(|| panic!("a row of GPU times: {text}"))
+        .split_whitespace()
+        .skip(2)
+        .collect();
+    // rivers, ridges, skeleton, enrich, hydrology: CPU; diffuse: GPU; drainage: CPU; total.
+    assert_eq!(row.len(), 8, "{text}");
+    assert_eq!(&row[..5], ["-"; 5], "{text}");
+    assert_eq!(row[6], "-", "{text}");
+    let diffuse: f64 = row[5].parse().expect("the diffusion's GPU time");
+    let total: f64 = row[7].parse().expect("the total GPU time");
+    assert!(diffuse > 0.0 && diffuse <= total, "{text}");
 }
 
 /// Issue 22, points 9 and 11-16: a result that is not what was asked is an error (or a

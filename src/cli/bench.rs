@@ -33,8 +33,9 @@ pub struct BenchArgs {
     /// larger than that run tiled in bands of rows (the diffusion table only).
     #[arg(long)]
     pub max_binding_mib: Option<u64>,
-    /// Time the hydrology pipeline stage by stage instead (four rivers, phi 2 to 4, on the
-    /// CPU), beside the paper's Table 3.
+    /// Time the hydrology pipeline stage by stage instead (four rivers, phi 2 to 4), beside
+    /// the paper's Table 3: on the CPU, or with `--backend gpu` every stage with a GPU version
+    /// on the GPU, with each stage's GPU time where the adapter has timestamp queries.
     #[arg(long)]
     pub pipeline: bool,
     /// Runs per size for the pipeline table, which prints each stage's median (the first run
@@ -50,7 +51,9 @@ pub struct BenchArgs {
     pub blend: bool,
     /// Print one JSON object per line and run (size, backend, method, run, ms, cycles,
     /// sweeps, residual, error and, on the GPU, the pipelines and shader modules created, the
-    /// queue submissions and the readbacks) instead of the diffusion table.
+    /// queue submissions and the readbacks, and gpu_ms: the GPU's own time of the run's
+    /// submissions from timestamp queries, null where the adapter has none) instead of the
+    /// diffusion table.
     #[arg(long)]
     pub json: bool,
     /// Solves per size, backend and method in the diffusion benchmark (runs per case with
@@ -79,12 +82,29 @@ pub struct BenchArgs {
     pub view3d: bool,
 }
 
-/// Per-stage table of the hydrology pipeline at each size.
+/// Per-stage table of the hydrology pipeline at each size, on the CPU or (`--backend gpu`)
+/// with every stage that has a GPU version on the GPU; there a second row per size gives the
+/// GPU time of each stage's submissions where the adapter has timestamp queries.
 fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
+    use crate::compute::BackendChoice;
     use crate::river::Stroke;
     use crate::terrain::{TerrainParams, generate};
     use glam::DVec2;
 
+    let (backend, on) = match args.backend.as_str() {
+        "cpu" | "both" => (Backend::Cpu, "CPU".to_owned()),
+        "gpu" => {
+            let path = super::compute_path(BackendChoice::Gpu);
+            (BackendChoice::Gpu.resolve(&path)?, path.to_string())
+        }
+        other => {
+            return Err(format!("unknown --backend {other:?}: use cpu, gpu or both").into());
+        }
+    };
+    let gpu = match &backend {
+        Backend::Gpu(gpu) => Some(gpu.clone()),
+        Backend::Cpu => None,
+    };
     let stroke = |a: (f64, f64), b: (f64, f64), phi, depth| Stroke {
         estuary: DVec2::new(a.0, a.1),
         toward: DVec2::new(b.0, b.1),
@@ -99,9 +119,19 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     ];
     let runs = args.runs.max(1);
     println!(
-        "hydrology pipeline: 4 rivers (phi 2, 3, 4, 3), CPU, medians of {runs} runs in ms; \
+        "hydrology pipeline: 4 rivers (phi 2, 3, 4, 3), {on}, medians of {runs} runs in ms; \
          'hydrology' = rivers + ridges + skeleton + enrich (target at 2048^2: 200 ms)"
     );
+    if let Some(gpu) = &gpu {
+        if gpu.has_timestamps() {
+            println!(
+                "'gpu ms' rows: the GPU's own time of each stage's submissions (timestamp \
+                 queries), '-' where a stage used no GPU"
+            );
+        } else {
+            println!("this GPU has no timestamp queries: no GPU times");
+        }
+    }
     const STAGES: [&str; 6] = [
         "rivers", "ridges", "skeleton", "enrich", "diffuse", "drainage",
     ];
@@ -123,6 +153,11 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         v.sort_by(f64::total_cmp);
         v[v.len() / 2]
     };
+    // The median of the runs that measured something; `None` if none did.
+    let median_of_some = |v: Vec<Option<f64>>| {
+        let v: Vec<f64> = v.into_iter().flatten().collect();
+        (!v.is_empty()).then(|| median(v))
+    };
     for &size in &args.sizes {
         let params = TerrainParams {
             size,
@@ -130,14 +165,18 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         };
         // Per run: the six stages, the first four's sum, the total.
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); STAGES.len() + 2];
+        // The same on the GPU's clock, `None` where a stage submitted nothing.
+        let mut gpu_times: Vec<Vec<Option<f64>>> = vec![Vec::new(); STAGES.len() + 2];
         let mut last = None;
         for _ in 0..runs {
-            let g = pollster::block_on(generate(
-                &strokes,
-                &params,
-                &Backend::Cpu,
-                &JobCtx::detached(),
-            ))?;
+            let timing = gpu.as_ref().is_some_and(|gpu| gpu.start_timing());
+            let generated =
+                pollster::block_on(generate(&strokes, &params, &backend, &JobCtx::detached()));
+            let timing = match &gpu {
+                Some(gpu) if timing => pollster::block_on(gpu.stop_timing())?,
+                _ => None,
+            };
+            let g = generated?;
             let ms = |name: &str| {
                 g.report
                     .stages
@@ -150,6 +189,16 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
             }
             times[STAGES.len()].push(STAGES[..4].iter().map(|name| ms(name)).sum());
             times[STAGES.len() + 1].push(g.report.stages.iter().map(|s| s.ms).sum());
+            if let Some(timing) = &timing {
+                let lap = |name: &str| timing.lap_ms(name);
+                for (k, name) in STAGES.iter().enumerate() {
+                    gpu_times[k].push(lap(name));
+                }
+                let hydrology: Vec<f64> = STAGES[..4].iter().filter_map(|name| lap(name)).collect();
+                gpu_times[STAGES.len()]
+                    .push((!hydrology.is_empty()).then(|| hydrology.iter().sum()));
+                gpu_times[STAGES.len() + 1].push(Some(timing.ms()));
+            }
             last = Some(g.report);
         }
         let report = last.expect("at least one run");
@@ -167,6 +216,23 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
             m[5],
             m[7],
             report.skeleton_cells
+        );
+        if gpu_times[STAGES.len() + 1].is_empty() {
+            continue;
+        }
+        let g: Vec<Option<f64>> = gpu_times.into_iter().map(median_of_some).collect();
+        println!(
+            "{:>6} {:>7} {} {} {} {} {} {} {} {}",
+            "",
+            "gpu ms",
+            gpu_cell(g[0], 8),
+            gpu_cell(g[1], 8),
+            gpu_cell(g[2], 8),
+            gpu_cell(g[3], 8),
+            gpu_cell(g[6], 9),
+            gpu_cell(g[4], 9),
+            gpu_cell(g[5], 8),
+            gpu_cell(g[7], 9),
         );
     }
     println!(
@@ -323,10 +389,25 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
             ""
         }
     ));
+    // The GPU's own time of a GPU solve's submissions, where the adapter has timestamps.
+    let gpu_column = backends.iter().any(|b| matches!(b, Backend::Gpu(_)));
     if !args.json {
         println!(
-            "{:>6} {:>8} {:>10} {:>10} {:>8} {:>8} {:>9} {:>10} {:>10}  paper",
-            "size", "backend", "method", "ms", "cycles", "sweeps", "work", "residual", "max error"
+            "{:>6} {:>8} {:>10} {:>10}{} {:>8} {:>8} {:>9} {:>10} {:>10}  paper",
+            "size",
+            "backend",
+            "method",
+            "ms",
+            if gpu_column {
+                format!(" {:>8}", "gpu ms")
+            } else {
+                String::new()
+            },
+            "cycles",
+            "sweeps",
+            "work",
+            "residual",
+            "max error"
         );
     }
     for &size in &args.sizes {
@@ -354,7 +435,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
                     first = false;
                     match row {
                         Ok(row) if args.json => println!("{}", row.json(size, run)),
-                        Ok(row) => println!("{size:>6} {}  {paper}", row.line()),
+                        Ok(row) => println!("{size:>6} {}  {paper}", row.line(gpu_column)),
                         Err(err) if args.json => println!(
                             "{}",
                             serde_json::json!({
@@ -375,18 +456,34 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
 }
 
 /// One timed solve: what the solver reports, its error against the reference and, on the
-/// GPU, what the device created, submitted and read back meanwhile.
+/// GPU, what the device created, submitted and read back meanwhile and, where it has
+/// timestamp queries, the GPU time of those submissions.
 struct Row {
     out: diffusion::Filled,
     error: f32,
     gpu: Option<GpuStats>,
+    gpu_ms: Option<f64>,
+}
+
+/// A GPU time for a table cell: `-` where none was measured.
+fn gpu_cell(ms: Option<f64>, width: usize) -> String {
+    ms.map_or_else(
+        || format!("{:>width$}", "-"),
+        |ms| format!("{ms:>width$.1}"),
+    )
 }
 
 impl Row {
-    fn line(&self) -> String {
+    /// The table's columns after the size; `gpu_column` adds the GPU time after `ms`.
+    fn line(&self, gpu_column: bool) -> String {
         let out = &self.out;
+        let gpu = if gpu_column {
+            format!(" {}", gpu_cell(self.gpu_ms, 8))
+        } else {
+            String::new()
+        };
         format!(
-            "{:>8} {:>10} {:>10.1} {:>8} {:>8} {:>9.1} {:>10.1e} {:>10.1e}",
+            "{:>8} {:>10} {:>10.1}{gpu} {:>8} {:>8} {:>9.1} {:>10.1e} {:>10.1e}",
             out.backend,
             out.method,
             out.millis,
@@ -407,6 +504,7 @@ impl Row {
             "method": out.method,
             "run": run,
             "ms": out.millis,
+            "gpu_ms": self.gpu_ms,
             "cycles": out.cycles,
             "sweeps": out.sweeps,
             "work_sweeps": out.work_sweeps,
@@ -448,16 +546,31 @@ fn run_one(
         Backend::Cpu => None,
     };
     let before = stats(backend);
+    if let Backend::Gpu(gpu) = backend {
+        gpu.start_timing();
+    }
     let out = pollster::block_on(diffusion::fill(
         backend,
         problem,
         method,
         &JobCtx::detached(),
-    ))?;
+    ));
+    // Read the timestamps back (outside the solve's wall time) even when the solve failed,
+    // so the scope is closed.
+    let timing = match backend {
+        Backend::Gpu(gpu) => pollster::block_on(gpu.stop_timing())?,
+        Backend::Cpu => None,
+    };
+    let out = out?;
     let gpu = stats(backend)
         .zip(before)
         .map(|(after, before)| after.since(&before));
     let range = diffusion::fixed_height_range(problem).max(f32::MIN_POSITIVE);
     let error = out.field.max_abs_diff(reference).unwrap_or(f32::NAN) / range;
-    Ok(Row { out, error, gpu })
+    Ok(Row {
+        out,
+        error,
+        gpu,
+        gpu_ms: timing.map(|t| t.ms()),
+    })
 }

@@ -102,6 +102,10 @@ fn render_text(r: &InfoReport) -> String {
                     "max workgroups per dimension",
                     c.max_compute_workgroups_per_dimension.to_string(),
                 ),
+                (
+                    "timestamp queries (GPU time)",
+                    if c.timestamp_query { "yes" } else { "no" }.to_owned(),
+                ),
             ];
             for (name, value) in rows {
                 let _ = writeln!(out, "  {name:<32} {value}");

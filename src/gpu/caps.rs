@@ -14,6 +14,9 @@ pub struct Capabilities {
     pub max_compute_workgroup_size_y: u32,
     pub max_compute_invocations_per_workgroup: u32,
     pub max_compute_workgroups_per_dimension: u32,
+    /// The device takes timestamp queries (`Features::TIMESTAMP_QUERY`, requested where the
+    /// adapter offers it), so the GPU time of submitted work can be measured.
+    pub timestamp_query: bool,
 }
 
 impl Capabilities {
@@ -35,6 +38,7 @@ impl Capabilities {
             max_compute_workgroup_size_y: limits.max_compute_workgroup_size_y,
             max_compute_invocations_per_workgroup: limits.max_compute_invocations_per_workgroup,
             max_compute_workgroups_per_dimension: limits.max_compute_workgroups_per_dimension,
+            timestamp_query: device.features().contains(wgpu::Features::TIMESTAMP_QUERY),
         }
     }
 
@@ -66,4 +70,10 @@ impl Capabilities {
 /// 128 MiB per binding and 256 MiB per buffer.
 pub fn requested_limits(adapter: &wgpu::Adapter) -> wgpu::Limits {
     adapter.limits()
+}
+
+/// The optional features to ask of `adapter`: timestamp queries where it offers them (to
+/// measure the GPU time of submitted work); nothing is required.
+pub fn requested_features(adapter: &wgpu::Adapter) -> wgpu::Features {
+    adapter.features() & wgpu::Features::TIMESTAMP_QUERY
 }

@@ -6,7 +6,7 @@ use std::sync::Arc;
 use serde::Serialize;
 use thiserror::Error;
 
-use super::caps::{Capabilities, requested_limits};
+use super::caps::{Capabilities, requested_features, requested_limits};
 use super::kernels::Kernels;
 
 /// Why the GPU path is unavailable or failed.
@@ -221,10 +221,12 @@ impl GpuContext {
 }
 
 /// The device descriptor used everywhere: the adapter's real limits (so 4096^2 fields and
-/// larger fit where the hardware allows), WebGL2's limits on the GL backend.
+/// larger fit where the hardware allows), WebGL2's limits on the GL backend, and timestamp
+/// queries where the adapter has them.
 pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
     wgpu::DeviceDescriptor {
         label: Some("strahler device"),
+        required_features: requested_features(adapter),
         required_limits: requested_limits(adapter),
         ..Default::default()
     }

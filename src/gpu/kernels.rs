@@ -9,7 +9,8 @@
 //! wasm32 too) and is held only while looking up or inserting, never across an `await`.
 //!
 //! [`GpuStats`] counts what was created and how often the queue was submitted to and read
-//! back; benchmarks and tests take the difference of two snapshots.
+//! back; benchmarks and tests take the difference of two snapshots. The GPU time of the
+//! submissions is measured apart, in a timing scope (`timing.rs`).
 
 use std::collections::HashMap;
 use std::sync::Mutex;
@@ -17,6 +18,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 
 use serde::Serialize;
 
+use super::timing::Timer;
 use super::{GpuContext, GpuError};
 
 /// A WGSL shader: its name (the cache key, unique per source) and its source text.
@@ -38,6 +40,9 @@ pub struct GpuStats {
     pub submissions: u64,
     /// Buffers mapped back to the CPU ([`super::read_bytes`] and what builds on it).
     pub readbacks: u64,
+    /// Timestamp queries written around submissions while a timing scope was open
+    /// ([`GpuContext::start_timing`]): two per timed submission, none otherwise.
+    pub timestamp_queries: u64,
 }
 
 impl GpuStats {
@@ -50,6 +55,9 @@ impl GpuStats {
                 .saturating_sub(earlier.pipelines_created),
             submissions: self.submissions.saturating_sub(earlier.submissions),
             readbacks: self.readbacks.saturating_sub(earlier.readbacks),
+            timestamp_queries: self
+                .timestamp_queries
+                .saturating_sub(earlier.timestamp_queries),
         }
     }
 }
@@ -63,6 +71,8 @@ pub(super) struct Kernels {
     pipelines_created: AtomicU64,
     submissions: AtomicU64,
     readbacks: AtomicU64,
+    timestamp_queries: AtomicU64,
+    pub(super) timer: Timer,
 }
 
 impl Kernels {
@@ -169,10 +179,20 @@ impl GpuContext {
         (module, true)
     }
 
-    /// Submits `commands` to the queue and counts the submission.
+    /// Submits `commands` to the queue and counts the submission. While a timing scope is
+    /// open ([`GpuContext::start_timing`]) the same `queue.submit` also takes a timestamp
+    /// before and after them.
     pub fn submit(&self, commands: wgpu::CommandBuffer) -> wgpu::SubmissionIndex {
         self.kernels.submissions.fetch_add(1, Ordering::Relaxed);
-        self.queue.submit([commands])
+        match self.kernels.timer.bracket(&self.device) {
+            Some([begin, end]) => {
+                self.kernels
+                    .timestamp_queries
+                    .fetch_add(2, Ordering::Relaxed);
+                self.queue.submit([begin, commands, end])
+            }
+            None => self.queue.submit([commands]),
+        }
     }
 
     /// What this device has created, submitted and read back so far.
@@ -183,6 +203,7 @@ impl GpuContext {
             pipelines_created: k.pipelines_created.load(Ordering::Relaxed),
             submissions: k.submissions.load(Ordering::Relaxed),
             readbacks: k.readbacks.load(Ordering::Relaxed),
+            timestamp_queries: k.timestamp_queries.load(Ordering::Relaxed),
         }
     }
 }

@@ -3,15 +3,18 @@
 //!
 //! Capabilities are decided once, at creation ([`Capabilities`]); stages ask them before they
 //! choose the GPU path. Compute kernels are built once per device and cached on the context
-//! ([`GpuContext::pipelines`]), which also counts its work ([`GpuContext::stats`]). Nothing
-//! here depends on egui or on the stages above.
+//! ([`GpuContext::pipelines`]), which also counts its work ([`GpuContext::stats`]) and,
+//! where the adapter has timestamp queries, measures its GPU time
+//! ([`GpuContext::start_timing`]). Nothing here depends on egui or on the stages above.
 
 mod caps;
 mod context;
 mod kernels;
 mod readback;
+mod timing;
 
 pub use caps::Capabilities;
 pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
 pub use kernels::{GpuStats, Shader};
 pub use readback::{read_bytes, read_f32_buffer, read_staging, wait_for_submitted_work};
+pub use timing::GpuTiming;

@@ -64,6 +64,15 @@ pub async fn read_staging(
     bytes: u64,
 ) -> Result<Vec<u8>, GpuError> {
     ctx.kernels.count_readback();
+    map_staging(ctx, staging, bytes).await
+}
+
+/// [`read_staging`] without counting a readback (the timing scope's own readback).
+pub(super) async fn map_staging(
+    ctx: &GpuContext,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<Vec<u8>, GpuError> {
     let (tx, rx) = oneshot::channel();
     staging.map_async(wgpu::MapMode::Read, 0..bytes, move |result| {
         let _ = tx.send(result);
