@@ -17,6 +17,7 @@
 //   prolong_replace   fine u  = bilinear interpolation of the coarse solution (free cells)
 //   residual_max      result[0] = max over free cells of |r_i| / n_i (f32 bits, atomicMax)
 //   correction_max    result[1] = max |u| on this level (the coarse correction)
+//   restrict_problem  builds the coarse level's problem (fixed bits, starting u) from this one
 
 struct Params {
     fine_w: u32,
@@ -44,6 +45,8 @@ struct Params {
 // [0]: max |r_i| / n_i on the finest level; [1]: max |u| of the level below (the last
 // coarse-grid correction), both as f32 bits.
 @group(0) @binding(5) var<storage, read_write> result: array<atomic<u32>, 2>;
+// The coarse level's fixed bits while restrict_problem builds them (created zeroed).
+@group(0) @binding(6) var<storage, read_write> coarse_fixed: array<atomic<u32>>;
 
 // Buffer index of global cell (x, y) on the fine and on the coarse level.
 fn fine_index(x: u32, y: u32) -> u32 {
@@ -253,4 +256,45 @@ fn correction_max(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     atomicMax(&result[1], bitcast<u32>(abs(u[fine_index(x, y)])));
+}
+
+// Building the hierarchy on the GPU, the twin of `restrict_rows` in
+// `src/diffusion/multigrid/hierarchy.rs`: only the finest level is uploaded and each coarser
+// level is built from the one above it. Constraint-aware restriction of the problem: a coarse
+// cell is fixed when any of its 2 x 2 children is, and then holds the mean of the fixed
+// children's heights (so rivers and ridges stay connected lines on every level); otherwise it
+// starts at the mean of its children. The coarse right-hand side of a Laplace problem is zero
+// (its buffer is created zeroed). Several fine bands may write one coarse buffer, and a word of
+// fixed bits may hold cells of two of them: the bits are set with atomicOr.
+@compute @workgroup_size(16, 16, 1)
+fn restrict_problem(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let cx = gid.x;
+    let cy = p.own_start / 2u + gid.y;
+    if (cx >= p.coarse_w || 2u * cy >= p.own_end) {
+        return;
+    }
+    var fixed_sum = 0.0;
+    var fixed_n = 0u;
+    var free_sum = 0.0;
+    var free_n = 0u;
+    // Children in the CPU's order (rows, then columns), so the sums round the same way.
+    for (var y = 2u * cy; y < min(2u * cy + 2u, p.fine_h); y += 1u) {
+        for (var x = 2u * cx; x < min(2u * cx + 2u, p.fine_w); x += 1u) {
+            let i = fine_index(x, y);
+            if (is_fixed(i)) {
+                fixed_sum += u[i];
+                fixed_n += 1u;
+            } else {
+                free_sum += u[i];
+                free_n += 1u;
+            }
+        }
+    }
+    let c = coarse_index(cx, cy);
+    if (fixed_n > 0u) {
+        atomicOr(&coarse_fixed[c >> 5u], 1u << (c & 31u));
+        coarse[c] = fixed_sum / f32(fixed_n);
+    } else {
+        coarse[c] = free_sum / f32(max(free_n, 1u));
+    }
 }

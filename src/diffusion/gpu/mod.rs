@@ -25,10 +25,6 @@ const MULTIGRID: Shader = Shader {
     name: "multigrid.wgsl",
     source: include_str!("../../../shaders/multigrid.wgsl"),
 };
-const MULTIGRID_LEVELS: Shader = Shader {
-    name: "multigrid_levels.wgsl",
-    source: include_str!("../../../shaders/multigrid_levels.wgsl"),
-};
 const POSTFILTER: Shader = Shader {
     name: "postfilter.wgsl",
     source: include_str!("../../../shaders/postfilter.wgsl"),
@@ -39,8 +35,6 @@ const POSTFILTER: Shader = Shader {
 pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
     gpu.pipelines(&JACOBI, jacobi::ENTRIES).await?;
     gpu.pipelines(&MULTIGRID, multigrid::ENTRIES).await?;
-    gpu.pipelines(&MULTIGRID_LEVELS, multigrid::LEVEL_ENTRIES)
-        .await?;
     gpu.pipelines(&POSTFILTER, post::ENTRIES).await?;
     Ok(())
 }

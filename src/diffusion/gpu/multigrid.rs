@@ -4,7 +4,7 @@
 //!
 //! Only the finest level goes up (its heights and fixed-cell bits); the coarser levels of the
 //! hierarchy (constraint-aware restriction of the fixed cells and their heights,
-//! `shaders/multigrid_levels.wgsl`) are built on the GPU at the start of the first
+//! `restrict_problem` in `shaders/multigrid.wgsl`) are built on the GPU at the start of the first
 //! submission, one pass per level, O(cells) in all. No CPU copy of any level is made, and
 //! every iteration runs on the GPU.
 //!
@@ -29,7 +29,7 @@
 use wgpu::util::DeviceExt;
 
 use super::bands::{self, Band};
-use super::{MULTIGRID, MULTIGRID_LEVELS, WORKGROUP, bind};
+use super::{MULTIGRID, WORKGROUP, bind};
 use crate::diffusion::multigrid::hierarchy;
 use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
 use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
@@ -41,7 +41,7 @@ use crate::jobs::JobCtx;
 const CHECK_EVERY: u32 = 4;
 
 /// The entry points [`Pipelines`] holds, in its order.
-pub(super) const ENTRIES: [&str; 7] = [
+pub(super) const ENTRIES: [&str; 8] = [
     "relax",
     "solve_coarsest",
     "restrict_residual",
@@ -49,10 +49,8 @@ pub(super) const ENTRIES: [&str; 7] = [
     "prolong_replace",
     "residual_max",
     "correction_max",
+    "restrict_problem",
 ];
-
-/// The entry point of `shaders/multigrid_levels.wgsl`.
-pub(super) const LEVEL_ENTRIES: [&str; 1] = ["restrict_problem"];
 
 #[repr(C)]
 #[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
@@ -95,8 +93,8 @@ impl Pipelines {
             prolong_replace,
             residual_max,
             correction_max,
+            restrict_problem,
         ] = gpu.pipelines(&MULTIGRID, ENTRIES).await?;
-        let [restrict_problem] = gpu.pipelines(&MULTIGRID_LEVELS, LEVEL_ENTRIES).await?;
         Ok(Self {
             relax,
             solve_coarsest,
@@ -451,7 +449,7 @@ fn upload<'a>(
                         Some(bind(
                             device,
                             &pipes.restrict_problem,
-                            &[base[0], base[1], base[2], (3, coarse_fixed), (4, coarse_u)],
+                            &[base[0], base[1], base[2], (4, coarse_u), (6, coarse_fixed)],
                         )),
                     )
                 }
