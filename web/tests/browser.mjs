@@ -234,10 +234,17 @@ async function runMode(url, mode, expectedChecksum) {
     await page.mouse.click(900, 400);
     await page.keyboard.press('e');
     await page.waitForTimeout(500);
-    const [download] = await Promise.all([
-      page.waitForEvent('download', { timeout: 20_000 }).catch(() => null),
-      page.keyboard.press('Enter'),
-    ]);
+    // The PNG and its sidecar JSON download one after the other, in either order.
+    const downloads = [];
+    const collect = (d) => downloads.push(d);
+    page.on('download', collect);
+    await page.keyboard.press('Enter');
+    const deadline = Date.now() + 20_000;
+    while (Date.now() < deadline && !downloads.some((d) => d.suggestedFilename().endsWith('.png'))) {
+      await page.waitForTimeout(100);
+    }
+    page.off('download', collect);
+    const download = downloads.find((d) => d.suggestedFilename().endsWith('.png')) ?? null;
     let pngInfo = null;
     if (download !== null) {
       const saved = join(output, `${mode}-${download.suggestedFilename()}`);
