@@ -232,29 +232,89 @@ fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Co
     c
 }
 
+/// Cells of work between two ticks of [`condition_and_measure`] where it works on one
+/// thread (a few milliseconds).
+const STEP_CELLS: usize = 1 << 14;
+
 /// The interior cells whose D8 descent ends in one of `pits` (the pits' basins, pits
 /// included), found upstream from the pits: a neighbour joins when its receiver is a basin
 /// cell. Border cells are left out (they keep their heights), and so are the cells above
-/// them, which descend to the border. O(basin cells).
-fn basins(z: &[f32], w: usize, h: usize, pits: &[u32], inside: &mut [bool]) -> Vec<u32> {
+/// them, which descend to the border; `inside` marks the basins' cells. O(basin cells), in
+/// steps of [`STEP_CELLS`] cells with the job's ticks between them.
+async fn basins(
+    z: &[f32],
+    (w, h): (usize, usize),
+    pits: &[u32],
+    inside: &mut [bool],
+    ctx: &JobCtx,
+) -> Result<Vec<u32>, Cancelled> {
     let mut cells = pits.to_vec();
     for &p in pits {
         inside[p as usize] = true;
     }
     let mut k = 0;
     while k < cells.len() {
-        let j = cells[k] as usize;
-        k += 1;
-        for (dx, dy, _) in NEIGHBOURS {
-            // Basin cells are interior: all their neighbours exist.
-            let i = (j as i64 + dy * w as i64 + dx) as usize;
-            if !inside[i] && !is_border(i, w, h) && receiver_at(z, w, h, i) == j as u32 {
-                inside[i] = true;
-                cells.push(i as u32);
+        ctx.tick(0.95, "filling depressions").await?;
+        for _ in 0..STEP_CELLS.min(cells.len() - k) {
+            let j = cells[k] as usize;
+            k += 1;
+            for (dx, dy, _) in NEIGHBOURS {
+                // Basin cells are interior: all their neighbours exist.
+                let i = (j as i64 + dy * w as i64 + dx) as usize;
+                if !inside[i] && !is_border(i, w, h) && receiver_at(z, w, h, i) == j as u32 {
+                    inside[i] = true;
+                    cells.push(i as u32);
+                }
             }
         }
     }
-    cells
+    Ok(cells)
+}
+
+/// The cells whose receivers a flood of `basin` can change: the basin's cells and their
+/// neighbours, each once (`listed` marks the basin's cells on entry, and all of these on
+/// return). O(basin cells), in steps with the job's ticks between them.
+async fn touched_by(
+    basin: &[u32],
+    w: usize,
+    listed: &mut [bool],
+    ctx: &JobCtx,
+) -> Result<Vec<u32>, Cancelled> {
+    let mut touched = basin.to_vec();
+    for part in basin.chunks(STEP_CELLS) {
+        ctx.tick(0.95, "filling depressions").await?;
+        for &i in part {
+            for (dx, dy, _) in NEIGHBOURS {
+                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
+                if !listed[j] {
+                    listed[j] = true;
+                    touched.push(j as u32);
+                }
+            }
+        }
+    }
+    Ok(touched)
+}
+
+/// Takes the `touched` cells out of `counts` (`sign` false) or puts them back in with their
+/// receivers now (`sign` true), in steps with the job's ticks between them.
+async fn recount(
+    counts: &mut Counts,
+    field: &Heightfield,
+    kinds: &[CellKind],
+    touched: &[u32],
+    sign: bool,
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
+    let (w, h) = (field.width(), field.height());
+    for part in touched.chunks(STEP_CELLS) {
+        ctx.tick(0.95, "filling depressions").await?;
+        for &i in part {
+            let r = receiver_at(field.data(), w, h, i as usize);
+            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, sign);
+        }
+    }
+    Ok(())
 }
 
 /// Whether any interior cell has no strictly lower neighbour (a pit or a flat). O(cells).
@@ -525,9 +585,10 @@ async fn count_in_steps(
 }
 
 /// Floods the depressions of `field` if it has pits, then measures its drainage: the same
-/// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps of about
-/// 2^16 cells a thread with [`JobCtx::tick`] between them, so the browser keeps painting
-/// while a large terrain is checked.
+/// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps (about
+/// 2^16 cells a thread for the receivers, [`STEP_CELLS`] for the basins, their flood and
+/// their counts) with [`JobCtx::tick`] between them, so the browser keeps painting while a
+/// large terrain is checked.
 ///
 /// The same bits as the reference, faster: one pass of D8 receivers (rows on all threads)
 /// counts and finds the pits; only the pits' basins (the cells whose descent ends in one;
@@ -549,35 +610,20 @@ pub async fn condition_and_measure(
     if counts.pit_cells > 0 {
         let pits = std::mem::take(&mut counts.pits);
         let mut inside = vec![false; n];
-        let basin = basins(field.data(), w, h, &pits, &mut inside);
-        // The cells whose receivers the flood can change, counted out before and back in after.
-        let mut touched = basin.clone();
-        for &i in &basin {
-            for (dx, dy, _) in NEIGHBOURS {
-                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
-                if !inside[j] {
-                    touched.push(j as u32);
-                }
-            }
-        }
+        let basin = basins(field.data(), (w, h), &pits, &mut inside, ctx).await?;
+        // The cells whose receivers the flood can change, counted out before and back in
+        // after (in any order: the counts are sums).
+        let touched = touched_by(&basin, w, &mut inside, ctx).await?;
         drop(inside);
-        touched.sort_unstable();
-        touched.dedup();
-        for &i in &touched {
-            let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, false);
-        }
+        recount(&mut counts, field, kinds, &touched, false, ctx).await?;
         ctx.tick(0.95, "filling depressions").await?;
         let mut flood = Flood::around(field, &basin);
         drop(basin);
-        while !flood.run(field, 1 << 16) {
+        while !flood.run(field, STEP_CELLS) {
             ctx.tick(0.95, "filling depressions").await?;
         }
         conditioning = flood.result();
-        for &i in &touched {
-            let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, true);
-        }
+        recount(&mut counts, field, kinds, &touched, true, ctx).await?;
     }
     if counts.pit_cells > 0 {
         // Only NaN heights leave pits after the flood: measure them the long way.
