@@ -23,38 +23,64 @@ use super::grid::{D4, Grid};
 const MIN_SWEEPS: usize = 2;
 const MAX_SWEEPS: usize = 8;
 
-/// Applies one backward-Euler diffusion step to `h`; `rhs` is scratch of the same size.
-pub(super) fn diffuse(grid: Grid, h: &mut [f32], base: &[bool], r: f64, rhs: &mut [f32]) {
-    rhs.copy_from_slice(h);
-    let r = r as f32;
-    let w = grid.width;
-    // Diagonal weights for 4, 3 and 2 neighbours (interior, edge, corner).
-    let inv = |k: usize| 1.0 / (1.0 + r * k as f32);
-    let inv4 = inv(4);
-    let sweeps = (r.sqrt().ceil() as usize).clamp(MIN_SWEEPS, MAX_SWEEPS);
-    for _ in 0..sweeps {
-        for colour in 0..2 {
-            for y in 0..grid.height {
-                let interior_row = y > 0 && y + 1 < grid.height;
-                let mut x = (y + colour) % 2;
-                while x < w {
-                    let i = y * w + x;
-                    if !base[i] {
-                        h[i] = if interior_row && x > 0 && x + 1 < w {
-                            (rhs[i] + r * (h[i - w] + h[i - 1] + h[i + 1] + h[i + w])) * inv4
-                        } else {
-                            let (mut sum, mut k) = (0.0, 0);
-                            for &o in &D4 {
-                                if let Some(j) = grid.offset(x, y, o) {
-                                    sum += h[j];
-                                    k += 1;
-                                }
+/// One backward-Euler diffusion step with ratio `r = kappa dt / cell^2`, run as
+/// [`Self::sweeps`] sweeps of two colours each ([`Self::rows`]).
+pub(super) struct Diffusion {
+    r: f32,
+    sweeps: usize,
+}
+
+impl Diffusion {
+    pub(super) fn new(r: f64) -> Self {
+        let r = r as f32;
+        Diffusion {
+            r,
+            sweeps: (r.sqrt().ceil() as usize).clamp(MIN_SWEEPS, MAX_SWEEPS),
+        }
+    }
+
+    /// Red-black Gauss–Seidel sweeps of the step.
+    pub(super) fn sweeps(&self) -> usize {
+        self.sweeps
+    }
+
+    /// Updates the cells of colour `colour` (0: `x + y` even) in `rows`; `rhs` holds the
+    /// heights before the step (copied before the first sweep). A colour's cells only read
+    /// the other colour, so any split into rows gives the same bits. O(cells of the rows).
+    pub(super) fn rows(
+        &self,
+        grid: Grid,
+        h: &mut [f32],
+        base: &[bool],
+        rhs: &[f32],
+        colour: usize,
+        rows: std::ops::Range<usize>,
+    ) {
+        let r = self.r;
+        let w = grid.width;
+        // Diagonal weights for 4, 3 and 2 neighbours (interior, edge, corner).
+        let inv = |k: usize| 1.0 / (1.0 + r * k as f32);
+        let inv4 = inv(4);
+        for y in rows {
+            let interior_row = y > 0 && y + 1 < grid.height;
+            let mut x = (y + colour) % 2;
+            while x < w {
+                let i = y * w + x;
+                if !base[i] {
+                    h[i] = if interior_row && x > 0 && x + 1 < w {
+                        (rhs[i] + r * (h[i - w] + h[i - 1] + h[i + 1] + h[i + w])) * inv4
+                    } else {
+                        let (mut sum, mut k) = (0.0, 0);
+                        for &o in &D4 {
+                            if let Some(j) = grid.offset(x, y, o) {
+                                sum += h[j];
+                                k += 1;
                             }
-                            (rhs[i] + r * sum) * inv(k)
-                        };
-                    }
-                    x += 2;
+                        }
+                        (rhs[i] + r * sum) * inv(k)
+                    };
                 }
+                x += 2;
             }
         }
     }

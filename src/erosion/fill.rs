@@ -11,14 +11,14 @@
 //! acts as instant lake sedimentation.
 //!
 //! Cost: pits are found during the O(cells) receiver pass, and nothing runs when there
-//! are none. Each pit is then filled *locally* ([`fill_pits`]): a priority flood
+//! are none. Each pit is then filled *locally* ([`Lakes`]): a priority flood
 //! grows the lake from the pit bottom in height order until it reaches a cell lower
 //! than the lake level (or a base-level cell): the outlet beyond the sill. The lake is
 //! then re-flooded from that outlet with Priority-Flood + epsilon, so it drains there,
 //! and receivers are updated around it. If the outlet is itself a pit it is queued, and
 //! lakes that spill into each other merge when the later flood climbs over the earlier
 //! one. Work is proportional to the lakes, not to their catchments. As a safety net, if
-//! a work budget runs out, [`fill_unrouted`] floods every cell not yet draining to base
+//! a work budget runs out, [`Unrouted`] floods every cell not yet draining to base
 //! level from the routed ones (the classic algorithm, seeded at base level).
 
 use std::cmp::Ordering;
@@ -70,20 +70,69 @@ impl Bits {
     }
 }
 
-/// Flood state: heights, receiver codes and the closed set.
-struct Flood<'a> {
+/// The fallback flood in progress ([`Unrouted::fill`]): the closed set (routed cells and
+/// the cells flooded so far), the queues, and how far the seeding went.
+pub(super) struct Unrouted {
     grid: Grid,
-    h: &'a mut [f32],
-    dir: &'a [u8],
     closed: Bits,
     open: BinaryHeap<Low>,
     pit: VecDeque<usize>,
     subtree: Vec<usize>,
+    /// Cells below this index were looked at as seeds.
+    seeded: usize,
 }
 
-impl Flood<'_> {
+impl Unrouted {
+    /// Fallback: a flood that raises every cell that is not on `routed` (the stack: cells
+    /// with a strictly descending receiver path to base level) so that it gets a strictly
+    /// lower neighbour leading to a routed cell. Routed cells are never changed.
+    pub(super) fn new(grid: Grid, routed: &[u32]) -> Self {
+        let mut closed = Bits::new(grid.len());
+        for &i in routed {
+            closed.set(i as usize);
+        }
+        Unrouted {
+            grid,
+            closed,
+            open: BinaryHeap::new(),
+            pit: VecDeque::new(),
+            subtree: Vec::new(),
+            seeded: 0,
+        }
+    }
+
+    /// Continues the flood by about `cells` cells of work and returns whether it is done:
+    /// first the routed cells bordering unrouted ones are seeded (in index order), then
+    /// the flood climbs from them in height order. `dir` are the receiver codes of the
+    /// heights before the flood. The same bits however the work is split. O(cells log
+    /// cells) over the whole flood.
+    pub(super) fn fill(&mut self, h: &mut [f32], dir: &[u8], cells: usize) -> bool {
+        let seeds = self.seeded..self.seeded.saturating_add(cells).min(self.grid.len());
+        let mut work = seeds.len();
+        self.seeded = seeds.end;
+        for i in seeds {
+            if self.closed.get(i) {
+                self.push_if_border(h, i);
+            }
+        }
+        if self.seeded < self.grid.len() {
+            return false;
+        }
+        while work < cells {
+            let Some(c) = self
+                .pit
+                .pop_front()
+                .or_else(|| self.open.pop().map(|e| e.i as usize))
+            else {
+                return true;
+            };
+            work += 1 + self.flood_around(h, dir, c);
+        }
+        false
+    }
+
     /// Pushes `i` on the heap if it has an open neighbour.
-    fn push_if_border(&mut self, i: usize) {
+    fn push_if_border(&mut self, h: &[f32], i: usize) {
         let (x, y) = self.grid.xy(i);
         if (0..8).any(|d| {
             self.grid
@@ -91,15 +140,41 @@ impl Flood<'_> {
                 .is_some_and(|j| !self.closed.get(j))
         }) {
             self.open.push(Low {
-                h: self.h[i],
+                h: h[i],
                 i: i as u32,
             });
         }
     }
 
+    /// Closes the open neighbours of the closed cell `c`: a cell not above `c` is raised
+    /// just above it, a higher one closes with its donor subtree. Returns the subtree
+    /// cells closed.
+    fn flood_around(&mut self, h: &mut [f32], dir: &[u8], c: usize) -> usize {
+        let mut subtrees = 0;
+        let hc = h[c];
+        let (x, y) = self.grid.xy(c);
+        for d in 0..8 {
+            let Some(j) = self.grid.neighbour(x, y, d) else {
+                continue;
+            };
+            if self.closed.get(j) {
+                continue;
+            }
+            self.closed.set(j);
+            if h[j] <= hc {
+                h[j] = hc.next_up();
+                self.pit.push_back(j);
+            } else {
+                subtrees += self.close_uphill(h, dir, j);
+            }
+        }
+        subtrees
+    }
+
     /// Closes `j`, which is higher than a closed neighbour, and its open donor subtree;
-    /// afterwards, subtree cells that still border open cells enter the heap.
-    fn close_uphill(&mut self, j: usize) {
+    /// afterwards, subtree cells that still border open cells enter the heap. Returns the
+    /// subtree's size.
+    fn close_uphill(&mut self, h: &[f32], dir: &[u8], j: usize) -> usize {
         let subtree = &mut self.subtree;
         subtree.push(j);
         let mut next = 0;
@@ -110,75 +185,32 @@ impl Flood<'_> {
                 let Some(y) = self.grid.neighbour(cx, cy, k) else {
                     continue;
                 };
-                if !self.closed.get(y) && usize::from(self.dir[y]) == 7 - k {
+                if !self.closed.get(y) && usize::from(dir[y]) == 7 - k {
                     self.closed.set(y);
                     subtree.push(y);
                 }
             }
         }
         let mut subtree = std::mem::take(&mut self.subtree);
+        let size = subtree.len();
         for &x in &subtree {
-            self.push_if_border(x);
+            self.push_if_border(h, x);
         }
         subtree.clear();
         self.subtree = subtree;
-    }
-
-    fn run(&mut self) {
-        while let Some(c) = self
-            .pit
-            .pop_front()
-            .or_else(|| self.open.pop().map(|e| e.i as usize))
-        {
-            let hc = self.h[c];
-            let (x, y) = self.grid.xy(c);
-            for d in 0..8 {
-                let Some(j) = self.grid.neighbour(x, y, d) else {
-                    continue;
-                };
-                if self.closed.get(j) {
-                    continue;
-                }
-                self.closed.set(j);
-                if self.h[j] <= hc {
-                    self.h[j] = hc.next_up();
-                    self.pit.push_back(j);
-                } else {
-                    self.close_uphill(j);
-                }
-            }
-        }
+        size
     }
 }
 
-/// Fallback: raises every cell that is not on `routed` (the stack: cells with a strictly
-/// descending receiver path to base level) so that it gets a strictly lower neighbour
-/// leading to a routed cell. Routed cells are never changed. `dir` are the receiver
-/// codes of the current heights.
+/// [`Unrouted`] in one go (tests compare the local fills with it).
+#[cfg(test)]
 pub(super) fn fill_unrouted(grid: Grid, h: &mut [f32], dir: &[u8], routed: &[u32]) {
-    let mut closed = Bits::new(grid.len());
-    for &i in routed {
-        closed.set(i as usize);
-    }
-    let mut flood = Flood {
-        grid,
-        h,
-        dir,
-        closed,
-        open: BinaryHeap::new(),
-        pit: VecDeque::new(),
-        subtree: Vec::new(),
-    };
-    for i in 0..grid.len() {
-        if flood.closed.get(i) {
-            flood.push_if_border(i);
-        }
-    }
-    flood.run();
+    let mut flood = Unrouted::new(grid, routed);
+    while !flood.fill(h, dir, usize::MAX) {}
 }
 
 /// Local fills allowed per pit found by the receiver pass (merging lakes need more than
-/// one) before falling back to [`fill_unrouted`].
+/// one) before falling back to [`Unrouted`].
 pub(super) const LOCAL_FILLS_PER_PIT: usize = 8;
 
 /// Scratch state of the local fills.
@@ -186,6 +218,8 @@ struct Local {
     /// Cells seen by the current flood (cleared after each lake).
     seen: Bits,
     seen_list: Vec<usize>,
+    /// Cells seen by all floods so far (a measure of the work done).
+    seen_total: usize,
     /// Cells of the current lake, as a set and as a list.
     lake: Bits,
     lake_list: Vec<usize>,
@@ -193,65 +227,97 @@ struct Local {
     pit: VecDeque<usize>,
 }
 
-/// Fills the depressions of the given pits one by one (see the module docs), updating
-/// `net.dir` / `net.donors` around each lake. Stops after `budget` lakes; the caller
-/// detects unfinished work through an incomplete stack.
-pub(super) fn fill_pits(
-    grid: Grid,
-    h: &mut [f32],
-    base: &[bool],
-    net: &mut Network,
-    pits: Vec<usize>,
+/// The local fills in progress ([`Lakes::fill`]): the pits still to look at, the fills
+/// left, and the scratch state.
+pub(super) struct Lakes {
+    work: VecDeque<usize>,
     budget: usize,
-) {
-    let n = grid.len();
-    let mut budget = budget;
-    let mut work: VecDeque<usize> = pits.into();
-    let mut s = Local {
-        seen: Bits::new(n),
-        seen_list: Vec::new(),
-        lake: Bits::new(n),
-        lake_list: Vec::new(),
-        open: BinaryHeap::new(),
-        pit: VecDeque::new(),
-    };
-    while let Some(p) = work.pop_front() {
-        if base[p] || net.dir[p] != NONE {
-            continue; // drained by an earlier lake
+    scratch: Local,
+    done: bool,
+}
+
+impl Lakes {
+    /// Fills for the given pits, at most `budget` lakes; the caller detects unfinished
+    /// work through an incomplete stack.
+    pub(super) fn new(grid: Grid, pits: Vec<usize>, budget: usize) -> Self {
+        let n = grid.len();
+        Lakes {
+            work: pits.into(),
+            budget,
+            scratch: Local {
+                seen: Bits::new(n),
+                seen_list: Vec::new(),
+                seen_total: 0,
+                lake: Bits::new(n),
+                lake_list: Vec::new(),
+                open: BinaryHeap::new(),
+                pit: VecDeque::new(),
+            },
+            done: false,
         }
-        if budget == 0 {
-            return;
-        }
-        budget -= 1;
-        if let Some(c) = one_cell_lake(grid, h, base, p) {
-            h[p] = h[c].next_up();
-            s.lake_list.extend([p, c]);
-        } else {
-            let Some(outlet) = s.grow_lake(grid, h, base, p) else {
-                return;
+    }
+
+    /// Fills the depressions of the pits one by one (see the module docs), updating
+    /// `net.dir` / `net.donors` around each lake, until the lakes filled by this call saw
+    /// about `cells` cells (at least one lake). Returns whether the fills are over: every
+    /// pit drained, or the budget ran out. The same bits however the work is split, as the
+    /// lakes are filled in the same order. O(lake cells log lake cells) per lake.
+    pub(super) fn fill(
+        &mut self,
+        grid: Grid,
+        h: &mut [f32],
+        base: &[bool],
+        net: &mut Network,
+        cells: usize,
+    ) -> bool {
+        let s = &mut self.scratch;
+        let start = s.seen_total;
+        while s.seen_total - start < cells && !self.done {
+            let Some(p) = self.work.pop_front() else {
+                self.done = true;
+                break;
             };
-            s.drain_lake(grid, h, outlet);
-            for &c in &s.lake_list {
-                s.lake.clear(c); // all were reached; this only guards the invariant
+            if base[p] || net.dir[p] != NONE {
+                continue; // drained by an earlier lake
             }
-        }
-        // Raising the lake only changes the receivers of lake cells and of cells that
-        // drained into the lake (their donors); other slopes did not get steeper.
-        for &c in &s.lake_list {
-            let (donors, off) = (net.donors[c], net.off);
-            for j in (0..8)
-                .filter(|d| donors >> d & 1 == 1)
-                .map(|d| c.wrapping_add_signed(off[d]))
-            {
-                if net.update_receiver(grid, h, base, j) {
-                    work.push_back(j);
+            if self.budget == 0 {
+                self.done = true;
+                break;
+            }
+            self.budget -= 1;
+            if let Some(c) = one_cell_lake(grid, h, base, p) {
+                h[p] = h[c].next_up();
+                s.lake_list.extend([p, c]);
+                s.seen_total += 8;
+            } else {
+                let Some(outlet) = s.grow_lake(grid, h, base, p) else {
+                    self.done = true;
+                    break;
+                };
+                s.drain_lake(grid, h, outlet);
+                for &c in &s.lake_list {
+                    s.lake.clear(c); // all were reached; this only guards the invariant
                 }
             }
-            if net.update_receiver(grid, h, base, c) {
-                work.push_back(c);
+            // Raising the lake only changes the receivers of lake cells and of cells that
+            // drained into the lake (their donors); other slopes did not get steeper.
+            for &c in &s.lake_list {
+                let (donors, off) = (net.donors[c], net.off);
+                for j in (0..8)
+                    .filter(|d| donors >> d & 1 == 1)
+                    .map(|d| c.wrapping_add_signed(off[d]))
+                {
+                    if net.update_receiver(grid, h, base, j) {
+                        self.work.push_back(j);
+                    }
+                }
+                if net.update_receiver(grid, h, base, c) {
+                    self.work.push_back(c);
+                }
             }
+            s.lake_list.clear();
         }
-        s.lake_list.clear();
+        self.done
     }
 }
 
@@ -277,6 +343,7 @@ fn one_cell_lake(grid: Grid, h: &[f32], base: &[bool], p: usize) -> Option<usize
 
 impl Local {
     fn see(&mut self, h: &[f32], j: usize) {
+        self.seen_total += 1;
         self.seen.set(j);
         self.seen_list.push(j);
         self.open.push(Low {

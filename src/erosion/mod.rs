@@ -22,6 +22,10 @@
 //! After the last step the routing is redone once more, so the final surface has a
 //! strictly descending path from every free cell to base level.
 //!
+//! [`Eroder::advance`] runs a step in pieces of about [`CHUNK_CELLS`] cells (bands of rows,
+//! runs of the stack in its fixed order, lakes one by one), so a browser job can yield
+//! between them; the order of the work, and so every bit of the result, is the same.
+//!
 //! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
 //! them, the map border) keep their heights exactly and are the roots of the stack.
 //!
@@ -52,20 +56,34 @@ pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::stage::{
     Eroded, ErosionReport, ErosionSettings, MAX_SOLVER_SIDE, Prepared, StageError, base_level,
-    erode_terrain, nearest_channel, roughen, uplift_from_design,
+    erode_field, erode_terrain, nearest_channel, roughen, uplift_from_design,
 };
 
 use self::flow::Network;
 use self::grid::Grid;
 
-/// The phases of one time step, in order.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+/// Cells of work per [`Eroder::advance`] (a few milliseconds natively): a band of rows of a
+/// sweep, a run of the stack, or lakes that saw about this many cells.
+pub const CHUNK_CELLS: usize = 1 << 16;
+
+/// Where the current time step stands: its phase, in order, and how far the phase went.
 enum Phase {
-    Route,
-    Area,
-    Incise,
-    Hillslope,
-    Talus,
+    /// Receivers, lakes and the stack (see [`flow::Route`]).
+    Route(flow::Route),
+    /// Drainage area: the stack's cells below `left` are still to be added, from the end.
+    Area { left: usize },
+    /// Incision of the stack's cells from `next` on.
+    Incise { next: usize },
+    /// Hillslope diffusion: the sweep, its colour, and the next row.
+    Hillslope {
+        sweep: usize,
+        colour: usize,
+        row: usize,
+    },
+    /// Talus relaxation: the pass and the next row of its scan.
+    Talus { pass: usize, row: usize },
+    /// The floor, from cell `next` on.
+    Floor { next: usize },
 }
 
 /// Time-stepping landscape-evolution solver; see the module docs.
@@ -75,7 +93,6 @@ pub struct Eroder {
     base: Vec<bool>,
     uplift: Vec<f32>,
     params: ErosionParams,
-    dt: f64,
     steps_done: u32,
     /// Receivers, donors and stack (see [`flow`]).
     net: Network,
@@ -84,8 +101,15 @@ pub struct Eroder {
     scratch: Vec<f32>,
     /// Heights no cell may be lowered below (see [`Eroder::with_floor`]); empty = none.
     floor: Vec<f32>,
-    /// The next phase of the current step ([`Eroder::advance`]).
+    incision: stream_power::Incision,
+    diffusion: diffusion::Diffusion,
+    talus: Option<thermal::Talus>,
+    /// The next piece of the current step ([`Eroder::advance`]).
     phase: Phase,
+    /// Whether the current step routes the final surface (the last step, after its floor).
+    finishing: bool,
+    /// Cells of work per [`Eroder::advance`] ([`CHUNK_CELLS`]).
+    chunk: usize,
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -166,19 +190,24 @@ impl Eroder {
         } else {
             Vec::new()
         };
+        let dt = params.years / f64::from(params.steps);
         Ok(Eroder {
             grid,
             heights,
             base: base_level,
             uplift,
             params,
-            dt: params.years / f64::from(params.steps),
             steps_done: 0,
             net: Network::new(grid),
             area: vec![0.0; n],
             scratch,
             floor: Vec::new(),
-            phase: Phase::Route,
+            incision: stream_power::Incision::new(grid, dt, params.erodibility, params.m, params.n),
+            diffusion: diffusion::Diffusion::new(params.diffusivity * dt / (grid.cell * grid.cell)),
+            talus: params.talus_deg.map(|deg| thermal::Talus::new(grid, deg)),
+            phase: Phase::Route(flow::Route::new(None)),
+            finishing: false,
+            chunk: CHUNK_CELLS,
         })
     }
 
@@ -194,72 +223,150 @@ impl Eroder {
 
     /// Performs one time step if any remain and returns whether steps remain
     /// afterwards (`false` once all are done; further calls do nothing). Each step is
-    /// O(cells), so a UI can yield between steps.
+    /// O(cells).
     pub fn step(&mut self) -> bool {
         while !self.advance() {}
         self.steps_done < self.params.steps
     }
 
-    /// Runs the next phase of the current step (routing, drainage area, incision, hillslope
-    /// diffusion, talus and the floor): each is O(cells), so a browser job can yield between
-    /// phases and never hold the page for a whole step. Returns true when the step ended
-    /// (or when no step remains); the same bits as [`Eroder::step`].
+    /// Runs the next piece of the current step, about [`CHUNK_CELLS`] cells of work: a band
+    /// of rows of the receivers, of a diffusion sweep or of a talus pass; a run of the stack
+    /// for its walk, the drainage area or the incision; lakes that saw about that many
+    /// cells; or a run of the floor. So a browser job can yield between pieces and never
+    /// hold the page for a whole phase. Returns true when the step ended (or when no step
+    /// remains); the same bits as [`Eroder::step`], however the work is split, as every
+    /// piece runs in the same order. O(chunk) per call, besides a copy or fill of a field
+    /// where a phase starts and a single lake larger than the chunk.
     pub fn advance(&mut self) -> bool {
         if self.steps_done >= self.params.steps {
             return true;
         }
+        if self.advance_phase() {
+            self.next_phase()
+        } else {
+            false
+        }
+    }
+
+    /// Does a chunk of the current phase; returns whether the phase is complete.
+    fn advance_phase(&mut self) -> bool {
         let g = self.grid;
-        let p = self.params;
-        match self.phase {
-            Phase::Route => {
-                self.net.route(g, &mut self.heights, &self.base);
-                self.phase = Phase::Area;
+        let chunk = self.chunk;
+        let rows = flow::rows_per(chunk, g.width);
+        match &mut self.phase {
+            Phase::Route(route) => {
+                self.net
+                    .continue_route(g, &mut self.heights, &self.base, route, chunk)
             }
-            Phase::Area => {
-                self.net.area(g, &mut self.area);
-                self.phase = Phase::Incise;
+            Phase::Area { left } => {
+                let run = left.saturating_sub(chunk)..*left;
+                *left = run.start;
+                self.net.accumulate_area(&mut self.area, run);
+                *left == 0
             }
-            Phase::Incise => {
-                stream_power::Incision {
-                    grid: g,
-                    uplift: &self.uplift,
-                    dir: &self.net.dir,
-                    off: self.net.off,
-                    stack: &self.net.stack,
-                    area: &self.area,
-                    dt: self.dt,
-                    k: p.erodibility,
-                    m: p.m,
-                    n: p.n,
+            Phase::Incise { next } => {
+                let run = *next..next.saturating_add(chunk).min(self.net.stack.len());
+                *next = run.end;
+                self.incision
+                    .apply(&self.net, run, &self.area, &self.uplift, &mut self.heights);
+                *next == self.net.stack.len()
+            }
+            Phase::Hillslope { sweep, colour, row } => {
+                let band = *row..row.saturating_add(rows).min(g.height);
+                self.diffusion.rows(
+                    g,
+                    &mut self.heights,
+                    &self.base,
+                    &self.scratch,
+                    *colour,
+                    band.clone(),
+                );
+                *row = band.end;
+                if *row == g.height {
+                    *row = 0;
+                    *colour += 1;
+                    if *colour == 2 {
+                        *colour = 0;
+                        *sweep += 1;
+                    }
                 }
-                .apply(&mut self.heights);
-                self.phase = Phase::Hillslope;
+                *sweep == self.diffusion.sweeps()
             }
-            Phase::Hillslope => {
-                if p.diffusivity > 0.0 {
-                    let r = p.diffusivity * self.dt / (g.cell * g.cell);
-                    diffusion::diffuse(g, &mut self.heights, &self.base, r, &mut self.scratch);
+            Phase::Talus { pass, row } => {
+                let band = *row..row.saturating_add(rows).min(g.height);
+                if let Some(talus) = &self.talus {
+                    talus.rows(g, &mut self.heights, &self.base, *pass, band.clone());
                 }
-                self.phase = Phase::Talus;
+                *row = band.end;
+                if *row == g.height {
+                    *row = 0;
+                    *pass += 1;
+                }
+                *pass == thermal::THERMAL_PASSES
             }
-            Phase::Talus => {
-                if let Some(talus) = p.talus_deg {
-                    thermal::relax(g, &mut self.heights, &self.base, talus);
-                }
-                for (h, f) in self.heights.iter_mut().zip(&self.floor) {
+            Phase::Floor { next } => {
+                let run = *next..next.saturating_add(chunk).min(self.floor.len());
+                *next = run.end;
+                for (h, f) in self.heights[run.clone()].iter_mut().zip(&self.floor[run]) {
                     *h = h.max(*f);
                 }
-                self.steps_done += 1;
-                self.phase = Phase::Route;
-                if self.steps_done >= p.steps {
-                    // Leave a pit-free surface and the matching drainage area.
-                    self.net.route(g, &mut self.heights, &self.base);
-                    self.net.area(g, &mut self.area);
-                }
-                return true;
+                *next == self.floor.len()
             }
         }
+    }
+
+    /// Moves on from the completed phase; returns whether the step ended. The phases of a
+    /// step: route, area, incision, hillslope diffusion (when `diffusivity > 0`), talus
+    /// (when on) and the floor (when set); the last step then routes once more, so the
+    /// surface is left pit-free with the matching drainage area.
+    fn next_phase(&mut self) -> bool {
+        let p = self.params;
+        self.phase = match self.phase {
+            Phase::Route(_) => {
+                flow::start_area(self.grid, &mut self.area);
+                Phase::Area {
+                    left: self.net.stack.len(),
+                }
+            }
+            Phase::Area { .. } if self.finishing => return self.end_step(),
+            Phase::Area { .. } => Phase::Incise { next: 0 },
+            Phase::Incise { .. } if p.diffusivity > 0.0 => {
+                self.scratch.copy_from_slice(&self.heights);
+                Phase::Hillslope {
+                    sweep: 0,
+                    colour: 0,
+                    row: 0,
+                }
+            }
+            Phase::Incise { .. } | Phase::Hillslope { .. } if self.talus.is_some() => {
+                Phase::Talus { pass: 0, row: 0 }
+            }
+            Phase::Incise { .. } | Phase::Hillslope { .. } | Phase::Talus { .. }
+                if !self.floor.is_empty() =>
+            {
+                Phase::Floor { next: 0 }
+            }
+            Phase::Incise { .. }
+            | Phase::Hillslope { .. }
+            | Phase::Talus { .. }
+            | Phase::Floor { .. } => {
+                if self.steps_done + 1 < p.steps {
+                    return self.end_step();
+                }
+                // Leave a pit-free surface and the matching drainage area.
+                self.finishing = true;
+                Phase::Route(flow::Route::new(None))
+            }
+        };
         false
+    }
+
+    /// Counts the step done and starts the next one's routing; returns true.
+    fn end_step(&mut self) -> bool {
+        self.steps_done += 1;
+        self.finishing = false;
+        self.phase = Phase::Route(flow::Route::new(None));
+        true
     }
 
     /// Number of completed steps.

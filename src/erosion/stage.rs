@@ -2,13 +2,14 @@
 //! from the design, the solver run in steps with the job's ticks between them, and the
 //! drainage check of the eroded terrain.
 
+use std::ops::Range;
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 use super::gpu::{self, GpuErosionError, GpuInput};
-use super::{Eroder, ErosionError, ErosionParams};
+use super::{CHUNK_CELLS, Eroder, ErosionError, ErosionParams};
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
@@ -194,59 +195,157 @@ pub enum StageError {
 /// base level: the land drains to the drawn rivers (which leave the map at their estuaries),
 /// as in a closed catchment, rather than off every edge. O(cells x band).
 pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
-    let mut base: Vec<bool> = kinds
-        .iter()
-        .map(|k| matches!(k, CellKind::River | CellKind::Valley))
-        .collect();
+    let mut base = channel_cells(kinds);
     for _ in 0..band {
         let grown = base.clone();
-        for y in 0..n {
-            for x in 0..n {
-                if grown[y * n + x] {
-                    continue;
-                }
-                let near = (y.saturating_sub(1)..(y + 2).min(n))
-                    .any(|yy| (x.saturating_sub(1)..(x + 2).min(n)).any(|xx| grown[yy * n + xx]));
-                base[y * n + x] = near;
-            }
-        }
+        widen(&grown, &mut base, n, 0..n);
     }
     base
 }
+
+/// [`base_level`] in bands of rows with the job's ticks between them.
+async fn base_level_in_bands(
+    kinds: &[CellKind],
+    n: usize,
+    band: u32,
+    ctx: &JobCtx,
+) -> Result<Vec<bool>, Cancelled> {
+    let mut base = channel_cells(kinds);
+    for _ in 0..band {
+        let grown = base.clone();
+        in_bands(ctx, PREPARING, n, n, |rows| {
+            widen(&grown, &mut base, n, rows)
+        })
+        .await?;
+    }
+    Ok(base)
+}
+
+/// The river and valley cells.
+fn channel_cells(kinds: &[CellKind]) -> Vec<bool> {
+    kinds
+        .iter()
+        .map(|k| matches!(k, CellKind::River | CellKind::Valley))
+        .collect()
+}
+
+/// Marks the cells of `rows` next to a cell of `grown` (one more cell of band).
+fn widen(grown: &[bool], base: &mut [bool], n: usize, rows: Range<usize>) {
+    for y in rows {
+        for x in 0..n {
+            if grown[y * n + x] {
+                continue;
+            }
+            let near = (y.saturating_sub(1)..(y + 2).min(n))
+                .any(|yy| (x.saturating_sub(1)..(x + 2).min(n)).any(|xx| grown[yy * n + xx]));
+            base[y * n + x] = near;
+        }
+    }
+}
+
+/// Runs `work` on consecutive bands of the rows `0..rows` (rows of `width` cells), about
+/// [`CHUNK_CELLS`] cells a band, with a tick of `ctx` before each: so an O(cells) pass
+/// holds the browser's main thread for a few milliseconds at a time, never for all of it.
+async fn in_bands(
+    ctx: &JobCtx,
+    (progress, message): (f32, &str),
+    rows: usize,
+    width: usize,
+    mut work: impl FnMut(Range<usize>),
+) -> Result<(), Cancelled> {
+    let band = (CHUNK_CELLS / width.max(1)).max(1);
+    for start in (0..rows).step_by(band) {
+        ctx.tick(progress, message).await?;
+        work(start..(start + band).min(rows));
+    }
+    Ok(())
+}
+
+/// The progress and message reported while the stage prepares the solver's fields.
+const PREPARING: (f32, &str) = (0.6, "eroding: preparing");
+/// ... and while it brings a coarse solver grid back to the full one, and measures.
+const FINISHING: (f32, &str) = (0.9, "eroding: back to the full grid");
 
 /// Each cell's nearest river or valley cell by a breadth-first walk over the
 /// 8-neighbourhood from every channel cell (O(cells)): that cell's height and the distance
 /// in steps. A map without channels uses its lowest height at distance 0.
 pub fn nearest_channel(field: &Heightfield, kinds: &[CellKind]) -> (Vec<f32>, Vec<u32>) {
-    let n = field.width();
-    let z = field.data();
-    let mut base = vec![f32::NAN; z.len()];
-    let mut steps = vec![0u32; z.len()];
-    let mut queue = std::collections::VecDeque::new();
-    for (i, k) in kinds.iter().enumerate() {
-        if matches!(k, CellKind::River | CellKind::Valley) {
-            base[i] = z[i];
-            queue.push_back(i);
+    let mut walk = ChannelWalk::new(field, kinds);
+    while !walk.walk(usize::MAX) {}
+    (walk.base, walk.steps)
+}
+
+/// [`nearest_channel`] in runs of [`CHUNK_CELLS`] cells with the job's ticks between them.
+async fn nearest_channel_in_steps(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    ctx: &JobCtx,
+    (progress, message): (f32, &str),
+) -> Result<(Vec<f32>, Vec<u32>), Cancelled> {
+    ctx.tick(progress, message).await?;
+    let mut walk = ChannelWalk::new(field, kinds);
+    loop {
+        ctx.tick(progress, message).await?;
+        if walk.walk(CHUNK_CELLS) {
+            return Ok((walk.base, walk.steps));
         }
     }
-    if queue.is_empty() {
-        let lowest = field.finite_range().map_or(0.0, |(lo, _)| lo);
-        base.fill(lowest);
+}
+
+/// The breadth-first walk of [`nearest_channel`] in progress: each reached cell's channel
+/// height (NaN while unreached) and distance, and the cells whose neighbours are next.
+struct ChannelWalk {
+    n: usize,
+    base: Vec<f32>,
+    steps: Vec<u32>,
+    queue: std::collections::VecDeque<usize>,
+}
+
+impl ChannelWalk {
+    /// Starts from every channel cell (O(cells)).
+    fn new(field: &Heightfield, kinds: &[CellKind]) -> Self {
+        let z = field.data();
+        let mut base = vec![f32::NAN; z.len()];
+        let mut queue = std::collections::VecDeque::new();
+        for (i, k) in kinds.iter().enumerate() {
+            if matches!(k, CellKind::River | CellKind::Valley) {
+                base[i] = z[i];
+                queue.push_back(i);
+            }
+        }
+        if queue.is_empty() {
+            let lowest = field.finite_range().map_or(0.0, |(lo, _)| lo);
+            base.fill(lowest);
+        }
+        Self {
+            n: field.width(),
+            base,
+            steps: vec![0u32; z.len()],
+            queue,
+        }
     }
-    while let Some(i) = queue.pop_front() {
-        let (x, y) = (i % n, i / n);
-        for yy in y.saturating_sub(1)..(y + 2).min(n) {
-            for xx in x.saturating_sub(1)..(x + 2).min(n) {
-                let j = yy * n + xx;
-                if base[j].is_nan() {
-                    base[j] = base[i];
-                    steps[j] = steps[i] + 1;
-                    queue.push_back(j);
+
+    /// Walks on from about `cells` cells of the queue; returns whether the walk is over.
+    fn walk(&mut self, cells: usize) -> bool {
+        let n = self.n;
+        for _ in 0..cells {
+            let Some(i) = self.queue.pop_front() else {
+                return true;
+            };
+            let (x, y) = (i % n, i / n);
+            for yy in y.saturating_sub(1)..(y + 2).min(n) {
+                for xx in x.saturating_sub(1)..(x + 2).min(n) {
+                    let j = yy * n + xx;
+                    if self.base[j].is_nan() {
+                        self.base[j] = self.base[i];
+                        self.steps[j] = self.steps[i] + 1;
+                        self.queue.push_back(j);
+                    }
                 }
             }
         }
+        self.queue.is_empty()
     }
-    (base, steps)
 }
 
 /// The uplift map (m/yr): `max_m_per_yr` times the design's height above its nearest
@@ -271,6 +370,11 @@ pub fn uplift_from_design(field: &Heightfield, channel: &[f32], max_m_per_yr: f6
 /// level: a hash of the seed and the cell (SplitMix64), two uniforms to one Gaussian
 /// (Box-Muller), so the same seed gives the same bits everywhere. O(cells).
 pub fn roughen(heights: &mut [f32], base: &[bool], sigma: f64, seed: u64) {
+    roughen_from(heights, base, sigma, seed, 0);
+}
+
+/// [`roughen`] of a run of the cells that starts at cell `first`.
+fn roughen_from(heights: &mut [f32], base: &[bool], sigma: f64, seed: u64, first: usize) {
     if sigma <= 0.0 {
         return;
     }
@@ -279,7 +383,7 @@ pub fn roughen(heights: &mut [f32], base: &[bool], sigma: f64, seed: u64) {
         z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
         z ^ (z >> 31)
     };
-    for (i, (h, fixed)) in heights.iter_mut().zip(base).enumerate() {
+    for (i, (h, fixed)) in (first..).zip(heights.iter_mut().zip(base)) {
         if *fixed {
             continue;
         }
@@ -305,13 +409,38 @@ pub const MAX_SOLVER_SIDE: usize = 1024;
 /// The design of a large map reduced to the solver's grid by blocks of `f` x `f` cells: the
 /// mean height of each block, and a block is a channel where any of its cells is (holding
 /// the lowest channel height of the block, so rivers still fall towards their mouths).
-fn reduce(field: &Heightfield, kinds: &[CellKind], f: usize) -> (Heightfield, Vec<CellKind>) {
+/// O(cells), in bands of block rows with the job's ticks between them.
+async fn reduce(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    f: usize,
+    ctx: &JobCtx,
+) -> Result<(Heightfield, Vec<CellKind>), Cancelled> {
     let n = field.width();
     let m = n.div_ceil(f);
     let z = field.data();
     let mut heights = vec![0.0f32; m * m];
     let mut coarse = vec![CellKind::Free; m * m];
-    for by in 0..m {
+    in_bands(ctx, PREPARING, m, n * f, |block_rows| {
+        reduce_blocks(z, kinds, n, f, block_rows, &mut heights, &mut coarse);
+    })
+    .await?;
+    let reduced = Heightfield::from_vec(m, m, heights).unwrap_or_else(|_| field.clone());
+    Ok((reduced, coarse))
+}
+
+/// The blocks of the block rows `block_rows` of [`reduce`] (an `n` x `n` map `z`).
+fn reduce_blocks(
+    z: &[f32],
+    kinds: &[CellKind],
+    n: usize,
+    f: usize,
+    block_rows: Range<usize>,
+    heights: &mut [f32],
+    coarse: &mut [CellKind],
+) {
+    let m = n.div_ceil(f);
+    for by in block_rows {
         for bx in 0..m {
             let (mut sum, mut count, mut channel) = (0.0f64, 0usize, f32::INFINITY);
             let mut kind = CellKind::Free;
@@ -337,28 +466,36 @@ fn reduce(field: &Heightfield, kinds: &[CellKind], f: usize) -> (Heightfield, Ve
             };
         }
     }
-    let reduced = Heightfield::from_vec(m, m, heights).unwrap_or_else(|_| field.clone());
-    (reduced, coarse)
 }
 
 /// Bilinear interpolation of a coarse `m` x `m` grid (cell centres of blocks of `f` cells)
-/// at the centres of the `n` x `n` fine cells.
-fn expand(coarse: &[f32], m: usize, f: usize, n: usize) -> Vec<f32> {
+/// at the centres of the `n` x `n` fine cells. O(cells), in bands of rows with the job's
+/// ticks between them.
+async fn expand(
+    coarse: &[f32],
+    m: usize,
+    f: usize,
+    n: usize,
+    ctx: &JobCtx,
+) -> Result<Vec<f32>, Cancelled> {
     let at = |x: usize, y: usize| coarse[y.min(m - 1) * m + x.min(m - 1)];
     let pos = |i: usize| ((i as f32 + 0.5) / f as f32 - 0.5).max(0.0);
     let mut out = Vec::with_capacity(n * n);
-    for y in 0..n {
-        let fy = pos(y);
-        let (y0, ty) = (fy.floor() as usize, fy.fract());
-        for x in 0..n {
-            let fx = pos(x);
-            let (x0, tx) = (fx.floor() as usize, fx.fract());
-            let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
-            let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
-            out.push(top * (1.0 - ty) + bottom * ty);
+    in_bands(ctx, FINISHING, n, n, |rows| {
+        for y in rows {
+            let fy = pos(y);
+            let (y0, ty) = (fy.floor() as usize, fy.fract());
+            for x in 0..n {
+                let fx = pos(x);
+                let (x0, tx) = (fx.floor() as usize, fx.fract());
+                let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+                let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+                out.push(top * (1.0 - ty) + bottom * ty);
+            }
         }
-    }
-    out
+    })
+    .await?;
+    Ok(out)
 }
 
 /// The near-river floor: within [`FLOOR_CELLS`] of a river no land goes below it (a
@@ -425,6 +562,37 @@ impl Prepared {
             floor,
         }
     }
+
+    /// [`Self::new`] in pieces of about [`CHUNK_CELLS`] cells with the job's ticks between
+    /// them (the stage's way: the same values).
+    pub async fn prepare(
+        field: &Heightfield,
+        kinds: &[CellKind],
+        settings: &ErosionSettings,
+        seed: u64,
+        ctx: &JobCtx,
+    ) -> Result<Self, Cancelled> {
+        let n = field.width();
+        let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
+        let (channel, steps_away) = nearest_channel_in_steps(field, kinds, ctx, PREPARING).await?;
+        ctx.tick(PREPARING.0, PREPARING.1).await?;
+        let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
+        ctx.tick(PREPARING.0, PREPARING.1).await?;
+        let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
+        let mut heights = field.data().to_vec();
+        in_bands(ctx, PREPARING, n, n, |rows| {
+            let cells = rows.start * n..rows.end * n;
+            let (h, fixed) = (&mut heights[cells.clone()], &base[cells.clone()]);
+            roughen_from(h, fixed, settings.roughness_m, seed, cells.start);
+        })
+        .await?;
+        Ok(Self {
+            heights,
+            base,
+            uplift,
+            floor,
+        })
+    }
 }
 
 /// Runs the solver on `field` (square, cells `cell_m` wide) with the rivers of `kinds` as
@@ -441,7 +609,7 @@ async fn solve(
     ctx: &JobCtx,
 ) -> Result<(Vec<f32>, Vec<f32>, &'static str), StageError> {
     let n = field.width();
-    let prepared = Prepared::new(field, kinds, settings, seed);
+    let prepared = Prepared::prepare(field, kinds, settings, seed, ctx).await?;
     if let Backend::Gpu(context) = backend
         && context.runs_heavy_stages()
     {
@@ -468,7 +636,8 @@ async fn solve(
     let mut eroder =
         Eroder::new(start, n, n, cell_m, base, uplift, settings.params())?.with_floor(floor)?;
     let steps = settings.steps.max(1);
-    // Phase by phase, so the browser gets its turn well within a step.
+    // Piece by piece (a band of rows, a run of the stack, a few lakes), so the browser gets
+    // its turn every few milliseconds.
     while eroder.steps_done() < steps {
         let done = eroder.steps_done();
         ctx.tick(
@@ -483,10 +652,8 @@ async fn solve(
 }
 
 /// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
-/// then depression filling and the drainage check. Maps larger than [`MAX_SOLVER_SIDE`] are
-/// eroded on a grid of blocks and the change is interpolated back onto the design (river and
-/// bank cells keep their heights exactly, the near-river floor holds at full resolution).
-/// O(cells) per step.
+/// then depression filling and the drainage check ([`erode_field`] of its terrain and
+/// skeleton).
 pub async fn erode_terrain(
     hydrology: &Generated,
     settings: &ErosionSettings,
@@ -495,16 +662,42 @@ pub async fn erode_terrain(
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Eroded, StageError> {
-    let field = &hydrology.terrain;
-    let n = field.width();
     let kinds = &hydrology.skeleton.kinds;
-    let base = base_level(kinds, n, settings.river_band);
+    erode_field(
+        &hydrology.terrain,
+        kinds,
+        settings,
+        cell_m,
+        seed,
+        backend,
+        ctx,
+    )
+    .await
+}
+
+/// Erodes the square `field` with the rivers and valleys of `kinds` as base level: uplift
+/// from the design, then depression filling and the drainage check. Maps larger than
+/// [`MAX_SOLVER_SIDE`] are eroded on a grid of blocks and the change is interpolated back
+/// onto the design (river and bank cells keep their heights exactly, the near-river floor
+/// holds at full resolution). O(cells) per step, every O(cells) pass in pieces of about
+/// [`CHUNK_CELLS`] cells with the job's ticks between them.
+pub async fn erode_field(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    settings: &ErosionSettings,
+    cell_m: f64,
+    seed: u64,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Eroded, StageError> {
+    let n = field.width();
+    let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(MAX_SOLVER_SIDE);
     let (heights, area, ran_on) = if factor <= 1 {
         solve(field, kinds, settings, cell_m, seed, backend, ctx).await?
     } else {
-        let (coarse, coarse_kinds) = reduce(field, kinds, factor);
+        let (coarse, coarse_kinds) = reduce(field, kinds, factor, ctx).await?;
         let m = coarse.width();
         let (eroded, area, ran_on) = solve(
             &coarse,
@@ -516,34 +709,43 @@ pub async fn erode_terrain(
             ctx,
         )
         .await?;
-        ctx.tick(0.9, "eroding: back to the full grid").await?;
+        ctx.tick(FINISHING.0, FINISHING.1).await?;
         let change: Vec<f32> = eroded
             .iter()
             .zip(coarse.data())
             .map(|(a, b)| a - b)
             .collect();
-        let change = expand(&change, m, factor, n);
-        let (channel, steps_away) = nearest_channel(field, kinds);
+        let change = expand(&change, m, factor, n, ctx).await?;
+        let (channel, steps_away) = nearest_channel_in_steps(field, kinds, ctx, FINISHING).await?;
+        ctx.tick(FINISHING.0, FINISHING.1).await?;
         let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS * factor as u32);
-        let heights = field
-            .data()
-            .iter()
-            .zip(&change)
-            .zip(&base)
-            .zip(&floor)
-            .map(|(((h, d), fixed), f)| if *fixed { *h } else { (h + d).max(*f) })
-            .collect();
-        (heights, expand(&area, m, factor, n), ran_on)
+        let mut heights = field.data().to_vec();
+        in_bands(ctx, FINISHING, n, n, |rows| {
+            for i in rows.start * n..rows.end * n {
+                if !base[i] {
+                    heights[i] = (heights[i] + change[i]).max(floor[i]);
+                }
+            }
+        })
+        .await?;
+        (heights, expand(&area, m, factor, n, ctx).await?, ran_on)
     };
     let area = Heightfield::from_vec(n, n, area)?;
     let mut eroded = Heightfield::from_vec(n, n, heights)?;
     let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
     let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
-    for (b, a) in field.data().iter().zip(eroded.data()) {
-        let d = f64::from(b - a);
-        sum += d;
-        max = max.max(d);
-    }
+    in_bands(ctx, (0.97, "eroding: measuring"), n, n, |rows| {
+        let cells = rows.start * n..rows.end * n;
+        for (b, a) in field.data()[cells.clone()]
+            .iter()
+            .zip(&eroded.data()[cells])
+        {
+            let d = f64::from(b - a);
+            sum += d;
+            max = max.max(d);
+        }
+    })
+    .await?;
     Ok(Eroded {
         field: Arc::new(eroded),
         drainage_area: Arc::new(area),
@@ -578,7 +780,8 @@ mod tests {
         let mut kinds = vec![CellKind::Free; n * n];
         kinds[n + 1] = CellKind::River; // block (0, 0), height 1
         kinds[2] = CellKind::River; // block (0, 0), height 2
-        let (coarse, coarse_kinds) = reduce(&field, &kinds, f);
+        let ctx = JobCtx::detached();
+        let (coarse, coarse_kinds) = pollster::block_on(reduce(&field, &kinds, f, &ctx)).unwrap();
         assert_eq!(coarse.width(), 4);
         assert_eq!(coarse_kinds[0], CellKind::River);
         assert_eq!(coarse.data()[0], 1.0, "the lowest channel cell");
@@ -588,7 +791,7 @@ mod tests {
         // A linear change in x on the coarse grid (block centres at 1, 4, 7, 10) comes back
         // as the same line at the fine cells between the first and last block centres.
         let ramp: Vec<f32> = (0..16).map(|i| (1 + 3 * (i % 4)) as f32).collect();
-        let fine = expand(&ramp, 4, f, n);
+        let fine = pollster::block_on(expand(&ramp, 4, f, n, &ctx)).unwrap();
         for y in 0..n {
             for x in 1..=10 {
                 assert!(

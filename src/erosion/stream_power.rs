@@ -20,23 +20,20 @@
 //! When `h_i + dt U_i <= h_r'` (a receiver uplifted faster than its donor) there is no
 //! downhill slope: the node only gets its uplift and becomes a pit for the next step.
 
-use super::flow::NONE;
+use super::flow::{NONE, Network};
 use super::grid::{D8_DIST, Grid};
 
-/// Inputs of one incision update.
-pub(super) struct Incision<'a> {
-    pub(super) grid: Grid,
-    pub(super) uplift: &'a [f32],
-    /// Receiver codes and their index offsets (see [`flow`](super::flow)).
-    pub(super) dir: &'a [u8],
-    pub(super) off: [isize; 9],
-    pub(super) stack: &'a [u32],
-    pub(super) area: &'a [f32],
-    pub(super) dt: f64,
-    /// `K`, `m`, `n`.
-    pub(super) k: f64,
-    pub(super) m: f64,
-    pub(super) n: f64,
+/// The incision law of one solver with its constants: the time step, `K`, `m`, `n`, and
+/// the factors that do not change between steps.
+pub(super) struct Incision {
+    dt: f64,
+    m: f64,
+    n: f64,
+    /// `F = coef[code] * A^m`: `K dt / L^n` of the D8 step `code`.
+    coef: [f64; 8],
+    /// `A^m` for drainage areas of 0 to [`POW_TABLE_CELLS`] cells.
+    pow_table: Vec<f64>,
+    inv_cell2: f64,
 }
 
 /// `A^m` is tabulated for drainage areas below this many cells (most cells), as
@@ -45,37 +42,54 @@ const POW_TABLE_CELLS: usize = 4096;
 const NEWTON_MAX_ITERS: usize = 40;
 const NEWTON_REL_TOL: f64 = 1e-10;
 
-impl Incision<'_> {
-    /// Updates `h` in stack order (uplift included).
-    pub(super) fn apply(&self, h: &mut [f32]) {
-        let kdt = self.k * self.dt;
-        // `F = coef[code] * A^m`, with `L^n` of the D8 step `code` folded in.
-        let coef = D8_DIST.map(|d| kdt / (d * self.grid.cell).powf(self.n));
-        let cell2 = self.grid.cell * self.grid.cell;
-        let inv_cell2 = 1.0 / cell2;
-        let pow_table: Vec<f64> = (0..POW_TABLE_CELLS)
-            .map(|c| (c as f64 * cell2).powf(self.m))
-            .collect();
+impl Incision {
+    /// The law `dh/dt = U - K A^m S^n` stepped by `dt` years on `grid`.
+    pub(super) fn new(grid: Grid, dt: f64, k: f64, m: f64, n: f64) -> Self {
+        let kdt = k * dt;
+        let cell2 = grid.cell * grid.cell;
+        Incision {
+            dt,
+            m,
+            n,
+            coef: D8_DIST.map(|d| kdt / (d * grid.cell).powf(n)),
+            pow_table: (0..POW_TABLE_CELLS)
+                .map(|c| (c as f64 * cell2).powf(m))
+                .collect(),
+            inv_cell2: 1.0 / cell2,
+        }
+    }
+
+    /// Updates `h` (uplift included) at the cells of `run`, a run of `net`'s stack. Runs
+    /// must come in stack order, as each cell needs its receiver's new height. O(cells of
+    /// the run).
+    pub(super) fn apply(
+        &self,
+        net: &Network,
+        run: std::ops::Range<usize>,
+        area: &[f32],
+        uplift: &[f32],
+        h: &mut [f32],
+    ) {
         let linear = self.n == 1.0;
-        for &i in self.stack {
+        for &i in &net.stack[run] {
             let i = i as usize;
-            let code = usize::from(self.dir[i]);
+            let code = usize::from(net.dir[i]);
             if code == usize::from(NONE) {
                 continue; // base level (routing leaves no pits)
             }
-            let hi = h[i] as f64 + self.dt * self.uplift[i] as f64;
-            let a = self.area[i] as f64;
-            let cells = (a * inv_cell2 + 0.5) as usize;
+            let hi = h[i] as f64 + self.dt * uplift[i] as f64;
+            let a = area[i] as f64;
+            let cells = (a * self.inv_cell2 + 0.5) as usize;
             let a_m = if cells < POW_TABLE_CELLS {
-                pow_table[cells]
+                self.pow_table[cells]
             } else {
                 a.powf(self.m)
             };
-            let f = coef[code] * a_m;
+            let f = self.coef[code] * a_m;
             let damp = 1.0 / (1.0 + f);
             // Everything above is independent of the receiver's new height, which
             // was computed just before: keep the dependent chain short.
-            let hr = h[i.wrapping_add_signed(self.off[code])] as f64;
+            let hr = h[i.wrapping_add_signed(net.off[code])] as f64;
             let new = if hi <= hr || f == 0.0 {
                 hi // no downhill slope (or no erosion): uplift only
             } else if linear {

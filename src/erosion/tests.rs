@@ -295,6 +295,75 @@ fn deterministic_checksum() {
     );
 }
 
+/// A step split into small pieces ([`Eroder::advance`] with a small chunk) gives the same
+/// bits as whole phases, and the pieces stay small: each O(cells) pass of a step (receivers,
+/// area, incision, the two talus passes, the floor) takes at least one piece per chunk.
+#[test]
+fn small_pieces_give_the_same_bits() {
+    let (w, h) = (40, 32);
+    let (z0, base) = rough_surface(w, h, 42, 80.0);
+    let uplift: Vec<f32> = z0.iter().map(|z| 1e-5 * z).collect();
+    let floor: Vec<f32> = z0.iter().map(|z| z - 3.0).collect();
+    let mut p = params(3e-5, 0.75, 1.5, 0.01, 3e5, 12);
+    p.talus_deg = Some(33.0);
+    let make = |chunk| {
+        let mut e = Eroder::new(z0.clone(), w, h, 15.0, base.clone(), uplift.clone(), p)
+            .unwrap()
+            .with_floor(floor.clone())
+            .unwrap();
+        e.chunk = chunk;
+        e
+    };
+    let whole = run(make(usize::MAX));
+    for chunk in [1, 80, 500, CHUNK_CELLS] {
+        let mut e = make(chunk);
+        let mut pieces = 0;
+        while e.steps_done() < p.steps {
+            e.advance();
+            pieces += 1;
+        }
+        assert_eq!(fnv1a(e.heights()), fnv1a(whole.heights()), "chunk {chunk}");
+        assert_eq!(
+            fnv1a(e.drainage_area()),
+            fnv1a(whole.drainage_area()),
+            "chunk {chunk}"
+        );
+        let per_pass = (w * h).div_ceil(chunk.max(w));
+        assert!(
+            pieces >= p.steps as usize * 6 * per_pass,
+            "chunk {chunk}: {pieces} pieces"
+        );
+    }
+}
+
+/// Routing in pieces of a few cells, the lakes and the fallback flood included, gives the
+/// same bits as in one go.
+#[test]
+fn routing_in_pieces_gives_the_same_bits() {
+    let (w, h) = (64, 56);
+    let grid = Grid {
+        width: w,
+        height: h,
+        cell: 10.0,
+    };
+    let (z0, base) = rough_surface(w, h, 21, 50.0);
+    for max_fills in [None, Some(0), Some(5)] {
+        let mut whole = z0.clone();
+        let mut one = Network::new(grid);
+        one.route_with_budget(grid, &mut whole, &base, max_fills);
+        let mut split = z0.clone();
+        let mut net = Network::new(grid);
+        let mut route = flow::Route::new(max_fills);
+        let mut pieces = 1;
+        while !net.continue_route(grid, &mut split, &base, &mut route, 3) {
+            pieces += 1;
+        }
+        assert_eq!(fnv1a(&split), fnv1a(&whole), "{max_fills:?}");
+        assert_eq!((net.dir, net.stack), (one.dir, one.stack), "{max_fills:?}");
+        assert!(pieces >= w * h / 3, "{max_fills:?}: {pieces} pieces");
+    }
+}
+
 /// Largest `slope / tan(talus) - 1` from a free cell down to any neighbour.
 fn worst_talus_excess(w: usize, h: usize, cell: f64, z: &[f32], base: &[bool], talus: f64) -> f64 {
     let grid = Grid {

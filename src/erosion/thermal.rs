@@ -14,14 +14,45 @@ use super::grid::{D8_DIST, Grid};
 /// Relaxation passes per time step.
 pub(super) const THERMAL_PASSES: usize = 2;
 
-/// Applies `THERMAL_PASSES` relaxation passes.
+/// Applies `THERMAL_PASSES` relaxation passes in one go.
+#[cfg(test)]
 pub(super) fn relax(grid: Grid, h: &mut [f32], base: &[bool], talus_deg: f64) {
-    let limit: [f32; 8] = D8_DIST.map(|d| (talus_deg.to_radians().tan() * d * grid.cell) as f32);
-    let off = grid.offsets();
-    let (w, rows) = (grid.width, grid.height);
+    let talus = Talus::new(grid, talus_deg);
     for pass in 0..THERMAL_PASSES {
-        let forward = pass % 2 == 0;
-        for yy in 0..rows {
+        talus.rows(grid, h, base, pass, 0..grid.height);
+    }
+}
+
+/// The relaxation of one solver: the largest drop to each D8 neighbour (`tan(talus) *
+/// L`) and the neighbours' index offsets.
+pub(super) struct Talus {
+    limit: [f32; 8],
+    off: [isize; 8],
+}
+
+impl Talus {
+    pub(super) fn new(grid: Grid, talus_deg: f64) -> Self {
+        Talus {
+            limit: D8_DIST.map(|d| (talus_deg.to_radians().tan() * d * grid.cell) as f32),
+            off: grid.offsets(),
+        }
+    }
+
+    /// Relaxes the rows `scan` of pass `pass` in its scan order (row `yy` of a backward
+    /// pass is the map's row `height - 1 - yy`, scanned right to left). Rows must come in
+    /// scan order, as cells update in place. O(cells of the rows).
+    pub(super) fn rows(
+        &self,
+        grid: Grid,
+        h: &mut [f32],
+        base: &[bool],
+        pass: usize,
+        scan: std::ops::Range<usize>,
+    ) {
+        let (limit, off) = (&self.limit, self.off);
+        let (w, rows) = (grid.width, grid.height);
+        let forward = pass.is_multiple_of(2);
+        for yy in scan {
             let y = if forward { yy } else { rows - 1 - yy };
             for xx in 0..w {
                 let x = if forward { xx } else { w - 1 - xx };
@@ -43,7 +74,7 @@ pub(super) fn relax(grid: Grid, h: &mut [f32], base: &[bool], talus_deg: f64) {
                         *slot = grid.neighbour(x, y, d).unwrap_or(usize::MAX);
                     }
                 }
-                relax_cell(h, base, i, &nb, &limit);
+                relax_cell(h, base, i, &nb, limit);
             }
         }
     }

@@ -41,6 +41,18 @@ struct Control {
     message: Mutex<String>,
     /// When the job last yielded (see [`JobCtx::tick`]).
     last_yield: Mutex<Option<web_time::Instant>>,
+    /// The work between ticks, timed only for contexts made by [`JobCtx::timed`].
+    slices: Mutex<Option<SliceClock>>,
+}
+
+/// The stretches of work between consecutive [`JobCtx::tick`] or [`JobCtx::checkpoint`]
+/// calls (whether they yield or not): on the web each must stay short, as the page is frozen
+/// while it runs (a `tick` that is not due yet extends the stretch to the next yield).
+#[derive(Debug)]
+struct SliceClock {
+    /// When the last call returned (or the clock started).
+    since: web_time::Instant,
+    longest: std::time::Duration,
 }
 
 /// Handed to a job body: report progress, notice cancellation, yield.
@@ -58,9 +70,52 @@ impl JobCtx {
         }
     }
 
+    /// A detached context that also times the work between its ticks (see
+    /// [`Self::longest_slice`]): for benchmarks of how long a job would hold the browser's
+    /// main thread. The clock starts now.
+    pub fn timed() -> Self {
+        let ctx = Self::detached();
+        *ctx.slices() = Some(SliceClock {
+            since: web_time::Instant::now(),
+            longest: std::time::Duration::ZERO,
+        });
+        ctx
+    }
+
+    /// The longest stretch of work so far between consecutive [`Self::tick`] or
+    /// [`Self::checkpoint`] calls, counting the stretch from [`Self::timed`] to the first call
+    /// and from the last call to now; `None` for contexts that do not time.
+    pub fn longest_slice(&self) -> Option<std::time::Duration> {
+        self.slices()
+            .as_ref()
+            .map(|clock| clock.longest.max(clock.since.elapsed()))
+    }
+
+    fn slices(&self) -> std::sync::MutexGuard<'_, Option<SliceClock>> {
+        self.control
+            .slices
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+    }
+
+    /// Ends the current stretch of work (timed contexts only).
+    fn end_slice(&self) {
+        if let Some(clock) = self.slices().as_mut() {
+            clock.longest = clock.longest.max(clock.since.elapsed());
+        }
+    }
+
+    /// Starts the next stretch of work (timed contexts only).
+    fn start_slice(&self) {
+        if let Some(clock) = self.slices().as_mut() {
+            clock.since = web_time::Instant::now();
+        }
+    }
+
     /// Records `fraction` (clamped to [0, 1]) and `message`, yields to the event loop on the
     /// web, and returns `Err(Cancelled)` if the owner cancelled the job.
     pub async fn checkpoint(&self, fraction: f32, message: &str) -> Result<(), Cancelled> {
+        self.end_slice();
         self.set_progress(fraction, message);
         yield_now().await;
         *self
@@ -68,6 +123,7 @@ impl JobCtx {
             .last_yield
             .lock()
             .unwrap_or_else(PoisonError::into_inner) = Some(web_time::Instant::now());
+        self.start_slice();
         self.check()
     }
 
@@ -85,6 +141,8 @@ impl JobCtx {
         if due {
             self.checkpoint(fraction, message).await
         } else {
+            self.end_slice();
+            self.start_slice();
             self.check()
         }
     }
@@ -281,6 +339,21 @@ mod tests {
         started_rx.recv().unwrap();
         handle.cancel();
         assert_eq!(wait_for(&handle), Err(Cancelled));
+    }
+
+    /// Only a timed context times its slices; a slice ends at every tick, due or not.
+    #[test]
+    fn a_timed_context_keeps_its_longest_slice() {
+        assert_eq!(JobCtx::detached().longest_slice(), None);
+        let ctx = JobCtx::timed();
+        pollster::block_on(async {
+            ctx.checkpoint(0.0, "start").await.unwrap();
+            std::thread::sleep(Duration::from_millis(3));
+            ctx.tick(0.5, "not due").await.unwrap();
+            ctx.tick(0.6, "at once").await.unwrap();
+        });
+        let longest = ctx.longest_slice().unwrap();
+        assert!(longest >= Duration::from_millis(3), "{longest:?}");
     }
 
     #[test]

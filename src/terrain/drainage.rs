@@ -232,26 +232,37 @@ fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Co
     c
 }
 
+/// Cells of work between two ticks of [`condition_and_measure`] where it works on one
+/// thread (a few milliseconds).
+const STEP_CELLS: usize = 1 << 14;
+
 /// Grows, from each of `pits` not yet in a region, the cells a flood of that pit could
 /// raise: lowest rim cell first (a priority queue of the region's neighbours), until the
 /// cell taken has a strictly lower neighbour outside every region (the water spills there)
 /// or lies on the border. Taken cells are marked in `in_region` and appended to `region`;
 /// border cells never are. `queued` is all false on entry and on return. O(r log r) for the r
-/// cells taken, a small part of the pits' basins: those below their spill levels.
-fn grow_regions(
+/// cells taken, a small part of the pits' basins: those below their spill levels; the job
+/// ticks between pits every [`STEP_CELLS`] cells taken.
+async fn grow_regions(
     z: &[f32],
     (w, h): (usize, usize),
     pits: &[u32],
     in_region: &mut [bool],
     queued: &mut [bool],
     region: &mut Vec<u32>,
-) {
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
     use std::cmp::Reverse;
     let mut rim = std::collections::BinaryHeap::new();
     let mut seen = Vec::new();
+    let mut since_tick = region.len();
     for &pit in pits {
         if in_region[pit as usize] {
             continue;
+        }
+        if region.len() - since_tick >= STEP_CELLS {
+            ctx.tick(0.95, "filling depressions").await?;
+            since_tick = region.len();
         }
         rim.push(Reverse((ordered_key(z[pit as usize]), pit)));
         queued[pit as usize] = true;
@@ -286,13 +297,15 @@ fn grow_regions(
             queued[j as usize] = false;
         }
     }
+    Ok(())
 }
 
 /// The interior cells next to `round` (or in it, only at NaN heights) left without a
 /// strictly lower neighbour: pits a flood of the round made, e.g. an earlier region's cell
-/// whose lower neighbour was raised. O(round).
+/// whose lower neighbour was raised. A pit may be listed more than once (the next round
+/// grows from it once). O(round).
 fn rim_pits(z: &[f32], (w, h): (usize, usize), round: &[u32]) -> Vec<u32> {
-    let mut pits: Vec<u32> = round
+    round
         .iter()
         .flat_map(|&i| {
             NEIGHBOURS
@@ -302,10 +315,7 @@ fn rim_pits(z: &[f32], (w, h): (usize, usize), round: &[u32]) -> Vec<u32> {
         })
         .filter(|&j| !is_border(j, w, h) && receiver_at(z, w, h, j) == NO_RECEIVER)
         .map(|j| j as u32)
-        .collect();
-    pits.sort_unstable();
-    pits.dedup();
-    pits
+        .collect()
 }
 
 /// Whether any interior cell has no strictly lower neighbour (a pit or a flat). O(cells).
@@ -619,7 +629,9 @@ async fn flood_depressions(
             &mut in_round,
             &mut queued,
             &mut round,
-        );
+            ctx,
+        )
+        .await?;
         for &i in &round {
             if !std::mem::replace(&mut flooded[i as usize], true) {
                 cells.push(i);
@@ -628,7 +640,7 @@ async fn flood_depressions(
         }
         ctx.tick(0.95, "filling depressions").await?;
         let mut flood = Flood::around(field, &round, closed);
-        while !flood.run(field, 1 << 16) {
+        while !flood.run(field, STEP_CELLS) {
             ctx.tick(0.95, "filling depressions").await?;
         }
         closed = flood.into_closed();
@@ -650,10 +662,59 @@ async fn flood_depressions(
     Ok((cells, original, result))
 }
 
+/// The cells whose receivers a flood of `region` can change: its cells and their
+/// neighbours, each once. O(region), in steps with the job's ticks between them.
+async fn touched_by(
+    region: &[u32],
+    w: usize,
+    cells: usize,
+    ctx: &JobCtx,
+) -> Result<Vec<u32>, Cancelled> {
+    let mut listed = vec![false; cells];
+    for &i in region {
+        listed[i as usize] = true;
+    }
+    let mut touched = region.to_vec();
+    for part in region.chunks(STEP_CELLS) {
+        ctx.tick(0.95, "filling depressions").await?;
+        for &i in part {
+            for (dx, dy, _) in NEIGHBOURS {
+                let j = (i64::from(i) + dy * w as i64 + dx) as usize;
+                if !std::mem::replace(&mut listed[j], true) {
+                    touched.push(j as u32);
+                }
+            }
+        }
+    }
+    Ok(touched)
+}
+
+/// Takes the `touched` cells out of `counts` (`sign` false) or puts them back in with their
+/// receivers now (`sign` true), in steps with the job's ticks between them.
+async fn recount(
+    counts: &mut Counts,
+    field: &Heightfield,
+    kinds: &[CellKind],
+    touched: &[u32],
+    sign: bool,
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
+    let (w, h) = (field.width(), field.height());
+    for part in touched.chunks(STEP_CELLS) {
+        ctx.tick(0.95, "filling depressions").await?;
+        for &i in part {
+            let r = receiver_at(field.data(), w, h, i as usize);
+            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, sign);
+        }
+    }
+    Ok(())
+}
+
 /// Floods the depressions of `field` if it has pits, then measures its drainage: the same
-/// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps of about
-/// 2^16 cells a thread with [`JobCtx::tick`] between them, so the browser keeps painting
-/// while a large terrain is checked.
+/// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps (about
+/// 2^16 cells a thread for the receivers, [`STEP_CELLS`] for the regions, their flood and
+/// their counts) with [`JobCtx::tick`] between them, so the browser keeps painting while a
+/// large terrain is checked.
 ///
 /// The same bits as the reference, faster: one pass of D8 receivers (rows on all threads)
 /// counts and finds the pits; only the cells below the pits' spill levels are flooded
@@ -676,16 +737,10 @@ pub async fn condition_and_measure(
         let (region, original, result) =
             flood_depressions(field, std::mem::take(&mut counts.pits), ctx).await?;
         conditioning = result;
-        // The cells whose receivers the flood can change (the region and its neighbours) are
-        // counted out on the heights before the flood and back in on those after it.
-        let mut touched = region.clone();
-        for &i in &region {
-            for (dx, dy, _) in NEIGHBOURS {
-                touched.push((i64::from(i) + dy * w as i64 + dx) as u32);
-            }
-        }
-        touched.sort_unstable();
-        touched.dedup();
+        // The cells whose receivers the flood can change (the regions and their neighbours)
+        // are counted out on the heights before the flood and back in on those after it (in
+        // any order: the counts are sums).
+        let touched = touched_by(&region, w, n, ctx).await?;
         let swap = |field: &mut Heightfield, values: &mut [f32]| {
             let z = field.data_mut();
             for (&i, v) in region.iter().zip(values.iter_mut()) {
@@ -694,15 +749,9 @@ pub async fn condition_and_measure(
         };
         let mut values = original;
         swap(field, &mut values);
-        for &i in &touched {
-            let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, false);
-        }
+        recount(&mut counts, field, kinds, &touched, false, ctx).await?;
         swap(field, &mut values);
-        for &i in &touched {
-            let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, true);
-        }
+        recount(&mut counts, field, kinds, &touched, true, ctx).await?;
     }
     if counts.pit_cells > 0 {
         // Only NaN heights leave pits after the flood: measure them the long way.
