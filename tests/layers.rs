@@ -28,6 +28,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("heightfield", 3),
     ("jobs", 3),
     ("parallel", 3),
+    ("radix_heap", 3),
     ("compute", 3),
     ("gpu", 3),
 ];
