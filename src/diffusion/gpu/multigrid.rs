@@ -122,6 +122,9 @@ struct GpuBand {
     relax: [wgpu::BindGroup; 2],
     /// All of the coarsest level's sweeps in one dispatch (the coarsest level only).
     coarsest: Option<wgpu::BindGroup>,
+    /// On a level that fits one workgroup: `solve_coarsest` with a number of sweeps, so a
+    /// relaxation of that many sweeps is one dispatch (empty on larger levels).
+    small_relax: Vec<(u32, wgpu::BindGroup)>,
     /// Operators between this band and the next coarser level (absent on the coarsest).
     restrict: Option<wgpu::BindGroup>,
     prolong_add: Option<wgpu::BindGroup>,
@@ -193,7 +196,8 @@ pub(in crate::diffusion) async fn multigrid(
     let device = &gpu.device;
 
     let pipes = Pipelines::of(gpu).await?;
-    let (levels, checks, result) = prepare(gpu, &pipes, problem, ctx).await?;
+    let sweeps = [params.pre_sweeps, params.post_sweeps];
+    let (levels, checks, result) = prepare(gpu, &pipes, problem, sweeps, ctx).await?;
 
     let finest = w * h;
     let mut stats = Work::default();
@@ -274,6 +278,7 @@ async fn prepare(
     gpu: &GpuContext,
     pipes: &Pipelines,
     problem: &Constraints,
+    sweeps: [u32; 2],
     ctx: &JobCtx,
 ) -> Result<(Vec<GpuLevel>, Checks, wgpu::Buffer), DiffusionError> {
     let (w, h) = (problem.width(), problem.height());
@@ -288,7 +293,7 @@ async fn prepare(
     }
     let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let pending = std::cell::RefCell::new(Vec::new());
-    let prepared = upload(gpu, pipes, problem, &dims, plan, &pending);
+    let prepared = upload(gpu, pipes, problem, &dims, plan, sweeps, &pending);
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()).into());
     }
@@ -317,13 +322,16 @@ type Pending<'a> = std::cell::RefCell<Vec<(wgpu::Buffer, &'a [u8])>>;
 /// bind groups and their result buffer. The finest level's unknowns are created empty and
 /// listed in `pending` with their contents (the problem's heights), for the caller to write;
 /// its fixed bits go up with their buffer. Every coarser level's buffers start zeroed, for
-/// [`build_levels`] to fill.
+/// [`build_levels`] to fill. A level that fits one workgroup also gets `solve_coarsest`'s
+/// bind groups for each of `sweeps` (the V-cycle's pre- and post-sweeps), so that its
+/// relaxation is one dispatch.
 fn upload<'a>(
     gpu: &GpuContext,
     pipes: &Pipelines,
     problem: &'a Constraints,
     dims: &[(usize, usize)],
     plan: Vec<Vec<Band>>,
+    sweeps: [u32; 2],
     pending: &Pending<'a>,
 ) -> (Vec<GpuLevel>, Checks, wgpu::Buffer) {
     let device = &gpu.device;
@@ -393,7 +401,7 @@ fn upload<'a>(
         let mut gpu_bands = Vec::with_capacity(plan[l].len());
         for (k, band) in plan[l].iter().enumerate() {
             let ck = plan.get(l + 1).map(|c| bands::coarse_band(c, k));
-            let make_params = |colour: u32| {
+            let make_params = |colour: u32, sweeps: u32| {
                 device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
                     label: Some("multigrid params"),
                     contents: bytemuck::bytes_of(&Params {
@@ -407,13 +415,13 @@ fn upload<'a>(
                         coarse_row0: ck.map_or(0, |ck| plan[l + 1][ck].stored.start as u32),
                         own_start: band.owned.start as u32,
                         own_end: band.owned.end as u32,
-                        sweeps: COARSEST_SWEEPS,
+                        sweeps,
                         _pad: 0,
                     }),
                     usage: wgpu::BufferUsages::UNIFORM,
                 })
             };
-            let params = [make_params(0), make_params(1)];
+            let params = [0, 1].map(|colour| make_params(colour, COARSEST_SWEEPS));
             let (u, f, b) = (&us[l][k], &fixed[l][k], &bs[l][k]);
             let relax = [0, 1].map(|c| {
                 bind(
@@ -429,6 +437,26 @@ fn upload<'a>(
                     &[(0, &params[0]), (1, f), (2, u), (3, b)],
                 )
             });
+            let fits_workgroup = plan[l].len() == 1
+                && level_w <= WORKGROUP as usize
+                && level_h <= WORKGROUP as usize;
+            let small_relax = if fits_workgroup {
+                let mut groups: Vec<(u32, wgpu::BindGroup)> = Vec::new();
+                for n in sweeps {
+                    if n > 0 && groups.iter().all(|(s, _)| *s != n) {
+                        let params = make_params(0, n);
+                        let group = bind(
+                            device,
+                            &pipes.solve_coarsest,
+                            &[(0, &params), (1, f), (2, u), (3, b)],
+                        );
+                        groups.push((n, group));
+                    }
+                }
+                groups
+            } else {
+                Vec::new()
+            };
             let (restrict, prolong_add, prolong_replace, build) = match ck {
                 Some(ck) => {
                     let coarse_b = &bs[l + 1][ck];
@@ -476,6 +504,7 @@ fn upload<'a>(
                 fixed: f.clone(),
                 relax,
                 coarsest,
+                small_relax,
                 restrict,
                 prolong_add,
                 prolong_replace,
@@ -558,6 +587,17 @@ fn restrict(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, fine: &GpuLev
 /// colour.
 fn relax(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel, sweeps: u32) {
     if sweeps == 0 {
+        return;
+    }
+    // A level within one workgroup: every sweep in one dispatch, with a storage barrier
+    // between colours (the same bits as 2 x `sweeps` dispatches, see `solve_coarsest`).
+    if let [band] = level.bands.as_slice()
+        && let Some((_, group)) = band.small_relax.iter().find(|(n, _)| *n == sweeps)
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipes.solve_coarsest);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
         return;
     }
     let columns = level.w.div_ceil(2);
@@ -748,7 +788,7 @@ mod tests {
                 .expect("not cancelled");
             let pipes = pollster::block_on(Pipelines::of(&gpu)).expect("kernels");
             let (levels, _, _) =
-                pollster::block_on(prepare(&gpu, &pipes, &problem, &ctx)).expect("levels");
+                pollster::block_on(prepare(&gpu, &pipes, &problem, [2, 2], &ctx)).expect("levels");
             let mut encoder = gpu.device.create_command_encoder(&Default::default());
             build_levels(&mut encoder, &pipes, &levels);
             gpu.submit(encoder.finish());
