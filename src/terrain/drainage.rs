@@ -596,7 +596,8 @@ async fn count_in_steps(
 /// regions (a region that spilt into a neighbouring depression, a rim cell left under its
 /// raised neighbours), until none is left. Pits at NaN heights are left alone (no flood
 /// drains them). Returns every cell a round flooded (each once) with its height before the
-/// first round, and what the floods raised.
+/// first round, and what the floods raised. A round that raises nothing ends them (pits
+/// walled in by NaN heights).
 ///
 /// Why the bits are the reference's: Priority-Flood's result `z*` is the least surface
 /// `>= z` in which every interior cell has a strictly lower neighbour (such surfaces are
@@ -643,11 +644,17 @@ async fn flood_depressions(
         while !flood.run(field, STEP_CELLS) {
             ctx.tick(0.95, "filling depressions").await?;
         }
+        let raised = flood.result().raised_cells;
         closed = flood.into_closed();
         pits = rim_pits(field.data(), dims, &round);
         pits.retain(|&p| !field.data()[p as usize].is_nan());
         for i in round.drain(..) {
             in_round[i as usize] = false;
+        }
+        if raised == 0 {
+            // Nothing moved, so the next round would find the same pits: they are cells no
+            // flood drains (walled in by NaN heights), left as the reference leaves them.
+            break;
         }
     }
     let z = field.data();
@@ -903,16 +910,7 @@ mod tests {
     #[test]
     fn conditioning_ends_around_nan_cells_with_the_reference_heights() {
         let (w, h) = (40, 30);
-        let data: Vec<f32> = (0..w * h)
-            .map(|i| {
-                let (x, y) = ((i % w) as f32, (i / w) as f32);
-                if i % 37 == 5 {
-                    f32::NAN
-                } else {
-                    ((x * 0.7).sin() * (y * 0.5).cos() * 3.0).round() + y * 0.01
-                }
-            })
-            .collect();
+        let data = bowls_with_holes(w, h, |i, _, _| i % 37 == 5);
         let kinds = vec![CellKind::Free; w * h];
         let mut reference = Heightfield::from_vec(w, h, data).unwrap();
         let mut fast = reference.clone();
@@ -925,6 +923,61 @@ mod tests {
         .unwrap();
         let bits = |f: &Heightfield| f.data().iter().map(|v| v.to_bits()).collect::<Vec<_>>();
         assert_eq!(bits(&reference), bits(&fast));
+    }
+
+    /// Cells walled in by NaN heights can never drain: the rounds stop once a flood raises
+    /// nothing (no endless loop), the cells stay pits, and every other cell drains.
+    #[test]
+    fn conditioning_ends_with_cells_walled_in_by_nan() {
+        let (w, h) = (40, 30);
+        let ring = |x: usize, y: usize, (cx, cy, r): (usize, usize, usize)| {
+            x.abs_diff(cx).max(y.abs_diff(cy)) == r
+        };
+        let (cell, bowl) = ((8, 8, 1), (25, 15, 3));
+        let data = bowls_with_holes(w, h, |_, x, y| ring(x, y, cell) || ring(x, y, bowl));
+        let kinds = vec![CellKind::Free; w * h];
+        let original = Heightfield::from_vec(w, h, data).unwrap();
+        let mut field = original.clone();
+        let (_, drainage) = pollster::block_on(condition_and_measure(
+            &mut field,
+            &kinds,
+            &JobCtx::detached(),
+        ))
+        .unwrap();
+        assert!(drainage.pit_cells > 0, "the walled-in cells stay pits");
+        let inside = |x: usize, y: usize, (cx, cy, r): (usize, usize, usize)| {
+            x.abs_diff(cx).max(y.abs_diff(cy)) < r
+        };
+        let z = field.data();
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let i = y * w + x;
+                if z[i].is_nan() || inside(x, y, cell) || inside(x, y, bowl) {
+                    continue;
+                }
+                assert!(z[i] >= original.data()[i], "({x}, {y}) only rises");
+                assert_ne!(receiver_at(z, w, h, i), NO_RECEIVER, "({x}, {y}) drains");
+            }
+        }
+    }
+
+    /// Bowls on a ramp with NaN where `hole(i, x, y)`.
+    fn bowls_with_holes(
+        w: usize,
+        h: usize,
+        hole: impl Fn(usize, usize, usize) -> bool,
+    ) -> Vec<f32> {
+        (0..w * h)
+            .map(|i| {
+                let (x, y) = (i % w, i / w);
+                if hole(i, x, y) {
+                    f32::NAN
+                } else {
+                    let (x, y) = (x as f32, y as f32);
+                    ((x * 0.7).sin() * (y * 0.5).cos() * 3.0).round() + y * 0.01
+                }
+            })
+            .collect()
     }
 
     /// The row-wise (vectorised) receivers are the reference's, ties included.
