@@ -372,7 +372,7 @@ impl Flood {
 
     /// Seeds a flood of the cells of `inside` only (interior cells), from the cells around
     /// them: it ends with the least `z' >= z` that keeps every other cell's height and gives
-    /// each cell of `inside` a strictly lower neighbour (see [`flood_depressions`]).
+    /// each cell of `inside` a strictly lower neighbour (see `flood_depressions`).
     /// `closed` is all true, one entry per cell, and is all true again once the flood has
     /// run to its end ([`Flood::into_closed`] hands it back for the next flood): O(inside)
     /// work, not O(cells).
@@ -719,13 +719,13 @@ async fn recount(
 
 /// Floods the depressions of `field` if it has pits, then measures its drainage: the same
 /// results as [`has_pits`], [`fill_depressions`] and [`measure`], computed in steps (about
-/// 2^16 cells a thread for the receivers, [`STEP_CELLS`] for the regions, their flood and
+/// 2^16 cells a thread for the receivers, `STEP_CELLS` (2^14) for the regions, their flood and
 /// their counts) with [`JobCtx::tick`] between them, so the browser keeps painting while a
 /// large terrain is checked.
 ///
 /// The same bits as the reference, faster: one pass of D8 receivers (rows on all threads)
 /// counts and finds the pits; only the cells below the pits' spill levels are flooded
-/// ([`flood_depressions`]), and only the cells whose receivers that can change (those and
+/// (`flood_depressions`), and only the cells whose receivers that can change (those and
 /// their neighbours) are counted again. A terrain whose interior cells all have a receiver
 /// drains every cell to the border (descent paths strictly descend, so they end, and only
 /// at the border), so the measure needs no fates. O(cells) plus O(r log r) for the r cells
