@@ -595,9 +595,9 @@ async fn count_in_steps(
 /// as they are ([`Flood::around`]), and goes on with the pits that flood left around the
 /// regions (a region that spilt into a neighbouring depression, a rim cell left under its
 /// raised neighbours), until none is left. Pits at NaN heights are left alone (no flood
-/// drains them). Returns every cell a round flooded (each once) with its height before the
-/// first round, and what the floods raised. A round that raises nothing ends them (pits
-/// walled in by NaN heights).
+/// drains them). Returns every cell a round flooded (each once, marked) with its height
+/// before the first round, and what the floods raised. A round that raises nothing ends them
+/// (pits walled in by NaN heights).
 ///
 /// Why the bits are the reference's: Priority-Flood's result `z*` is the least surface
 /// `>= z` in which every interior cell has a strictly lower neighbour (such surfaces are
@@ -613,7 +613,7 @@ async fn flood_depressions(
     field: &mut Heightfield,
     mut pits: Vec<u32>,
     ctx: &JobCtx,
-) -> Result<(Vec<u32>, Vec<f32>, Conditioning), Cancelled> {
+) -> Result<Flooded, Cancelled> {
     let dims = (field.width(), field.height());
     let n = dims.0 * dims.1;
     let (mut in_round, mut queued) = (vec![false; n], vec![false; n]);
@@ -666,21 +666,34 @@ async fn flood_depressions(
             result.max_raise = result.max_raise.max(after - before);
         }
     }
-    Ok((cells, original, result))
+    Ok(Flooded {
+        cells,
+        original,
+        flooded,
+        result,
+    })
+}
+
+/// What [`flood_depressions`] changed.
+struct Flooded {
+    /// Every cell a round flooded, once.
+    cells: Vec<u32>,
+    /// Their heights before the first round.
+    original: Vec<f32>,
+    /// One flag per cell of the map: set on `cells`.
+    flooded: Vec<bool>,
+    result: Conditioning,
 }
 
 /// The cells whose receivers a flood of `region` can change: its cells and their
-/// neighbours, each once. O(region), in steps with the job's ticks between them.
+/// neighbours, each once (`listed` marks `region` on entry). O(region), in steps with the
+/// job's ticks between them.
 async fn touched_by(
     region: &[u32],
     w: usize,
-    cells: usize,
+    mut listed: Vec<bool>,
     ctx: &JobCtx,
 ) -> Result<Vec<u32>, Cancelled> {
-    let mut listed = vec![false; cells];
-    for &i in region {
-        listed[i as usize] = true;
-    }
     let mut touched = region.to_vec();
     for part in region.chunks(STEP_CELLS) {
         ctx.tick(0.95, "filling depressions").await?;
@@ -741,13 +754,17 @@ pub async fn condition_and_measure(
     let mut counts = count_in_steps(field, kinds, ctx).await?;
     let mut conditioning = Conditioning::default();
     if counts.pit_cells > 0 {
-        let (region, original, result) =
-            flood_depressions(field, std::mem::take(&mut counts.pits), ctx).await?;
+        let Flooded {
+            cells: region,
+            original,
+            flooded,
+            result,
+        } = flood_depressions(field, std::mem::take(&mut counts.pits), ctx).await?;
         conditioning = result;
         // The cells whose receivers the flood can change (the regions and their neighbours)
         // are counted out on the heights before the flood and back in on those after it (in
         // any order: the counts are sums).
-        let touched = touched_by(&region, w, n, ctx).await?;
+        let touched = touched_by(&region, w, flooded, ctx).await?;
         let swap = |field: &mut Heightfield, values: &mut [f32]| {
             let z = field.data_mut();
             for (&i, v) in region.iter().zip(values.iter_mut()) {
