@@ -56,7 +56,7 @@ pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::stage::{
     Eroded, ErosionReport, ErosionSettings, MAX_SOLVER_SIDE, Prepared, StageError, base_level,
-    erode_field, erode_terrain, nearest_channel, roughen, uplift_from_design,
+    erode_field, erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
 };
 
 use self::flow::Network;
