@@ -245,3 +245,48 @@ fn gpu_stage_keeps_rivers_and_drainage() {
     let out = run(&scene(64, PRESETS[0], 1), &Backend::Cpu);
     assert_eq!(out.report.erosion.expect("a report").backend, "cpu");
 }
+
+/// A map larger than the solver's grid on the GPU: eroded on a 64^2 grid and refined at its
+/// full 256^2 on the GPU (the coarse-to-fine path of `erode_field`, which the pipeline takes
+/// above 1024^2): the refinement ran there, the rivers keep their heights to the bit, the
+/// result drains and it is no interpolated (harmonic) surface.
+#[test]
+fn gpu_refines_maps_larger_than_the_solver_grid() {
+    let Some(gpu) = common::gpu() else { return };
+    let backend = Backend::Gpu(Arc::new(gpu.with_all_stages()));
+    let scene = Scene {
+        erosion: None,
+        ..scene(256, PRESETS[0], 5)
+    };
+    let out = run(&scene, &backend);
+    let design = &out.hydrology.terrain;
+    let kinds = &out.hydrology.skeleton.kinds;
+    let eroded = pollster::block_on(strahler::erosion::erode_field_within(
+        design,
+        kinds,
+        &ErosionSettings::default(),
+        scene.cell_size,
+        5,
+        &backend,
+        &JobCtx::detached(),
+        64,
+    ))
+    .expect("erodes");
+    assert_eq!(eroded.report.backend, "gpu");
+    let d = &eroded.report.drainage;
+    assert!(d.river_fraction >= 0.99, "{d:?}");
+    assert!(d.outlet_fraction >= 0.99, "{d:?}");
+    assert_eq!(d.pit_cells, 0, "{d:?}");
+    for (i, kind) in kinds.iter().enumerate() {
+        if *kind == CellKind::River {
+            assert_eq!(eroded.field.data()[i].to_bits(), design.data()[i].to_bits());
+        }
+    }
+    let cell = scene.cell_size;
+    let realism = strahler::realism::RealismReport::of(&eroded.field, cell, cell);
+    assert!(
+        realism.measures.harmonic_fraction <= 0.05,
+        "{:?}",
+        realism.measures
+    );
+}
