@@ -13,6 +13,7 @@ use super::{CHUNK_CELLS, Eroder, ErosionError, ErosionParams};
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::parallel;
 use crate::skeleton::CellKind;
 use crate::terrain::{Generated, drainage};
 
@@ -213,8 +214,8 @@ async fn base_level_in_bands(
     let mut base = channel_cells(kinds);
     for _ in 0..band {
         let grown = base.clone();
-        in_bands(ctx, PREPARING, n, n, |rows| {
-            widen(&grown, &mut base, n, rows)
+        in_row_bands(ctx, PREPARING, &mut base, n, |rows, part| {
+            widen(&grown, part, n, rows)
         })
         .await?;
     }
@@ -229,8 +230,10 @@ fn channel_cells(kinds: &[CellKind]) -> Vec<bool> {
         .collect()
 }
 
-/// Marks the cells of `rows` next to a cell of `grown` (one more cell of band).
-fn widen(grown: &[bool], base: &mut [bool], n: usize, rows: Range<usize>) {
+/// Marks the cells of `rows` next to a cell of `grown` (one more cell of band) in `rows_out`,
+/// those rows of the base level.
+fn widen(grown: &[bool], rows_out: &mut [bool], n: usize, rows: Range<usize>) {
+    let first = rows.start;
     for y in rows {
         for x in 0..n {
             if grown[y * n + x] {
@@ -238,7 +241,7 @@ fn widen(grown: &[bool], base: &mut [bool], n: usize, rows: Range<usize>) {
             }
             let near = (y.saturating_sub(1)..(y + 2).min(n))
                 .any(|yy| (x.saturating_sub(1)..(x + 2).min(n)).any(|xx| grown[yy * n + xx]));
-            base[y * n + x] = near;
+            rows_out[(y - first) * n + x] = near;
         }
     }
 }
@@ -261,6 +264,34 @@ async fn in_bands(
     Ok(())
 }
 
+/// [`in_bands`] over the rows of `data` (rows of `width` values), each piece handed the
+/// rows it writes (`work(rows, those rows of data)`): natively a piece holds
+/// [`CHUNK_CELLS`] cells per thread and is split among the threads ([`parallel`]), on the
+/// web one thread runs it. Every row is computed the same way on any number of threads.
+async fn in_row_bands<T: Send>(
+    ctx: &JobCtx,
+    (progress, message): (f32, &str),
+    data: &mut [T],
+    width: usize,
+    work: impl Fn(Range<usize>, &mut [T]) + Sync,
+) -> Result<(), Cancelled> {
+    let width = width.max(1);
+    let rows = data.len() / width;
+    let threads = parallel::threads();
+    let band = (CHUNK_CELLS * threads / width).max(1);
+    for start in (0..rows).step_by(band) {
+        ctx.tick(progress, message).await?;
+        let end = (start + band).min(rows);
+        let per_thread = (end - start).div_ceil(threads).max(1);
+        let piece = &mut data[start * width..end * width];
+        parallel::for_each_band(piece, per_thread * width, |k, part| {
+            let first = start + k * per_thread;
+            work(first..first + part.len() / width, part);
+        });
+    }
+    Ok(())
+}
+
 /// The progress and message reported while the stage prepares the solver's fields.
 const PREPARING: (f32, &str) = (0.6, "eroding: preparing");
 /// ... and while it brings a coarse solver grid back to the full one, and measures.
@@ -270,20 +301,24 @@ const FINISHING: (f32, &str) = (0.9, "eroding: back to the full grid");
 /// 8-neighbourhood from every channel cell (O(cells)): that cell's height and the distance
 /// in steps. A map without channels uses its lowest height at distance 0.
 pub fn nearest_channel(field: &Heightfield, kinds: &[CellKind]) -> (Vec<f32>, Vec<u32>) {
-    let mut walk = ChannelWalk::new(field, kinds);
+    let mut walk = ChannelWalk::new(field, kinds, u32::MAX);
     while !walk.walk(usize::MAX) {}
     (walk.base, walk.steps)
 }
 
-/// [`nearest_channel`] in runs of [`CHUNK_CELLS`] cells with the job's ticks between them.
+/// [`nearest_channel`] in runs of [`CHUNK_CELLS`] cells with the job's ticks between them,
+/// out to `limit` steps from the channels (the cells farther away keep a NaN height and
+/// `u32::MAX` steps; the others get what the whole walk gives them, as the walk reaches the
+/// cells in order of their distance). O(cells within `limit`).
 async fn nearest_channel_in_steps(
     field: &Heightfield,
     kinds: &[CellKind],
+    limit: u32,
     ctx: &JobCtx,
     (progress, message): (f32, &str),
 ) -> Result<(Vec<f32>, Vec<u32>), Cancelled> {
     ctx.tick(progress, message).await?;
-    let mut walk = ChannelWalk::new(field, kinds);
+    let mut walk = ChannelWalk::new(field, kinds, limit);
     loop {
         ctx.tick(progress, message).await?;
         if walk.walk(CHUNK_CELLS) {
@@ -293,35 +328,41 @@ async fn nearest_channel_in_steps(
 }
 
 /// The breadth-first walk of [`nearest_channel`] in progress: each reached cell's channel
-/// height (NaN while unreached) and distance, and the cells whose neighbours are next.
+/// height (NaN while unreached) and distance (`u32::MAX` while unreached), and the cells
+/// whose neighbours are next; cells `limit` steps away are not walked on from.
 struct ChannelWalk {
     n: usize,
     base: Vec<f32>,
     steps: Vec<u32>,
     queue: std::collections::VecDeque<usize>,
+    limit: u32,
 }
 
 impl ChannelWalk {
     /// Starts from every channel cell (O(cells)).
-    fn new(field: &Heightfield, kinds: &[CellKind]) -> Self {
+    fn new(field: &Heightfield, kinds: &[CellKind], limit: u32) -> Self {
         let z = field.data();
         let mut base = vec![f32::NAN; z.len()];
+        let mut steps = vec![u32::MAX; z.len()];
         let mut queue = std::collections::VecDeque::new();
         for (i, k) in kinds.iter().enumerate() {
             if matches!(k, CellKind::River | CellKind::Valley) {
                 base[i] = z[i];
+                steps[i] = 0;
                 queue.push_back(i);
             }
         }
         if queue.is_empty() {
             let lowest = field.finite_range().map_or(0.0, |(lo, _)| lo);
             base.fill(lowest);
+            steps.fill(0);
         }
         Self {
             n: field.width(),
             base,
-            steps: vec![0u32; z.len()],
+            steps,
             queue,
+            limit,
         }
     }
 
@@ -332,6 +373,9 @@ impl ChannelWalk {
             let Some(i) = self.queue.pop_front() else {
                 return true;
             };
+            if self.steps[i] >= self.limit {
+                continue;
+            }
             let (x, y) = (i % n, i / n);
             for yy in y.saturating_sub(1)..(y + 2).min(n) {
                 for xx in x.saturating_sub(1)..(x + 2).min(n) {
@@ -480,17 +524,17 @@ async fn expand(
 ) -> Result<Vec<f32>, Cancelled> {
     let at = |x: usize, y: usize| coarse[y.min(m - 1) * m + x.min(m - 1)];
     let pos = |i: usize| ((i as f32 + 0.5) / f as f32 - 0.5).max(0.0);
-    let mut out = Vec::with_capacity(n * n);
-    in_bands(ctx, FINISHING, n, n, |rows| {
-        for y in rows {
+    let mut out = vec![0.0f32; n * n];
+    in_row_bands(ctx, FINISHING, &mut out, n, |rows, part| {
+        for (y, row) in rows.zip(part.chunks_mut(n)) {
             let fy = pos(y);
             let (y0, ty) = (fy.floor() as usize, fy.fract());
-            for x in 0..n {
+            for (x, v) in row.iter_mut().enumerate() {
                 let fx = pos(x);
                 let (x0, tx) = (fx.floor() as usize, fx.fract());
                 let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
                 let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
-                out.push(top * (1.0 - ty) + bottom * ty);
+                *v = top * (1.0 - ty) + bottom * ty;
             }
         }
     })
@@ -574,16 +618,22 @@ impl Prepared {
     ) -> Result<Self, Cancelled> {
         let n = field.width();
         let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
-        let (channel, steps_away) = nearest_channel_in_steps(field, kinds, ctx, PREPARING).await?;
+        let (channel, steps_away) =
+            nearest_channel_in_steps(field, kinds, u32::MAX, ctx, PREPARING).await?;
         ctx.tick(PREPARING.0, PREPARING.1).await?;
         let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
         ctx.tick(PREPARING.0, PREPARING.1).await?;
         let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
-        in_bands(ctx, PREPARING, n, n, |rows| {
+        in_row_bands(ctx, PREPARING, &mut heights, n, |rows, h| {
             let cells = rows.start * n..rows.end * n;
-            let (h, fixed) = (&mut heights[cells.clone()], &base[cells.clone()]);
-            roughen_from(h, fixed, settings.roughness_m, seed, cells.start);
+            roughen_from(
+                h,
+                &base[cells.clone()],
+                settings.roughness_m,
+                seed,
+                cells.start,
+            );
         })
         .await?;
         Ok(Self {
@@ -708,10 +758,9 @@ async fn refine(
         floor,
     } = fine;
     let roughness_m = settings.roughness_m * cell_m / coarse_cell_m;
-    in_bands(ctx, FINISHING, n, n, |rows| {
+    in_row_bands(ctx, FINISHING, &mut heights, n, |rows, h| {
         let cells = rows.start * n..rows.end * n;
-        let (h, fixed) = (&mut heights[cells.clone()], &base[cells.clone()]);
-        roughen_from(h, fixed, roughness_m, seed, cells.start);
+        roughen_from(h, &base[cells.clone()], roughness_m, seed, cells.start);
     })
     .await?;
     let mut params = settings.params();
@@ -813,14 +862,18 @@ pub async fn erode_field_within(
         .await?;
         ctx.tick(FINISHING.0, FINISHING.1).await?;
         let up = expand(&eroded, m, factor, n, ctx).await?;
-        let (channel, steps_away) = nearest_channel_in_steps(field, kinds, ctx, FINISHING).await?;
+        // The floor only needs the cells near a river.
+        let floor_cells = FLOOR_CELLS * factor as u32;
+        let (channel, steps_away) =
+            nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
         ctx.tick(FINISHING.0, FINISHING.1).await?;
-        let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS * factor as u32);
+        let floor = floor_near_rivers(&channel, &steps_away, floor_cells);
         let mut heights = field.data().to_vec();
-        in_bands(ctx, FINISHING, n, n, |rows| {
-            for i in rows.start * n..rows.end * n {
+        in_row_bands(ctx, FINISHING, &mut heights, n, |rows, part| {
+            let cells = rows.start * n..rows.end * n;
+            for (i, h) in cells.zip(part) {
                 if !base[i] {
-                    heights[i] = up[i].max(floor[i]);
+                    *h = up[i].max(floor[i]);
                 }
             }
         })
