@@ -129,15 +129,18 @@ pub struct GpuInput<'a> {
     pub params: ErosionParams,
 }
 
-/// The GPU solver's result, as the CPU solver leaves it: the heights after the last step
-/// (pits the bounded lake passes or the hillslope passes left are filled by the stage's
-/// conditioning, [`crate::terrain::drainage::condition_and_measure`], as after the CPU
-/// solver) and the drainage area the last step routed.
+/// The GPU solver's result: the heights after the last step with the pits it left (lakes
+/// the bounded lake passes did not fill, hillslopes that closed a basin) filled on the GPU
+/// (the bits [`crate::terrain::drainage::fill_depressions`] gives, what the stage's
+/// conditioning does after the CPU solver), and the drainage area the last step routed.
 #[derive(Clone, Debug)]
 pub struct GpuEroded {
     pub heights: Vec<f32>,
     /// Drainage area (m^2) of the last step's routing.
     pub area: Vec<f32>,
+    /// What the filling raised (`None` when it was left to the CPU: a flood that did not
+    /// settle in its passes).
+    pub conditioning: Option<crate::terrain::drainage::Conditioning>,
     /// Milliseconds on the GPU side: upload, steps, the two readbacks.
     pub gpu_ms: f64,
 }
@@ -536,6 +539,20 @@ async fn erode_with(
         )
         .await?;
     }
+    // The last step's pits (lakes the bounded passes left, hillslopes that closed a
+    // basin) are filled here, on the GPU, as the stage's conditioning would fill them on
+    // the CPU (the same bits), so the surface comes back drained.
+    let conditioning =
+        match crate::terrain::drainage::gpu::fill_buffer(gpu, &heights_buf, w, h, ctx).await {
+            Ok(result) => Some(result),
+            Err(crate::terrain::drainage::gpu::GpuFloodError::Cancelled(c)) => {
+                return Err(c.into());
+            }
+            Err(err) => {
+                log::info!("the eroded surface is conditioned on the CPU: {err}");
+                None
+            }
+        };
     let heights = read_f32_buffer(gpu, &heights_buf, n).await?;
     let counts = read_bytes(gpu, &cells[area_last], n as u64 * 4).await?;
     let cell_area = (cell_m * cell_m) as f32;
@@ -546,6 +563,7 @@ async fn erode_with(
     Ok(GpuEroded {
         heights,
         area,
+        conditioning,
         gpu_ms: clock.elapsed().as_secs_f64() * 1e3,
     })
 }

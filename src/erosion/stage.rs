@@ -669,9 +669,17 @@ async fn solve(
     .await
 }
 
-/// What a solver run gives back: the eroded heights, the last step's drainage area and
-/// where it ran ("cpu" or "gpu").
-type Solved = (Vec<f32>, Vec<f32>, &'static str);
+/// What a solver run gives back.
+struct Solved {
+    heights: Vec<f32>,
+    /// The last step's drainage area.
+    area: Vec<f32>,
+    /// Where it ran: "cpu" or "gpu".
+    ran_on: &'static str,
+    /// What the GPU solver's own depression filling raised (none on the CPU, whose surface
+    /// the stage's conditioning fills).
+    conditioning: Option<drainage::Conditioning>,
+}
 
 /// Runs `params` on the `n` x `n` fields of `prepared` (cells `cell_m` wide) on the GPU
 /// when `backend` is one that holds the fields (else, or if the GPU fails, on the CPU, in
@@ -690,7 +698,14 @@ async fn run_solver(
         if gpu::fits(context, n, n) {
             let input = prepared.gpu_input(n, cell_m, params);
             match gpu::erode(context, input, ctx).await {
-                Ok(out) => return Ok((out.heights, out.area, "gpu")),
+                Ok(out) => {
+                    return Ok(Solved {
+                        heights: out.heights,
+                        area: out.area,
+                        ran_on: "gpu",
+                        conditioning: out.conditioning,
+                    });
+                }
                 Err(GpuErosionError::Gpu(err)) => {
                     log::warn!("erosion on the GPU failed ({err}): eroding on the CPU");
                 }
@@ -721,7 +736,12 @@ async fn run_solver(
         eroder.advance();
     }
     let area = eroder.drainage_area().to_vec();
-    Ok((eroder.into_heights(), area, "cpu"))
+    Ok(Solved {
+        heights: eroder.into_heights(),
+        area,
+        ran_on: "cpu",
+        conditioning: None,
+    })
 }
 
 /// A map eroded on a coarser grid and brought back to full resolution: the interpolated
@@ -844,13 +864,13 @@ pub async fn erode_field_within(
     let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(max_side.max(1));
-    let (heights, area, ran_on) = if factor <= 1 {
+    let solved = if factor <= 1 {
         solve(field, kinds, settings, cell_m, seed, backend, ctx).await?
     } else {
         let (coarse, coarse_kinds) = reduce(field, kinds, factor, ctx).await?;
         let m = coarse.width();
         let coarse_cell_m = cell_m * factor as f64;
-        let (eroded, _, _) = solve(
+        let eroded = solve(
             &coarse,
             &coarse_kinds,
             settings,
@@ -859,7 +879,8 @@ pub async fn erode_field_within(
             backend,
             ctx,
         )
-        .await?;
+        .await?
+        .heights;
         ctx.tick(FINISHING.0, FINISHING.1).await?;
         let up = expand(&eroded, m, factor, n, ctx).await?;
         // The floor only needs the cells near a river.
@@ -894,9 +915,10 @@ pub async fn erode_field_within(
         )
         .await?
     };
-    let area = Heightfield::from_vec(n, n, area)?;
-    let mut eroded = Heightfield::from_vec(n, n, heights)?;
+    let area = Heightfield::from_vec(n, n, solved.area)?;
+    let mut eroded = Heightfield::from_vec(n, n, solved.heights)?;
     let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
+    let conditioning = drainage::merge(solved.conditioning, conditioning);
     let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
     in_bands(ctx, (0.97, "eroding: measuring"), n, n, |rows| {
         let cells = rows.start * n..rows.end * n;
@@ -922,7 +944,7 @@ pub async fn erode_field_within(
             max_depth_m: max.max(0.0),
             drainage,
             conditioning,
-            backend: ran_on,
+            backend: solved.ran_on,
             millis: 0.0,
         },
         millis: 0.0,

@@ -490,7 +490,8 @@ pub enum WarmError {
 }
 
 /// Builds every compute kernel the pipeline's GPU stages use on `gpu` (diffusion, the
-/// post-filters and blending; the wavelet detail; erosion where the device runs it), yielding
+/// post-filters and blending; the wavelet detail; erosion and depression filling where the
+/// device runs them), yielding
 /// between them, so that the first run on the device, in the browser the first edit, does not
 /// wait for them. Later calls cost a few map lookups.
 pub async fn warm_kernels(gpu: &GpuContext, ctx: &JobCtx) -> Result<(), WarmError> {
@@ -501,6 +502,7 @@ pub async fn warm_kernels(gpu: &GpuContext, ctx: &JobCtx) -> Result<(), WarmErro
     if gpu.runs_heavy_stages() {
         ctx.checkpoint(0.8, "building the GPU kernels").await?;
         erosion::gpu::warm(gpu).await?;
+        terrain::drainage::gpu::warm(gpu).await?;
     }
     ctx.set_progress(1.0, "GPU kernels built");
     Ok(())

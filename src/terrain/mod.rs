@@ -390,7 +390,7 @@ pub async fn generate(
         lap("post", &mut stages);
     }
     let (conditioning, drainage) =
-        drainage::condition_and_measure(&mut terrain, &skeleton.kinds, ctx).await?;
+        drainage::condition_and_measure_on(backend, &mut terrain, &skeleton.kinds, ctx).await?;
     lap("drainage", &mut stages);
 
     // The report's O(cells) scans, with the job's ticks between them.

@@ -223,7 +223,11 @@ pub(in crate::diffusion) async fn multigrid(
     // start's checks in slot 0, then the cycles'.
     let mut encoder = device.create_command_encoder(&Default::default());
     build_levels(&mut encoder, &pipes, &levels);
-    solve_coarsest(&mut encoder, &pipes, &levels[last]);
+    solve_coarsest(
+        &mut encoder.begin_compute_pass(&Default::default()),
+        &pipes,
+        &levels[last],
+    );
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
     for l in (0..last).rev() {
         prolong(&mut encoder, &pipes.prolong_replace, &levels[l], |b| {
@@ -555,22 +559,34 @@ fn prolong(
     level: &GpuLevel,
     group: impl Fn(&GpuBand) -> Option<&wgpu::BindGroup>,
 ) {
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(pipeline);
-        for band in &level.bands {
-            let Some(group) = group(band) else { continue };
-            let (x, y) = band.groups(level.w);
-            pass.set_bind_group(0, group, &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-    }
+    prolong_in(
+        &mut encoder.begin_compute_pass(&Default::default()),
+        pipeline,
+        level,
+        group,
+    );
     level.exchange(encoder);
 }
 
-/// Coarse right-hand side of `levels[l + 1]` from the residual of `levels[l]`, band by band.
-fn restrict(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, fine: &GpuLevel, coarse_w: u32) {
-    let mut pass = encoder.begin_compute_pass(&Default::default());
+/// [`prolong`]'s dispatches in `pass` (an untiled level: no ghost rows to exchange).
+fn prolong_in(
+    pass: &mut wgpu::ComputePass,
+    pipeline: &wgpu::ComputePipeline,
+    level: &GpuLevel,
+    group: impl Fn(&GpuBand) -> Option<&wgpu::BindGroup>,
+) {
+    pass.set_pipeline(pipeline);
+    for band in &level.bands {
+        let Some(group) = group(band) else { continue };
+        let (x, y) = band.groups(level.w);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(x, y, 1);
+    }
+}
+
+/// Coarse right-hand side of `levels[l + 1]` from the residual of `levels[l]`, band by band,
+/// in `pass`.
+fn restrict(pass: &mut wgpu::ComputePass, pipes: &Pipelines, fine: &GpuLevel, coarse_w: u32) {
     pass.set_pipeline(&pipes.restrict);
     for band in &fine.bands {
         let Some(group) = &band.restrict else {
@@ -583,48 +599,57 @@ fn restrict(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, fine: &GpuLev
 }
 
 /// `sweeps` red-black sweeps on `level`: each colour's threads cover half the columns. An
-/// untiled level runs all of them in one pass; a tiled one exchanges ghost rows after each
-/// colour.
+/// untiled level runs all of them in one pass ([`relax_in`]); a tiled one exchanges ghost
+/// rows after each colour.
 fn relax(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel, sweeps: u32) {
-    if sweeps == 0 {
-        return;
-    }
-    // A level within one workgroup: every sweep in one dispatch, with a storage barrier
-    // between colours (the same bits as 2 x `sweeps` dispatches, see `solve_coarsest`).
-    if let [band] = level.bands.as_slice()
-        && let Some((_, group)) = band.small_relax.iter().find(|(n, _)| *n == sweeps)
-    {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipes.solve_coarsest);
-        pass.set_bind_group(0, group, &[]);
-        pass.dispatch_workgroups(1, 1, 1);
+    if !level.is_tiled() {
+        relax_in(
+            &mut encoder.begin_compute_pass(&Default::default()),
+            pipes,
+            level,
+            sweeps,
+        );
         return;
     }
     let columns = level.w.div_ceil(2);
-    let colour_pass = |pass: &mut wgpu::ComputePass, colour: usize| {
-        for band in &level.bands {
-            let (x, y) = band.groups(columns);
-            pass.set_bind_group(0, &band.relax[colour], &[]);
-            pass.dispatch_workgroups(x, y, 1);
-        }
-    };
-    if !level.is_tiled() {
-        let mut pass = encoder.begin_compute_pass(&Default::default());
-        pass.set_pipeline(&pipes.relax);
-        for _ in 0..sweeps {
-            colour_pass(&mut pass, 0);
-            colour_pass(&mut pass, 1);
-        }
-        return;
-    }
     for _ in 0..sweeps {
         for colour in 0..2 {
             {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&pipes.relax);
-                colour_pass(&mut pass, colour);
+                for band in &level.bands {
+                    let (x, y) = band.groups(columns);
+                    pass.set_bind_group(0, &band.relax[colour], &[]);
+                    pass.dispatch_workgroups(x, y, 1);
+                }
             }
             level.exchange(encoder);
+        }
+    }
+}
+
+/// [`relax`] of an untiled level in `pass`. A level within one workgroup runs every sweep in
+/// one dispatch, with a storage barrier between colours (the same bits as 2 x `sweeps`
+/// dispatches, see `solve_coarsest`).
+fn relax_in(pass: &mut wgpu::ComputePass, pipes: &Pipelines, level: &GpuLevel, sweeps: u32) {
+    if sweeps == 0 {
+        return;
+    }
+    let [band] = level.bands.as_slice() else {
+        unreachable!("an untiled level has one band");
+    };
+    if let Some((_, group)) = band.small_relax.iter().find(|(n, _)| *n == sweeps) {
+        pass.set_pipeline(&pipes.solve_coarsest);
+        pass.set_bind_group(0, group, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+        return;
+    }
+    let (x, y) = band.groups(level.w.div_ceil(2));
+    pass.set_pipeline(&pipes.relax);
+    for _ in 0..sweeps {
+        for group in &band.relax {
+            pass.set_bind_group(0, group, &[]);
+            pass.dispatch_workgroups(x, y, 1);
         }
     }
 }
@@ -632,8 +657,7 @@ fn relax(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel
 /// [`COARSEST_SWEEPS`] red-black sweeps on the coarsest level (at most 4 x 4 cells) in one
 /// dispatch of one workgroup, with a storage barrier between colours: the bits of as many
 /// `relax` dispatches, without the 2 x `COARSEST_SWEEPS` dispatches' overhead per cycle.
-fn solve_coarsest(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: &GpuLevel) {
-    let mut pass = encoder.begin_compute_pass(&Default::default());
+fn solve_coarsest(pass: &mut wgpu::ComputePass, pipes: &Pipelines, level: &GpuLevel) {
     pass.set_pipeline(&pipes.solve_coarsest);
     for band in &level.bands {
         let group = band
@@ -645,7 +669,10 @@ fn solve_coarsest(encoder: &mut wgpu::CommandEncoder, pipes: &Pipelines, level: 
     }
 }
 
-/// Encodes one V-cycle from level `top` (correction scheme, as on the CPU).
+/// Encodes one V-cycle from level `top` (correction scheme, as on the CPU). The coarser
+/// levels' unknowns are cleared first (each is zero when the cycle reaches it, as before).
+/// Where no level is tiled the whole cycle is one compute pass: no ghost rows to exchange
+/// between its dispatches, and fewer passes cost less on drivers that pay per pass.
 fn v_cycle(
     encoder: &mut wgpu::CommandEncoder,
     pipes: &Pipelines,
@@ -656,22 +683,53 @@ fn v_cycle(
     finest: usize,
 ) {
     let last = levels.len() - 1;
-    for l in top..last {
-        relax(encoder, pipes, &levels[l], params.pre_sweeps);
-        stats.add(levels[l].cells(), finest, params.pre_sweeps);
-        restrict(encoder, pipes, &levels[l], levels[l + 1].w);
-        for band in &levels[l + 1].bands {
+    for level in &levels[top + 1..] {
+        for band in &level.bands {
             encoder.clear_buffer(&band.u, 0, None);
         }
     }
-    solve_coarsest(encoder, pipes, &levels[last]);
+    // The work in the CPU solver's order (the sums are `f32`).
+    for level in &levels[top..last] {
+        stats.add(level.cells(), finest, params.pre_sweeps);
+    }
     stats.add(levels[last].cells(), finest, COARSEST_SWEEPS);
+    for level in levels[top..last].iter().rev() {
+        stats.add(level.cells(), finest, params.post_sweeps);
+    }
+    if levels.iter().any(GpuLevel::is_tiled) {
+        for l in top..last {
+            relax(encoder, pipes, &levels[l], params.pre_sweeps);
+            restrict(
+                &mut encoder.begin_compute_pass(&Default::default()),
+                pipes,
+                &levels[l],
+                levels[l + 1].w,
+            );
+        }
+        solve_coarsest(
+            &mut encoder.begin_compute_pass(&Default::default()),
+            pipes,
+            &levels[last],
+        );
+        for l in (top..last).rev() {
+            prolong(encoder, &pipes.prolong_add, &levels[l], |b| {
+                b.prolong_add.as_ref()
+            });
+            relax(encoder, pipes, &levels[l], params.post_sweeps);
+        }
+        return;
+    }
+    let mut pass = encoder.begin_compute_pass(&Default::default());
+    for l in top..last {
+        relax_in(&mut pass, pipes, &levels[l], params.pre_sweeps);
+        restrict(&mut pass, pipes, &levels[l], levels[l + 1].w);
+    }
+    solve_coarsest(&mut pass, pipes, &levels[last]);
     for l in (top..last).rev() {
-        prolong(encoder, &pipes.prolong_add, &levels[l], |b| {
+        prolong_in(&mut pass, &pipes.prolong_add, &levels[l], |b| {
             b.prolong_add.as_ref()
         });
-        relax(encoder, pipes, &levels[l], params.post_sweeps);
-        stats.add(levels[l].cells(), finest, params.post_sweeps);
+        relax_in(&mut pass, pipes, &levels[l], params.post_sweeps);
     }
 }
 

@@ -1,4 +1,7 @@
-//! Does the terrain drain along its rivers? D8 steepest descent on the final heights.
+//! Does the terrain drain along its rivers? D8 steepest descent on the final heights, and
+//! the depression filling that makes it drain (on the CPU here, on the GPU in [`gpu`]).
+
+pub mod gpu;
 
 use std::ops::Range;
 
@@ -791,6 +794,43 @@ pub async fn condition_and_measure(
         pit_fraction: 0.0,
     };
     Ok((conditioning, drainage))
+}
+
+/// [`condition_and_measure`] with the flood on `backend`'s GPU when it runs the heavy stages
+/// there and holds the field ([`gpu::fill_depressions`], the same bits); the D8 measure then
+/// finds nothing left to flood. On a CPU backend, a software GPU, a field with no-data
+/// cells or a GPU failure the CPU floods it.
+pub async fn condition_and_measure_on(
+    backend: &crate::compute::Backend,
+    field: &mut Heightfield,
+    kinds: &[CellKind],
+    ctx: &JobCtx,
+) -> Result<(Conditioning, Drainage), Cancelled> {
+    let mut on_gpu = None;
+    if let crate::compute::Backend::Gpu(context) = backend
+        && context.runs_heavy_stages()
+        && gpu::fits(context, field.width(), field.height())
+    {
+        match gpu::fill_depressions(context, field, ctx).await {
+            Ok(result) => on_gpu = Some(result),
+            Err(gpu::GpuFloodError::Cancelled(c)) => return Err(c),
+            Err(err) => log::info!("depression filling on the CPU: {err}"),
+        }
+    }
+    let (conditioning, drainage) = condition_and_measure(field, kinds, ctx).await?;
+    Ok((merge(on_gpu, conditioning), drainage))
+}
+
+/// The conditioning of a surface flooded first on the GPU (`first`, if it was) and then on
+/// the CPU (`then`, which finds nothing left unless the GPU's flood could not finish).
+pub fn merge(first: Option<Conditioning>, then: Conditioning) -> Conditioning {
+    match first {
+        Some(first) => Conditioning {
+            raised_cells: first.raised_cells + then.raised_cells,
+            max_raise: first.max_raise.max(then.max_raise),
+        },
+        None => then,
+    }
 }
 
 #[cfg(test)]
