@@ -66,10 +66,28 @@ impl Method {
     }
 }
 
-/// A filled field and the numbers a report needs.
+/// Where a filled field is: on the CPU, or still on the GPU that solved it
+/// ([`fill_keeping`]).
 #[derive(Clone, Debug)]
-pub struct Filled {
-    pub field: Heightfield,
+pub enum FieldOut {
+    Cpu(Heightfield),
+    Gpu(crate::gpu::GpuField),
+}
+
+impl FieldOut {
+    /// The field on the CPU: read back from `gpu` if it is there (one readback).
+    pub async fn into_cpu(self, gpu: &crate::gpu::GpuContext) -> Result<Heightfield, GpuError> {
+        match self {
+            FieldOut::Cpu(field) => Ok(field),
+            FieldOut::Gpu(field) => field.read(gpu).await,
+        }
+    }
+}
+
+/// A filled field and the numbers a report needs (`F`: the field, or where it is).
+#[derive(Clone, Debug)]
+pub struct Filled<F = Heightfield> {
+    pub field: F,
     /// "multigrid" or "jacobi".
     pub method: &'static str,
     /// "cpu" or "gpu".
@@ -91,13 +109,47 @@ pub struct Filled {
     pub millis: f64,
 }
 
-/// Fills `problem` with `method` on `backend`: the diffusion stage's entry point.
+/// Fills `problem` with `method` on `backend`: the diffusion stage's entry point. The time
+/// includes reading the field back from the GPU.
 pub async fn fill(
     backend: &Backend,
     problem: &Constraints,
     method: Method,
     ctx: &JobCtx,
 ) -> Result<Filled, DiffusionError> {
+    let start = Instant::now();
+    let filled = fill_keeping(backend, problem, method, ctx).await?;
+    let field = match (filled.field, backend) {
+        (FieldOut::Gpu(field), Backend::Gpu(gpu)) => field.read(gpu).await?,
+        (FieldOut::Gpu(field), Backend::Cpu) => {
+            unreachable!("a CPU fill leaves no field on a GPU: {field:?}")
+        }
+        (FieldOut::Cpu(field), _) => field,
+    };
+    Ok(Filled {
+        field,
+        method: filled.method,
+        backend: filled.backend,
+        cycles: filled.cycles,
+        sweeps: filled.sweeps,
+        work_sweeps: filled.work_sweeps,
+        residual: filled.residual,
+        relative_residual: filled.relative_residual,
+        converged: filled.converged,
+        estimated_error: filled.estimated_error,
+        millis: start.elapsed().as_secs_f64() * 1e3,
+    })
+}
+
+/// [`fill`] that leaves the field on the GPU where it was solved there in one buffer (a
+/// multigrid solve on a GPU backend of a field that fits one binding), for a next GPU stage
+/// to work on in place; otherwise the field comes back on the CPU.
+pub async fn fill_keeping(
+    backend: &Backend,
+    problem: &Constraints,
+    method: Method,
+    ctx: &JobCtx,
+) -> Result<Filled<FieldOut>, DiffusionError> {
     let start = Instant::now();
     match method {
         // Exactly `sweeps` sweeps: O(sweeps x cells), two buffers and the mask.
@@ -119,12 +171,17 @@ pub async fn fill(
                 converged: true,
                 estimated_error: None,
                 millis: start.elapsed().as_secs_f64() * 1e3,
-                field,
+                field: FieldOut::Cpu(field),
             })
         }
         Method::Multigrid(params) => {
             let solved = match backend {
-                Backend::Cpu => multigrid::solve(problem, None, &params, ctx).await?,
+                Backend::Cpu => {
+                    let solved = multigrid::solve(problem, None, &params, ctx).await?;
+                    solved
+                        .map_field(async |f| Ok::<_, DiffusionError>(FieldOut::Cpu(f)))
+                        .await?
+                }
                 Backend::Gpu(gpu) => gpu::multigrid(gpu, problem, &params, ctx).await?,
             };
             Ok(Filled {
@@ -158,6 +215,33 @@ pub async fn post_filter(
         Backend::Cpu => post::apply_cpu(field, &weights, filter, seed),
         Backend::Gpu(gpu) => gpu::post_filter(gpu, field, &weights, filter, seed).await?,
     })
+}
+
+/// [`post_filter`] of a field that may still be on the GPU ([`fill_keeping`]): on a GPU
+/// backend a field there is filtered there into a new buffer (no transfer), a field on the
+/// CPU goes through [`post_filter`].
+pub async fn post_filter_keeping(
+    backend: &Backend,
+    field: FieldOut,
+    protected: &[bool],
+    filter: &PostFilter,
+    seed: u64,
+) -> Result<FieldOut, DiffusionError> {
+    match (field, backend) {
+        (FieldOut::Gpu(field), Backend::Gpu(gpu)) => {
+            let weights = post::protection(protected, field.width, field.height, filter.protect);
+            let out = gpu::post_filter_on(gpu, &field, &weights, filter, seed).await?;
+            Ok(FieldOut::Gpu(out))
+        }
+        (FieldOut::Gpu(field), Backend::Cpu) => {
+            unreachable!("a CPU backend leaves no field on a GPU: {field:?}")
+        }
+        (FieldOut::Cpu(field), backend) => {
+            let fitting = backend.fitting(field.width(), field.height());
+            let out = post_filter(&fitting, &field, protected, filter, seed).await?;
+            Ok(FieldOut::Cpu(out))
+        }
+    }
 }
 
 /// Height range of the fixed cells: the scale tolerances and errors are relative to.

@@ -256,6 +256,27 @@ pub async fn enrich(
     Ok(enrichment.added())
 }
 
+/// Fills the depressions of the diffusion's solution where the solver left it, on `gpu`
+/// ([`drainage::gpu::fill_buffer`]): what it raised, or `None` when the field is left to the
+/// CPU's flood (no-data cells, a flood that did not settle, a GPU failure).
+async fn flood_on_gpu(
+    gpu: &crate::gpu::GpuContext,
+    field: &crate::gpu::GpuField,
+    ctx: &JobCtx,
+) -> Result<Option<drainage::Conditioning>, Cancelled> {
+    if !drainage::gpu::fits(gpu, field.width, field.height) {
+        return Ok(None);
+    }
+    match drainage::gpu::fill_buffer(gpu, &field.buffer, field.width, field.height, ctx).await {
+        Ok(flooded) => Ok(Some(flooded)),
+        Err(drainage::gpu::GpuFloodError::Cancelled(c)) => Err(c),
+        Err(err) => {
+            log::info!("depression filling on the CPU: {err}");
+            Ok(None)
+        }
+    }
+}
+
 /// A stage's seed: the scene seed mixed with the stage name (FNV-1a).
 pub fn stage_seed(seed: u64, stage: &str) -> u64 {
     stage.bytes().fold(seed ^ 0xcbf2_9ce4_8422_2325, |h, b| {
@@ -365,10 +386,12 @@ pub async fn generate(
 
     let problem = skeleton.constraints()?;
     ctx.checkpoint(0.3, "diffusing").await?;
-    let filled = diffusion::fill(backend, &problem, params.solver, ctx).await?;
+    let filled = diffusion::fill_keeping(backend, &problem, params.solver, ctx).await?;
     lap("diffuse", &mut stages);
 
-    let mut terrain = filled.field;
+    // The post-filters, then the depression filling, on the field where the solver left it:
+    // a solution kept on the GPU is filtered and flooded there and comes back once.
+    let mut field = filled.field;
     if params.post.is_active() {
         ctx.checkpoint(0.9, "post-filters (smoothing, fBm) off the rivers")
             .await?;
@@ -379,9 +402,9 @@ pub async fn generate(
             .collect();
         // The post-filters need the field in one binding: larger ones run on the CPU (the
         // solver itself tiles them on the GPU).
-        terrain = diffusion::post_filter(
-            &backend.fitting(n, n),
-            &terrain,
+        field = diffusion::post_filter_keeping(
+            backend,
+            field,
             &protected,
             &params.post,
             stage_seed(params.seed, "post"),
@@ -389,8 +412,31 @@ pub async fn generate(
         .await?;
         lap("post", &mut stages);
     }
-    let (conditioning, drainage) =
-        drainage::condition_and_measure_on(backend, &mut terrain, &skeleton.kinds, ctx).await?;
+    // `Some(what the GPU flood raised, if it finished)` once the flood was tried there.
+    let mut flooded_on_gpu = None;
+    let mut terrain = match (field, backend) {
+        (diffusion::FieldOut::Cpu(field), _) => field,
+        (diffusion::FieldOut::Gpu(field), Backend::Gpu(gpu)) => {
+            if gpu.runs_heavy_stages() {
+                flooded_on_gpu = Some(flood_on_gpu(gpu, &field, ctx).await?);
+            }
+            field.read(gpu).await.map_err(DiffusionError::from)?
+        }
+        (diffusion::FieldOut::Gpu(_), Backend::Cpu) => {
+            unreachable!("a CPU backend solves on the CPU")
+        }
+    };
+    // The CPU measures, and floods what is left (everything, unless the GPU flooded it).
+    let (conditioning, drainage) = match flooded_on_gpu {
+        Some(flooded) => {
+            let (left, drainage) =
+                drainage::condition_and_measure(&mut terrain, &skeleton.kinds, ctx).await?;
+            (drainage::merge(flooded, left), drainage)
+        }
+        None => {
+            drainage::condition_and_measure_on(backend, &mut terrain, &skeleton.kinds, ctx).await?
+        }
+    };
     lap("drainage", &mut stages);
 
     // The report's O(cells) scans, with the job's ticks between them.

@@ -9,7 +9,7 @@ mod post;
 
 pub(super) use jacobi::jacobi;
 pub(super) use multigrid::multigrid;
-pub(super) use post::post_filter;
+pub(super) use post::{post_filter, post_filter_on};
 
 use crate::gpu::{GpuContext, GpuError, Shader};
 

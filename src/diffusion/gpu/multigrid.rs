@@ -32,8 +32,8 @@ use super::bands::{self, Band};
 use super::{MULTIGRID, WORKGROUP, bind};
 use crate::diffusion::multigrid::hierarchy;
 use crate::diffusion::multigrid::{COARSEST_SWEEPS, MultigridParams, Solved, Stopping, Work};
-use crate::diffusion::{Constraints, DiffusionError, fixed_height_range};
-use crate::gpu::{GpuContext, GpuError, read_staging};
+use crate::diffusion::{Constraints, DiffusionError, FieldOut, fixed_height_range};
+use crate::gpu::{GpuContext, GpuError, GpuField, read_staging};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
@@ -181,12 +181,16 @@ impl GpuLevel {
     }
 }
 
+/// Solves `problem` on `gpu` (FMG start, then batches of V-cycles with their checks, see the
+/// module docs). The solution stays on the GPU when the finest level is one buffer (the
+/// field fits one binding), for the next GPU stage or a readback
+/// ([`FieldOut::into_cpu`]); a tiled solve reads its bands back.
 pub(in crate::diffusion) async fn multigrid(
     gpu: &GpuContext,
     problem: &Constraints,
     params: &MultigridParams,
     ctx: &JobCtx,
-) -> Result<Solved, DiffusionError> {
+) -> Result<Solved<FieldOut>, DiffusionError> {
     let (w, h) = (problem.width(), problem.height());
     gpu.check_compute()?;
     if problem.fixed().count() == 0 {
@@ -260,11 +264,22 @@ pub(in crate::diffusion) async fn multigrid(
             stop.record(residual, correction);
         }
     }
-    let (rows, buffers) = levels[0].unknowns();
-    let data = bands::read_owned_rows(gpu, &rows, &buffers, w).await?;
+    let field = if let [band] = levels[0].bands.as_slice() {
+        FieldOut::Gpu(GpuField {
+            buffer: band.u.clone(),
+            width: w,
+            height: h,
+        })
+    } else {
+        let (rows, buffers) = levels[0].unknowns();
+        let data = bands::read_owned_rows(gpu, &rows, &buffers, w).await?;
+        FieldOut::Cpu(
+            Heightfield::from_vec(w, h, data).map_err(|e| GpuError::Readback(e.to_string()))?,
+        )
+    };
     ctx.set_progress(1.0, "multigrid: done");
     Ok(Solved {
-        field: Heightfield::from_vec(w, h, data).map_err(|e| GpuError::Readback(e.to_string()))?,
+        field,
         cycles: stop.cycles,
         fine_sweeps: stats.fine_sweeps,
         work_sweeps: stats.work_sweeps,

@@ -5,7 +5,7 @@ use wgpu::util::DeviceExt;
 
 use super::{POSTFILTER, WORKGROUP, bind};
 use crate::diffusion::post::{PostFilter, gaussian_taps};
-use crate::gpu::{GpuContext, GpuError, read_f32_buffer, wait_for_submitted_work};
+use crate::gpu::{GpuContext, GpuError, GpuField};
 use crate::heightfield::Heightfield;
 use crate::noise::Perlin;
 
@@ -26,7 +26,7 @@ struct Params {
     _pad: [u32; 4],
 }
 
-/// [`crate::diffusion::post::apply_cpu`] on the GPU.
+/// [`crate::diffusion::post::apply_cpu`] on the GPU: one upload, one readback.
 pub async fn post_filter(
     gpu: &GpuContext,
     field: &Heightfield,
@@ -35,6 +35,34 @@ pub async fn post_filter(
     seed: u64,
 ) -> Result<Heightfield, GpuError> {
     let (w, h) = (field.width(), field.height());
+    gpu.check_field(w, h)?;
+    let input = GpuField {
+        buffer: gpu
+            .device
+            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some("post field"),
+                contents: bytemuck::cast_slice(field.data()),
+                usage: wgpu::BufferUsages::STORAGE,
+            }),
+        width: w,
+        height: h,
+    };
+    post_filter_on(gpu, &input, weights, filter, seed)
+        .await?
+        .read(gpu)
+        .await
+}
+
+/// [`post_filter`] of a field already on the GPU, into a new one there (no transfer but
+/// the small tables).
+pub async fn post_filter_on(
+    gpu: &GpuContext,
+    input: &GpuField,
+    weights: &[f32],
+    filter: &PostFilter,
+    seed: u64,
+) -> Result<GpuField, GpuError> {
+    let (w, h) = (input.width, input.height);
     gpu.check_field(w, h)?;
     let smooth = filter.smooth_sigma > 0.0;
     let taps = if smooth {
@@ -75,7 +103,7 @@ pub async fn post_filter(
         bytemuck::bytes_of(&params),
         wgpu::BufferUsages::UNIFORM,
     );
-    let u = init("post field", bytemuck::cast_slice(field.data()), storage);
+    let u = &input.buffer;
     let taps_buf = init("post taps", bytemuck::cast_slice(&taps), storage);
     let perm_buf = init("post perm", bytemuck::cast_slice(&perm), storage);
     let weights_buf = init("post weights", bytemuck::cast_slice(weights), storage);
@@ -88,12 +116,15 @@ pub async fn post_filter(
         })
     };
     let tmp = scratch("post tmp", storage);
-    let out = scratch("post out", storage | wgpu::BufferUsages::COPY_SRC);
+    let out = scratch(
+        "post out",
+        storage | wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+    );
 
     let x_group = bind(
         device,
         &blur_x,
-        &[(0, &uniform), (1, &u), (2, &taps_buf), (5, &tmp)],
+        &[(0, &uniform), (1, u), (2, &taps_buf), (5, &tmp)],
     );
     let y_group = bind(
         device,
@@ -105,7 +136,7 @@ pub async fn post_filter(
         &combine,
         &[
             (0, &uniform),
-            (1, &u),
+            (1, u),
             (3, &perm_buf),
             (4, &weights_buf),
             (6, &out),
@@ -139,7 +170,9 @@ pub async fn post_filter(
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()));
     }
-    wait_for_submitted_work(gpu).await?;
-    let data = read_f32_buffer(gpu, &out, w * h).await?;
-    Heightfield::from_vec(w, h, data).map_err(|e| GpuError::Validation(e.to_string()))
+    Ok(GpuField {
+        buffer: out,
+        width: w,
+        height: h,
+    })
 }

@@ -60,10 +60,10 @@ impl Default for MultigridParams {
     }
 }
 
-/// A solved field and how the solve went.
+/// A solved field and how the solve went (`F`: the field, or where it is).
 #[derive(Clone, Debug)]
-pub struct Solved {
-    pub field: Heightfield,
+pub struct Solved<F = Heightfield> {
+    pub field: F,
     /// V-cycles on the finest level after the FMG start.
     pub cycles: u32,
     /// Relaxation sweeps on the finest level.
@@ -77,6 +77,25 @@ pub struct Solved {
     /// Estimated remaining error over the height range (see the stopping rule).
     pub estimated_error: f32,
     pub converged: bool,
+}
+
+impl<F> Solved<F> {
+    /// The same solve with its field replaced by `f(field)` (e.g. read back from the GPU).
+    pub async fn map_field<G, E>(
+        self,
+        f: impl AsyncFnOnce(F) -> Result<G, E>,
+    ) -> Result<Solved<G>, E> {
+        Ok(Solved {
+            field: f(self.field).await?,
+            cycles: self.cycles,
+            fine_sweeps: self.fine_sweeps,
+            work_sweeps: self.work_sweeps,
+            residual: self.residual,
+            relative_residual: self.relative_residual,
+            estimated_error: self.estimated_error,
+            converged: self.converged,
+        })
+    }
 }
 
 /// The job and what it reports at each [`JobCtx::tick`] between operators.
