@@ -339,24 +339,12 @@ async fn erode_with(
     let coef = empty("coef", 4);
     let bc = [empty("bc a", 8), empty("bc b", 8)];
 
+    // Every kernel reads the parameters at binding 0.
     let b = |pipe: usize, entries: &[(u32, &wgpu::Buffer)]| -> wgpu::BindGroup {
-        let mut all = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: params.as_entire_binding(),
-        }];
-        all.extend(
-            entries
-                .iter()
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: buffer.as_entire_binding(),
-                }),
-        );
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(ENTRIES[pipe]),
-            layout: &k[pipe].get_bind_group_layout(0),
-            entries: &all,
-        })
+        let all: Vec<(u32, &wgpu::Buffer)> = std::iter::once((0, &params))
+            .chain(entries.iter().copied())
+            .collect();
+        crate::gpu::bind_buffers(device, &k[pipe], ENTRIES[pipe], &all)
     };
     // Bind groups, built once for the whole run.
     let g_receivers = b(0, &[(1, &base), (2, &heights_buf), (3, &rcv)]);

@@ -160,24 +160,12 @@ pub async fn fill_buffer(
         usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
+    // Every kernel reads the parameters at binding 0.
     let bind = |pipe: usize, entries: &[(u32, &wgpu::Buffer)]| {
-        let mut all = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: params.as_entire_binding(),
-        }];
-        all.extend(
-            entries
-                .iter()
-                .map(|(binding, buffer)| wgpu::BindGroupEntry {
-                    binding: *binding,
-                    resource: buffer.as_entire_binding(),
-                }),
-        );
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some(ENTRIES[pipe]),
-            layout: &k[pipe].get_bind_group_layout(0),
-            entries: &all,
-        })
+        let all: Vec<(u32, &wgpu::Buffer)> = std::iter::once((0, &params))
+            .chain(entries.iter().copied())
+            .collect();
+        crate::gpu::bind_buffers(device, &k[pipe], ENTRIES[pipe], &all)
     };
     let jumps = jumps(n);
     let roots = &ptr[(jumps % 2) as usize];
