@@ -36,6 +36,7 @@
 //! pits exist, temporarily allocates two bit sets (2 bits per cell) plus a heap and
 //! queues sized by the lakes.
 
+mod coarse;
 mod diffusion;
 mod error;
 mod fill;
@@ -51,12 +52,13 @@ mod thermal;
 #[cfg(test)]
 mod tests;
 
+pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::stage::{
-    Eroded, ErosionReport, ErosionSettings, MAX_SOLVER_SIDE, Prepared, StageError, base_level,
-    erode_field, erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
+    Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
+    erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
 };
 
 use self::flow::Network;

@@ -1,0 +1,271 @@
+//! Maps larger than the solver's grid, coarse to fine: the design reduced to a grid of
+//! blocks, eroded there, brought back to full resolution and refined there by one more step
+//! of the same law (see [`refine`]).
+
+use std::ops::Range;
+
+use super::ErosionSettings;
+use super::stage::{
+    FINISHING, FLOOR_CELLS, PREPARING, Prepared, Solved, StageError, floor_near_rivers, in_bands,
+    in_row_bands, nearest_channel_in_steps, roughen_from, run_solver, solve,
+};
+use crate::compute::Backend;
+use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx};
+use crate::skeleton::CellKind;
+
+/// The largest grid the solver runs on: larger maps are eroded on a grid of whole blocks of
+/// cells (at most this many per side), brought back and refined at full resolution.
+/// Stream-power erosion with hillslope diffusion has a physical length scale (the valley
+/// spacing set by kappa / K, a few cells at the presets' resolution of 10-20 m), so the whole
+/// run on a 10 km map at 2.5 m cells would cost 16 times as much for valleys the coarse grid
+/// already resolves; the refinement adds the small ones.
+pub const MAX_SOLVER_SIDE: usize = 1024;
+
+/// The design of a large map reduced to the solver's grid by blocks of `f` x `f` cells: the
+/// mean height of each block, and a block is a channel where any of its cells is (holding
+/// the lowest channel height of the block, so rivers still fall towards their mouths).
+/// O(cells), in bands of block rows with the job's ticks between them.
+async fn reduce(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    f: usize,
+    ctx: &JobCtx,
+) -> Result<(Heightfield, Vec<CellKind>), Cancelled> {
+    let n = field.width();
+    let m = n.div_ceil(f);
+    let z = field.data();
+    let mut heights = vec![0.0f32; m * m];
+    let mut coarse = vec![CellKind::Free; m * m];
+    in_bands(ctx, PREPARING, m, n * f, |block_rows| {
+        reduce_blocks(z, kinds, n, f, block_rows, &mut heights, &mut coarse);
+    })
+    .await?;
+    let reduced = Heightfield::from_vec(m, m, heights).unwrap_or_else(|_| field.clone());
+    Ok((reduced, coarse))
+}
+
+/// The blocks of the block rows `block_rows` of [`reduce`] (an `n` x `n` map `z`).
+fn reduce_blocks(
+    z: &[f32],
+    kinds: &[CellKind],
+    n: usize,
+    f: usize,
+    block_rows: Range<usize>,
+    heights: &mut [f32],
+    coarse: &mut [CellKind],
+) {
+    let m = n.div_ceil(f);
+    for by in block_rows {
+        for bx in 0..m {
+            let (mut sum, mut count, mut channel) = (0.0f64, 0usize, f32::INFINITY);
+            let mut kind = CellKind::Free;
+            for y in by * f..((by + 1) * f).min(n) {
+                for x in bx * f..((bx + 1) * f).min(n) {
+                    let i = y * n + x;
+                    sum += f64::from(z[i]);
+                    count += 1;
+                    if matches!(kinds[i], CellKind::River | CellKind::Valley) {
+                        channel = channel.min(z[i]);
+                        if kind != CellKind::River {
+                            kind = kinds[i];
+                        }
+                    }
+                }
+            }
+            let b = by * m + bx;
+            coarse[b] = kind;
+            heights[b] = if kind == CellKind::Free {
+                (sum / count.max(1) as f64) as f32
+            } else {
+                channel
+            };
+        }
+    }
+}
+
+/// Bilinear interpolation of a coarse `m` x `m` grid (cell centres of blocks of `f` cells)
+/// at the centres of the `n` x `n` fine cells. O(cells), in bands of rows with the job's
+/// ticks between them.
+async fn expand(
+    coarse: &[f32],
+    m: usize,
+    f: usize,
+    n: usize,
+    ctx: &JobCtx,
+) -> Result<Vec<f32>, Cancelled> {
+    let at = |x: usize, y: usize| coarse[y.min(m - 1) * m + x.min(m - 1)];
+    let pos = |i: usize| ((i as f32 + 0.5) / f as f32 - 0.5).max(0.0);
+    let mut out = vec![0.0f32; n * n];
+    in_row_bands(ctx, FINISHING, &mut out, n, |rows, part| {
+        for (y, row) in rows.zip(part.chunks_mut(n)) {
+            let fy = pos(y);
+            let (y0, ty) = (fy.floor() as usize, fy.fract());
+            for (x, v) in row.iter_mut().enumerate() {
+                let fx = pos(x);
+                let (x0, tx) = (fx.floor() as usize, fx.fract());
+                let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
+                let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
+                *v = top * (1.0 - ty) + bottom * ty;
+            }
+        }
+    })
+    .await?;
+    Ok(out)
+}
+
+/// Erodes the `n` x `n` `field` (cells `cell_m` wide, `base` its base level at full
+/// resolution) on a grid of `factor` x `factor` blocks, then brings the result back to full
+/// resolution: interpolated heights, river and bank cells at their designed heights, the
+/// near-river floor ([`FLOOR_CELLS`] coarse cells) at full resolution, and [`refine`]s it.
+#[allow(clippy::too_many_arguments)]
+pub(super) async fn erode_coarse_to_fine(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    base: &[bool],
+    settings: &ErosionSettings,
+    cell_m: f64,
+    seed: u64,
+    factor: usize,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Solved, StageError> {
+    let n = field.width();
+    let (coarse, coarse_kinds) = reduce(field, kinds, factor, ctx).await?;
+    let m = coarse.width();
+    let coarse_cell_m = cell_m * factor as f64;
+    let eroded = solve(
+        &coarse,
+        &coarse_kinds,
+        settings,
+        coarse_cell_m,
+        seed,
+        backend,
+        ctx,
+    )
+    .await?
+    .heights;
+    ctx.tick(FINISHING.0, FINISHING.1).await?;
+    let up = expand(&eroded, m, factor, n, ctx).await?;
+    // The floor only needs the cells near a river.
+    let floor_cells = FLOOR_CELLS * factor as u32;
+    let (channel, steps_away) =
+        nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
+    ctx.tick(FINISHING.0, FINISHING.1).await?;
+    let floor = floor_near_rivers(&channel, &steps_away, floor_cells);
+    let mut heights = field.data().to_vec();
+    in_row_bands(ctx, FINISHING, &mut heights, n, |rows, part| {
+        let cells = rows.start * n..rows.end * n;
+        for (i, h) in cells.zip(part) {
+            if !base[i] {
+                *h = up[i].max(floor[i]);
+            }
+        }
+    })
+    .await?;
+    let fine = Refinement {
+        heights,
+        base: base.to_vec(),
+        floor,
+    };
+    refine(
+        fine,
+        n,
+        (cell_m, coarse_cell_m),
+        settings,
+        crate::terrain::stage_seed(seed, "refinement"),
+        backend,
+        ctx,
+    )
+    .await
+}
+
+/// A map eroded on a coarser grid and brought back to full resolution: the interpolated
+/// heights (river and bank cells at their designed heights), the base level and the
+/// near-river floor, all at full resolution.
+struct Refinement {
+    heights: Vec<f32>,
+    base: Vec<bool>,
+    floor: Vec<f32>,
+}
+
+/// The refinement at full resolution of a map eroded on a coarser grid: one more step of
+/// the same law, as long as one step of the coarse run (`years / steps`), with no uplift
+/// (the coarse run already raised the land), on the interpolated heights roughened at the
+/// full grid's scale. Interpolation alone leaves smooth bilinear patches between the
+/// coarse cells (a harmonic surface: 27% of the cells of a 4096^2 map) and no channel
+/// finer than a coarse cell; the step cuts the small valleys the finer grid resolves and
+/// routes the water at full resolution (its drainage area is the stage's layer). This is
+/// the coarse-to-fine use of a landscape-evolution model (a coarse run for the large
+/// valleys, a short run at the target resolution for the small ones); Braun & Willett's
+/// scheme is implicit, so one long step is stable. O(cells), on the coarse run's backend.
+async fn refine(
+    fine: Refinement,
+    n: usize,
+    (cell_m, coarse_cell_m): (f64, f64),
+    settings: &ErosionSettings,
+    seed: u64,
+    backend: &Backend,
+    ctx: &JobCtx,
+) -> Result<Solved, StageError> {
+    let Refinement {
+        mut heights,
+        base,
+        floor,
+    } = fine;
+    let roughness_m = settings.roughness_m * cell_m / coarse_cell_m;
+    in_row_bands(ctx, FINISHING, &mut heights, n, |rows, h| {
+        let cells = rows.start * n..rows.end * n;
+        roughen_from(h, &base[cells.clone()], roughness_m, seed, cells.start);
+    })
+    .await?;
+    let mut params = settings.params();
+    params.years /= f64::from(params.steps.max(1));
+    params.steps = 1;
+    let prepared = Prepared {
+        heights,
+        base,
+        uplift: vec![0.0; n * n],
+        floor,
+    };
+    run_solver(prepared, n, cell_m, params, backend, ctx).await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Blocks reduce to their mean (channels to their lowest channel cell) and a change
+    /// interpolated back reproduces a linear ramp exactly inside the map.
+    #[test]
+    fn reduce_and_expand_keep_channels_and_linear_changes() {
+        let n = 12;
+        let f = 3;
+        let data: Vec<f32> = (0..n * n).map(|i| (i % n) as f32).collect();
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let mut kinds = vec![CellKind::Free; n * n];
+        kinds[n + 1] = CellKind::River; // block (0, 0), height 1
+        kinds[2] = CellKind::River; // block (0, 0), height 2
+        let ctx = JobCtx::detached();
+        let (coarse, coarse_kinds) = pollster::block_on(reduce(&field, &kinds, f, &ctx)).unwrap();
+        assert_eq!(coarse.width(), 4);
+        assert_eq!(coarse_kinds[0], CellKind::River);
+        assert_eq!(coarse.data()[0], 1.0, "the lowest channel cell");
+        // Block (1, 0) holds columns 3..6: mean 4.
+        assert_eq!(coarse.data()[1], 4.0);
+        assert_eq!(coarse_kinds[1], CellKind::Free);
+        // A linear change in x on the coarse grid (block centres at 1, 4, 7, 10) comes back
+        // as the same line at the fine cells between the first and last block centres.
+        let ramp: Vec<f32> = (0..16).map(|i| (1 + 3 * (i % 4)) as f32).collect();
+        let fine = pollster::block_on(expand(&ramp, 4, f, n, &ctx)).unwrap();
+        for y in 0..n {
+            for x in 1..=10 {
+                assert!(
+                    (fine[y * n + x] - x as f32).abs() < 1e-5,
+                    "{x}: {}",
+                    fine[y * n + x]
+                );
+            }
+        }
+    }
+}
