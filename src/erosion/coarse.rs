@@ -122,7 +122,7 @@ async fn expand(
 pub(super) async fn erode_coarse_to_fine(
     field: &Heightfield,
     kinds: &[CellKind],
-    base: &[bool],
+    base: Vec<bool>,
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -147,12 +147,15 @@ pub(super) async fn erode_coarse_to_fine(
     .heights;
     ctx.tick(FINISHING.0, FINISHING.1).await?;
     let up = expand(&eroded, m, factor, n, ctx).await?;
-    // The floor only needs the cells near a river.
-    let floor_cells = FLOOR_CELLS * factor as u32;
-    let (channel, steps_away) =
-        nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
-    ctx.tick(FINISHING.0, FINISHING.1).await?;
-    let floor = floor_near_rivers(&channel, &steps_away, floor_cells);
+    // The floor only needs the cells near a river (the walk's fields go before the
+    // refinement allocates its own).
+    let floor = {
+        let floor_cells = FLOOR_CELLS * factor as u32;
+        let (channel, steps_away) =
+            nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
+        ctx.tick(FINISHING.0, FINISHING.1).await?;
+        floor_near_rivers(&channel, &steps_away, floor_cells)
+    };
     let mut heights = field.data().to_vec();
     in_row_bands(ctx, FINISHING, &mut heights, n, |rows, part| {
         let cells = rows.start * n..rows.end * n;
@@ -163,9 +166,10 @@ pub(super) async fn erode_coarse_to_fine(
         }
     })
     .await?;
+    drop(up);
     let fine = Refinement {
         heights,
-        base: base.to_vec(),
+        base,
         floor,
     };
     refine(

@@ -724,7 +724,7 @@ pub async fn erode_field_within(
         solve(field, kinds, settings, cell_m, seed, backend, ctx).await?
     } else {
         coarse::erode_coarse_to_fine(
-            field, kinds, &base, settings, cell_m, seed, factor, backend, ctx,
+            field, kinds, base, settings, cell_m, seed, factor, backend, ctx,
         )
         .await?
     };
