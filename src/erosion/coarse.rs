@@ -229,7 +229,7 @@ async fn refine(
     let prepared = Prepared {
         heights,
         base,
-        uplift: vec![0.0; n * n],
+        uplift: Vec::new(),
         floor,
     };
     run_solver(prepared, n, cell_m, params, backend, ctx).await

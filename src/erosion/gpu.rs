@@ -122,7 +122,7 @@ pub struct GpuInput<'a> {
     pub height: usize,
     pub cell_m: f64,
     pub base_level: &'a [bool],
-    /// Uplift rate, m/yr.
+    /// Uplift rate, m/yr (empty: none).
     pub uplift: &'a [f32],
     /// Heights no cell is lowered below after each step, or none.
     pub floor: Option<&'a [f32]>,
@@ -251,7 +251,9 @@ async fn erode_with(
     let n = grid.len();
     check_len("heights", heights.len(), n)?;
     check_len("base_level", base_level.len(), n)?;
-    check_len("uplift", uplift.len(), n)?;
+    if !uplift.is_empty() {
+        check_len("uplift", uplift.len(), n)?;
+    }
     check_finite("heights", heights)?;
     check_finite("uplift", uplift)?;
     if let Some(f) = floor {
@@ -327,8 +329,13 @@ async fn erode_with(
         wgpu::BufferUsages::STORAGE,
     );
     let heights_buf = init("heights", bytemuck::cast_slice(heights), rw);
-    let uplift_dt: Vec<f32> = uplift.iter().map(|u| (f64::from(*u) * dt) as f32).collect();
-    let uplift_buf = init("uplift dt", bytemuck::cast_slice(&uplift_dt), rw);
+    // No uplift: a zeroed buffer (wgpu zeroes new buffers), nothing to upload.
+    let uplift_buf = if uplift.is_empty() {
+        empty("uplift dt", 4)
+    } else {
+        let uplift_dt: Vec<f32> = uplift.iter().map(|u| (f64::from(*u) * dt) as f32).collect();
+        init("uplift dt", bytemuck::cast_slice(&uplift_dt), rw)
+    };
     let floor_buf = floor.map(|f| init("floor", bytemuck::cast_slice(f), rw));
     let rcv = empty("receivers", 4);
     let ptr = [empty("jump a", 4), empty("jump b", 4)];

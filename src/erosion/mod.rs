@@ -164,7 +164,8 @@ impl Eroder {
     /// * `base_level`: cells with fixed height where water leaves the map (rivers,
     ///   their banks, the border); at least one must be `true`.
     /// * `uplift`: rock uplift rate `U` in m/yr per cell (1 m/kyr = 0.001); ignored on
-    ///   base-level cells. Negative values (subsidence) are allowed.
+    ///   base-level cells. Negative values (subsidence) are allowed. Empty: no uplift
+    ///   anywhere (the same heights as zeros, without a field of them).
     pub fn new(
         heights: Vec<f32>,
         width: usize,
@@ -178,7 +179,9 @@ impl Eroder {
         let n = grid.len();
         check_len("heights", heights.len(), n)?;
         check_len("base_level", base_level.len(), n)?;
-        check_len("uplift", uplift.len(), n)?;
+        if !uplift.is_empty() {
+            check_len("uplift", uplift.len(), n)?;
+        }
         check_finite("heights", &heights)?;
         check_finite("uplift", &uplift)?;
         params

@@ -473,6 +473,7 @@ pub(super) fn floor_near_rivers(channel: &[f32], steps_away: &[u32], cells: u32)
 pub struct Prepared {
     pub heights: Vec<f32>,
     pub base: Vec<bool>,
+    /// m/yr; empty: none.
     pub uplift: Vec<f32>,
     pub floor: Vec<f32>,
 }

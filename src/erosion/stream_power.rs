@@ -59,7 +59,8 @@ impl Incision {
         }
     }
 
-    /// Updates `h` (uplift included) at the cells of `run`, a run of `net`'s stack. Runs
+    /// Updates `h` (uplift included; an empty `uplift` is none) at the cells of `run`, a run
+    /// of `net`'s stack. Runs
     /// must come in stack order, as each cell needs its receiver's new height. O(cells of
     /// the run).
     pub(super) fn apply(
@@ -77,7 +78,9 @@ impl Incision {
             if code == usize::from(NONE) {
                 continue; // base level (routing leaves no pits)
             }
-            let hi = h[i] as f64 + self.dt * uplift[i] as f64;
+            // An empty uplift is none: `+ dt * 0` keeps the bits zeros would give.
+            let u = uplift.get(i).copied().unwrap_or(0.0);
+            let hi = h[i] as f64 + self.dt * u as f64;
             let a = area[i] as f64;
             let cells = (a * self.inv_cell2 + 0.5) as usize;
             let a_m = if cells < POW_TABLE_CELLS {

@@ -180,6 +180,9 @@ fn without_uplift_no_cell_rises() {
             .filter(|(z, f)| z < f)
             .count();
         assert!(lowered > w * h / 2, "erosion did nothing");
+        // An empty uplift field is no uplift: the same bits as a field of zeros.
+        let none = run(Eroder::new(z0.clone(), w, h, 10.0, base.clone(), Vec::new(), p).unwrap());
+        assert_eq!(fnv1a(none.heights()), fnv1a(e.heights()), "n={n}");
     }
 }
 
