@@ -75,11 +75,14 @@ pub enum FieldOut {
 }
 
 impl FieldOut {
-    /// The field on the CPU: read back from `gpu` if it is there (one readback).
-    pub async fn into_cpu(self, gpu: &crate::gpu::GpuContext) -> Result<Heightfield, GpuError> {
-        match self {
-            FieldOut::Cpu(field) => Ok(field),
-            FieldOut::Gpu(field) => field.read(gpu).await,
+    /// The field on the CPU: read back from `backend`'s GPU if it is there (one readback).
+    pub async fn into_cpu(self, backend: &Backend) -> Result<Heightfield, GpuError> {
+        match (self, backend) {
+            (FieldOut::Cpu(field), _) => Ok(field),
+            (FieldOut::Gpu(field), Backend::Gpu(gpu)) => field.read(gpu).await,
+            (FieldOut::Gpu(field), Backend::Cpu) => {
+                unreachable!("a CPU backend leaves no field on a GPU: {field:?}")
+            }
         }
     }
 }
@@ -119,13 +122,7 @@ pub async fn fill(
 ) -> Result<Filled, DiffusionError> {
     let start = Instant::now();
     let filled = fill_keeping(backend, problem, method, ctx).await?;
-    let field = match (filled.field, backend) {
-        (FieldOut::Gpu(field), Backend::Gpu(gpu)) => field.read(gpu).await?,
-        (FieldOut::Gpu(field), Backend::Cpu) => {
-            unreachable!("a CPU fill leaves no field on a GPU: {field:?}")
-        }
-        (FieldOut::Cpu(field), _) => field,
-    };
+    let field = filled.field.into_cpu(backend).await?;
     Ok(Filled {
         field,
         method: filled.method,
@@ -176,12 +173,9 @@ pub async fn fill_keeping(
         }
         Method::Multigrid(params) => {
             let solved = match backend {
-                Backend::Cpu => {
-                    let solved = multigrid::solve(problem, None, &params, ctx).await?;
-                    solved
-                        .map_field(async |f| Ok::<_, DiffusionError>(FieldOut::Cpu(f)))
-                        .await?
-                }
+                Backend::Cpu => multigrid::solve(problem, None, &params, ctx)
+                    .await?
+                    .map_field(FieldOut::Cpu),
                 Backend::Gpu(gpu) => gpu::multigrid(gpu, problem, &params, ctx).await?,
             };
             Ok(Filled {

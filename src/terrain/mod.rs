@@ -414,18 +414,15 @@ pub async fn generate(
     }
     // `Some(what the GPU flood raised, if it finished)` once the flood was tried there.
     let mut flooded_on_gpu = None;
-    let mut terrain = match (field, backend) {
-        (diffusion::FieldOut::Cpu(field), _) => field,
-        (diffusion::FieldOut::Gpu(field), Backend::Gpu(gpu)) => {
-            if gpu.runs_heavy_stages() {
-                flooded_on_gpu = Some(flood_on_gpu(gpu, &field, ctx).await?);
-            }
-            field.read(gpu).await.map_err(DiffusionError::from)?
-        }
-        (diffusion::FieldOut::Gpu(_), Backend::Cpu) => {
-            unreachable!("a CPU backend solves on the CPU")
-        }
-    };
+    if let (diffusion::FieldOut::Gpu(on_gpu), Backend::Gpu(gpu)) = (&field, backend)
+        && gpu.runs_heavy_stages()
+    {
+        flooded_on_gpu = Some(flood_on_gpu(gpu, on_gpu, ctx).await?);
+    }
+    let mut terrain = field
+        .into_cpu(backend)
+        .await
+        .map_err(DiffusionError::from)?;
     // The CPU measures, and floods what is left (everything, unless the GPU flooded it).
     let (conditioning, drainage) = match flooded_on_gpu {
         Some(flooded) => {

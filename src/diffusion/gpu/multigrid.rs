@@ -184,7 +184,7 @@ impl GpuLevel {
 /// Solves `problem` on `gpu` (FMG start, then batches of V-cycles with their checks, see the
 /// module docs). The solution stays on the GPU when the finest level is one buffer (the
 /// field fits one binding), for the next GPU stage or a readback
-/// ([`FieldOut::into_cpu`]); a tiled solve reads its bands back.
+/// ([`crate::diffusion::FieldOut::into_cpu`]); a tiled solve reads its bands back.
 pub(in crate::diffusion) async fn multigrid(
     gpu: &GpuContext,
     problem: &Constraints,

@@ -80,13 +80,10 @@ pub struct Solved<F = Heightfield> {
 }
 
 impl<F> Solved<F> {
-    /// The same solve with its field replaced by `f(field)` (e.g. read back from the GPU).
-    pub async fn map_field<G, E>(
-        self,
-        f: impl AsyncFnOnce(F) -> Result<G, E>,
-    ) -> Result<Solved<G>, E> {
-        Ok(Solved {
-            field: f(self.field).await?,
+    /// The same solve with its field replaced by `f(field)`.
+    pub fn map_field<G>(self, f: impl FnOnce(F) -> G) -> Solved<G> {
+        Solved {
+            field: f(self.field),
             cycles: self.cycles,
             fine_sweeps: self.fine_sweeps,
             work_sweeps: self.work_sweeps,
@@ -94,7 +91,7 @@ impl<F> Solved<F> {
             relative_residual: self.relative_residual,
             estimated_error: self.estimated_error,
             converged: self.converged,
-        })
+        }
     }
 }
 
