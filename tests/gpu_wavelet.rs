@@ -69,3 +69,130 @@ fn gpu_synthesis_matches_the_cpu() {
         }
     }
 }
+
+/// The statistics computed on the GPU (forward transform, GSA, LSA fits, calibrated tables)
+/// against the CPU's, on rough and smooth, odd and non-square sources, at every scope.
+#[test]
+fn gpu_statistics_match_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let rough = fbm::diamond_square(97, 61, 0.7, 8).unwrap();
+    let smooth = fbm::diamond_square(65, 80, 0.95, 3).unwrap();
+    let scopes = [
+        Scope::Global,
+        Scope::Local(LocalParams::default()),
+        Scope::Local(LocalParams {
+            window: 1,
+            ..Default::default()
+        }),
+        Scope::Local(LocalParams {
+            window: 9,
+            levels: 4,
+            as_written: false,
+        }),
+        Scope::Local(LocalParams {
+            as_written: true,
+            ..Default::default()
+        }),
+    ];
+    for source in [&rough, &smooth] {
+        for scope in scopes {
+            for levels in [1, 3] {
+                let params = AmplifyParams {
+                    levels,
+                    scope,
+                    ..Default::default()
+                };
+                let (cpu, cpu_tables) = wavelet::synthesis::prepare(source, &params).unwrap();
+                let (on_gpu, gpu_tables) =
+                    pollster::block_on(wavelet::gpu::prepare_on_gpu(&gpu, source, &params))
+                        .expect("GPU statistics");
+                let what = format!(
+                    "{}x{} {scope:?} levels {levels}",
+                    source.width(),
+                    source.height()
+                );
+                assert_eq!(cpu.levels.len(), on_gpu.levels.len(), "{what}");
+                for (c, g) in cpu.levels.iter().zip(&on_gpu.levels) {
+                    assert_eq!((c.counts, c.fitted), (g.counts, g.fitted), "{what}");
+                    for (a, b) in c.variances.iter().zip(&g.variances) {
+                        assert!(
+                            (a - b).abs() <= 1e-5 * a.abs().max(1e-12),
+                            "{what}: {a} vs {b}"
+                        );
+                    }
+                }
+                for (c, g) in cpu.fits.iter().zip(&on_gpu.fits) {
+                    let (c, g) = (c.expect("a fit"), g.expect("a fit"));
+                    assert!((c.gamma - g.gamma).abs() < 1e-5, "{what}: {c:?} vs {g:?}");
+                    assert!((c.intercept - g.intercept).abs() < 1e-4, "{what}");
+                }
+                assert_eq!(cpu_tables.tables.len(), gpu_tables.tables.len(), "{what}");
+                for (t, (c, g)) in cpu_tables.tables.iter().zip(&gpu_tables.tables).enumerate() {
+                    assert_eq!(c.len(), g.len(), "{what}: table {t}");
+                    let worst = c
+                        .iter()
+                        .zip(g)
+                        .map(|(a, b)| {
+                            (f64::from(*a) - f64::from(*b)).abs() / f64::from(a.abs()).max(1e-12)
+                        })
+                        .fold(0.0f64, f64::max);
+                    assert!(
+                        worst < 2e-3,
+                        "{what}: table {t} differs by {worst} (relative)"
+                    );
+                }
+            }
+        }
+    }
+}
+
+/// A flat source has no fit: the GPU gives zero detail, as the CPU does; a source with
+/// voids is refused before anything is uploaded.
+#[test]
+fn gpu_statistics_of_flat_and_void_sources() {
+    let Some(gpu) = common::gpu() else { return };
+    let flat = Heightfield::filled(40, 33, 250.0).unwrap();
+    let params = AmplifyParams {
+        levels: 2,
+        scope: Scope::Local(LocalParams::default()),
+        ..Default::default()
+    };
+    let (analysis, tables) =
+        pollster::block_on(wavelet::gpu::prepare_on_gpu(&gpu, &flat, &params)).unwrap();
+    assert!(analysis.fits.iter().all(Option::is_none));
+    assert!(tables.tables.iter().flatten().all(|s| *s == 0.0));
+    let mut holed = flat.clone();
+    holed.data_mut()[7] = f32::NAN;
+    assert!(matches!(
+        pollster::block_on(wavelet::gpu::prepare_on_gpu(&gpu, &holed, &params)),
+        Err(wavelet::AmplifyFailure::Wavelet(
+            wavelet::WaveletError::NoData { cells: 1 }
+        ))
+    ));
+}
+
+/// The whole amplification reads back a few small sums and the output, however many levels
+/// the source has: twice at the global scope, four times at the local one.
+#[test]
+fn gpu_amplify_reads_back_a_fixed_number_of_times() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = Arc::new(gpu);
+    let backend = Backend::Gpu(gpu.clone());
+    for (side, scope, expected) in [
+        (33, Scope::Global, 2),
+        (257, Scope::Global, 2),
+        (33, Scope::Local(LocalParams::default()), 4),
+        (257, Scope::Local(LocalParams::default()), 4),
+    ] {
+        let source = fbm::diamond_square(side, side, 0.8, 5).unwrap();
+        let params = AmplifyParams {
+            levels: 2,
+            scope,
+            ..Default::default()
+        };
+        let before = gpu.stats();
+        run(&backend, &source, &params, None);
+        let used = gpu.stats().since(&before);
+        assert_eq!(used.readbacks, expected, "{side}^2 {scope:?}: {used:?}");
+    }
+}

@@ -106,15 +106,8 @@ impl Transformed {
     /// Forward transform of `field` over every level it allows. NaN cells are refused: fill
     /// the voids first.
     pub fn of(field: &Heightfield) -> Result<Self, WaveletError> {
-        let voids = field.data().iter().filter(|v| !v.is_finite()).count();
-        if voids > 0 {
-            return Err(WaveletError::NoData { cells: voids });
-        }
+        let levels = analysable_levels(field)?;
         let (width, height) = (field.width(), field.height());
-        let levels = lifting::max_levels(width, height);
-        if levels < 2 {
-            return Err(WaveletError::TooSmall { width, height });
-        }
         let mut data = field.data().to_vec();
         lifting::forward(&mut data, width, height, levels);
         Ok(Self {
@@ -124,6 +117,21 @@ impl Transformed {
             data,
         })
     }
+}
+
+/// How many levels the analysis of `field` runs over (every level its size allows). NaN cells
+/// are refused (fill the voids first), and so are grids too small for two levels.
+pub fn analysable_levels(field: &Heightfield) -> Result<u32, WaveletError> {
+    let voids = field.data().iter().filter(|v| !v.is_finite()).count();
+    if voids > 0 {
+        return Err(WaveletError::NoData { cells: voids });
+    }
+    let (width, height) = (field.width(), field.height());
+    let levels = lifting::max_levels(width, height);
+    if levels < 2 {
+        return Err(WaveletError::TooSmall { width, height });
+    }
+    Ok(levels)
 }
 
 /// Least-squares line through `(x, y)` points: (slope, intercept, rms residual).
@@ -150,51 +158,78 @@ fn fit_line(points: &[(f64, f64)]) -> Option<(f64, f64, f64)> {
 
 /// Global scope analysis (GSA steps 1-2) of an already transformed terrain.
 pub fn analyze_transformed(t: &Transformed, params: &AnalysisParams) -> Analysis {
-    let mut levels = Vec::with_capacity(t.levels as usize);
-    for depth in 1..=t.levels {
-        let s = 1usize << (depth - 1);
-        let mut counts = [0; 3];
-        let mut variances = [0.0; 3];
-        for band in Band::ALL {
-            let norm = band.normalisation(depth as i32);
-            let mut sum = 0.0f64;
-            for_each_coefficient(&t.data, t.width, t.height, s, band, |_, _, v| {
-                sum += (f64::from(v) * norm).powi(2);
-            });
-            let count = band_count(t.width, t.height, s, band);
-            counts[band.index()] = count;
-            variances[band.index()] = if count > 0 { sum / count as f64 } else { 0.0 };
-        }
-        levels.push(LevelStats {
-            depth,
-            level: t.levels - depth,
-            counts,
-            variances,
-            fitted: [false; 3],
-        });
-    }
-    let mut fits = [None; 3];
-    for band in Band::ALL {
-        let b = band.index();
-        let mut points = Vec::new();
-        for stats in &mut levels {
-            if stats.counts[b] >= params.min_coefficients && stats.variances[b] > 0.0 {
-                stats.fitted[b] = true;
-                points.push((f64::from(stats.depth), stats.variances[b].log2()));
+    let energies: Vec<[f64; 3]> = (1..=t.levels)
+        .map(|depth| {
+            let s = 1usize << (depth - 1);
+            Band::ALL.map(|band| {
+                let norm = band.normalisation(depth as i32);
+                let mut sum = 0.0f64;
+                for_each_coefficient(&t.data, t.width, t.height, s, band, |_, _, v| {
+                    sum += (f64::from(v) * norm).powi(2);
+                });
+                sum
+            })
+        })
+        .collect();
+    Analysis::from_energies(t.width, t.height, &energies, params)
+}
+
+impl Analysis {
+    /// GSA steps 1-2 from each level's energy: `energies[depth - 1][band]` is the sum of the
+    /// squared normalised coefficients of `band` at `depth` (finest first). Eq. 6 divides
+    /// it by the band's count, eq. 7 fits the line.
+    pub fn from_energies(
+        width: usize,
+        height: usize,
+        energies: &[[f64; 3]],
+        params: &AnalysisParams,
+    ) -> Analysis {
+        let depths = energies.len() as u32;
+        let mut levels = Vec::with_capacity(energies.len());
+        for (depth, sums) in (1..=depths).zip(energies) {
+            let s = 1usize << (depth - 1);
+            let mut counts = [0; 3];
+            let mut variances = [0.0; 3];
+            for band in Band::ALL {
+                let count = band_count(width, height, s, band);
+                counts[band.index()] = count;
+                variances[band.index()] = if count > 0 {
+                    sums[band.index()] / count as f64
+                } else {
+                    0.0
+                };
             }
+            levels.push(LevelStats {
+                depth,
+                level: depths - depth,
+                counts,
+                variances,
+                fitted: [false; 3],
+            });
         }
-        fits[b] = fit_line(&points).map(|(gamma, intercept, residual)| LineFit {
-            gamma,
-            intercept,
-            residual,
-            levels_used: points.len(),
-        });
-    }
-    Analysis {
-        width: t.width,
-        height: t.height,
-        levels,
-        fits,
+        let mut fits = [None; 3];
+        for band in Band::ALL {
+            let b = band.index();
+            let mut points = Vec::new();
+            for stats in &mut levels {
+                if stats.counts[b] >= params.min_coefficients && stats.variances[b] > 0.0 {
+                    stats.fitted[b] = true;
+                    points.push((f64::from(stats.depth), stats.variances[b].log2()));
+                }
+            }
+            fits[b] = fit_line(&points).map(|(gamma, intercept, residual)| LineFit {
+                gamma,
+                intercept,
+                residual,
+                levels_used: points.len(),
+            });
+        }
+        Analysis {
+            width,
+            height,
+            levels,
+            fits,
+        }
     }
 }
 
@@ -227,7 +262,7 @@ impl Default for LocalParams {
 }
 
 /// Largest local slope kept; noisy windows can give absurd extrapolations otherwise.
-const MAX_LOCAL_GAMMA: f64 = 8.0;
+pub const MAX_LOCAL_GAMMA: f64 = 8.0;
 
 /// Per-location fits of eq. 7 (LSA), at the analysed grid's resolution, per band.
 pub struct LocalFit {
@@ -353,19 +388,8 @@ fn nearest(len: usize, s: usize, p: usize, n: usize) -> Vec<usize> {
 /// coefficients' variance as it stands (only the zero-energy floor remains, since a log of 0
 /// has no line).
 pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> LocalFit {
-    let levels = params.levels.clamp(2, t.levels);
-    let window = params.window.max(1);
+    let design = LocalDesign::new(t.levels, params);
     let (w, h) = (t.width, t.height);
-    let depths: Vec<f64> = (1..=levels).map(f64::from).collect();
-    let mean_depth = depths.iter().sum::<f64>() / depths.len() as f64;
-    let sxx: f64 = depths.iter().map(|d| (d - mean_depth).powi(2)).sum();
-    let n_window = (window * window) as f64;
-    let log_bias = if params.as_written {
-        0.0
-    } else {
-        1.0 / (n_window * std::f64::consts::LN_2)
-    };
-    let analytic_log_var = 2.0 / n_window / std::f64::consts::LN_2.powi(2);
     let mut gamma: [Vec<f32>; 3] = Default::default();
     let mut intercept: [Vec<f32>; 3] = Default::default();
     for band in Band::ALL {
@@ -376,10 +400,13 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
         let mut log_means = Vec::new();
         let mut columns = Vec::new();
         let mut rows = Vec::new();
-        for d in 1..=levels {
+        for d in 1..=design.levels {
             let sums = WindowSums::new(t, d, band);
-            let floor = (global.levels[d as usize - 1].variances[b] * 1e-6).max(1e-30);
-            log_means.push((sums.nx, sums.log_means(window, floor, log_bias)));
+            let floor = LocalDesign::floor(global, d, b);
+            log_means.push((
+                sums.nx,
+                sums.log_means(design.window, floor, design.log_bias),
+            ));
             let s = 1usize << (d - 1);
             columns.push(nearest(w, s, px, sums.nx));
             rows.push(nearest(h, s, py, sums.ny));
@@ -387,7 +414,7 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
         // Pass 1: raw local slopes and mean logs, and the spread statistics.
         let mut raw_slope = vec![0.0f64; w * h];
         let mut mean_logs = vec![0.0f64; w * h];
-        let mut logs = vec![0.0f64; levels as usize];
+        let mut logs = vec![0.0f64; design.levels as usize];
         let (mut slope_sum, mut slope_sq) = (0.0f64, 0.0f64);
         for y in 0..h {
             for x in 0..w {
@@ -395,37 +422,24 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
                     logs[k] = level[rows[k][y] * nx + columns[k][x]];
                 }
                 let mean_log = logs.iter().sum::<f64>() / logs.len() as f64;
-                let sxy: f64 = depths
-                    .iter()
+                let sxy: f64 = (1..=design.levels)
                     .zip(&logs)
-                    .map(|(d, l)| (d - mean_depth) * (l - mean_log))
+                    .map(|(d, l)| (f64::from(d) - design.mean_depth) * (l - mean_log))
                     .sum();
-                let slope = sxy / sxx;
+                let slope = sxy / design.sxx;
                 raw_slope[y * w + x] = slope;
                 mean_logs[y * w + x] = mean_log;
                 slope_sum += slope;
                 slope_sq += slope * slope;
             }
         }
-        let cells = (w * h) as f64;
-        let slope_noise = analytic_log_var / sxx;
-        let centre = global.fits[b].map_or(slope_sum / cells, |f| f.gamma);
-        let spread = (slope_sq / cells - (slope_sum / cells).powi(2)).max(0.0);
-        let keep = if spread > 0.0 {
-            ((spread - slope_noise) / spread).clamp(0.0, 1.0)
-        } else {
-            0.0
-        };
+        let (centre, keep) = design.shrinkage(global, b, slope_sum, slope_sq, (w * h) as f64);
         let mut g = vec![0.0f32; w * h];
         let mut a = vec![0.0f32; w * h];
         for i in 0..w * h {
-            let slope = if params.as_written {
-                raw_slope[i]
-            } else {
-                (centre + keep * (raw_slope[i] - centre)).clamp(0.0, MAX_LOCAL_GAMMA)
-            };
+            let slope = design.shrunk(raw_slope[i], centre, keep);
             g[i] = slope as f32;
-            a[i] = (mean_logs[i] - slope * mean_depth) as f32;
+            a[i] = (mean_logs[i] - slope * design.mean_depth) as f32;
         }
         gamma[b] = g;
         intercept[b] = a;
@@ -436,6 +450,86 @@ pub fn local_fit(t: &Transformed, global: &Analysis, params: &LocalParams) -> Lo
         gamma,
         intercept,
         calibrated: !params.as_written,
+    }
+}
+
+/// What every location's fit of eq. 7 shares (LSA), on the CPU ([`local_fit`]) and on the
+/// GPU: the analysed depths and the corrections for a window of `window^2` coefficients.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LocalDesign {
+    /// The fits run through depths `1..=levels`.
+    pub levels: u32,
+    /// Window side in coefficients.
+    pub window: usize,
+    pub mean_depth: f64,
+    /// Sum of the squared deviations of the depths from their mean.
+    pub sxx: f64,
+    /// Added to each window's log2 mean square (the delta-method bias; 0 as written).
+    pub log_bias: f64,
+    /// Variance of a fitted slope that is estimation noise alone.
+    pub slope_noise: f64,
+    pub as_written: bool,
+}
+
+impl LocalDesign {
+    /// The design for a transform of `analysable` levels.
+    pub fn new(analysable: u32, params: &LocalParams) -> Self {
+        let levels = params.levels.clamp(2, analysable);
+        let window = params.window.max(1);
+        let depths: Vec<f64> = (1..=levels).map(f64::from).collect();
+        let mean_depth = depths.iter().sum::<f64>() / depths.len() as f64;
+        let sxx: f64 = depths.iter().map(|d| (d - mean_depth).powi(2)).sum();
+        let n_window = (window * window) as f64;
+        let log_bias = if params.as_written {
+            0.0
+        } else {
+            1.0 / (n_window * std::f64::consts::LN_2)
+        };
+        let analytic_log_var = 2.0 / n_window / std::f64::consts::LN_2.powi(2);
+        Self {
+            levels,
+            window,
+            mean_depth,
+            sxx,
+            log_bias,
+            slope_noise: analytic_log_var / sxx,
+            as_written: params.as_written,
+        }
+    }
+
+    /// The least mean square a window of `band` at `depth` is given: a millionth of the
+    /// level's global variance, so flat areas extrapolate to (almost) no detail, not NaN.
+    pub fn floor(global: &Analysis, depth: u32, band: usize) -> f64 {
+        (global.levels[depth as usize - 1].variances[band] * 1e-6).max(1e-30)
+    }
+
+    /// The centre and the kept share of the shrinkage of one band's slopes, from their sum
+    /// and sum of squares over `cells` locations (see [`local_fit`]).
+    pub fn shrinkage(
+        &self,
+        global: &Analysis,
+        band: usize,
+        slope_sum: f64,
+        slope_sq: f64,
+        cells: f64,
+    ) -> (f64, f64) {
+        let centre = global.fits[band].map_or(slope_sum / cells, |f| f.gamma);
+        let spread = (slope_sq / cells - (slope_sum / cells).powi(2)).max(0.0);
+        let keep = if spread > 0.0 {
+            ((spread - self.slope_noise) / spread).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        (centre, keep)
+    }
+
+    /// A location's slope after the shrinkage (as written: the raw slope).
+    pub fn shrunk(&self, raw: f64, centre: f64, keep: f64) -> f64 {
+        if self.as_written {
+            raw
+        } else {
+            (centre + keep * (raw - centre)).clamp(0.0, MAX_LOCAL_GAMMA)
+        }
     }
 }
 

@@ -134,7 +134,9 @@ pub struct SigmaTables {
 }
 
 impl SigmaTables {
-    fn build(
+    /// The tables for `levels` new levels above a `w x h` source: from the global lines, or
+    /// per cell from the local fit (calibrated or as written).
+    pub fn build(
         analysis: &Analysis,
         local: Option<&LocalFit>,
         levels: u32,
