@@ -334,7 +334,10 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
             list.push(Backend::Cpu);
         }
         if want_gpu && let Some(gpu) = path.gpu() {
-            list.push(Backend::Gpu(gpu.clone()));
+            // The GPU path whole, software rasteriser or not (the wavelet statistics).
+            list.push(Backend::Gpu(std::sync::Arc::new(
+                gpu.as_ref().clone().with_all_stages(),
+            )));
         }
         if args.blend {
             return super::bench_blend::run(&args.sizes, &list);

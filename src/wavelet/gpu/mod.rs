@@ -106,16 +106,32 @@ fn upload_source(gpu: &GpuContext, source: &Heightfield) -> wgpu::Buffer {
 }
 
 /// The statistics of `source` for `params` on the GPU, or on the CPU where a local fit
-/// asks for more levels than the kernels hold.
+/// asks for more levels than the kernels hold, and beside a software rasteriser unless every
+/// stage was asked of it ([`GpuContext::runs_heavy_stages`]): lavapipe takes about 4 times
+/// as long as the CPU for them (the README's wavelet benchmark).
 async fn statistics(
     gpu: &GpuContext,
     source: &Heightfield,
     source_buf: &wgpu::Buffer,
     params: &AmplifyParams,
 ) -> Result<analysis::Statistics, AmplifyFailure> {
+    statistics_where(gpu, source, source_buf, params, gpu.runs_heavy_stages()).await
+}
+
+/// [`statistics`], on the GPU when `on_gpu` (and the kernels hold the fit).
+async fn statistics_where(
+    gpu: &GpuContext,
+    source: &Heightfield,
+    source_buf: &wgpu::Buffer,
+    params: &AmplifyParams,
+    on_gpu: bool,
+) -> Result<analysis::Statistics, AmplifyFailure> {
     let levels = super::analysis::analysable_levels(source)?;
     let size = (source.width(), source.height());
-    if let Some(statistics) = analysis::statistics(gpu, source_buf, size, levels, params).await? {
+    if on_gpu
+        && let Some(statistics) =
+            analysis::statistics(gpu, source_buf, size, levels, params).await?
+    {
         return Ok(statistics);
     }
     let (analysis, tables) = prepare(source, params)?;
@@ -138,7 +154,7 @@ async fn statistics(
             &wgpu::util::BufferInitDescriptor {
                 label: Some("wavelet sigma"),
                 contents: bytemuck::cast_slice(&data),
-                usage: wgpu::BufferUsages::STORAGE,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
             },
         ))
     };
@@ -146,7 +162,7 @@ async fn statistics(
 }
 
 /// The global analysis and the standard-deviation tables of the synthesis, computed on the
-/// GPU and read back in [`super::synthesis::prepare`]'s layout (tests hold the two to each
+/// GPU (software rasteriser or not) and read back in [`super::synthesis::prepare`]'s layout (tests hold the two to each
 /// other).
 pub async fn prepare_on_gpu(
     gpu: &GpuContext,
@@ -155,7 +171,7 @@ pub async fn prepare_on_gpu(
 ) -> Result<(Analysis, SigmaTables), AmplifyFailure> {
     check(source, params)?;
     let source_buf = upload_source(gpu, source);
-    let statistics = statistics(gpu, source, &source_buf, params).await?;
+    let statistics = statistics_where(gpu, source, &source_buf, params, true).await?;
     let size = (source.width(), source.height());
     let tables = analysis::read_tables(gpu, &statistics, params.levels, size).await?;
     Ok((statistics.analysis, tables))
