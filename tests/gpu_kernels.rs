@@ -235,3 +235,21 @@ fn warming_builds_every_kernel_once() {
     pollster::block_on(diffusion::warm_gpu(&gpu)).expect("again");
     assert_eq!(gpu.stats().pipelines_created, 20);
 }
+
+/// A readback the device refuses is an error naming why, never a buffer of zeros taken for
+/// a terrain.
+#[test]
+fn a_refused_readback_is_an_error() {
+    let Some(gpu) = common::gpu() else { return };
+    let hidden = gpu.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("storage without COPY_SRC"),
+        size: 64,
+        usage: wgpu::BufferUsages::STORAGE,
+        mapped_at_creation: false,
+    });
+    let result = pollster::block_on(strahler::gpu::read_f32_buffer(&gpu, &hidden, 16));
+    assert!(
+        matches!(result, Err(strahler::gpu::GpuError::Validation(_))),
+        "{result:?}"
+    );
+}

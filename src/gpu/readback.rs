@@ -31,12 +31,15 @@ pub async fn read_f32_buffer(
     Ok(bytemuck::pod_collect_to_vec(&bytes))
 }
 
-/// Copies the first `bytes` bytes of `source` (with `COPY_SRC`) back to the CPU.
+/// Copies the first `bytes` bytes of `source` (with `COPY_SRC`) back to the CPU. A copy
+/// the device refuses (a buffer without `COPY_SRC`, a range past its end) is an error, not
+/// a staging buffer of zeros.
 pub async fn read_bytes(
     ctx: &GpuContext,
     source: &wgpu::Buffer,
     bytes: u64,
 ) -> Result<Vec<u8>, GpuError> {
+    let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback staging"),
         size: bytes,
@@ -50,6 +53,9 @@ pub async fn read_bytes(
         });
     encoder.copy_buffer_to_buffer(source, 0, &staging, 0, bytes);
     ctx.submit(encoder.finish());
+    if let Some(err) = scope.pop().await {
+        return Err(GpuError::Validation(err.to_string()));
+    }
 
     read_staging(ctx, &staging, bytes).await
 }
