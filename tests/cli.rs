@@ -1265,6 +1265,64 @@ fn bench_json_prints_one_object_per_run() {
     );
 }
 
+/// `bench --wavelet --json`: one object per run of each case, with the phases and, on the
+/// GPU, the device's work: the whole path (statistics and synthesis) on it, reading back 2
+/// times at the global scope and 4 at the local one.
+#[test]
+fn bench_wavelet_json_counts_the_gpu_paths_work() {
+    let out = strahler(&["bench", "--wavelet", "--sizes", "33", "--json"]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows: Vec<serde_json::Value> = text
+        .lines()
+        .map(|line| serde_json::from_str(line).expect("one JSON object per line"))
+        .collect();
+    // Global with and without a mask, local at five windows.
+    assert_eq!(
+        rows.iter().filter(|r| r["backend"] == "cpu").count(),
+        7,
+        "{text}"
+    );
+    for row in &rows {
+        assert!(row.get("error").is_none(), "{row}");
+        assert_eq!(
+            (row["size"].as_u64(), row["output"].as_u64()),
+            (Some(33), Some(129))
+        );
+        let ms = row["ms"].as_f64().expect("ms");
+        let phases: f64 = ["analysis_ms", "fill_ms", "inverse_ms"]
+            .iter()
+            .map(|k| row[*k].as_f64().expect("a phase"))
+            .sum();
+        assert!(phases <= ms * 1.01 + 0.1, "{row}");
+    }
+    let gpu: Vec<_> = rows.iter().filter(|r| r["backend"] == "gpu").collect();
+    if gpu.is_empty() {
+        assert!(
+            std::env::var_os("STRAHLER_REQUIRE_GPU").is_none(),
+            "no GPU rows: {text}"
+        );
+        return;
+    }
+    assert_eq!(gpu.len(), 7, "{text}");
+    assert_eq!(gpu[0]["pipelines_created"], 8, "{}", gpu[0]);
+    for row in &gpu[1..] {
+        assert_eq!(row["pipelines_created"], 0, "{row}");
+    }
+    for row in &gpu {
+        let expected = if row["method"] == "wavelet-global" {
+            2
+        } else {
+            4
+        };
+        assert_eq!(row["readbacks"], expected, "{row}");
+    }
+}
+
 /// Issue 18, point 6: `bench --pipeline --backend gpu` runs the pipeline on the GPU and adds
 /// a row of GPU times, the diffusion's measured and the CPU stages' shown as `-`.
 #[test]

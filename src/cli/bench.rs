@@ -53,7 +53,8 @@ pub struct BenchArgs {
     /// sweeps, residual, error and, on the GPU, the pipelines and shader modules created, the
     /// queue submissions and the readbacks, and gpu_ms: the GPU's own time of the run's
     /// submissions from timestamp queries, null where the adapter has none) instead of the
-    /// diffusion table.
+    /// diffusion table; with --wavelet, one per amplification (method wavelet-global or
+    /// wavelet-local, window, masked, output, the phases' analysis_ms, fill_ms, inverse_ms).
     #[arg(long)]
     pub json: bool,
     /// Solves per size, backend and method in the diffusion benchmark (runs per case with
@@ -342,7 +343,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         if args.blend {
             return super::bench_blend::run(&args.sizes, &list);
         }
-        return super::bench_wavelet::run(&args.sizes, &list, args.repeat);
+        return super::bench_wavelet::run(&args.sizes, &list, args.repeat, args.json);
     }
     if want_cpu {
         backends.push(Backend::Cpu);

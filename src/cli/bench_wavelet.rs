@@ -1,9 +1,14 @@
 //! `strahler bench --wavelet`: wavelet levels of detail timed on diamond-square sources
 //! (H = 0.7): global and local scope (several windows), with and without a mask, per backend;
 //! medians of `--repeat` runs per phase (analysis, coefficient fill, inverse transform), and
-//! the realism report's spectral slope (bands pooled) of the source and of the output.
+//! the realism report's spectral slope (bands pooled) of the source and of the output. On
+//! the GPU also the GPU's own time of the run's submissions (timestamp queries, where the
+//! adapter has them). With `--json`, one object per run instead, with what the device
+//! created, submitted and read back.
 
 use crate::compute::Backend;
+use crate::gpu::GpuStats;
+use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 use crate::wavelet::{
     self, AmplifyParams, AnalysisParams, LocalParams, Mask, Scope, fbm, synthesis,
@@ -22,19 +27,72 @@ fn median(mut values: Vec<f64>) -> f64 {
     }
 }
 
+/// One timed amplification: its wall time and phases and, on the GPU, the GPU time of its
+/// submissions and what the device did meanwhile.
+struct Run {
+    ms: f64,
+    timings: synthesis::Timings,
+    gpu_ms: Option<f64>,
+    gpu: Option<GpuStats>,
+}
+
+fn time_one(
+    backend: &Backend,
+    source: &Heightfield,
+    params: &AmplifyParams,
+    mask: Option<&Mask>,
+) -> Result<(Run, wavelet::Amplified), Box<dyn std::error::Error>> {
+    let before = match backend {
+        Backend::Gpu(gpu) => {
+            gpu.start_timing();
+            Some(gpu.stats())
+        }
+        Backend::Cpu => None,
+    };
+    let clock = web_time::Instant::now();
+    let result = pollster::block_on(wavelet::amplify_on(
+        backend,
+        source,
+        params,
+        mask,
+        &JobCtx::detached(),
+    ));
+    let ms = clock.elapsed().as_secs_f64() * 1e3;
+    // Close the timing scope (outside the wall time) even when the run failed.
+    let (gpu_ms, gpu) = match backend {
+        Backend::Gpu(gpu) => (
+            pollster::block_on(gpu.stop_timing())?.map(|t| t.ms()),
+            before.map(|b| gpu.stats().since(&b)),
+        ),
+        Backend::Cpu => (None, None),
+    };
+    let amplified = result?;
+    let run = Run {
+        ms,
+        timings: amplified.timings,
+        gpu_ms,
+        gpu,
+    };
+    Ok((run, amplified))
+}
+
 pub fn run(
     sizes: &[usize],
     backends: &[Backend],
     repeat: usize,
+    json: bool,
 ) -> Result<(), Box<dyn std::error::Error>> {
     let repeat = repeat.max(1);
+    if json {
+        return run_json(sizes, backends, repeat);
+    }
     println!(
         "wavelet levels of detail: 2 new levels, diamond-square source (H = 0.7), medians of \
          {repeat} run{} in ms; gamma: spectral slope (bands pooled) of source -> output",
         if repeat == 1 { "" } else { "s" }
     );
     println!(
-        "{:>7} {:>7} {:>4} {:>7} {:>6} {:>5} {:>9} {:>8} {:>8} {:>8} {:>9} {:>13}",
+        "{:>7} {:>7} {:>4} {:>7} {:>6} {:>5} {:>9} {:>8} {:>8} {:>8} {:>8} {:>9} {:>13}",
         "source",
         "output",
         "",
@@ -42,6 +100,7 @@ pub fn run(
         "window",
         "mask",
         "total",
+        "gpu ms",
         "analysis",
         "fill",
         "inverse",
@@ -53,55 +112,24 @@ pub fn run(
         let source_gamma = wavelet::analyze(&source, &AnalysisParams::default())
             .ok()
             .and_then(|a| a.pooled_gamma());
-        let mut mask = Mask::new(n, n)?;
-        mask.paint_segment(
-            glam::DVec2::new(0.1, 0.5),
-            glam::DVec2::new(0.9, 0.5),
-            &wavelet::Brush {
-                radius: n as f32 / 20.0,
-                ..Default::default()
-            },
-        );
+        let mask = stripe(n)?;
         let out = synthesis::output_len(n, 2);
-        let mut cases = vec![(Scope::Global, false), (Scope::Global, true)];
-        for window in [1, 3, 5, 9, 17] {
-            cases.push((
-                Scope::Local(LocalParams {
-                    window,
-                    ..Default::default()
-                }),
-                false,
-            ));
-        }
         for backend in backends {
-            for &(scope, masked) in &cases {
+            for (scope, masked) in cases() {
                 let params = AmplifyParams {
                     levels: 2,
                     scope,
                     seed: 1,
                     ..Default::default()
                 };
-                let (scope_name, window) = match scope {
-                    Scope::Global => ("global", "-".to_owned()),
-                    Scope::Local(l) if l.as_written => ("local-paper", l.window.to_string()),
-                    Scope::Local(l) => ("local", l.window.to_string()),
-                };
+                let (scope_name, window) = scope_columns(scope);
                 let mut runs = Vec::with_capacity(repeat);
                 let mut last = None;
                 let mut failure = None;
                 for _ in 0..repeat {
-                    let clock = web_time::Instant::now();
-                    let result = pollster::block_on(wavelet::amplify_on(
-                        backend,
-                        &source,
-                        &params,
-                        masked.then_some(&mask),
-                        &JobCtx::detached(),
-                    ));
-                    let ms = clock.elapsed().as_secs_f64() * 1e3;
-                    match result {
-                        Ok(amplified) => {
-                            runs.push((ms, amplified.timings));
+                    match time_one(backend, &source, &params, masked.then_some(&mask)) {
+                        Ok((run, amplified)) => {
+                            runs.push(run);
                             last = Some(amplified);
                         }
                         Err(e) => {
@@ -114,18 +142,24 @@ pub fn run(
                     println!("{n:>7} {out:>7} {:>4} {scope_name:>7}: {e}", backend.key());
                     continue;
                 }
-                let total = median(runs.iter().map(|r| r.0).collect());
-                let analysis = median(runs.iter().map(|r| r.1.analysis).collect());
-                let fill = median(runs.iter().map(|r| r.1.fill).collect());
-                let inverse = median(runs.iter().map(|r| r.1.inverse).collect());
+                let total = median(runs.iter().map(|r| r.ms).collect());
+                let gpu_ms = runs
+                    .iter()
+                    .map(|r| r.gpu_ms)
+                    .collect::<Option<Vec<f64>>>()
+                    .map(median);
+                let analysis = median(runs.iter().map(|r| r.timings.analysis).collect());
+                let fill = median(runs.iter().map(|r| r.timings.fill).collect());
+                let inverse = median(runs.iter().map(|r| r.timings.inverse).collect());
                 let out_gamma = last.and_then(|a| {
                     wavelet::analyze(&a.field, &AnalysisParams::default())
                         .ok()
                         .and_then(|a| a.pooled_gamma())
                 });
                 let gamma = |g: Option<f64>| g.map_or("-".to_owned(), |g| format!("{g:.2}"));
+                let gpu_ms = gpu_ms.map_or("-".to_owned(), |ms| format!("{ms:.1}"));
                 println!(
-                    "{:>7} {:>7} {:>4} {:>7} {:>6} {:>5} {:>9.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>13}",
+                    "{:>7} {:>7} {:>4} {:>7} {:>6} {:>5} {:>9.1} {:>8} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>13}",
                     n,
                     out,
                     backend.key(),
@@ -133,6 +167,7 @@ pub fn run(
                     window,
                     if masked { "yes" } else { "no" },
                     total,
+                    gpu_ms,
                     analysis,
                     fill,
                     inverse,
@@ -148,5 +183,104 @@ pub fn run(
          Sec. 5): masks add about 15% time and 20% memory. On the GPU, fill and inverse run in \
          one submission and are shown together under inverse."
     );
+    Ok(())
+}
+
+/// The cases of the table: the global scope with and without a mask, the local one at
+/// several windows.
+fn cases() -> Vec<(Scope, bool)> {
+    let mut cases = vec![(Scope::Global, false), (Scope::Global, true)];
+    for window in [1, 3, 5, 9, 17] {
+        cases.push((
+            Scope::Local(LocalParams {
+                window,
+                ..Default::default()
+            }),
+            false,
+        ));
+    }
+    cases
+}
+
+/// A painted stripe across the middle of an `n x n` map (the masked cases).
+fn stripe(n: usize) -> Result<Mask, wavelet::MaskError> {
+    let mut mask = Mask::new(n, n)?;
+    mask.paint_segment(
+        glam::DVec2::new(0.1, 0.5),
+        glam::DVec2::new(0.9, 0.5),
+        &wavelet::Brush {
+            radius: n as f32 / 20.0,
+            ..Default::default()
+        },
+    );
+    Ok(mask)
+}
+
+/// The scope's name and window as the table and the JSON write them.
+fn scope_columns(scope: Scope) -> (&'static str, String) {
+    match scope {
+        Scope::Global => ("global", "-".to_owned()),
+        Scope::Local(l) if l.as_written => ("local-paper", l.window.to_string()),
+        Scope::Local(l) => ("local", l.window.to_string()),
+    }
+}
+
+/// `--json`: one object per run.
+fn run_json(
+    sizes: &[usize],
+    backends: &[Backend],
+    repeat: usize,
+) -> Result<(), Box<dyn std::error::Error>> {
+    for &n in sizes {
+        let source = fbm::diamond_square(n, n, 0.7, 1)?;
+        let mask = stripe(n)?;
+        let out = synthesis::output_len(n, 2);
+        for backend in backends {
+            for (scope, masked) in cases() {
+                let params = AmplifyParams {
+                    levels: 2,
+                    scope,
+                    seed: 1,
+                    ..Default::default()
+                };
+                let (scope_name, window) = scope_columns(scope);
+                for run in 0..repeat {
+                    let base = serde_json::json!({
+                        "size": n,
+                        "output": out,
+                        "backend": backend.key(),
+                        "method": format!("wavelet-{scope_name}"),
+                        "window": window,
+                        "masked": masked,
+                        "run": run,
+                    });
+                    let mut row = match time_one(backend, &source, &params, masked.then_some(&mask))
+                    {
+                        Ok((timed, _)) => {
+                            let gpu = timed.gpu.unwrap_or_default();
+                            serde_json::json!({
+                                "ms": timed.ms,
+                                "gpu_ms": timed.gpu_ms,
+                                "analysis_ms": timed.timings.analysis,
+                                "fill_ms": timed.timings.fill,
+                                "inverse_ms": timed.timings.inverse,
+                                "pipelines_created": gpu.pipelines_created,
+                                "modules_created": gpu.modules_created,
+                                "submissions": gpu.submissions,
+                                "readbacks": gpu.readbacks,
+                            })
+                        }
+                        Err(e) => serde_json::json!({ "error": e.to_string() }),
+                    };
+                    if let (Some(row), Some(base)) = (row.as_object_mut(), base.as_object()) {
+                        for (k, v) in base {
+                            row.insert(k.clone(), v.clone());
+                        }
+                    }
+                    println!("{row}");
+                }
+            }
+        }
+    }
     Ok(())
 }
