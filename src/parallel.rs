@@ -73,3 +73,23 @@ pub fn for_each_item<T: Send>(items: Vec<T>, f: impl Fn(T) + Sync) {
     let _ = batches;
     items.into_iter().for_each(f);
 }
+
+/// Runs `a` and `b` at the same time natively (`b` on a scoped thread), one after the other
+/// on wasm; returns both results. For independent measures of one grid.
+pub fn join<A: Send, B: Send>(
+    a: impl FnOnce() -> A + Send,
+    b: impl FnOnce() -> B + Send,
+) -> (A, B) {
+    #[cfg(not(target_arch = "wasm32"))]
+    if threads() > 1 {
+        return std::thread::scope(|scope| {
+            let other = scope.spawn(b);
+            let first = a();
+            let second = other
+                .join()
+                .unwrap_or_else(|panic| std::panic::resume_unwind(panic));
+            (first, second)
+        });
+    }
+    (a(), b())
+}

@@ -101,7 +101,8 @@ struct RowScratch {
 }
 
 /// Geomorphon class of every cell (`None` = not classified), row-major. Used by tests and
-/// by [`class_fractions`].
+/// by [`class_fractions`]. Rows are independent, so they run in bands on every thread
+/// natively (the same classes whatever the split). O(cells x radius).
 pub(super) fn classify(
     g: &Grid,
     interior: &[bool],
@@ -113,12 +114,53 @@ pub(super) fn classify(
     if w < 3 || h < 3 {
         return out;
     }
-    let radius = radius.clamp(1, w.max(h));
-    let (sin_t, cos_t) = flat_deg.to_radians().sin_cos();
-    let row_has_nan: Vec<bool> =
-        g.z.chunks_exact(w)
+    let view = View {
+        radius: radius.clamp(1, w.max(h)),
+        sin_cos: flat_deg.to_radians().sin_cos(),
+        row_has_nan: g
+            .z
+            .chunks_exact(w)
             .map(|row| row.iter().any(|v| v.is_nan()))
-            .collect();
+            .collect(),
+    };
+    let rows_per_band = h.div_ceil(crate::parallel::bands(w, h)).max(1);
+    crate::parallel::for_each_band(&mut out, rows_per_band * w, |k, band| {
+        let mut s = RowScratch {
+            up: vec![0.0; w],
+            down: vec![0.0; w],
+            bad: vec![false; w],
+            plus: vec![0; w],
+            minus: vec![0; w],
+        };
+        for (dr, row) in band.chunks_mut(w).enumerate() {
+            let r = k * rows_per_band + dr;
+            if r > 0 && r + 1 < h {
+                classify_row(g, interior, &view, r, &mut s, row);
+            }
+        }
+    });
+    out
+}
+
+/// [`classify`] row after row on one thread: the reference the bands are tested against.
+#[cfg(test)]
+pub(super) fn classify_serially(
+    g: &Grid,
+    interior: &[bool],
+    radius: usize,
+    flat_deg: f64,
+) -> Vec<Option<u8>> {
+    let (w, h) = (g.w, g.h);
+    let mut out = vec![None; w * h];
+    let view = View {
+        radius: radius.clamp(1, w.max(h)),
+        sin_cos: flat_deg.to_radians().sin_cos(),
+        row_has_nan: g
+            .z
+            .chunks_exact(w)
+            .map(|r| r.iter().any(|v| v.is_nan()))
+            .collect(),
+    };
     let mut s = RowScratch {
         up: vec![0.0; w],
         down: vec![0.0; w],
@@ -126,29 +168,50 @@ pub(super) fn classify(
         plus: vec![0; w],
         minus: vec![0; w],
     };
-    for r in 1..h - 1 {
-        s.plus.fill(0);
-        s.minus.fill(0);
-        s.bad.fill(false);
-        for &(dr, dc) in &DIRS8 {
-            scan_direction(g, &row_has_nan, r, (dr, dc), radius, &mut s);
-            for c in 1..w - 1 {
-                match ternary(s.up[c], s.down[c], sin_t, cos_t) {
-                    1 => s.plus[c] += 1,
-                    -1 => s.minus[c] += 1,
-                    _ => {}
-                }
-            }
-        }
+    for (r, row) in out.chunks_mut(w).enumerate().take(h - 1).skip(1) {
+        classify_row(g, interior, &view, r, &mut s, row);
+    }
+    out
+}
+
+/// What every row's classification shares: the line length, the flatness threshold's sine
+/// and cosine, and which rows hold NaN samples.
+struct View {
+    radius: usize,
+    sin_cos: (f64, f64),
+    row_has_nan: Vec<bool>,
+}
+
+/// The classes of row `r` (interior columns) into `out`, one row of the output.
+fn classify_row(
+    g: &Grid,
+    interior: &[bool],
+    view: &View,
+    r: usize,
+    s: &mut RowScratch,
+    out: &mut [Option<u8>],
+) {
+    let w = g.w;
+    let (sin_t, cos_t) = view.sin_cos;
+    s.plus.fill(0);
+    s.minus.fill(0);
+    s.bad.fill(false);
+    for &(dr, dc) in &DIRS8 {
+        scan_direction(g, &view.row_has_nan, r, (dr, dc), view.radius, s);
         for c in 1..w - 1 {
-            let i = r * w + c;
-            if interior[i] && !s.bad[c] {
-                let f = form(usize::from(s.minus[c]), usize::from(s.plus[c]));
-                out[i] = (f != XX).then_some(f);
+            match ternary(s.up[c], s.down[c], sin_t, cos_t) {
+                1 => s.plus[c] += 1,
+                -1 => s.minus[c] += 1,
+                _ => {}
             }
         }
     }
-    out
+    for c in 1..w - 1 {
+        if interior[r * w + c] && !s.bad[c] {
+            let f = form(usize::from(s.minus[c]), usize::from(s.plus[c]));
+            out[c] = (f != XX).then_some(f);
+        }
+    }
 }
 
 /// For row `r` and direction `(dr, dc)`: the max / min tangent of the elevation angle along

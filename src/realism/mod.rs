@@ -120,23 +120,31 @@ pub fn measure(
     report.relief_m = g.finite_range().map_or(0.0, |(lo, hi)| hi - lo);
     let interior = g.interior_mask();
     report.cells = interior.iter().filter(|m| **m).count();
-    report.drainage_density_per_km = drainage::drainage(&g, threshold).density_per_km;
-    if report.cells == 0 {
-        return report;
-    }
-    let mut slopes = slope::slopes_deg(&g, &interior);
-    report.slope_deg_percentiles = slope::percentiles(&mut slopes, &slope::PERCENTILES);
-    report.harmonic_fraction = harmonic::harmonic_fraction(&g, &interior);
     let flat_deg = if params.flat_deg.is_finite() {
         params.flat_deg.clamp(0.0, 89.0)
     } else {
         0.0
     };
-    report.geomorphons = geomorphon::class_fractions(
-        &g,
-        &interior,
-        params.geomorphon_radius_cells.max(1),
-        flat_deg,
+    // The drainage (a serial flood and routing) beside the local measures, natively.
+    let (density, local) = crate::parallel::join(
+        || drainage::drainage(&g, threshold).density_per_km,
+        || {
+            (report.cells > 0).then(|| {
+                let mut slopes = slope::slopes_deg(&g, &interior);
+                let percentiles = slope::percentiles(&mut slopes, &slope::PERCENTILES);
+                drop(slopes);
+                let harmonic = harmonic::harmonic_fraction(&g, &interior);
+                let radius = params.geomorphon_radius_cells.max(1);
+                let forms = geomorphon::class_fractions(&g, &interior, radius, flat_deg);
+                (percentiles, harmonic, forms)
+            })
+        },
     );
+    report.drainage_density_per_km = density;
+    if let Some((percentiles, harmonic, forms)) = local {
+        report.slope_deg_percentiles = percentiles;
+        report.harmonic_fraction = harmonic;
+        report.geomorphons = forms;
+    }
     report
 }

@@ -33,16 +33,21 @@ pub struct BandFit {
 impl RealismReport {
     /// Measures `field` (cells `cell_x` by `cell_y` metres). O(cells x geomorphon radius).
     pub fn of(field: &Heightfield, cell_x: f64, cell_y: f64) -> Self {
-        let measures = measure(
-            field.data(),
-            field.width(),
-            field.height(),
-            cell_x,
-            cell_y,
-            &RealismParams::default(),
+        // The wavelet analysis needs a void-free field; a DEM with voids gets the rest. The
+        // two run at once natively.
+        let (measures, analysis) = crate::parallel::join(
+            || {
+                measure(
+                    field.data(),
+                    field.width(),
+                    field.height(),
+                    cell_x,
+                    cell_y,
+                    &RealismParams::default(),
+                )
+            },
+            || wavelet::analyze(field, &AnalysisParams::default()).ok(),
         );
-        // The wavelet analysis needs a void-free field; a DEM with voids gets the rest.
-        let analysis = wavelet::analyze(field, &AnalysisParams::default()).ok();
         let wavelet_fits: Vec<BandFit> = analysis
             .iter()
             .flat_map(|a| {

@@ -364,3 +364,26 @@ fn percentiles_match_sorted_reference() {
         }
     }
 }
+
+/// The geomorphons of a map large enough to run in row bands on several threads are the
+/// classes computed row after row on one, voids included.
+#[test]
+fn geomorphons_in_row_bands_are_the_serial_ones() {
+    let (w, h) = (320, 300);
+    let mut state = 7;
+    let mut z = sample(w, h, 30.0, 30.0, |x, y| {
+        200.0 * (x / 900.0).sin() * (y / 700.0).cos()
+    });
+    for v in &mut z {
+        *v += 40.0 * lcg(&mut state) as f32;
+    }
+    z[150 * w + 100..150 * w + 110].fill(f32::NAN);
+    let g = Grid::new(&z, w, h, 30.0, 30.0).expect("valid grid");
+    let interior = g.interior_mask();
+    let p = RealismParams::default();
+    let banded = geomorphon::classify(&g, &interior, p.geomorphon_radius_cells, p.flat_deg);
+    let serial =
+        geomorphon::classify_serially(&g, &interior, p.geomorphon_radius_cells, p.flat_deg);
+    assert!(banded.iter().filter(|c| c.is_some()).count() > w * h / 2);
+    assert_eq!(banded, serial);
+}
