@@ -256,7 +256,16 @@ pub(super) fn install(automation: &Automation) {
             .ok()
             .and_then(|v| v.as_bool())
             .unwrap_or(false);
+        let choice = js_sys::Reflect::get(&options, &JsValue::from_str("backend"))
+            .ok()
+            .and_then(|v| v.as_string());
         wasm_bindgen_futures::future_to_promise(async move {
+            // 'auto' (the default), 'cpu' or 'gpu' (every stage on the GPU, as the command
+            // line's --backend gpu; an error where the page has none).
+            let choice: crate::compute::BackendChoice = match choice {
+                Some(name) => name.parse().map_err(error)?,
+                None => crate::compute::BackendChoice::Auto,
+            };
             let path = automation
                 .compute_path()
                 .ok_or_else(|| error("Strahler has not started yet"))?;
@@ -270,9 +279,7 @@ pub(super) fn install(automation: &Automation) {
                 scene.cell_size = width / scene.size.max(1) as f64;
             }
             scene.validate().map_err(error)?;
-            let backend = crate::compute::BackendChoice::Auto
-                .resolve(&path)
-                .map_err(error)?;
+            let backend = choice.resolve(&path).map_err(error)?;
             // The realism measures are one O(cells x 80) pass that cannot yield: only on
             // request ({realism: true}), so a large generation keeps the page responsive.
             let options = crate::pipeline::RunOptions {

@@ -149,6 +149,31 @@ async function runMode(url, mode, expectedChecksum) {
     const maskPng = await page.evaluate(() => window.strahler.scene().detail.mask_png);
     check('maskFromRivers() makes a mask saved in the scene as a PNG',
       typeof maskPng === 'string' && Buffer.from(maskPng, 'base64').subarray(1, 4).toString() === 'PNG');
+    if (mode === 'webgpu') {
+      // Every stage on the GPU (generate's backend option): the wavelet statistics run in
+      // WGSL in the page too (beside a software adapter 'auto' keeps them on the CPU).
+      const runs = await page.evaluate(async () => {
+        const s = window.strahler.scene();
+        s.detail = { ...s.detail, scope: 'local' };
+        await window.strahler.loadScene(s);
+        const gpu = await window.strahler.generate({ size: 256, backend: 'gpu' });
+        const cpu = await window.strahler.generate({ size: 256, backend: 'cpu' });
+        let refused = null;
+        try { await window.strahler.generate({ size: 256, backend: 'tpu' }); }
+        catch (e) { refused = String(e.message || e); }
+        return { gpu: gpu.detail, cpu: cpu.detail, refused };
+      });
+      // The same amounts of detail, free and under the rivers' mask (every stage on the GPU
+      // includes erosion's WGSL solver, which leaves a slightly different terrain).
+      const { gpu, cpu } = runs;
+      const near = (a, b) => Math.abs(a - b) <= 0.15 * b;
+      check('generate({backend: "gpu"}) runs the local-scope detail on the GPU like the CPU',
+        gpu && cpu && gpu.backend === 'gpu' && cpu.backend === 'cpu' && gpu.width === 511
+          && cpu.rms_unmasked > 0 && near(gpu.rms_unmasked, cpu.rms_unmasked)
+          && cpu.rms_masked !== null && near(gpu.rms_masked, cpu.rms_masked), JSON.stringify(runs));
+      check('generate() names a backend it does not know', runs.refused !== null
+        && runs.refused.includes('tpu'), String(runs.refused));
+    }
     // A real DEM: uploaded through the file picker (the U key opens it, as the Upload DEM
     // button does), a block of it blended in (Poisson), and the heightmap exported.
     // A click on the map (pan tool: no edit) gives the canvas the keyboard focus. The CPU
