@@ -20,7 +20,6 @@
 
 const MAX_LEVELS: u32 = 16u;
 const MAX_SUMS: u32 = 9u;
-const MAX_LOCAL_GAMMA: f32 = 8.0;
 
 struct Params {
     width: u32,
@@ -52,7 +51,8 @@ struct Params {
     // Per band b and analysed level k (index b * MAX_LEVELS + k): nx, ny, offset into `logs`,
     // stride.
     geometry: array<vec4<u32>, 48>,
-    // Per band: centre and keep of the shrinkage, whether the band has a global fit (1 or 0).
+    // Per band: centre and keep of the shrinkage, whether the band has a global fit (1 or 0),
+    // the largest local slope kept.
     shrink: array<vec4<f32>, 3>,
     // Per table (new level k - 1) * 3 + band: the global line's log2 variance there, the
     // calibration shift, the lifting-domain normalisation.
@@ -235,7 +235,7 @@ fn local_sigma(
             let fit = raw_fit(gid.x, gid.y, b);
             var slope = fit.x;
             if (params.as_written == 0u) {
-                slope = clamp(shrink.x + shrink.y * (fit.x - shrink.x), 0.0, MAX_LOCAL_GAMMA);
+                slope = clamp(shrink.x + shrink.y * (fit.x - shrink.x), 0.0, shrink.w);
             }
             let intercept = fit.y - slope * params.mean_depth;
             for (var k = 1u; k <= params.new_levels; k++) {
@@ -244,7 +244,7 @@ fn local_sigma(
                 let log2_var = intercept + slope * depth;
                 var value = 0.0;
                 if (shrink.z == 0.0) {
-                    value = 0.0;
+                    // No global fit: no detail in this band, as on the CPU.
                 } else if (params.as_written == 1u) {
                     value = exp2(0.5 * log2_var) / params.tables[t].z;
                 } else {

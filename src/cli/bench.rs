@@ -335,7 +335,8 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
             list.push(Backend::Cpu);
         }
         if want_gpu && let Some(gpu) = path.gpu() {
-            // The GPU path whole, software rasteriser or not (the wavelet statistics).
+            // The GPU path whole, software rasteriser or not (the wavelet statistics; blending
+            // runs the same either way).
             list.push(Backend::Gpu(std::sync::Arc::new(
                 gpu.as_ref().clone().with_all_stages(),
             )));

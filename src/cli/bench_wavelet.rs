@@ -243,7 +243,12 @@ fn run_json(
                     seed: 1,
                     ..Default::default()
                 };
-                let (scope_name, window) = scope_columns(scope);
+                let (scope_name, _) = scope_columns(scope);
+                // The window in coefficients; null at the global scope.
+                let window = match scope {
+                    Scope::Local(l) => Some(l.window),
+                    Scope::Global => None,
+                };
                 for run in 0..repeat {
                     let base = serde_json::json!({
                         "size": n,
@@ -257,17 +262,18 @@ fn run_json(
                     let mut row = match time_one(backend, &source, &params, masked.then_some(&mask))
                     {
                         Ok((timed, _)) => {
-                            let gpu = timed.gpu.unwrap_or_default();
+                            // The device's counts: null on the CPU.
+                            let gpu = |count: fn(&GpuStats) -> u64| timed.gpu.as_ref().map(count);
                             serde_json::json!({
                                 "ms": timed.ms,
                                 "gpu_ms": timed.gpu_ms,
                                 "analysis_ms": timed.timings.analysis,
                                 "fill_ms": timed.timings.fill,
                                 "inverse_ms": timed.timings.inverse,
-                                "pipelines_created": gpu.pipelines_created,
-                                "modules_created": gpu.modules_created,
-                                "submissions": gpu.submissions,
-                                "readbacks": gpu.readbacks,
+                                "pipelines_created": gpu(|g| g.pipelines_created),
+                                "modules_created": gpu(|g| g.modules_created),
+                                "submissions": gpu(|g| g.submissions),
+                                "readbacks": gpu(|g| g.readbacks),
                             })
                         }
                         Err(e) => serde_json::json!({ "error": e.to_string() }),

@@ -71,8 +71,8 @@ impl BackendChoice {
 
     /// Picks the backend. `Gpu` without a computing GPU is an error rather than a silent
     /// fallback, so a user who asked for the GPU learns why they did not get it. `Gpu` also
-    /// runs every stage on the GPU, software rasteriser or not; `Auto` keeps erosion on the
-    /// CPU beside one ([`crate::gpu::GpuContext::runs_heavy_stages`]).
+    /// runs every stage on the GPU, software rasteriser or not; `Auto` keeps erosion and the
+    /// wavelet statistics on the CPU beside one ([`crate::gpu::GpuContext::runs_heavy_stages`]).
     pub fn resolve(self, path: &ComputePath) -> Result<Backend, NoGpuError> {
         match (self, path) {
             (BackendChoice::Cpu, _) => Ok(Backend::Cpu),

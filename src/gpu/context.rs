@@ -103,9 +103,9 @@ impl GpuContext {
     }
 
     /// Whether stages whose GPU version only pays on real hardware (erosion: hundreds of
-    /// dependent passes per step) run on this device. The diffusion and the wavelets run on
-    /// any GPU; erosion runs on the CPU beside a software rasteriser unless
-    /// [`GpuContext::with_all_stages`] asked for it.
+    /// dependent passes per step; the wavelet statistics: dozens of small dispatches) run on
+    /// this device. The diffusion and the wavelet synthesis run on any GPU; those run on the
+    /// CPU beside a software rasteriser unless [`GpuContext::with_all_stages`] asked for it.
     pub fn runs_heavy_stages(&self) -> bool {
         !self.is_software() || self.all_stages
     }

@@ -100,6 +100,18 @@ struct RowScratch {
     minus: Vec<u8>,
 }
 
+impl RowScratch {
+    fn new(w: usize) -> Self {
+        RowScratch {
+            up: vec![0.0; w],
+            down: vec![0.0; w],
+            bad: vec![false; w],
+            plus: vec![0; w],
+            minus: vec![0; w],
+        }
+    }
+}
+
 /// Geomorphon class of every cell (`None` = not classified), row-major. Used by tests and
 /// by [`class_fractions`]. Rows are independent, so they run in bands on every thread
 /// natively (the same classes whatever the split). O(cells x radius).
@@ -114,24 +126,10 @@ pub(super) fn classify(
     if w < 3 || h < 3 {
         return out;
     }
-    let view = View {
-        radius: radius.clamp(1, w.max(h)),
-        sin_cos: flat_deg.to_radians().sin_cos(),
-        row_has_nan: g
-            .z
-            .chunks_exact(w)
-            .map(|row| row.iter().any(|v| v.is_nan()))
-            .collect(),
-    };
+    let view = View::new(g, radius, flat_deg);
     let rows_per_band = h.div_ceil(crate::parallel::bands(w, h)).max(1);
     crate::parallel::for_each_band(&mut out, rows_per_band * w, |k, band| {
-        let mut s = RowScratch {
-            up: vec![0.0; w],
-            down: vec![0.0; w],
-            bad: vec![false; w],
-            plus: vec![0; w],
-            minus: vec![0; w],
-        };
+        let mut s = RowScratch::new(w);
         for (dr, row) in band.chunks_mut(w).enumerate() {
             let r = k * rows_per_band + dr;
             if r > 0 && r + 1 < h {
@@ -152,22 +150,8 @@ pub(super) fn classify_serially(
 ) -> Vec<Option<u8>> {
     let (w, h) = (g.w, g.h);
     let mut out = vec![None; w * h];
-    let view = View {
-        radius: radius.clamp(1, w.max(h)),
-        sin_cos: flat_deg.to_radians().sin_cos(),
-        row_has_nan: g
-            .z
-            .chunks_exact(w)
-            .map(|r| r.iter().any(|v| v.is_nan()))
-            .collect(),
-    };
-    let mut s = RowScratch {
-        up: vec![0.0; w],
-        down: vec![0.0; w],
-        bad: vec![false; w],
-        plus: vec![0; w],
-        minus: vec![0; w],
-    };
+    let view = View::new(g, radius, flat_deg);
+    let mut s = RowScratch::new(w);
     for (r, row) in out.chunks_mut(w).enumerate().take(h - 1).skip(1) {
         classify_row(g, interior, &view, r, &mut s, row);
     }
@@ -180,6 +164,20 @@ struct View {
     radius: usize,
     sin_cos: (f64, f64),
     row_has_nan: Vec<bool>,
+}
+
+impl View {
+    fn new(g: &Grid, radius: usize, flat_deg: f64) -> Self {
+        View {
+            radius: radius.clamp(1, g.w.max(g.h)),
+            sin_cos: flat_deg.to_radians().sin_cos(),
+            row_has_nan: g
+                .z
+                .chunks_exact(g.w)
+                .map(|row| row.iter().any(|v| v.is_nan()))
+                .collect(),
+        }
+    }
 }
 
 /// The classes of row `r` (interior columns) into `out`, one row of the output.

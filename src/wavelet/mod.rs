@@ -8,7 +8,7 @@
 //!   energy-reduction mask of MGR (eq. 9).
 //! - [`mask`]: the grey masks users paint, import and export.
 //! - [`fbm`]: reference fBm surfaces of known roughness (tests and benchmarks).
-//! - [`gpu`]: the synthesis and inverse transform in WGSL.
+//! - [`gpu`]: the statistics (forward transform, GSA, LSA) and the synthesis in WGSL.
 
 pub mod analysis;
 pub mod fbm;

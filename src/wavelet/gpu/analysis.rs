@@ -4,27 +4,32 @@
 //! buffer the synthesis uses too. The tables never leave the GPU.
 //!
 //! Sequence (one submission each, then a small read of per-workgroup sums):
-//! 1. copy the source, lift it forward over every level it allows (wavelet.wgsl's `lift`,
-//!    the CPU's steps, so the same bits), `energy` per level; read the sums: the CPU adds
+//! 1. copy the source, lift it forward over every level it allows (wavelet.wgsl's `lift`
+//!    with the CPU's steps; their coefficients are powers of two, so a fused multiply-add
+//!    rounds as the CPU's multiply and add do), `energy` per level; read the sums: the CPU adds
 //!    them in f64 and fits the lines ([`Analysis::from_energies`]), as the CPU path does;
 //! 2. local scope: `window_rows` and `window_logs` per band and analysed level, then
 //!    `slope_stats`; read the sums: the shrinkage's centre and kept share per band
 //!    ([`LocalDesign::shrinkage`]);
 //! 3. `local_sigma`; read the calibration sums (not as written); `sigma_finish`.
 //!
-//! So the global scope reads back once and the local scope three times, each time a few
-//! floats per 256 cells, however many levels are analysed. Sums of squares run in f32 within
-//! a workgroup and in f64 across them, so the statistics agree with the CPU's within float
-//! rounding (`tests/gpu_wavelet.rs`). Cost: O(source cells x (levels + window)) work.
+//! So the global scope reads back once and the local scope three times (twice with eq. 8 as
+//! written, which has no calibration), each time a few floats per 256 cells, however many
+//! levels are analysed. Sums of squares run in f32 within a workgroup and in f64 across
+//! them, so the statistics agree with the CPU's within float rounding (`tests/gpu_wavelet.rs`;
+//! f32 squares limit heights to about 1e19, and the shrinkage's spread `E[s^2] - E[s]^2` from
+//! f32 sums loses digits only when the slopes barely vary, where the shrinkage keeps little
+//! of them anyway). Cost: O(source cells x (levels + window)) work.
 
 use wgpu::util::DeviceExt;
 
 use super::{Params as SynthesisParams, SHADER as SYNTHESIS_SHADER, gpu_err, lift_steps};
 use crate::gpu::{GpuContext, GpuError, Shader, bind_buffers, read_f32_buffer};
 use crate::wavelet::WaveletError;
+use crate::wavelet::analysis::MAX_LOCAL_GAMMA;
 use crate::wavelet::analysis::{Analysis, LocalDesign};
 use crate::wavelet::lifting::{self, Band};
-use crate::wavelet::synthesis::{AmplifyFailure, AmplifyParams, Scope, SigmaTables};
+use crate::wavelet::synthesis::{self, AmplifyFailure, AmplifyParams, Scope, SigmaTables};
 
 pub(super) const SHADER: Shader = Shader {
     name: "wavelet_analysis.wgsl",
@@ -44,8 +49,10 @@ pub(super) const ENTRIES: [&str; 6] = [
 const WORKGROUP: u32 = 16;
 /// Analysed levels a local fit may use on the GPU (the shader's table size).
 const MAX_FIT_LEVELS: u32 = 16;
-/// Per-workgroup sums the kernels write at most (3 bands x 3 new levels).
+/// Per-workgroup sums the kernels write at most (3 bands x 3 new levels), the tables'
+/// count: `MAX_SUMS` in the shader and the size of `Params::tables`.
 const MAX_SUMS: usize = 9;
+const _: () = assert!(MAX_SUMS == 3 * synthesis::MAX_LEVELS as usize);
 
 /// Mirrors `Params` in `wavelet_analysis.wgsl`.
 #[repr(C)]
@@ -202,6 +209,9 @@ pub(super) async fn statistics(
     levels: u32,
     params: &AmplifyParams,
 ) -> Result<Option<Statistics>, AmplifyFailure> {
+    if !(1..=synthesis::MAX_LEVELS).contains(&params.levels) {
+        return Err(crate::wavelet::WaveletError::Levels(params.levels).into());
+    }
     let local = match params.scope {
         Scope::Global => None,
         Scope::Local(local) => {
@@ -392,7 +402,7 @@ pub(super) async fn statistics(
             centre as f32,
             keep as f32,
             if analysis.fits[b].is_some() { 1.0 } else { 0.0 },
-            0.0,
+            MAX_LOCAL_GAMMA as f32,
         ];
     }
     let mut tables = [[0f32; 4]; 9];

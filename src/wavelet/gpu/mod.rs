@@ -49,11 +49,15 @@ pub(super) struct Params {
 /// The entry points: the synthesis fill, then the inverse lifting steps.
 const ENTRIES: [&str; 2] = ["fill", "lift"];
 
-/// Builds the wavelet kernels (analysis and synthesis) on `gpu` now (see
-/// [`crate::gpu::GpuContext::pipelines`]).
+/// Builds the wavelet kernels on `gpu` now (see [`crate::gpu::GpuContext::pipelines`]): the
+/// synthesis's, and the statistics' where the device runs them.
 pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
     gpu.pipelines(&SHADER, ENTRIES).await?;
-    analysis::warm(gpu).await
+    // The statistics' kernels only where the device runs them (see `statistics`).
+    if gpu.runs_heavy_stages() {
+        analysis::warm(gpu).await?;
+    }
+    Ok(())
 }
 
 /// The four lifting steps of one level at `stride`: forward (analysis: along x, predict then
@@ -162,14 +166,16 @@ async fn statistics_where(
 }
 
 /// The global analysis and the standard-deviation tables of the synthesis, computed on the
-/// GPU (software rasteriser or not) and read back in [`super::synthesis::prepare`]'s layout (tests hold the two to each
-/// other).
+/// GPU (software rasteriser or not) and read back in [`super::synthesis::prepare`]'s
+/// layout (tests hold the two to each other).
 pub async fn prepare_on_gpu(
     gpu: &GpuContext,
     source: &Heightfield,
     params: &AmplifyParams,
 ) -> Result<(Analysis, SigmaTables), AmplifyFailure> {
-    check(source, params)?;
+    let (ow, oh) = check(source, params)?;
+    // The tables are smaller than the output (3 K source-sized tables against 4^K).
+    gpu.check_field(ow, oh).map_err(gpu_err)?;
     let source_buf = upload_source(gpu, source);
     let statistics = statistics_where(gpu, source, &source_buf, params, true).await?;
     let size = (source.width(), source.height());
