@@ -1204,16 +1204,7 @@ fn bench_json_prints_one_object_per_run() {
         "20",
         "--json",
     ]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let rows: Vec<serde_json::Value> = text
-        .lines()
-        .map(|line| serde_json::from_str(line).expect("one JSON object per line"))
-        .collect();
+    let (text, rows) = json_lines(&out);
     for row in &rows {
         for key in [
             "size",
@@ -1265,22 +1256,28 @@ fn bench_json_prints_one_object_per_run() {
     );
 }
 
+/// A successful command's standard output and its lines parsed as one JSON object each.
+fn json_lines(out: &std::process::Output) -> (String, Vec<serde_json::Value>) {
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    assert!(
+        out.status.success(),
+        "{text}{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let rows = text
+        .lines()
+        .map(|line| serde_json::from_str(line).expect("one JSON object per line"))
+        .collect();
+    (text, rows)
+}
+
 /// `bench --wavelet --json`: one object per run of each case, with the phases and, on the
 /// GPU, the device's work: the whole path (statistics and synthesis) on it, reading back 2
 /// times at the global scope and 4 at the local one.
 #[test]
 fn bench_wavelet_json_counts_the_gpu_paths_work() {
     let out = strahler(&["bench", "--wavelet", "--sizes", "33", "--json"]);
-    let text = String::from_utf8_lossy(&out.stdout);
-    assert!(
-        out.status.success(),
-        "{text}{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let rows: Vec<serde_json::Value> = text
-        .lines()
-        .map(|line| serde_json::from_str(line).expect("one JSON object per line"))
-        .collect();
+    let (text, rows) = json_lines(&out);
     // Global with and without a mask, local at five windows.
     assert_eq!(
         rows.iter().filter(|r| r["backend"] == "cpu").count(),

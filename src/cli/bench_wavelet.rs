@@ -115,13 +115,8 @@ pub fn run(
         let mask = stripe(n)?;
         let out = synthesis::output_len(n, 2);
         for backend in backends {
-            for (scope, masked) in cases() {
-                let params = AmplifyParams {
-                    levels: 2,
-                    scope,
-                    seed: 1,
-                    ..Default::default()
-                };
+            for (params, masked) in cases() {
+                let scope = params.scope;
                 let (scope_name, window) = scope_columns(scope);
                 let mut runs = Vec::with_capacity(repeat);
                 let mut last = None;
@@ -186,20 +181,29 @@ pub fn run(
     Ok(())
 }
 
-/// The cases of the table: the global scope with and without a mask, the local one at
-/// several windows.
-fn cases() -> Vec<(Scope, bool)> {
-    let mut cases = vec![(Scope::Global, false), (Scope::Global, true)];
+/// The cases of the table (two new levels): the global scope with and without a mask, the
+/// local one at several windows.
+fn cases() -> Vec<(AmplifyParams, bool)> {
+    let mut scopes = vec![(Scope::Global, false), (Scope::Global, true)];
     for window in [1, 3, 5, 9, 17] {
-        cases.push((
-            Scope::Local(LocalParams {
-                window,
-                ..Default::default()
-            }),
-            false,
-        ));
+        let local = LocalParams {
+            window,
+            ..Default::default()
+        };
+        scopes.push((Scope::Local(local), false));
     }
-    cases
+    scopes
+        .into_iter()
+        .map(|(scope, masked)| {
+            let params = AmplifyParams {
+                levels: 2,
+                scope,
+                seed: 1,
+                ..Default::default()
+            };
+            (params, masked)
+        })
+        .collect()
 }
 
 /// A painted stripe across the middle of an `n x n` map (the masked cases).
@@ -236,13 +240,8 @@ fn run_json(
         let mask = stripe(n)?;
         let out = synthesis::output_len(n, 2);
         for backend in backends {
-            for (scope, masked) in cases() {
-                let params = AmplifyParams {
-                    levels: 2,
-                    scope,
-                    seed: 1,
-                    ..Default::default()
-                };
+            for (params, masked) in cases() {
+                let scope = params.scope;
                 let (scope_name, _) = scope_columns(scope);
                 // The window in coefficients; null at the global scope.
                 let window = match scope {
