@@ -216,3 +216,27 @@ fn gpu_amplify_reads_back_a_fixed_number_of_times() {
         assert_eq!(used.readbacks, expected, "{side}^2 {scope:?}: {used:?}");
     }
 }
+
+/// Heights far beyond any terrain (a mis-scaled file) would overflow the kernels' f32 sums:
+/// the statistics then come from the CPU's f64 ones, and the detail stays finite.
+#[test]
+fn gpu_statistics_of_huge_heights_come_from_the_cpu() {
+    let Some(gpu) = common::gpu() else { return };
+    let gpu = gpu.with_all_stages();
+    let mut huge = fbm::diamond_square(65, 65, 0.7, 3).unwrap();
+    huge.data_mut().iter_mut().for_each(|v| *v *= 1e20);
+    let params = AmplifyParams {
+        levels: 1,
+        scope: Scope::Local(LocalParams::default()),
+        ..Default::default()
+    };
+    let (_, cpu) = wavelet::synthesis::prepare(&huge, &params).unwrap();
+    let (_, on_gpu) =
+        pollster::block_on(wavelet::gpu::prepare_on_gpu(&gpu, &huge, &params)).unwrap();
+    assert!(
+        cpu.tables == on_gpu.tables,
+        "the tables of heights near 1e20 m were not the CPU's"
+    );
+    let out = run(&Backend::Gpu(Arc::new(gpu)), &huge, &params, None);
+    assert!(out.data().iter().all(|v| v.is_finite()));
+}

@@ -49,6 +49,11 @@ pub(super) const ENTRIES: [&str; 6] = [
 const WORKGROUP: u32 = 16;
 /// Analysed levels a local fit may use on the GPU (the shader's table size).
 const MAX_FIT_LEVELS: u32 = 16;
+
+/// Largest height magnitude (metres) the kernels take. A detail coefficient is at most about
+/// 4 times it; its square (1.6e25), summed over a window of 65^2 coefficients and scaled by
+/// the 16th level's squared normalisation (2^30), stays below f32's 3.4e38.
+pub(super) const MAX_HEIGHT: f32 = 1e12;
 /// Per-workgroup sums the kernels write at most (3 bands x 3 new levels), the tables'
 /// count: `MAX_SUMS` in the shader and the size of `Params::tables`.
 const MAX_SUMS: usize = 9;

@@ -122,7 +122,7 @@ async fn statistics(
     statistics_where(gpu, source, source_buf, params, gpu.runs_heavy_stages()).await
 }
 
-/// [`statistics`], on the GPU when `on_gpu` (and the kernels hold the fit).
+/// [`statistics`], on the GPU when `on_gpu` (and the kernels hold the fit and the heights).
 async fn statistics_where(
     gpu: &GpuContext,
     source: &Heightfield,
@@ -132,7 +132,13 @@ async fn statistics_where(
 ) -> Result<analysis::Statistics, AmplifyFailure> {
     let levels = super::analysis::analysable_levels(source)?;
     let size = (source.width(), source.height());
+    // The kernels sum squares in f32: heights beyond `MAX_HEIGHT` (no terrain, but a
+    // mis-scaled or hostile file) could overflow them, so those take the CPU's f64 sums.
+    let in_range = source
+        .finite_range()
+        .is_some_and(|(lo, hi)| lo.abs().max(hi.abs()) <= analysis::MAX_HEIGHT);
     if on_gpu
+        && in_range
         && let Some(statistics) =
             analysis::statistics(gpu, source_buf, size, levels, params).await?
     {
