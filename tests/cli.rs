@@ -1234,14 +1234,9 @@ fn bench_json_prints_one_object_per_run() {
     }
     let cpu = rows.iter().filter(|r| r["backend"] == "cpu").count();
     assert_eq!(cpu, 4, "multigrid and Jacobi twice each: {text}");
-    let gpu: Vec<_> = rows.iter().filter(|r| r["backend"] == "gpu").collect();
-    if gpu.is_empty() {
-        assert!(
-            std::env::var_os("STRAHLER_REQUIRE_GPU").is_none(),
-            "no GPU rows: {text}"
-        );
+    let Some(gpu) = gpu_rows(&rows, &text) else {
         return;
-    }
+    };
     assert_eq!(gpu.len(), 4, "{text}");
     let multigrid: Vec<_> = gpu.iter().filter(|r| r["method"] == "multigrid").collect();
     assert_eq!(multigrid[0]["pipelines_created"], 8);
@@ -1271,6 +1266,20 @@ fn json_lines(out: &std::process::Output) -> (String, Vec<serde_json::Value>) {
     (text, rows)
 }
 
+/// The GPU's rows, or `None` where this machine has no GPU (refused when the run requires
+/// one).
+fn gpu_rows<'a>(rows: &'a [serde_json::Value], text: &str) -> Option<Vec<&'a serde_json::Value>> {
+    let gpu: Vec<_> = rows.iter().filter(|r| r["backend"] == "gpu").collect();
+    if gpu.is_empty() {
+        assert!(
+            std::env::var_os("STRAHLER_REQUIRE_GPU").is_none(),
+            "no GPU rows: {text}"
+        );
+        return None;
+    }
+    Some(gpu)
+}
+
 /// `bench --wavelet --json`: one object per run of each case, with the phases and, on the
 /// GPU, the device's work: the whole path (statistics and synthesis) on it, reading back 2
 /// times at the global scope and 4 at the local one.
@@ -1297,14 +1306,9 @@ fn bench_wavelet_json_counts_the_gpu_paths_work() {
             .sum();
         assert!(phases <= ms * 1.01 + 0.1, "{row}");
     }
-    let gpu: Vec<_> = rows.iter().filter(|r| r["backend"] == "gpu").collect();
-    if gpu.is_empty() {
-        assert!(
-            std::env::var_os("STRAHLER_REQUIRE_GPU").is_none(),
-            "no GPU rows: {text}"
-        );
+    let Some(gpu) = gpu_rows(&rows, &text) else {
         return;
-    }
+    };
     assert_eq!(gpu.len(), 7, "{text}");
     assert_eq!(gpu[0]["pipelines_created"], 8, "{}", gpu[0]);
     for row in &gpu[1..] {

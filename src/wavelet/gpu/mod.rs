@@ -130,36 +130,36 @@ async fn statistics_where(
     params: &AmplifyParams,
     on_gpu: bool,
 ) -> Result<analysis::Statistics, AmplifyFailure> {
-    let levels = super::analysis::analysable_levels(source)?;
     let size = (source.width(), source.height());
     // The kernels sum squares in f32: heights beyond `MAX_HEIGHT` (no terrain, but a
     // mis-scaled or hostile file) could overflow them, so those take the CPU's f64 sums.
-    let in_range = source
-        .finite_range()
-        .is_some_and(|(lo, hi)| lo.abs().max(hi.abs()) <= analysis::MAX_HEIGHT);
-    if on_gpu
-        && in_range
-        && let Some(statistics) =
+    // (Voids are refused by either path.)
+    let in_range = || {
+        source
+            .finite_range()
+            .is_some_and(|(lo, hi)| lo.abs().max(hi.abs()) <= analysis::MAX_HEIGHT)
+    };
+    if on_gpu && in_range() {
+        let levels = super::analysis::analysable_levels(source)?;
+        if let Some(statistics) =
             analysis::statistics(gpu, source_buf, size, levels, params).await?
-    {
-        return Ok(statistics);
+        {
+            return Ok(statistics);
+        }
     }
     let (analysis, tables) = prepare(source, params)?;
     let sigmas = if tables.tables.iter().all(|t| t.len() == 1) {
         analysis::Sigmas::Global(tables.tables.iter().map(|t| t[0]).collect())
     } else {
+        // One source-sized table per new level and band, a band without a fit repeated.
         let cells = size.0 * size.1;
-        let data: Vec<f32> = tables
-            .tables
-            .iter()
-            .flat_map(|t| {
-                if t.len() == 1 {
-                    vec![t[0]; cells]
-                } else {
-                    t.clone()
-                }
-            })
-            .collect();
+        let mut data = Vec::with_capacity(tables.tables.len() * cells);
+        for table in &tables.tables {
+            match table.as_slice() {
+                [one] => data.resize(data.len() + cells, *one),
+                all => data.extend_from_slice(all),
+            }
+        }
         analysis::Sigmas::PerCell(gpu.device.create_buffer_init(
             &wgpu::util::BufferInitDescriptor {
                 label: Some("wavelet sigma"),
