@@ -8,10 +8,11 @@
 // fine_h - 1), and a dispatch covers the band's owned rows own_start..own_end. Untiled, both
 // row offsets are 0 and the band is the whole level.
 //
-// Entry points (all 16 x 16 workgroups):
+// Entry points (16 x 16 workgroups but solve_coarsest):
 //   relax             one colour of a red-black Gauss-Seidel sweep on the fine level
-//   solve_coarsest    p.sweeps whole red-black sweeps on a level of at most 16 x 16 cells, in
+//   relax_small       p.sweeps whole red-black sweeps on a level of at most 16 x 16 cells, in
 //                     one workgroup: the same arithmetic, in the same order, as relax
+//   solve_coarsest    the same on the coarsest level (at most 4 x 4 cells), 4 x 4 workgroup
 //   restrict_residual coarse b = sum of the fine residual over the 2 x 2 children
 //   prolong_add       fine u += bilinear interpolation of the coarse correction (free cells)
 //   prolong_replace   fine u  = bilinear interpolation of the coarse solution (free cells)
@@ -143,13 +144,10 @@ fn relax(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
-// One invocation per cell of the (untiled) level; every colour's updates read only the other
-// colour's cells, so the storage barrier between colours makes this the same as 2 * p.sweeps
-// relax dispatches.
-@compute @workgroup_size(16, 16, 1)
-fn solve_coarsest(@builtin(local_invocation_id) lid: vec3<u32>) {
-    let x = lid.x;
-    let y = lid.y;
+// p.sweeps red-black sweeps of an untiled level, one invocation per cell (x, y) of one
+// workgroup. Every colour's updates read only the other colour's cells, so the storage barrier
+// between colours makes this the same as 2 * p.sweeps relax dispatches.
+fn sweeps_in_workgroup(x: u32, y: u32) {
     let inside = x < p.fine_w && y < p.fine_h;
     for (var s = 0u; s < p.sweeps; s += 1u) {
         for (var colour = 0u; colour < 2u; colour += 1u) {
@@ -165,6 +163,20 @@ fn solve_coarsest(@builtin(local_invocation_id) lid: vec3<u32>) {
             storageBarrier();
         }
     }
+}
+
+// A level of at most 16 x 16 cells: its few pre- or post-smoothing sweeps in one dispatch.
+@compute @workgroup_size(16, 16, 1)
+fn relax_small(@builtin(local_invocation_id) lid: vec3<u32>) {
+    sweeps_in_workgroup(lid.x, lid.y);
+}
+
+// The coarsest level (at most 4 x 4 cells): its many sweeps in a workgroup of its own size,
+// so each of the barriers waits for 16 invocations, not 256 (drivers that run a workgroup's
+// invocations in turn, as lavapipe does, pay per invocation at every barrier).
+@compute @workgroup_size(4, 4, 1)
+fn solve_coarsest(@builtin(local_invocation_id) lid: vec3<u32>) {
+    sweeps_in_workgroup(lid.x, lid.y);
 }
 
 @compute @workgroup_size(16, 16, 1)

@@ -1239,7 +1239,7 @@ fn bench_json_prints_one_object_per_run() {
     };
     assert_eq!(gpu.len(), 4, "{text}");
     let multigrid: Vec<_> = gpu.iter().filter(|r| r["method"] == "multigrid").collect();
-    assert_eq!(multigrid[0]["pipelines_created"], 8);
+    assert_eq!(multigrid[0]["pipelines_created"], 9);
     assert_eq!(multigrid[1]["pipelines_created"], 0);
     assert_eq!(multigrid[1]["modules_created"], 0);
     let cycles = multigrid[1]["cycles"].as_u64().unwrap();

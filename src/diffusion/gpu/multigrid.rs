@@ -37,12 +37,18 @@ use crate::gpu::{GpuContext, GpuError, GpuField, read_staging};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
+/// Side of `solve_coarsest`'s workgroup in `shaders/multigrid.wgsl`, which holds one
+/// invocation per cell of the coarsest level.
+const COARSEST_WORKGROUP: usize = 4;
+const _: () = assert!(hierarchy::COARSEST_SIDE <= COARSEST_WORKGROUP);
+
 /// V-cycles per submission and per readback of the convergence checks (see the module docs).
 const CHECK_EVERY: u32 = 4;
 
 /// The entry points [`Pipelines`] holds, in its order.
-pub(super) const ENTRIES: [&str; 8] = [
+pub(super) const ENTRIES: [&str; 9] = [
     "relax",
+    "relax_small",
     "solve_coarsest",
     "restrict_residual",
     "prolong_add",
@@ -72,6 +78,9 @@ struct Params {
 
 struct Pipelines {
     relax: wgpu::ComputePipeline,
+    /// Every sweep of a level within one workgroup in one dispatch.
+    relax_small: wgpu::ComputePipeline,
+    /// Every sweep of the coarsest level in one dispatch of a 4 x 4 workgroup.
     solve_coarsest: wgpu::ComputePipeline,
     restrict: wgpu::ComputePipeline,
     prolong_add: wgpu::ComputePipeline,
@@ -87,6 +96,7 @@ impl Pipelines {
     async fn of(gpu: &GpuContext) -> Result<Self, GpuError> {
         let [
             relax,
+            relax_small,
             solve_coarsest,
             restrict,
             prolong_add,
@@ -97,6 +107,7 @@ impl Pipelines {
         ] = gpu.pipelines(&MULTIGRID, ENTRIES).await?;
         Ok(Self {
             relax,
+            relax_small,
             solve_coarsest,
             restrict,
             prolong_add,
@@ -466,7 +477,7 @@ fn upload<'a>(
                         let params = make_params(0, n);
                         let group = bind(
                             device,
-                            &pipes.solve_coarsest,
+                            &pipes.relax_small,
                             &[(0, &params), (1, f), (2, u), (3, b)],
                         );
                         groups.push((n, group));
@@ -654,7 +665,7 @@ fn relax_in(pass: &mut wgpu::ComputePass, pipes: &Pipelines, level: &GpuLevel, s
         unreachable!("an untiled level has one band");
     };
     if let Some((_, group)) = band.small_relax.iter().find(|(n, _)| *n == sweeps) {
-        pass.set_pipeline(&pipes.solve_coarsest);
+        pass.set_pipeline(&pipes.relax_small);
         pass.set_bind_group(0, group, &[]);
         pass.dispatch_workgroups(1, 1, 1);
         return;

@@ -7,7 +7,7 @@ use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 
 /// Stop coarsening once both sides are at most this many cells.
-const COARSEST_SIDE: usize = 4;
+pub(crate) const COARSEST_SIDE: usize = 4;
 
 /// One level of the hierarchy: its fixed cells, its unknowns and its right-hand side.
 pub struct Level {
