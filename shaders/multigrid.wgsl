@@ -13,6 +13,9 @@
 //   relax_small       p.sweeps whole red-black sweeps on a level of at most 16 x 16 cells, in
 //                     one workgroup: the same arithmetic, in the same order, as relax
 //   solve_coarsest    the same on the coarsest level (at most 4 x 4 cells), 4 x 4 workgroup
+//   smooth_tile       p.sweeps (at most TILE_SWEEPS) red-black sweeps of an untiled level in
+//                     one dispatch: each workgroup smooths a tile with a halo in workgroup
+//                     memory and writes its tile, read from u, into smoothed
 //   restrict_residual coarse b = sum of the fine residual over the 2 x 2 children
 //   prolong_add       fine u += bilinear interpolation of the coarse correction (free cells)
 //   prolong_replace   fine u  = bilinear interpolation of the coarse solution (free cells)
@@ -48,6 +51,8 @@ struct Params {
 @group(0) @binding(5) var<storage, read_write> result: array<atomic<u32>, 2>;
 // The coarse level's fixed bits while restrict_problem builds them (created zeroed).
 @group(0) @binding(6) var<storage, read_write> coarse_fixed: array<atomic<u32>>;
+// Where smooth_tile writes the smoothed level (never the buffer it reads, u).
+@group(0) @binding(7) var<storage, read_write> smoothed: array<f32>;
 
 // Buffer index of global cell (x, y) on the fine and on the coarse level.
 fn fine_index(x: u32, y: u32) -> u32 {
@@ -177,6 +182,104 @@ fn relax_small(@builtin(local_invocation_id) lid: vec3<u32>) {
 @compute @workgroup_size(4, 4, 1)
 fn solve_coarsest(@builtin(local_invocation_id) lid: vec3<u32>) {
     sweeps_in_workgroup(lid.x, lid.y);
+}
+
+// Tile smoothing. A red-black half-sweep reads only the other colour, so after k half-sweeps a
+// cell's value depends on the cells within k steps of it. A workgroup loads its TILE x TILE
+// cells with HALO = 2 * TILE_SWEEPS rings around them, runs the half-sweeps in workgroup
+// memory on a shrinking window (half-sweep k updates the cells at least k rings in, whose
+// neighbours are still exact), and writes its own tile. Every update is the arithmetic of
+// relax, in the same order, on the same values: the same bits as 2 * p.sweeps relax
+// dispatches, with one dispatch and one barrier per half-sweep instead of a dispatch each.
+// The output goes to another buffer, since neighbouring workgroups read this tile's cells as
+// their halo.
+const TILE: u32 = 32u;
+const TILE_SWEEPS: u32 = 2u;
+const HALO: u32 = 4u;
+const SIDE: u32 = 40u;
+const SIDE_CELLS: u32 = 1600u;
+const TILE_THREADS: u32 = 256u;
+// Per loaded cell: its value, and whether it is on the level (bit 0) and fixed (bit 1).
+var<workgroup> tile_u: array<f32, SIDE_CELLS>;
+var<workgroup> tile_state: array<u32, SIDE_CELLS>;
+
+// The half-sweep of `colour` on cell k of the tile (at least one ring in), as relax does it.
+fn tile_update(k: u32, gx: u32, gy: u32) {
+    var sum = 0.0;
+    var count = 0.0;
+    // Left, right, up, down, as `neighbours` sums them.
+    if ((tile_state[k - 1u] & 1u) == 1u) {
+        sum += tile_u[k - 1u];
+        count += 1.0;
+    }
+    if ((tile_state[k + 1u] & 1u) == 1u) {
+        sum += tile_u[k + 1u];
+        count += 1.0;
+    }
+    if ((tile_state[k - SIDE] & 1u) == 1u) {
+        sum += tile_u[k - SIDE];
+        count += 1.0;
+    }
+    if ((tile_state[k + SIDE] & 1u) == 1u) {
+        sum += tile_u[k + SIDE];
+        count += 1.0;
+    }
+    if (count > 0.0) {
+        tile_u[k] = (rhs(fine_index(gx, gy)) + sum) / count;
+    }
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn smooth_tile(
+    @builtin(workgroup_id) wg: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+) {
+    // Level coordinates of the loaded window's first cell, HALO before the tile's (may be
+    // negative: those cells are off the level).
+    let x0 = i32(wg.x * TILE) - i32(HALO);
+    let y0 = i32(wg.y * TILE) - i32(HALO);
+    for (var k = li; k < SIDE_CELLS; k += TILE_THREADS) {
+        let gx = x0 + i32(k % SIDE);
+        let gy = y0 + i32(k / SIDE);
+        var value = 0.0;
+        var state = 0u;
+        if (gx >= 0 && gy >= 0 && u32(gx) < p.fine_w && u32(gy) < p.fine_h) {
+            let i = fine_index(u32(gx), u32(gy));
+            value = u[i];
+            state = 1u;
+            if (is_fixed(i)) {
+                state = 3u;
+            }
+        }
+        tile_u[k] = value;
+        tile_state[k] = state;
+    }
+    workgroupBarrier();
+    for (var step = 0u; step < 2u * p.sweeps; step += 1u) {
+        let colour = step & 1u;
+        // Half-sweep `step` updates the cells at least step + 1 rings in.
+        let lo = step + 1u;
+        let hi = SIDE - step - 1u;
+        for (var k = li; k < SIDE_CELLS; k += TILE_THREADS) {
+            let tx = k % SIDE;
+            let ty = k / SIDE;
+            let gx = u32(x0 + i32(tx));
+            let gy = u32(y0 + i32(ty));
+            let inner = tx >= lo && tx < hi && ty >= lo && ty < hi;
+            if (inner && tile_state[k] == 1u && ((gx + gy + colour) & 1u) == 0u) {
+                tile_update(k, gx, gy);
+            }
+        }
+        workgroupBarrier();
+    }
+    // The tile's own cells, fixed ones included, so that smoothed holds the whole level.
+    for (var k = li; k < TILE * TILE; k += TILE_THREADS) {
+        let gx = wg.x * TILE + k % TILE;
+        let gy = wg.y * TILE + k / TILE;
+        if (gx < p.fine_w && gy < p.fine_h) {
+            smoothed[fine_index(gx, gy)] = tile_u[(k / TILE + HALO) * SIDE + k % TILE + HALO];
+        }
+    }
 }
 
 @compute @workgroup_size(16, 16, 1)

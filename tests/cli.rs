@@ -1239,7 +1239,7 @@ fn bench_json_prints_one_object_per_run() {
     };
     assert_eq!(gpu.len(), 4, "{text}");
     let multigrid: Vec<_> = gpu.iter().filter(|r| r["method"] == "multigrid").collect();
-    assert_eq!(multigrid[0]["pipelines_created"], 9);
+    assert_eq!(multigrid[0]["pipelines_created"], 10);
     assert_eq!(multigrid[1]["pipelines_created"], 0);
     assert_eq!(multigrid[1]["modules_created"], 0);
     let cycles = multigrid[1]["cycles"].as_u64().unwrap();
@@ -1278,6 +1278,43 @@ fn gpu_rows<'a>(rows: &'a [serde_json::Value], text: &str) -> Option<Vec<&'a ser
         return None;
     }
     Some(gpu)
+}
+
+/// `bench --smoothing` picks how the GPU multigrid smooths and the JSON says which; both
+/// solve to the same error (the bits: `tests/gpu_diffusion.rs`). An unknown choice is refused
+/// by name.
+#[test]
+fn bench_smoothing_is_chosen_and_reported() {
+    let bad = strahler(&["bench", "--sizes", "32", "--smoothing", "fast"]);
+    let stderr = String::from_utf8_lossy(&bad.stderr);
+    assert!(!bad.status.success());
+    assert!(
+        stderr.contains("unknown --smoothing \"fast\": use auto, tiles or sweeps"),
+        "{stderr}"
+    );
+    let mut errors = Vec::new();
+    for choice in ["tiles", "sweeps"] {
+        let out = strahler(&[
+            "bench",
+            "--sizes",
+            "40",
+            "--backend",
+            "gpu",
+            "--jacobi-max-size",
+            "0",
+            "--smoothing",
+            choice,
+            "--json",
+        ]);
+        let (text, rows) = json_lines(&out);
+        let Some(gpu) = gpu_rows(&rows, &text) else {
+            return;
+        };
+        assert_eq!(gpu.len(), 1, "{text}");
+        assert_eq!(gpu[0]["smoothing"], choice, "{text}");
+        errors.push((gpu[0]["max_error"].clone(), gpu[0]["cycles"].clone()));
+    }
+    assert_eq!(errors[0], errors[1]);
 }
 
 /// `bench --wavelet --json`: one object per run of each case, with the phases and, on the

@@ -52,7 +52,8 @@ pub struct BenchArgs {
     /// Print one JSON object per line and run (size, backend, method, run, ms, cycles,
     /// sweeps, residual, error and, on the GPU, the pipelines and shader modules created, the
     /// queue submissions and the readbacks, and gpu_ms: the GPU's own time of the run's
-    /// submissions from timestamp queries, null where the adapter has none) instead of the
+    /// submissions from timestamp queries, null where the adapter has none, and the GPU
+    /// multigrid's smoothing, see --smoothing) instead of the
     /// diffusion table; with --wavelet, one per amplification (method wavelet-global or
     /// wavelet-local, window, masked, output, the phases' analysis_ms, fill_ms, inverse_ms).
     #[arg(long)]
@@ -62,6 +63,12 @@ pub struct BenchArgs {
     /// kept). On the GPU the first builds the kernels; later ones reuse them.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
+    /// How the GPU multigrid smooths in the diffusion table: `tiles` (each pre- or
+    /// post-smoothing one dispatch, tile by tile in workgroup memory), `sweeps` (a dispatch
+    /// per half-sweep), or `auto` (tiles on hardware, sweeps on a software rasteriser). Both
+    /// give the same bits.
+    #[arg(long, default_value = "auto")]
+    pub smoothing: String,
     /// Run every GPU solve on a newly created device (created outside the timing), so each
     /// builds its kernels again: what every solve cost before kernels were cached.
     #[arg(long)]
@@ -286,7 +293,29 @@ pub fn check(args: &BenchArgs) -> Result<(), String> {
     if args.max_binding_mib == Some(0) {
         return Err("--max-binding-mib must be at least 1".into());
     }
+    tiles(args)?;
     Ok(())
+}
+
+/// `--smoothing` as [`crate::gpu::GpuContext::with_tiles`] takes it: `None` leaves it to the
+/// adapter.
+fn tiles(args: &BenchArgs) -> Result<Option<bool>, String> {
+    match args.smoothing.as_str() {
+        "auto" => Ok(None),
+        "tiles" => Ok(Some(true)),
+        "sweeps" => Ok(Some(false)),
+        other => Err(format!(
+            "unknown --smoothing {other:?}: use auto, tiles or sweeps"
+        )),
+    }
+}
+
+/// `gpu` with the smoothing `--smoothing` asks for.
+fn tuned(gpu: crate::gpu::GpuContext, tiles: Option<bool>) -> crate::gpu::GpuContext {
+    match tiles {
+        Some(on) => gpu.with_tiles(on),
+        None => gpu,
+    }
 }
 
 pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
@@ -358,6 +387,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         }
     };
     let limit = args.max_binding_mib.map(|mib| mib.max(1) << 20);
+    let tiles = tiles(args)?;
     let new_device = || -> Result<Backend, crate::gpu::GpuError> {
         let context = pollster::block_on(crate::gpu::GpuContext::headless_with_limits(|limits| {
             if let Some(bytes) = limit {
@@ -366,7 +396,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
                 limits.max_buffer_size = limits.max_buffer_size.min(bytes);
             }
         }))?;
-        Ok(Backend::Gpu(std::sync::Arc::new(context)))
+        Ok(Backend::Gpu(std::sync::Arc::new(tuned(context, tiles))))
     };
     if want_gpu {
         match (path.gpu(), limit) {
@@ -380,14 +410,26 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
                 }
                 backends.push(small);
             }
-            (Some(gpu), None) => backends.push(Backend::Gpu(gpu.clone())),
+            (Some(gpu), None) => backends.push(Backend::Gpu(std::sync::Arc::new(tuned(
+                gpu.as_ref().clone(),
+                tiles,
+            )))),
             (None, _) => note(format!("no GPU backend: {path}")),
         }
     }
+    let smoothing = backends.iter().find_map(|b| match b {
+        Backend::Gpu(gpu) => Some(if gpu.prefers_tiles() {
+            "; GPU multigrid smoothing: tiles"
+        } else {
+            "; GPU multigrid smoothing: sweeps"
+        }),
+        Backend::Cpu => None,
+    });
     note(format!(
-        "diffusion benchmark: skeleton-like problems, {:.1}% fixed cells; {}{}",
+        "diffusion benchmark: skeleton-like problems, {:.1}% fixed cells; {}{}{}",
         args.fixed * 100.0,
         path,
+        smoothing.unwrap_or(""),
         if args.fresh_device {
             "; every GPU run on a new device"
         } else {
@@ -468,6 +510,9 @@ struct Row {
     error: f32,
     gpu: Option<GpuStats>,
     gpu_ms: Option<f64>,
+    /// How a GPU multigrid solve smoothed, where no level was split into bands ("tiles" or
+    /// "sweeps"; banded levels always sweep).
+    smoothing: Option<&'static str>,
 }
 
 /// A GPU time for a table cell: `-` where none was measured.
@@ -520,6 +565,7 @@ impl Row {
             "modules_created": gpu.modules_created,
             "submissions": gpu.submissions,
             "readbacks": gpu.readbacks,
+            "smoothing": self.smoothing,
         })
     }
 }
@@ -577,5 +623,10 @@ fn run_one(
         error,
         gpu,
         gpu_ms: timing.map(|t| t.ms()),
+        smoothing: match (backend, method) {
+            (Backend::Gpu(gpu), Method::Multigrid(_)) if gpu.prefers_tiles() => Some("tiles"),
+            (Backend::Gpu(_), Method::Multigrid(_)) => Some("sweeps"),
+            _ => None,
+        },
     })
 }

@@ -82,6 +82,9 @@ pub struct GpuContext {
     /// Run every stage with a WGSL version here, software rasteriser or not
     /// ([`GpuContext::runs_heavy_stages`]).
     all_stages: bool,
+    /// Whether kernels trade dispatches for workgroup barriers, when set
+    /// ([`GpuContext::prefers_tiles`]).
+    tiles: Option<bool>,
 }
 
 impl fmt::Debug for GpuContext {
@@ -117,6 +120,24 @@ impl GpuContext {
         self
     }
 
+    /// Whether kernels that do in one dispatch, in workgroup memory with barriers, what would
+    /// otherwise take several dispatches (the multigrid's tile smoothing) should: yes on
+    /// hardware, where a dispatch costs microseconds of latency and a barrier almost nothing;
+    /// no on a software rasteriser, which runs a workgroup's invocations in turn and switches
+    /// between them at every barrier (lavapipe, 2 cores: a 1024^2 multigrid solve takes
+    /// 0.9 s with a dispatch per half-sweep, 3.8 s with tiles). [`GpuContext::with_tiles`]
+    /// decides instead.
+    pub fn prefers_tiles(&self) -> bool {
+        self.tiles.unwrap_or(!self.is_software())
+    }
+
+    /// The same device with tiled kernels on or off whatever the adapter (tests, and
+    /// `strahler bench --smoothing`, which compares both).
+    pub fn with_tiles(mut self, tiles: bool) -> Self {
+        self.tiles = Some(tiles);
+        self
+    }
+
     /// Shares a device created elsewhere, e.g. the one eframe draws with (see
     /// [`device_descriptor`], which the app passes to eframe so that device carries the
     /// adapter's full limits).
@@ -134,6 +155,7 @@ impl GpuContext {
             caps: Capabilities::of(adapter, device),
             kernels: Arc::default(),
             all_stages: false,
+            tiles: None,
         }
     }
 
@@ -183,6 +205,7 @@ impl GpuContext {
             backend: info.backend,
             kernels: Arc::default(),
             all_stages: false,
+            tiles: None,
         };
         if !context.caps.compute {
             return Err(GpuError::NoCompute {
