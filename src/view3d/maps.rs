@@ -64,23 +64,35 @@ pub struct TerrainMaps {
 impl TerrainMaps {
     /// Prepares `field` (cells of `cell` metres) for a device whose textures are at most
     /// `max_side` texels wide.
+    /// Natively the rasters are made on all threads (the gradients in row bands, the
+    /// spectral measures beside the control points, each of those in bands or blocks); the
+    /// same bits as on one thread.
     pub fn new(field: &Heightfield, cell: f32, max_side: usize) -> Self {
         let base = Base::of(field, cell, max_side);
         let (w, h) = (base.width, base.height);
-        let gradients = gradient_rows(&base.heights, w, h, base.cell, 0..h);
-        let (hurst, roughness) = spectral(&base.heights, w, h);
-        let control = subdivision::interpolating(&base.heights, w, h);
+        let gradients = gradients(&base.heights, w, h, base.cell);
+        let ((hurst, roughness), control) = crate::parallel::join(
+            || spectral(&base.heights, w, h),
+            || subdivision::interpolating(&base.heights, w, h),
+        );
         base.finish(gradients, control, roughness, hurst)
     }
 
-    /// [`Self::new`] as a job: yields between bands of rows and between stages (the browser
-    /// keeps painting) and stops when cancelled.
+    /// [`Self::new`] as a job that stops when cancelled. Natively (a worker thread) it checks
+    /// before and after [`Self::new`]; in the page it yields between bands of rows and
+    /// between stages, so the browser keeps painting. The same maps either way.
     pub async fn prepare(
         field: &Heightfield,
         cell: f32,
         max_side: usize,
         job: &JobCtx,
     ) -> Result<Self, Cancelled> {
+        if !cfg!(target_arch = "wasm32") {
+            job.checkpoint(0.0, "3D view: surface maps").await?;
+            let maps = Self::new(field, cell, max_side);
+            job.checkpoint(1.0, "3D view: surface maps").await?;
+            return Ok(maps);
+        }
         let base = Base::of(field, cell, max_side);
         let (w, h) = (base.width, base.height);
         let mut gradients = Vec::with_capacity(w * h);
@@ -88,7 +100,16 @@ impl TerrainMaps {
             job.checkpoint(0.3 * start as f32 / h as f32, "3D view: surface normals")
                 .await?;
             let rows = start..(start + 256).min(h);
-            gradients.extend(gradient_rows(&base.heights, w, h, base.cell, rows));
+            let first = gradients.len();
+            gradients.resize(first + rows.len() * w, [0; 2]);
+            gradient_rows(
+                &base.heights,
+                w,
+                h,
+                base.cell,
+                rows,
+                &mut gradients[first..],
+            );
         }
         job.checkpoint(0.3, "3D view: wavelet roughness").await?;
         let (hurst, roughness) = spectral(&base.heights, w, h);
@@ -254,45 +275,85 @@ pub fn roughness(data: &mut [f32], w: usize, h: usize) -> Vec<u8> {
     if mean <= 0.0 || !mean.is_finite() {
         return vec![0u8; w * h];
     }
-    // Horizontal window sums, in place (a prefix sum per row).
-    let mut prefix = vec![0.0f64; w + 1];
-    for row in data.chunks_mut(w) {
-        for (x, &v) in row.iter().enumerate() {
-            prefix[x + 1] = prefix[x] + f64::from(v);
+    // Horizontal window sums, in place (a prefix sum per row), in row bands.
+    let threads = crate::parallel::threads();
+    let rows = h.div_ceil(threads).max(1);
+    crate::parallel::for_each_band(data, rows * w, |_, band| {
+        let mut prefix = vec![0.0f64; w + 1];
+        for row in band.chunks_mut(w) {
+            for (x, &v) in row.iter().enumerate() {
+                prefix[x + 1] = prefix[x] + f64::from(v);
+            }
+            for (x, v) in row.iter_mut().enumerate() {
+                *v = (prefix[(x + r + 1).min(w)] - prefix[x.saturating_sub(r)]) as f32;
+            }
         }
-        for (x, v) in row.iter_mut().enumerate() {
-            *v = (prefix[(x + r + 1).min(w)] - prefix[x.saturating_sub(r)]) as f32;
+    });
+    // Vertical window sums, running per column from the top (so a column's sums round the
+    // same whichever block it is in), one block of columns per thread.
+    let data: &[f32] = data;
+    let scale = 1.0 / (2.0 * mean.sqrt());
+    let width = w.div_ceil(threads).max(1);
+    let blocks: Vec<_> = (0..w)
+        .step_by(width)
+        .map(|start| start..(start + width).min(w))
+        .collect();
+    let mut parts = vec![Vec::new(); blocks.len()];
+    crate::parallel::for_each_item(
+        blocks.iter().zip(parts.iter_mut()).collect(),
+        |(columns, part)| *part = window_sigma(data, w, h, columns.clone(), scale),
+    );
+    let mut out = vec![0u8; w * h];
+    for (columns, part) in blocks.iter().zip(&parts) {
+        for (row, values) in out
+            .chunks_exact_mut(w)
+            .zip(part.chunks_exact(columns.len()))
+        {
+            row[columns.clone()].copy_from_slice(values);
         }
     }
-    // Vertical window sums, running per column; the count of detail cells per window is the
-    // window's cells less its (even, even) ones.
+    out
+}
+
+/// [`roughness`]'s last step on the columns `columns`: each cell's window sum down the
+/// columns (from `data`'s horizontal sums), over the window's detail cells (its cells less
+/// its (even, even) ones), as a standard deviation times `scale`, in 0..=255. Row-major,
+/// `columns.len()` wide.
+fn window_sigma(
+    data: &[f32],
+    w: usize,
+    h: usize,
+    columns: std::ops::Range<usize>,
+    scale: f64,
+) -> Vec<u8> {
+    let r = ROUGHNESS_RADIUS;
     let evens = |a: usize, b: usize| b / 2 - a.div_ceil(2) + 1;
-    let scale = 1.0 / (2.0 * mean.sqrt());
-    let mut sums = vec![0.0f64; w];
+    let segment = |y: usize| &data[y * w + columns.start..y * w + columns.end];
+    let mut sums = vec![0.0f64; columns.len()];
     for y in 0..r.min(h) {
-        for (s, &v) in sums.iter_mut().zip(&data[y * w..(y + 1) * w]) {
+        for (s, &v) in sums.iter_mut().zip(segment(y)) {
             *s += f64::from(v);
         }
     }
-    let mut out = vec![0u8; w * h];
+    let mut out = Vec::with_capacity(columns.len() * h);
     for y in 0..h {
         if y + r < h {
-            for (s, &v) in sums.iter_mut().zip(&data[(y + r) * w..(y + r + 1) * w]) {
+            for (s, &v) in sums.iter_mut().zip(segment(y + r)) {
                 *s += f64::from(v);
             }
         }
         if y > r {
-            for (s, &v) in sums.iter_mut().zip(&data[(y - r - 1) * w..(y - r) * w]) {
+            for (s, &v) in sums.iter_mut().zip(segment(y - r - 1)) {
                 *s -= f64::from(v);
             }
         }
         let (y0, y1) = (y.saturating_sub(r), (y + r).min(h - 1));
-        for x in 0..w {
+        for (x, &sum) in columns.clone().zip(&sums) {
             let (x0, x1) = (x.saturating_sub(r), (x + r).min(w - 1));
             let cells = (x1 - x0 + 1) * (y1 - y0 + 1);
             let n = cells - evens(x0, x1) * evens(y0, y1);
-            let sigma = (sums[x].max(0.0) / n.max(1) as f64).sqrt();
-            out[y * w + x] = ((sigma * scale).min(1.0) * 255.0).round() as u8;
+            let sigma = (sum.max(0.0) / n.max(1) as f64).sqrt();
+            out.push(((sigma * scale).min(1.0) * 255.0).round() as u8);
         }
     }
     out
@@ -323,26 +384,37 @@ fn reduce(field: &Heightfield, factor: usize, fill: f32) -> (Vec<f32>, usize, us
     (out, rw, rh)
 }
 
-/// Central differences (one-sided at the border), metres per metre, of `rows`.
+/// The gradients of every cell, in row bands on all threads natively.
+fn gradients(heights: &[f32], w: usize, h: usize, cell: f32) -> Vec<[u16; 2]> {
+    let mut out = vec![[0u16; 2]; w * h];
+    let rows = h.div_ceil(crate::parallel::threads()).max(1);
+    crate::parallel::for_each_band(&mut out, rows * w.max(1), |k, band| {
+        let start = k * rows;
+        gradient_rows(heights, w, h, cell, start..start + band.len() / w, band);
+    });
+    out
+}
+
+/// Central differences (one-sided at the border), metres per metre, of `rows` into `out`
+/// (their cells, row-major).
 fn gradient_rows(
     heights: &[f32],
     w: usize,
     h: usize,
     cell: f32,
     rows: std::ops::Range<usize>,
-) -> Vec<[u16; 2]> {
+    out: &mut [[u16; 2]],
+) {
     let at = |x: usize, y: usize| heights[y * w + x];
-    let mut out = Vec::with_capacity(w * rows.len());
-    for y in rows {
-        for x in 0..w {
+    for (y, row) in rows.zip(out.chunks_exact_mut(w)) {
+        for (x, v) in row.iter_mut().enumerate() {
             let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
             let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
             let dx = (at(xb, y) - at(xa, y)) / (((xb - xa).max(1)) as f32 * cell);
             let dy = (at(x, yb) - at(x, ya)) / (((yb - ya).max(1)) as f32 * cell);
-            out.push([f16_bits(dx), f16_bits(dy)]);
+            *v = [f16_bits(dx), f16_bits(dy)];
         }
     }
-    out
 }
 
 /// Width in metres of a river of Strahler order `order`: 2.5 m for a first-order creek,
@@ -438,6 +510,31 @@ pub fn f16_bits(v: f32) -> u16 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The maps of a rough terrain with a few no-data cells, pinned: the rasters are made in
+    /// bands and blocks on all threads natively and in steps in the page, and must be these
+    /// bits whichever way (the checksum was taken from the serial code before the bands).
+    #[test]
+    fn the_maps_are_pinned_bits() {
+        let mut field = crate::wavelet::fbm::diamond_square(301, 203, 0.7, 11).unwrap();
+        for i in [5, 4000, 30_000] {
+            field.data_mut()[i] = f32::NAN;
+        }
+        let maps = TerrainMaps::new(&field, 30.0, 4096);
+        let mut hash = 0xcbf2_9ce4_8422_2325u64;
+        let mut add = |word: u32| {
+            for b in word.to_le_bytes() {
+                hash = (hash ^ u64::from(b)).wrapping_mul(0x0000_0100_0000_01b3);
+            }
+        };
+        maps.control.iter().for_each(|v| add(v.to_bits()));
+        maps.gradients
+            .iter()
+            .for_each(|g| add(u32::from(g[0]) << 16 | u32::from(g[1])));
+        maps.roughness.iter().for_each(|&e| add(u32::from(e)));
+        add(maps.hurst.to_bits());
+        assert_eq!(format!("{hash:016x}"), "f7538200884e25cb");
+    }
 
     fn from_f16(h: u16) -> f32 {
         let sign = if h & 0x8000 != 0 { -1.0 } else { 1.0 };
