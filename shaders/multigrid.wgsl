@@ -195,9 +195,9 @@ fn solve_coarsest(@builtin(local_invocation_id) lid: vec3<u32>) {
 // their halo.
 const TILE: u32 = 32u;
 const TILE_SWEEPS: u32 = 2u;
-const HALO: u32 = 4u;
-const SIDE: u32 = 40u;
-const SIDE_CELLS: u32 = 1600u;
+const HALO: u32 = 2u * TILE_SWEEPS;
+const SIDE: u32 = TILE + 2u * HALO;
+const SIDE_CELLS: u32 = SIDE * SIDE;
 const TILE_THREADS: u32 = 256u;
 // Per loaded cell: its value, and whether it is on the level (bit 0) and fixed (bit 1).
 var<workgroup> tile_u: array<f32, SIDE_CELLS>;
