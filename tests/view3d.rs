@@ -164,3 +164,180 @@ fn snow_and_the_water_plane_change_the_picture() {
         blue(&plain)
     );
 }
+
+/// A texture's texels, tightly packed rows of `texel` bytes.
+fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture, texel: u32) -> Vec<u8> {
+    let (w, h) = (texture.width(), texture.height());
+    let padded = (w * texel).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("texture readback"),
+        size: u64::from(padded * h),
+        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx.device.create_command_encoder(&Default::default());
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        texture.size(),
+    );
+    ctx.queue.submit([encoder.finish()]);
+    let bytes = pollster::block_on(strahler::gpu::read_bytes(
+        ctx,
+        &buffer,
+        u64::from(padded * h),
+    ))
+    .unwrap();
+    bytes
+        .chunks_exact(padded as usize)
+        .flat_map(|row| row[..(w * texel) as usize].to_vec())
+        .collect()
+}
+
+fn half_to_f32(bits: u16) -> f32 {
+    let sign = if bits & 0x8000 != 0 { -1.0 } else { 1.0 };
+    let exp = i32::from((bits >> 10) & 0x1f);
+    let frac = f32::from(bits & 0x3ff);
+    sign * match exp {
+        0 => frac * 2f32.powi(-24),
+        _ => (1.0 + frac / 1024.0) * 2f32.powi(exp - 15),
+    }
+}
+
+/// The 3D view's rasters made on the GPU (`view3d::gpu_maps`) are the CPU's to rounding:
+/// the control points (in the textures and read back for the camera) within 1e-5 of the
+/// height range, the gradients within a half float's rounding, the roughness within one
+/// step; H and the chunk tree the same. On odd, non-square, reduced and tiny fields.
+#[test]
+fn maps_made_on_the_gpu_are_the_cpus() {
+    let Some(ctx) = common::gpu() else { return };
+    let square = rough_terrain(301);
+    let data = square.data()[..301 * 177].to_vec();
+    let cases = [
+        (square.clone(), 4096),
+        (Heightfield::from_vec(301, 177, data).unwrap(), 4096),
+        // Reduced by 3 to fit 128 texels.
+        (square, 128),
+        (rough_terrain(3), 4096),
+    ];
+    for (k, (field, max_side)) in cases.iter().enumerate() {
+        let cpu = TerrainMaps::new(field, CELL, *max_side);
+        let gpu = pollster::block_on(strahler::view3d::gpu_maps::prepare(
+            &ctx,
+            field,
+            CELL,
+            *max_side,
+            &strahler::jobs::JobCtx::detached(),
+        ))
+        .unwrap();
+        assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height), "case {k}");
+        assert_eq!(
+            (gpu.hurst, gpu.zmin, gpu.zmax),
+            (cpu.hurst, cpu.zmin, cpu.zmax)
+        );
+        let Some((gradients, roughness)) = cpu.cpu_rasters() else {
+            panic!("the CPU's maps hold their rasters");
+        };
+        let rasters = match &gpu.rasters {
+            strahler::view3d::maps::Rasters::Gpu(r) => r,
+            // Too small for a wavelet transform: made on the CPU.
+            strahler::view3d::maps::Rasters::Cpu { .. } => {
+                assert_eq!(k, 3, "only the tiny field stays on the CPU");
+                continue;
+            }
+        };
+        let range = cpu.zmax - cpu.zmin;
+        let textured: Vec<f32> =
+            bytemuck::pod_collect_to_vec(&read_texture(&ctx, &rasters.control, 4));
+        for (name, control) in [("read back", &gpu.control), ("texture", &textured)] {
+            let worst = control
+                .iter()
+                .zip(&cpu.control)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0f32, f32::max);
+            assert!(worst <= 1e-5 * range, "case {k}, {name}: off by {worst}");
+        }
+        assert_eq!(gpu.tree.top_level(), cpu.tree.top_level());
+        let halves: Vec<u16> =
+            bytemuck::pod_collect_to_vec(&read_texture(&ctx, &rasters.gradients, 4));
+        for (pair, cpu_pair) in halves.chunks_exact(2).zip(gradients) {
+            for (&a, &b) in pair.iter().zip(cpu_pair) {
+                let (a, b) = (half_to_f32(a), half_to_f32(b));
+                assert!(
+                    (a - b).abs() <= 1e-3 * b.abs().max(1e-3),
+                    "case {k}: gradient {a} on the GPU, {b} on the CPU"
+                );
+            }
+        }
+        let bytes = read_texture(&ctx, &rasters.roughness, 1);
+        let worst = bytes
+            .iter()
+            .zip(roughness)
+            .map(|(&a, &b)| a.abs_diff(b))
+            .max()
+            .unwrap();
+        assert!(worst <= 1, "case {k}: roughness off by {worst} of 255");
+        assert!(roughness.iter().any(|&e| e > 50), "case {k}: a rough map");
+    }
+}
+
+/// The same terrain drawn from CPU-made and GPU-made maps gives the same picture (to the
+/// rasters' rounding).
+#[test]
+fn the_view_draws_gpu_made_maps_like_the_cpus() {
+    let Some(ctx) = common::gpu() else { return };
+    let field = rough_terrain(257);
+    let mut drawn = Vec::new();
+    for on_gpu in [false, true] {
+        let mut r = Renderer::new(&ctx.device);
+        let maps = if on_gpu {
+            pollster::block_on(strahler::view3d::gpu_maps::prepare(
+                &ctx,
+                &field,
+                CELL,
+                r.max_texture_side(),
+                &strahler::jobs::JobCtx::detached(),
+            ))
+            .unwrap()
+        } else {
+            TerrainMaps::new(&field, CELL, r.max_texture_side())
+        };
+        let camera = looking_down(&maps, 1.0);
+        r.set_terrain(&ctx.device, &ctx.queue, maps, None);
+        r.render(
+            &ctx.device,
+            &ctx.queue,
+            SIZE,
+            &camera,
+            &View3dSettings::default(),
+        )
+        .unwrap();
+        drawn.push(pixels(&ctx, &r));
+    }
+    let diffs: Vec<u32> = drawn[0]
+        .iter()
+        .zip(&drawn[1])
+        .map(|(a, b)| {
+            (0..3)
+                .map(|c| u32::from(a[c].abs_diff(b[c])))
+                .max()
+                .unwrap()
+        })
+        .collect();
+    // A few pixels on silhouettes may flip between two surfaces; the rest match.
+    let mean = diffs.iter().sum::<u32>() as f64 / diffs.len() as f64;
+    let off = diffs.iter().filter(|&&d| d > 4).count();
+    assert!(
+        mean <= 0.1 && off * 500 <= diffs.len(),
+        "mean difference {mean}, {off} pixels off by more than 4"
+    );
+    assert!(drawn[0].iter().filter(|p| is_sky(p)).count() < drawn[0].len() / 10);
+}

@@ -15,6 +15,9 @@ struct ViewOnly {
     view: View3d,
     field: Heightfield,
     rivers: Vec<u8>,
+    /// Make the rasters on the GPU the view draws with (a context on eframe's device).
+    gpu_maps: bool,
+    gpu: Option<std::sync::Arc<strahler::gpu::GpuContext>>,
 }
 
 impl eframe::App for ViewOnly {
@@ -22,12 +25,22 @@ impl eframe::App for ViewOnly {
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let n = self.field.width();
             let cell = 10_000.0 / (n - 1) as f32;
+            if self.gpu_maps && self.gpu.is_none() {
+                self.gpu = frame.wgpu_render_state().map(|state| {
+                    std::sync::Arc::new(strahler::gpu::GpuContext::from_device(
+                        &state.adapter,
+                        &state.device,
+                        &state.queue,
+                    ))
+                });
+            }
             self.view.show(
                 ui,
                 frame,
                 Some((&self.field, 1)),
                 Some((&self.rivers, n)),
                 cell,
+                self.gpu.as_ref(),
             );
         });
     }
@@ -49,23 +62,30 @@ fn valley(n: usize) -> (Heightfield, Vec<u8>) {
     (Heightfield::from_vec(n, n, data).unwrap(), rivers)
 }
 
-#[test]
-fn snapshot_of_the_3d_view() {
-    if common::gpu().is_none() {
-        return;
-    }
+/// The widget over [`valley`], its maps made on the CPU or on its GPU.
+fn view_only(gpu_maps: bool) -> Harness<'static, ViewOnly> {
     let (field, rivers) = valley(257);
-    let mut harness = Harness::builder()
+    Harness::builder()
         .with_size(egui::vec2(480.0, 320.0))
         .wgpu()
-        .build_eframe(|_| ViewOnly {
+        .build_eframe(move |_| ViewOnly {
             view: View3d::with_settings(strahler::view3d::View3dSettings {
                 snow: true,
                 ..Default::default()
             }),
             field,
             rivers,
-        });
+            gpu_maps,
+            gpu: None,
+        })
+}
+
+#[test]
+fn snapshot_of_the_3d_view() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = view_only(false);
     // The terrain's textures are prepared in a background job.
     wait_until(&mut harness, "a 3D frame", |h| {
         h.state().view.status().is_some()
@@ -73,6 +93,7 @@ fn snapshot_of_the_3d_view() {
     harness.run_steps(2);
     let status = harness.state().view.status().expect("a frame was drawn");
     assert!(status.triangles > 0 && status.chunks > 0, "{status:?}");
+    assert_eq!(status.maps, "cpu", "{status:?}");
     // lavapipe renders the same pixels run to run; a few may differ across Mesa versions.
     harness.snapshot_options(
         "view3d",
@@ -136,4 +157,29 @@ fn the_app_switches_to_3d_and_the_camera_drives_the_level_of_detail() {
     harness.key_press(egui::Key::Num2);
     harness.run_steps(2);
     assert_eq!(harness.state().view(), ViewKind::Map);
+}
+
+/// The widget with its maps made on the GPU it draws with (`view3d::gpu_maps`, as the page
+/// does on a hardware GPU): the same picture as the CPU's snapshot, up to the rasters'
+/// rounding on a few pixels.
+#[test]
+fn the_3d_view_draws_maps_made_on_its_gpu() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut harness = view_only(true);
+    wait_until(&mut harness, "a 3D frame", |h| {
+        h.state().view.status().is_some()
+    });
+    harness.run_steps(2);
+    assert!(
+        harness.state().gpu.is_some(),
+        "a context on the view's device"
+    );
+    let status = harness.state().view.status().expect("a frame was drawn");
+    assert_eq!(status.maps, "gpu", "{status:?}");
+    harness.snapshot_options(
+        "view3d",
+        &egui_kittest::SnapshotOptions::new().max_failed_pixels(400),
+    );
 }

@@ -435,7 +435,13 @@ impl StrahlerApp {
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "GPU kernels",
-            move |job| async move { crate::pipeline::warm_kernels(&gpu, &job).await },
+            move |job| async move {
+                crate::pipeline::warm_kernels(&gpu, &job).await?;
+                if crate::view3d::gpu_maps::pays_on(&gpu) {
+                    crate::view3d::gpu_maps::warm(&gpu).await?;
+                }
+                Ok(())
+            },
             move || repaint.request_repaint(),
         );
         match spawned {
@@ -863,7 +869,12 @@ impl eframe::App for StrahlerApp {
                     (s.river_order.as_slice(), s.size)
                 });
                 let cell = self.output.as_ref().map_or(1.0, |o| o.cell_m as f32);
-                self.view3d.show(ui, frame, field, rivers, cell);
+                // The 3D view's rasters on the GPU it draws with, where that pays.
+                let gpu = self
+                    .path
+                    .gpu()
+                    .filter(|g| crate::view3d::gpu_maps::pays_on(g));
+                self.view3d.show(ui, frame, field, rivers, cell, gpu);
             });
             let status = self.view3d.status();
             self.automation.update(|s| s.view3d = status);

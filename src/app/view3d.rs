@@ -44,6 +44,8 @@ pub struct View3dStatus {
     /// Degrees.
     pub yaw: f32,
     pub pitch: f32,
+    /// Where the terrain's rasters were made: "gpu" or "cpu".
+    pub maps: String,
 }
 
 /// A camera request from a script: distance in map widths, angles in degrees.
@@ -105,6 +107,10 @@ impl View3d {
     /// What scripts see.
     pub fn status(&self) -> Option<View3dStatus> {
         let (stats, camera) = (self.stats?, self.camera?);
+        let maps = match self.renderer.as_ref()?.maps()?.rasters {
+            crate::view3d::maps::Rasters::Gpu(_) => "gpu",
+            crate::view3d::maps::Rasters::Cpu { .. } => "cpu",
+        };
         Some(View3dStatus {
             triangles: stats.triangles,
             chunks: stats.chunks,
@@ -119,12 +125,14 @@ impl View3d {
             distance: camera.distance / self.map_width.max(1.0),
             yaw: camera.yaw.to_degrees(),
             pitch: camera.pitch.to_degrees(),
+            maps: maps.into(),
         })
     }
 
     /// Draws the view into the rest of `ui`: uploads a changed terrain, moves the camera from
     /// input and renders a frame. `rivers` is the skeleton's Strahler order per cell (square);
-    /// `cell` the field's cell size in metres.
+    /// `cell` the field's cell size in metres. With `gpu` (the device the view draws with)
+    /// the rasters are made there, else on the CPU.
     pub fn show(
         &mut self,
         ui: &mut Ui,
@@ -132,6 +140,7 @@ impl View3d {
         field: Option<(&crate::heightfield::Heightfield, u64)>,
         rivers: Option<(&[u8], usize)>,
         cell: f32,
+        gpu: Option<&std::sync::Arc<crate::gpu::GpuContext>>,
     ) {
         let rect = ui.available_rect_before_wrap();
         let response = ui.allocate_rect(rect, Sense::click_and_drag());
@@ -165,10 +174,11 @@ impl View3d {
             let field = field.clone();
             let rivers = rivers.map(|(order, side)| (order.to_vec(), side));
             let repaint = ui.ctx().clone();
+            let gpu = gpu.cloned();
             let spawned = crate::jobs::spawn(
                 "3D view",
                 move |job| async move {
-                    let maps = TerrainMaps::prepare(&field, cell, max_side, &job).await?;
+                    let maps = prepare_maps(gpu.as_deref(), &field, cell, max_side, &job).await?;
                     // The skeleton's cells may be coarser than the field's (detail levels).
                     let water = rivers.map(|(order, side)| {
                         let river_cell = cell * field.width() as f32 / side.max(1) as f32;
@@ -468,4 +478,24 @@ fn steer(
             ahead != 0.0 || right != 0.0 || up != 0.0
         }
     }
+}
+
+/// The terrain's 3D maps on `gpu` where given, else (or when the GPU fails, which is
+/// logged) on the CPU.
+async fn prepare_maps(
+    gpu: Option<&crate::gpu::GpuContext>,
+    field: &crate::heightfield::Heightfield,
+    cell: f32,
+    max_side: usize,
+    job: &crate::jobs::JobCtx,
+) -> Result<TerrainMaps, crate::jobs::Cancelled> {
+    if let Some(gpu) = gpu {
+        use crate::view3d::gpu_maps::{self, GpuMapsError};
+        match gpu_maps::prepare(gpu, field, cell, max_side, job).await {
+            Ok(maps) => return Ok(maps),
+            Err(GpuMapsError::Cancelled(c)) => return Err(c),
+            Err(GpuMapsError::Gpu(err)) => log::warn!("3D maps on the CPU: {err}"),
+        }
+    }
+    TerrainMaps::prepare(field, cell, max_side, job).await
 }

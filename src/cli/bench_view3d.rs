@@ -1,5 +1,7 @@
 //! `strahler bench --view3d`: the 3D view's cost per terrain size and camera distance:
-//! preparing the terrain's textures (once per terrain, on the UI thread), choosing the
+//! preparing the terrain's textures (once per terrain, in a background job: on the CPU, and
+//! on the GPU with `view3d::gpu_maps`, textures and the control points' readback included),
+//! choosing the
 //! chunks (eq. 7, every frame, CPU) and drawing a 1280 x 720 frame on the GPU (submission to
 //! completion, mean of 20 after a warm-up).
 
@@ -18,9 +20,10 @@ pub fn run(sizes: &[usize], gpu: &GpuContext) -> Result<(), Box<dyn std::error::
         gpu.adapter.name, gpu.adapter.backend
     );
     println!(
-        "{:>7} {:>8} {:>10} {:>9} {:>7} {:>9} {:>8} {:>7}",
-        "terrain", "prepare", "camera", "triangles", "chunks", "select", "frame", "fps"
+        "{:>7} {:>8} {:>8} {:>10} {:>9} {:>7} {:>9} {:>8} {:>7}",
+        "terrain", "prepare", "gpu prep", "camera", "triangles", "chunks", "select", "frame", "fps"
     );
+    pollster::block_on(crate::view3d::gpu_maps::warm(gpu))?;
     let cell = 10_000.0 / 1024.0;
     for &n in sizes {
         let field = fbm::diamond_square(n, n, 0.55, 7)?;
@@ -34,6 +37,16 @@ pub fn run(sizes: &[usize], gpu: &GpuContext) -> Result<(), Box<dyn std::error::
         let start = Instant::now();
         let maps = TerrainMaps::new(&field, cell, renderer.max_texture_side());
         let prepare = start.elapsed().as_secs_f64() * 1e3;
+        let start = Instant::now();
+        let on_gpu = pollster::block_on(crate::view3d::gpu_maps::prepare(
+            gpu,
+            &field,
+            cell,
+            renderer.max_texture_side(),
+            &crate::jobs::JobCtx::detached(),
+        ))?;
+        let gpu_prepare = start.elapsed().as_secs_f64() * 1e3;
+        drop(on_gpu);
         let (w, h) = maps.extent();
         let mid = 0.5 * (maps.zmin + maps.zmax) * 2.0;
         renderer.set_terrain(&gpu.device, &gpu.queue, maps, None);
@@ -64,9 +77,10 @@ pub fn run(sizes: &[usize], gpu: &GpuContext) -> Result<(), Box<dyn std::error::
             }
             let (select, frame) = (select / FRAMES as f64, total / FRAMES as f64);
             println!(
-                "{:>7} {:>8.0} {:>10} {:>9} {:>7} {:>9.2} {:>8.2} {:>7.1}",
+                "{:>7} {:>8.0} {:>8.0} {:>10} {:>9} {:>7} {:>9.2} {:>8.2} {:>7.1}",
                 format!("{n}^2"),
                 prepare,
+                gpu_prepare,
                 label,
                 stats.triangles,
                 stats.chunks,

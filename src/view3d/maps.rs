@@ -1,5 +1,6 @@
 //! The rasters the 3D shader reads, prepared once per terrain on the CPU (natively on a
-//! worker thread, in the page as a job that yields: the app's "3D view" job).
+//! worker thread, in the page as a job that yields: the app's "3D view" job), or on a
+//! hardware GPU ([`super::gpu_maps`], the same rasters to rounding).
 //!
 //! - B-spline control points (`R32Float`, read with `textureLoad`, so no float filtering is
 //!   needed: WebGL2 and WebGPU both have it): the control points whose bicubic B-spline,
@@ -9,7 +10,7 @@
 //!   everywhere), central differences of the samples, from which the shader derives
 //!   per-pixel normals for any exaggeration,
 //! - roughness `e` of seed 004's eq. 5 (`R8Unorm`): seed 001's local-scope statistic, the
-//!   local standard deviation of the finest wavelet level's detail ([`roughness`]),
+//!   local standard deviation of the finest wavelet level's detail ([`Spectral::roughness`]),
 //! - the Hurst exponent `H` of eq. 4 from seed 001's spectral slope ([`hurst_from_gamma`]),
 //! - a water mask of the river network (`R8Unorm`, [`water_mask`]).
 //!
@@ -33,7 +34,7 @@ pub const DEFAULT_HURST: f32 = 0.8;
 /// surface's. Real land measures gamma 2.5 to 4.5 (seed 001), H 0.25 to 1.25.
 pub const HURST_RANGE: (f32, f32) = (0.1, 1.0);
 
-/// Half-width (cells) of the window of [`roughness`]: 9 x 9 cells, about 40 detail
+/// Half-width (cells) of the window of [`Spectral::roughness`]: 9 x 9 cells, about 40 detail
 /// coefficients (3/4 of the cells hold one), enough for a standard deviation within ~10 %.
 pub const ROUGHNESS_RADIUS: usize = 4;
 
@@ -48,10 +49,8 @@ pub struct TerrainMaps {
     /// heights ([`subdivision::interpolating`]); non-finite cells were replaced by the lowest
     /// height first.
     pub control: Vec<f32>,
-    /// `(dz/dx, dz/dy)` per cell as IEEE half floats.
-    pub gradients: Vec<[u16; 2]>,
-    /// Eq. 5's roughness `e` per cell, 0..=255 for 0..=1 ([`roughness`]).
-    pub roughness: Vec<u8>,
+    /// The gradients and the roughness, on the CPU or in textures on the GPU.
+    pub rasters: Rasters,
     /// Eq. 4's Hurst exponent, from the terrain's own spectral slope ([`hurst_from_gamma`]).
     pub hurst: f32,
     /// The lowest and highest sample (metres).
@@ -59,6 +58,21 @@ pub struct TerrainMaps {
     pub zmax: f32,
     /// Height ranges of the chunks, from the control points (the surface lies within them).
     pub tree: ChunkTree,
+}
+
+/// Where a terrain's gradient and roughness rasters are.
+#[derive(Clone, Debug)]
+pub enum Rasters {
+    /// Made on the CPU; the renderer uploads them.
+    Cpu {
+        /// `(dz/dx, dz/dy)` per cell as IEEE half floats.
+        gradients: Vec<[u16; 2]>,
+        /// Eq. 5's roughness `e` per cell, 0..=255 for 0..=1 ([`Spectral::roughness`]).
+        roughness: Vec<u8>,
+    },
+    /// Made on the GPU the view draws with ([`super::gpu_maps`]): textures to bind as they
+    /// are, the control points' among them.
+    Gpu(super::gpu_maps::GpuRasters),
 }
 
 impl TerrainMaps {
@@ -75,7 +89,14 @@ impl TerrainMaps {
             || spectral(&base.heights, w, h),
             || subdivision::interpolating(&base.heights, w, h),
         );
-        base.finish(gradients, control, roughness, hurst)
+        base.finish(
+            Rasters::Cpu {
+                gradients,
+                roughness,
+            },
+            control,
+            hurst,
+        )
     }
 
     /// [`Self::new`] as a job that stops when cancelled. Natively (a worker thread) it checks
@@ -130,7 +151,25 @@ impl TerrainMaps {
             .await?;
             subdivision::interpolate_columns(&mut control, w, h, start..(start + 256).min(w));
         }
-        Ok(base.finish(gradients, control, roughness, hurst))
+        Ok(base.finish(
+            Rasters::Cpu {
+                gradients,
+                roughness,
+            },
+            control,
+            hurst,
+        ))
+    }
+
+    /// The gradients and the roughness where they were made on the CPU.
+    pub fn cpu_rasters(&self) -> Option<(&[[u16; 2]], &[u8])> {
+        match &self.rasters {
+            Rasters::Cpu {
+                gradients,
+                roughness,
+            } => Some((gradients, roughness)),
+            Rasters::Gpu(_) => None,
+        }
     }
 
     /// Height (metres) of the drawn surface (without the synthetic detail) at world position
@@ -155,17 +194,17 @@ impl TerrainMaps {
 }
 
 /// Heights ready for the textures (reduced, no-data filled), before gradients and the tree.
-struct Base {
-    width: usize,
-    height: usize,
-    cell: f32,
-    heights: Vec<f32>,
+pub(super) struct Base {
+    pub(super) width: usize,
+    pub(super) height: usize,
+    pub(super) cell: f32,
+    pub(super) heights: Vec<f32>,
     zmin: f32,
     zmax: f32,
 }
 
 impl Base {
-    fn of(field: &Heightfield, cell: f32, max_side: usize) -> Self {
+    pub(super) fn of(field: &Heightfield, cell: f32, max_side: usize) -> Self {
         let (w, h) = (field.width(), field.height());
         let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
         let factor = w.max(h).div_ceil(max_side.max(2)).max(1);
@@ -189,13 +228,8 @@ impl Base {
         }
     }
 
-    fn finish(
-        self,
-        gradients: Vec<[u16; 2]>,
-        control: Vec<f32>,
-        roughness: Vec<u8>,
-        hurst: f32,
-    ) -> TerrainMaps {
+    /// The maps, with the chunk tree built from the control points. O(cells).
+    pub(super) fn finish(self, rasters: Rasters, control: Vec<f32>, hurst: f32) -> TerrainMaps {
         drop(self.heights);
         let field = Heightfield::from_vec(self.width, self.height, control)
             .expect("a prepared field is valid");
@@ -205,8 +239,7 @@ impl Base {
             height: self.height,
             cell: self.cell,
             control: field.into_vec(),
-            gradients,
-            roughness,
+            rasters,
             hurst,
             zmin: self.zmin,
             zmax: self.zmax,
@@ -228,34 +261,73 @@ pub fn hurst_from_gamma(gamma: Option<f64>) -> f32 {
 /// Eq. 4's `H` and eq. 5's roughness of a `w x h` grid of heights, from one wavelet
 /// transform (seed 001): `H` from the spectral slope the realism report prints (the bands'
 /// mean gamma of [`analysis::analyze_transformed`]), the roughness from the finest level's
-/// detail ([`roughness`]). A grid too small to transform gets [`DEFAULT_HURST`] and a
+/// detail ([`Spectral::roughness`]). A grid too small to transform gets [`DEFAULT_HURST`] and a
 /// middling roughness (0.5) everywhere. O(cells).
 pub fn spectral(heights: &[f32], w: usize, h: usize) -> (f32, Vec<u8>) {
-    let fallback = || (DEFAULT_HURST, vec![128u8; w * h]);
-    let Ok(field) = Heightfield::from_vec(w, h, heights[..w * h].to_vec()) else {
-        return fallback();
-    };
-    let Ok(mut t) = Transformed::of(&field) else {
-        return fallback();
-    };
-    drop(field);
-    let global = analysis::analyze_transformed(&t, &AnalysisParams::default());
-    let gammas: Vec<f64> = global.fits.iter().flatten().map(|f| f.gamma).collect();
-    let gamma = (!gammas.is_empty()).then(|| gammas.iter().sum::<f64>() / gammas.len() as f64);
-    let hurst = hurst_from_gamma(gamma);
-    (hurst, roughness(&mut t.data, w, h))
+    match Spectral::of(heights, w, h) {
+        Some(spectral) => (spectral.hurst, spectral.roughness()),
+        None => (DEFAULT_HURST, vec![128u8; w * h]),
+    }
 }
 
-/// Eq. 5's roughness `e` per cell from a grid transformed at least one level
-/// (`src/wavelet/lifting.rs`, CDF 5/3, interleaved: the finest level's detail coefficients
-/// sit on the cells with an odd coordinate): the standard deviation of the L2-normalised
-/// finest detail in a `(2 r + 1)^2` window ([`ROUGHNESS_RADIUS`]), seed 001's local scope
-/// (LSA, Sec. 3.3.1, eq. 8's windowed variance at the finest level), divided by twice its
-/// root mean square over the map and clamped to 1: 0.5 is ground as rough as the map's
-/// average, 1 twice as rough or more, 0 smooth. Uses `data` as scratch. O(cells).
-pub fn roughness(data: &mut [f32], w: usize, h: usize) -> Vec<u8> {
-    let r = ROUGHNESS_RADIUS;
-    // Squared normalised detail; 0 on the coarse (even, even) cells.
+/// What [`spectral`] measures before the roughness's windows (which the GPU path runs on
+/// the GPU): `H`, and the finest level's squared, L2-normalised detail with its mean.
+pub(super) struct Spectral {
+    pub(super) hurst: f32,
+    pub(super) width: usize,
+    pub(super) height: usize,
+    /// Per cell, 0 on the coarse (even, even) cells.
+    pub(super) squares: Vec<f32>,
+    /// Mean of the squares over the detail cells (f64 sum, row-major).
+    pub(super) mean: f64,
+}
+
+impl Spectral {
+    /// `None` for a grid too small to transform. O(cells).
+    pub(super) fn of(heights: &[f32], w: usize, h: usize) -> Option<Self> {
+        let field = Heightfield::from_vec(w, h, heights[..w * h].to_vec()).ok()?;
+        let t = Transformed::of(&field).ok()?;
+        drop(field);
+        let global = analysis::analyze_transformed(&t, &AnalysisParams::default());
+        let gammas: Vec<f64> = global.fits.iter().flatten().map(|f| f.gamma).collect();
+        let gamma = (!gammas.is_empty()).then(|| gammas.iter().sum::<f64>() / gammas.len() as f64);
+        let mut squares = t.data;
+        let mean = squared_detail(&mut squares, w, h);
+        Some(Self {
+            hurst: hurst_from_gamma(gamma),
+            width: w,
+            height: h,
+            squares,
+            mean,
+        })
+    }
+
+    /// The scale the window's standard deviation is multiplied by: 0.5 at the map's root
+    /// mean square; `None` for a map without detail (roughness 0 everywhere).
+    pub(super) fn scale(&self) -> Option<f64> {
+        (self.mean > 0.0 && self.mean.is_finite()).then(|| 1.0 / (2.0 * self.mean.sqrt()))
+    }
+
+    /// Eq. 5's roughness `e` per cell: the standard deviation of the L2-normalised finest
+    /// detail in a `(2 r + 1)^2` window ([`ROUGHNESS_RADIUS`]), seed 001's local scope (LSA,
+    /// Sec. 3.3.1, eq. 8's windowed variance at the finest level), divided by twice its root
+    /// mean square over the map and clamped to 1: 0.5 is ground as rough as the map's
+    /// average, 1 twice as rough or more, 0 smooth. O(cells).
+    fn roughness(mut self) -> Vec<u8> {
+        let (w, h) = (self.width, self.height);
+        match self.scale() {
+            Some(scale) => window_roughness(&mut self.squares, w, h, scale),
+            None => vec![0u8; w * h],
+        }
+    }
+}
+
+/// Replaces `data`, a grid transformed at least one level (`src/wavelet/lifting.rs`, CDF
+/// 5/3, interleaved: the finest level's detail coefficients sit on the cells with an odd
+/// coordinate), by its squared, L2-normalised finest detail (0 on the coarse (even, even)
+/// cells) and returns the squares' mean over the detail cells (0 where
+/// there are none). O(cells), serial (the f64 sum in row-major order).
+fn squared_detail(data: &mut [f32], w: usize, h: usize) -> f64 {
     let (mut total, mut count) = (0.0f64, 0usize);
     for y in 0..h {
         for x in 0..w {
@@ -271,10 +343,13 @@ pub fn roughness(data: &mut [f32], w: usize, h: usize) -> Vec<u8> {
             };
         }
     }
-    let mean = if count > 0 { total / count as f64 } else { 0.0 };
-    if mean <= 0.0 || !mean.is_finite() {
-        return vec![0u8; w * h];
-    }
+    if count > 0 { total / count as f64 } else { 0.0 }
+}
+
+/// The roughness of squared detail `data` (used as scratch): each cell's window standard
+/// deviation times `scale`, in 0..=255.
+fn window_roughness(data: &mut [f32], w: usize, h: usize, scale: f64) -> Vec<u8> {
+    let r = ROUGHNESS_RADIUS;
     // Horizontal window sums, in place (a prefix sum per row), in row bands.
     let threads = crate::parallel::threads();
     let rows = h.div_ceil(threads).max(1);
@@ -292,7 +367,6 @@ pub fn roughness(data: &mut [f32], w: usize, h: usize) -> Vec<u8> {
     // Vertical window sums, running per column from the top (so a column's sums round the
     // same whichever block it is in), one block of columns per thread.
     let data: &[f32] = data;
-    let scale = 1.0 / (2.0 * mean.sqrt());
     let width = w.div_ceil(threads).max(1);
     let blocks: Vec<_> = (0..w)
         .step_by(width)
@@ -315,7 +389,7 @@ pub fn roughness(data: &mut [f32], w: usize, h: usize) -> Vec<u8> {
     out
 }
 
-/// [`roughness`]'s last step on the columns `columns`: each cell's window sum down the
+/// [`window_roughness`]'s last step on the columns `columns`: each cell's window sum down the
 /// columns (from `data`'s horizontal sums), over the window's detail cells (its cells less
 /// its (even, even) ones), as a standard deviation times `scale`, in 0..=255. Row-major,
 /// `columns.len()` wide.
@@ -528,10 +602,11 @@ mod tests {
             }
         };
         maps.control.iter().for_each(|v| add(v.to_bits()));
-        maps.gradients
+        let (gradients, roughness) = maps.cpu_rasters().unwrap();
+        gradients
             .iter()
             .for_each(|g| add(u32::from(g[0]) << 16 | u32::from(g[1])));
-        maps.roughness.iter().for_each(|&e| add(u32::from(e)));
+        roughness.iter().for_each(|&e| add(u32::from(e)));
         add(maps.hurst.to_bits());
         assert_eq!(format!("{hash:016x}"), "f7538200884e25cb");
     }
@@ -566,7 +641,7 @@ mod tests {
             .collect();
         let field = Heightfield::from_vec(w, h, data).unwrap();
         let maps = TerrainMaps::new(&field, 2.0, 4096);
-        for g in &maps.gradients {
+        for g in maps.cpu_rasters().unwrap().0 {
             assert!((from_f16(g[0]) - 0.25).abs() < 1e-3);
             assert!((from_f16(g[1]) + 0.125).abs() < 1e-3);
         }
@@ -633,7 +708,8 @@ mod tests {
             .collect();
         let field = Heightfield::from_vec(n, n, data).unwrap();
         let maps = TerrainMaps::new(&field, 10.0, 4096);
-        let at = |x: usize, y: usize| maps.roughness[y * n + x];
+        let roughness = maps.cpu_rasters().unwrap().1;
+        let at = |x: usize, y: usize| roughness[y * n + x];
         // A plane has no detail (the 5/3 predictor is exact on it): e = 0 on the left.
         assert!(at(10, 40) <= 2, "{}", at(10, 40));
         assert!(at(80, 40) >= 150, "{}", at(80, 40));

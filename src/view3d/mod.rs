@@ -7,6 +7,7 @@
 //! - [`camera`]: orbit and fly cameras (pure math).
 //! - [`lod`]: the chunk quadtree and eq. 7 selection (pure, CPU).
 //! - [`maps`]: the textures the shader reads, prepared on the CPU from the heightfield.
+//! - [`gpu_maps`]: the same textures made on a hardware GPU that computes.
 //! - [`mesh`]: the grid (with its skirt) every chunk is drawn with.
 //! - [`subdivision`]: seed 004's smooth subdivision (eqs. 2-3) and its limit, the bicubic
 //!   B-spline the vertex stage evaluates (CPU reference).
@@ -18,6 +19,7 @@
 //! moves.
 
 pub mod camera;
+pub mod gpu_maps;
 pub mod lod;
 pub mod maps;
 pub mod mesh;

@@ -14,6 +14,7 @@ use serde::Serialize;
 use wgpu::util::DeviceExt;
 
 use super::lod::{self, LodParams, Selection, ViewPoint};
+use super::maps::Rasters;
 use super::mesh::grid_mesh;
 use super::target::{COLOR_FORMAT, DEPTH_FORMAT, Target};
 use super::{Camera, TerrainMaps, View3dSettings};
@@ -280,30 +281,43 @@ impl Renderer {
             )
         };
         let (w, h) = (maps.width, maps.height);
-        let heights = texture(
-            "terrain3d control points",
-            wgpu::TextureFormat::R32Float,
-            w,
-            h,
-            bytemuck::cast_slice(&maps.control),
-            4,
-        );
-        let roughness = texture(
-            "terrain3d roughness",
-            wgpu::TextureFormat::R8Unorm,
-            w,
-            h,
-            &maps.roughness,
-            1,
-        );
-        let gradients = texture(
-            "terrain3d gradients",
-            wgpu::TextureFormat::Rg16Float,
-            w,
-            h,
-            bytemuck::cast_slice(&maps.gradients),
-            4,
-        );
+        // Rasters made on the GPU are bound as they are; the CPU's go up now.
+        let (heights, roughness, gradients) = match &maps.rasters {
+            Rasters::Gpu(made) => (
+                made.control.clone(),
+                made.roughness.clone(),
+                made.gradients.clone(),
+            ),
+            Rasters::Cpu {
+                gradients,
+                roughness,
+            } => (
+                texture(
+                    "terrain3d control points",
+                    wgpu::TextureFormat::R32Float,
+                    w,
+                    h,
+                    bytemuck::cast_slice(&maps.control),
+                    4,
+                ),
+                texture(
+                    "terrain3d roughness",
+                    wgpu::TextureFormat::R8Unorm,
+                    w,
+                    h,
+                    roughness,
+                    1,
+                ),
+                texture(
+                    "terrain3d gradients",
+                    wgpu::TextureFormat::Rg16Float,
+                    w,
+                    h,
+                    bytemuck::cast_slice(gradients),
+                    4,
+                ),
+            ),
+        };
         let (mask, side) = match water {
             Some((mask, side)) if side > 0 && mask.len() >= side * side => {
                 super::maps::reduce_mask(mask, side, self.max_texture_side)

@@ -178,7 +178,7 @@ pub fn evaluate(points: &[f32], width: usize, height: usize, x: f32, y: f32) -> 
 /// reduces it to the control point). Returns, per row of the system, the pivot and the
 /// super-diagonal after elimination (Thomas algorithm; the system is diagonally dominant, so
 /// it is stable without pivoting).
-fn thomas_factors(n: usize) -> (Vec<f64>, Vec<f64>) {
+pub(super) fn thomas_factors(n: usize) -> (Vec<f64>, Vec<f64>) {
     let mut pivot = vec![1.0f64; n];
     let mut upper = vec![0.0f64; n];
     for i in 1..n.saturating_sub(1) {
