@@ -42,18 +42,7 @@ fn shot(
         .render(&ctx.device, &ctx.queue, SIZE, camera, settings)
         .unwrap();
     let (bytes, size) = pollster::block_on(r.read_color(ctx)).unwrap();
-    if let Some(dir) = std::env::var_os("STRAHLER_SHOTS") {
-        let path = std::path::Path::new(&dir).join(format!("{name}.png"));
-        let file = std::fs::File::create(&path).unwrap();
-        let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size[0], size[1]);
-        encoder.set_color(png::ColorType::Rgba);
-        encoder.set_depth(png::BitDepth::Eight);
-        encoder
-            .write_header()
-            .unwrap()
-            .write_image_data(&bytes)
-            .unwrap();
-    }
+    common::save_shot(name, &bytes, size);
     let px = bytes
         .chunks_exact(4)
         .map(|p| [p[0], p[1], p[2], p[3]])

@@ -20,3 +20,21 @@ pub fn gpu() -> Option<GpuContext> {
         }
     }
 }
+
+/// With `STRAHLER_SHOTS=<folder>`, writes a picture (tightly packed RGBA rows) there as
+/// `<name>.png`, to look at; otherwise does nothing.
+#[allow(dead_code)] // Only the 3D view's tests take pictures.
+pub fn save_shot(name: &str, rgba: &[u8], size: [u32; 2]) {
+    let Some(dir) = std::env::var_os("STRAHLER_SHOTS") else {
+        return;
+    };
+    let path = std::path::Path::new(&dir).join(format!("{name}.png"));
+    let file = std::fs::File::create(&path).expect("the shots folder is writable");
+    let mut encoder = png::Encoder::new(std::io::BufWriter::new(file), size[0], size[1]);
+    encoder.set_color(png::ColorType::Rgba);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder
+        .write_header()
+        .and_then(|mut writer| writer.write_image_data(rgba))
+        .expect("the picture is written");
+}
