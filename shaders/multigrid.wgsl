@@ -36,7 +36,7 @@ struct Params {
     // Fine rows this dispatch computes (restriction: their parents).
     own_start: u32,
     own_end: u32,
-    // Sweeps of solve_coarsest.
+    // Red-black sweeps of solve_coarsest, relax_small and smooth_tile.
     sweeps: u32,
     _pad1: u32,
 }

@@ -88,6 +88,9 @@ fn spline_columns(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 }
 
+// The largest finite half float.
+const MAX_HALF: f32 = 65504.0;
+
 fn height(x: u32, y: u32) -> f32 {
     return heights[y * p.w + x];
 }
@@ -106,7 +109,10 @@ fn gradients(@builtin(global_invocation_id) gid: vec3<u32>) {
     let yb = min(y + 1u, p.h - 1u);
     let dx = (height(xb, y) - height(xa, y)) / (f32(max(xb - xa, 1u)) * p.cell);
     let dy = (height(x, yb) - height(x, ya)) / (f32(max(yb - ya, 1u)) * p.cell);
-    packed[y * p.gradient_stride + x] = pack2x16float(vec2<f32>(dx, dy));
+    // Within the half floats' range, as `maps.rs` clamps them (pack2x16float is undefined
+    // beyond it).
+    let d = clamp(vec2<f32>(dx, dy), vec2<f32>(-MAX_HALF), vec2<f32>(MAX_HALF));
+    packed[y * p.gradient_stride + x] = pack2x16float(d);
 }
 
 // Cells in [a, b] with an even coordinate.
@@ -130,7 +136,8 @@ fn roughness_at(x: u32, y: u32) -> u32 {
     }
     let n = (x1 - x0 + 1u) * (y1 - y0 + 1u) - evens(x0, x1) * evens(y0, y1);
     let sigma = sqrt(max(sum, 0.0) / f32(max(n, 1u)));
-    return u32(round(min(sigma * p.scale, 1.0) * 255.0));
+    // Halves round up, as Rust's round does for these non-negative values.
+    return u32(floor(min(sigma * p.scale, 1.0) * 255.0 + 0.5));
 }
 
 @compute @workgroup_size(16, 16, 1)

@@ -63,10 +63,10 @@ pub struct BenchArgs {
     /// kept). On the GPU the first builds the kernels; later ones reuse them.
     #[arg(long, default_value_t = 1)]
     pub repeat: usize,
-    /// How the GPU multigrid smooths in the diffusion table: `tiles` (each pre- or
-    /// post-smoothing one dispatch, tile by tile in workgroup memory), `sweeps` (a dispatch
-    /// per half-sweep), or `auto` (tiles on hardware, sweeps on a software rasteriser). Both
-    /// give the same bits.
+    /// How the GPU multigrid smooths in the diffusion table (the other tables ignore it):
+    /// `tiles` (each pre- or post-smoothing one dispatch, tile by tile in workgroup memory,
+    /// where no level is split into bands), `sweeps` (a dispatch per half-sweep), or `auto`
+    /// (tiles on hardware, sweeps on a software rasteriser). Both give the same bits.
     #[arg(long, default_value = "auto")]
     pub smoothing: String,
     /// Run every GPU solve on a newly created device (created outside the timing), so each
@@ -419,7 +419,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
     }
     let smoothing = backends.iter().find_map(|b| match b {
         Backend::Gpu(gpu) => Some(if gpu.prefers_tiles() {
-            "; GPU multigrid smoothing: tiles"
+            "; GPU multigrid smoothing: tiles (sweeps where a level is in bands)"
         } else {
             "; GPU multigrid smoothing: sweeps"
         }),
@@ -510,8 +510,7 @@ struct Row {
     error: f32,
     gpu: Option<GpuStats>,
     gpu_ms: Option<f64>,
-    /// How a GPU multigrid solve smoothed, where no level was split into bands ("tiles" or
-    /// "sweeps"; banded levels always sweep).
+    /// How a GPU multigrid solve smoothed: "tiles" or "sweeps".
     smoothing: Option<&'static str>,
 }
 
@@ -624,8 +623,12 @@ fn run_one(
         gpu,
         gpu_ms: timing.map(|t| t.ms()),
         smoothing: match (backend, method) {
-            (Backend::Gpu(gpu), Method::Multigrid(_)) if gpu.prefers_tiles() => Some("tiles"),
-            (Backend::Gpu(_), Method::Multigrid(_)) => Some("sweeps"),
+            (Backend::Gpu(gpu), Method::Multigrid(params)) => Some(diffusion::gpu_smoothing(
+                gpu,
+                problem.width(),
+                problem.height(),
+                &params,
+            )),
             _ => None,
         },
     })

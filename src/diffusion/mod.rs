@@ -24,6 +24,22 @@ use web_time::Instant;
 pub use constraints::{Constraints, ConstraintsError, FixedMask};
 pub use cpu::{jacobi_sweep, max_update};
 pub use gpu::warm as warm_gpu;
+
+/// How the GPU multigrid smooths a `w` x `h` problem with `params` on `gpu`: `"tiles"` (each
+/// pre- or post-smoothing one dispatch, in workgroup memory) or `"sweeps"` (a dispatch per
+/// half-sweep); the same bits either way.
+pub fn gpu_smoothing(
+    gpu: &crate::gpu::GpuContext,
+    w: usize,
+    h: usize,
+    params: &MultigridParams,
+) -> &'static str {
+    if gpu::smooths_in_tiles(gpu, w, h, params) {
+        "tiles"
+    } else {
+        "sweeps"
+    }
+}
 pub use multigrid::{MultigridParams, Solved};
 pub use post::PostFilter;
 

@@ -98,7 +98,7 @@ pub async fn prepare(
 ) -> Result<TerrainMaps, GpuMapsError> {
     job.checkpoint(0.0, "3D view: surface maps on the GPU")
         .await?;
-    let base = Base::of(field, cell, max_side);
+    let mut base = Base::of(field, cell, max_side);
     let (w, h) = (base.width, base.height);
     let control_stride = stride(w, 4);
     gpu.check_field(control_stride, h)?;
@@ -118,19 +118,22 @@ pub async fn prepare(
         // No detail: a roughness of 0 everywhere, as on the CPU.
         scale: spectral.scale().unwrap_or(0.0) as f32,
     };
-    let (rasters, control) = run(gpu, &base.heights, &spectral.squares, &params).await?;
     let hurst = spectral.hurst;
-    drop(spectral);
+    // The CPU copies go once they are uploaded (a 4096^2 field is 64 MiB each).
+    let heights = std::mem::take(&mut base.heights);
+    let (rasters, control) = run(gpu, heights, spectral.squares, &params).await?;
     job.checkpoint(0.9, "3D view: surface maps on the GPU")
         .await?;
     Ok(base.finish(Rasters::Gpu(rasters), control, hurst))
 }
 
 /// The kernels, the textures and the readback of the control points (unpadded, row-major).
+/// `heights` and `squares` are dropped once uploaded, and every buffer but the control
+/// points' once the work is submitted (wgpu keeps them until the GPU is done with them).
 async fn run(
     gpu: &GpuContext,
-    heights: &[f32],
-    squares: &[f32],
+    heights: Vec<f32>,
+    squares: Vec<f32>,
     p: &Params,
 ) -> Result<(GpuRasters, Vec<f32>), GpuError> {
     let [rows, columns, gradients, roughness] = gpu.pipelines(&SHADER, ENTRIES).await?;
@@ -162,8 +165,9 @@ async fn run(
         contents: bytemuck::bytes_of(p),
         usage: wgpu::BufferUsages::UNIFORM,
     });
-    let heights = upload("3D maps heights", bytemuck::cast_slice(heights));
-    let squares = upload("3D maps detail", bytemuck::cast_slice(squares));
+    let heights_buffer = upload("3D maps heights", bytemuck::cast_slice(&heights));
+    let squares_buffer = upload("3D maps detail", bytemuck::cast_slice(&squares));
+    drop((heights, squares));
     let row_factors = upload("3D maps row factors", bytemuck::cast_slice(&factors(w)));
     let column_factors = upload("3D maps column factors", bytemuck::cast_slice(&factors(h)));
     let control_bytes = p.control_stride as usize * h * 4;
@@ -179,7 +183,7 @@ async fn run(
             &rows,
             &[
                 (0, &uniform),
-                (1, &heights),
+                (1, &heights_buffer),
                 (2, &control),
                 (3, &row_factors),
             ],
@@ -190,11 +194,11 @@ async fn run(
         ),
         bind(
             &gradients,
-            &[(0, &uniform), (1, &heights), (5, &packed_gradients)],
+            &[(0, &uniform), (1, &heights_buffer), (5, &packed_gradients)],
         ),
         bind(
             &roughness,
-            &[(0, &uniform), (5, &packed_roughness), (6, &squares)],
+            &[(0, &uniform), (5, &packed_roughness), (6, &squares_buffer)],
         ),
     ];
     let (w32, h32) = (p.w, p.h);
@@ -267,14 +271,22 @@ async fn run(
         ),
     };
     gpu.submit(encoder.finish());
+    drop((heights_buffer, squares_buffer, row_factors, column_factors));
+    drop((packed_gradients, packed_roughness, groups));
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()));
     }
     let bytes = read_bytes(gpu, &control, control_bytes as u64).await?;
-    let padded: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
-    let control = padded
-        .chunks_exact(p.control_stride as usize)
-        .flat_map(|row| row[..w].iter().copied())
-        .collect();
-    Ok((rasters, control))
+    drop(control);
+    // The rows close up in place: one copy of the control points at a time.
+    let mut points: Vec<f32> = bytemuck::pod_collect_to_vec(&bytes);
+    drop(bytes);
+    let stride = p.control_stride as usize;
+    if stride != w {
+        for y in 1..h {
+            points.copy_within(y * stride..y * stride + w, y * w);
+        }
+    }
+    points.truncate(w * h);
+    Ok((rasters, points))
 }

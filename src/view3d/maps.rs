@@ -469,8 +469,12 @@ fn gradients(heights: &[f32], w: usize, h: usize, cell: f32) -> Vec<[u16; 2]> {
     out
 }
 
+/// The largest finite half float: steeper gradients (a cliff on centimetre cells) are clamped
+/// to it rather than stored as infinities.
+const MAX_HALF: f32 = 65504.0;
+
 /// Central differences (one-sided at the border), metres per metre, of `rows` into `out`
-/// (their cells, row-major).
+/// (their cells, row-major), clamped to [`MAX_HALF`].
 fn gradient_rows(
     heights: &[f32],
     w: usize,
@@ -486,7 +490,10 @@ fn gradient_rows(
             let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
             let dx = (at(xb, y) - at(xa, y)) / (((xb - xa).max(1)) as f32 * cell);
             let dy = (at(x, yb) - at(x, ya)) / (((yb - ya).max(1)) as f32 * cell);
-            *v = [f16_bits(dx), f16_bits(dy)];
+            *v = [
+                f16_bits(dx.clamp(-MAX_HALF, MAX_HALF)),
+                f16_bits(dy.clamp(-MAX_HALF, MAX_HALF)),
+            ];
         }
     }
 }

@@ -8,7 +8,7 @@ mod multigrid;
 mod post;
 
 pub(super) use jacobi::jacobi;
-pub(super) use multigrid::multigrid;
+pub(super) use multigrid::{multigrid, smooths_in_tiles};
 pub(super) use post::{post_filter, post_filter_on};
 
 use crate::gpu::{GpuContext, GpuError, Shader};

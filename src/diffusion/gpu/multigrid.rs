@@ -19,7 +19,8 @@
 //! Readbacks per solve: `ceil((cycles + 1) / CHECK_EVERY)` checks plus the result, at most
 //! `cycles / 4 + 2`. Between batches the job reports progress and honours cancel. Memory:
 //! per level the unknowns, the right-hand side (not on the finest level of a Laplace
-//! problem) and the fixed-cell bits.
+//! problem) and the fixed-cell bits; with tile smoothing (below) a second buffer of
+//! unknowns per level larger than one workgroup, about 1.33 x 4 bytes a finest cell more.
 //!
 //! Smoothing: on hardware ([`GpuContext::prefers_tiles`]) each pre- or post-smoothing of a
 //! level larger than one workgroup is one dispatch of `smooth_tile`: every workgroup loads a
@@ -88,7 +89,7 @@ struct Params {
     coarse_row0: u32,
     own_start: u32,
     own_end: u32,
-    /// Red-black sweeps of `solve_coarsest`.
+    /// Red-black sweeps of `solve_coarsest`, `relax_small` and `smooth_tile`.
     sweeps: u32,
     _pad: u32,
 }
@@ -159,7 +160,7 @@ struct GpuBand {
     smooth: Option<[wgpu::BindGroup; 2]>,
     /// All of the coarsest level's sweeps in one dispatch (the coarsest level only).
     coarsest: Option<wgpu::BindGroup>,
-    /// On a level that fits one workgroup: `solve_coarsest` with a number of sweeps, so a
+    /// On a level that fits one workgroup: `relax_small` with a number of sweeps, so a
     /// relaxation of that many sweeps is one dispatch (empty on larger levels).
     small_relax: Vec<(u32, wgpu::BindGroup)>,
     /// Operators between this band and the next coarser level (absent on the coarsest).
@@ -378,7 +379,7 @@ type Pending<'a> = std::cell::RefCell<Vec<(wgpu::Buffer, &'a [u8])>>;
 /// bind groups and their result buffer. The finest level's unknowns are created empty and
 /// listed in `pending` with their contents (the problem's heights), for the caller to write;
 /// its fixed bits go up with their buffer. Every coarser level's buffers start zeroed, for
-/// [`build_levels`] to fill. A level that fits one workgroup also gets `solve_coarsest`'s
+/// [`build_levels`] to fill. A level that fits one workgroup also gets `relax_small`'s
 /// bind groups for each of `sweeps` (the V-cycle's pre- and post-sweeps), so that its
 /// relaxation is one dispatch.
 fn upload<'a>(
@@ -449,11 +450,7 @@ fn upload<'a>(
         }
     });
 
-    // Tile smoothing where the device prefers it, no level is tiled into bands (a tile's halo
-    // would cross the bands' ghost rows) and the sweeps fit one dispatch's halo.
-    let tile_smoothing = gpu.prefers_tiles()
-        && plan.iter().all(|bands| bands.len() == 1)
-        && sweeps.iter().all(|n| (1..=TILE_SWEEPS).contains(n));
+    let tile_smoothing = tiles_apply(gpu, &plan, sweeps);
     let mut residual = Vec::new();
     let mut correction = Vec::new();
     let mut levels = Vec::with_capacity(dims.len());
@@ -712,7 +709,8 @@ fn relax(
 
 /// [`relax`] of an untiled level in `pass`. A level within one workgroup runs every sweep in
 /// one dispatch, with a storage barrier between colours (the same bits as 2 x `sweeps`
-/// dispatches, see `solve_coarsest`).
+/// dispatches, see `sweeps_in_workgroup` in the shader), and with tiles every sweep of a
+/// larger one in one dispatch (`smooth_tile`).
 fn relax_in(
     pass: &mut wgpu::ComputePass,
     pipes: &Pipelines,
@@ -842,6 +840,26 @@ fn v_cycle(
             Phase::Post,
         );
     }
+}
+
+/// Whether the levels `plan` smooth tile by tile: where the device prefers it, no level is
+/// tiled into bands (a tile's halo would cross the bands' ghost rows) and the (pre, post)
+/// `sweeps` fit one dispatch's halo.
+fn tiles_apply(gpu: &GpuContext, plan: &[Vec<Band>], sweeps: [u32; 2]) -> bool {
+    gpu.prefers_tiles()
+        && plan.iter().all(|bands| bands.len() == 1)
+        && sweeps.iter().all(|n| (1..=TILE_SWEEPS).contains(n))
+}
+
+/// Whether a `w` x `h` solve with `params` on `gpu` smooths tile by tile (module docs).
+pub(in crate::diffusion) fn smooths_in_tiles(
+    gpu: &GpuContext,
+    w: usize,
+    h: usize,
+    params: &MultigridParams,
+) -> bool {
+    bands::plan(&hierarchy::dims(w, h), gpu.caps.max_storage_bytes())
+        .is_ok_and(|plan| tiles_apply(gpu, &plan, [params.pre_sweeps, params.post_sweeps]))
 }
 
 /// What encodes V-cycles with their convergence checks and reads the checks back.
