@@ -437,9 +437,9 @@ impl StrahlerApp {
             "GPU kernels",
             move |job| async move {
                 crate::pipeline::warm_kernels(&gpu, &job).await?;
-                if crate::view3d::gpu_maps::pays_on(&gpu) {
-                    crate::view3d::gpu_maps::warm(&gpu).await?;
-                }
+                // The 3D view's kernels too, wherever it may make its maps on the GPU: built
+                // (and so checked by the browser's compiler) at start, a few milliseconds.
+                crate::view3d::gpu_maps::warm(&gpu).await?;
                 Ok(())
             },
             move || repaint.request_repaint(),

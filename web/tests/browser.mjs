@@ -45,10 +45,14 @@ async function runMode(url, mode, expectedChecksum) {
   });
   const pageErrors = [];
   const consoleErrors = [];
+  const consoleWarnings = [];
   try {
     const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
     page.on('pageerror', (err) => pageErrors.push(String(err)));
-    page.on('console', (msg) => { if (msg.type() === 'error') consoleErrors.push(msg.text()); });
+    page.on('console', (msg) => {
+      if (msg.type() === 'error') consoleErrors.push(msg.text());
+      if (msg.type() === 'warning') consoleWarnings.push(msg.text());
+    });
     await page.goto(url);
     await page.waitForFunction(() => window.strahler?.status().ready === true, null, { timeout: 90_000 });
     const status = await page.evaluate(() => window.strahler.status());
@@ -310,6 +314,11 @@ async function runMode(url, mode, expectedChecksum) {
       `${scripted} vs ${restored}`);
     await page.screenshot({ path: join(output, `${mode}.png`) });
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
+    // Every GPU kernel (the 3D view's too) compiled in this browser at start.
+    if (mode === 'webgpu') {
+      const unbuilt = consoleWarnings.filter((w) => w.includes('builds its kernels when it first runs'));
+      check('every GPU kernel was built at start', unbuilt.length === 0, unbuilt.join('\n'));
+    }
     if (consoleErrors.length > 0) console.log(`  console errors (not failures):\n    ${consoleErrors.join('\n    ')}`);
   } catch (err) {
     check(`page runs without exceptions`, false, String(err));
