@@ -169,39 +169,7 @@ fn snow_and_the_water_plane_change_the_picture() {
 
 /// A texture's texels, tightly packed rows of `texel` bytes.
 fn read_texture(ctx: &GpuContext, texture: &wgpu::Texture, texel: u32) -> Vec<u8> {
-    let (w, h) = (texture.width(), texture.height());
-    let padded = (w * texel).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("texture readback"),
-        size: u64::from(padded * h),
-        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-        mapped_at_creation: false,
-    });
-    let mut encoder = ctx.device.create_command_encoder(&Default::default());
-    encoder.copy_texture_to_buffer(
-        texture.as_image_copy(),
-        wgpu::TexelCopyBufferInfo {
-            buffer: &buffer,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded),
-                rows_per_image: Some(h),
-            },
-        },
-        texture.size(),
-    );
-    ctx.queue.submit([encoder.finish()]);
-    let bytes = pollster::block_on(strahler::gpu::read_bytes(
-        ctx,
-        &buffer,
-        u64::from(padded * h),
-    ))
-    .unwrap();
-    bytes
-        .chunks_exact(padded as usize)
-        .flat_map(|row| row[..(w * texel) as usize].to_vec())
-        .collect()
+    pollster::block_on(strahler::gpu::read_texture(ctx, texture, texel)).unwrap()
 }
 
 fn half_to_f32(bits: u16) -> f32 {

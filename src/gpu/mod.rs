@@ -18,5 +18,7 @@ pub use caps::Capabilities;
 pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
 pub use field::GpuField;
 pub use kernels::{GpuStats, Shader, bind_buffers};
-pub use readback::{read_bytes, read_f32_buffer, read_staging, wait_for_submitted_work};
+pub use readback::{
+    read_bytes, read_f32_buffer, read_staging, read_texture, wait_for_submitted_work,
+};
 pub use timing::GpuTiming;

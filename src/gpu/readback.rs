@@ -60,6 +60,56 @@ pub async fn read_bytes(
     read_staging(ctx, &staging, bytes).await
 }
 
+/// The texels of a 2D `texture` (with `COPY_SRC`) as tightly packed rows of `texel` bytes:
+/// copied into a buffer with rows padded to the copy alignment, read back once, the padding
+/// dropped. A copy the device refuses is an error.
+pub async fn read_texture(
+    ctx: &GpuContext,
+    texture: &wgpu::Texture,
+    texel: u32,
+) -> Result<Vec<u8>, GpuError> {
+    let (w, h) = (texture.width(), texture.height());
+    let padded = (w * texel).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
+        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("texture readback"),
+        size: u64::from(padded * h),
+        usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = ctx
+        .device
+        .create_command_encoder(&wgpu::CommandEncoderDescriptor {
+            label: Some("texture readback"),
+        });
+    encoder.copy_texture_to_buffer(
+        texture.as_image_copy(),
+        wgpu::TexelCopyBufferInfo {
+            buffer: &buffer,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded),
+                rows_per_image: Some(h),
+            },
+        },
+        wgpu::Extent3d {
+            width: w,
+            height: h,
+            depth_or_array_layers: 1,
+        },
+    );
+    ctx.submit(encoder.finish());
+    if let Some(err) = scope.pop().await {
+        return Err(GpuError::Validation(err.to_string()));
+    }
+    let bytes = read_bytes(ctx, &buffer, u64::from(padded * h)).await?;
+    Ok(bytes
+        .chunks_exact(padded as usize)
+        .flat_map(|row| row[..(w * texel) as usize].iter().copied())
+        .collect())
+}
+
 /// Maps the first `bytes` bytes of `staging` (a `MAP_READ | COPY_DST` buffer the caller
 /// keeps and reuses, e.g. one per solve), returns them and unmaps it again, so later
 /// submissions may copy into it. The work writing it must already be submitted. Counts one

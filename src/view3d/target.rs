@@ -1,6 +1,6 @@
 //! The offscreen colour + depth target the 3D view draws into, and reading it back.
 
-use crate::gpu::{GpuContext, GpuError, read_bytes};
+use crate::gpu::{GpuContext, GpuError, read_texture};
 
 /// Colour target format: egui shows it as a native texture holding gamma-encoded colour.
 pub const COLOR_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unorm;
@@ -54,42 +54,6 @@ impl Target {
 
     /// The colour texture's pixels, tightly packed RGBA rows, and its size.
     pub async fn read_color(&self, ctx: &GpuContext) -> Result<(Vec<u8>, [u32; 2]), GpuError> {
-        let [w, h] = self.size;
-        let padded = (w * 4).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-            * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("terrain3d readback"),
-            size: u64::from(padded * h),
-            usage: wgpu::BufferUsages::COPY_SRC | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-        let mut encoder = ctx
-            .device
-            .create_command_encoder(&wgpu::CommandEncoderDescriptor {
-                label: Some("terrain3d readback"),
-            });
-        encoder.copy_texture_to_buffer(
-            self.color.as_image_copy(),
-            wgpu::TexelCopyBufferInfo {
-                buffer: &buffer,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded),
-                    rows_per_image: Some(h),
-                },
-            },
-            wgpu::Extent3d {
-                width: w,
-                height: h,
-                depth_or_array_layers: 1,
-            },
-        );
-        ctx.queue.submit([encoder.finish()]);
-        let bytes = read_bytes(ctx, &buffer, u64::from(padded * h)).await?;
-        let rows = bytes
-            .chunks_exact(padded as usize)
-            .flat_map(|row| row[..(w * 4) as usize].to_vec())
-            .collect();
-        Ok((rows, [w, h]))
+        Ok((read_texture(ctx, &self.color, 4).await?, self.size))
     }
 }
