@@ -19,6 +19,7 @@ pub use context::{AdapterSummary, GpuContext, GpuError, device_descriptor};
 pub use field::GpuField;
 pub use kernels::{GpuStats, Shader, bind_buffers};
 pub use readback::{
-    read_bytes, read_f32_buffer, read_staging, read_texture, wait_for_submitted_work,
+    padded_row_bytes, read_bytes, read_f32_buffer, read_staging, read_texture,
+    wait_for_submitted_work,
 };
 pub use timing::GpuTiming;

@@ -60,6 +60,12 @@ pub async fn read_bytes(
     read_staging(ctx, &staging, bytes).await
 }
 
+/// The bytes a row of `bytes` takes in a buffer copied to or from a texture: rounded up to
+/// the copy alignment (256).
+pub fn padded_row_bytes(bytes: u32) -> u32 {
+    bytes.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT
+}
+
 /// The texels of a 2D `texture` (with `COPY_SRC`) as tightly packed rows of `texel` bytes:
 /// copied into a buffer with rows padded to the copy alignment, read back once, the padding
 /// dropped. A copy the device refuses is an error.
@@ -69,8 +75,7 @@ pub async fn read_texture(
     texel: u32,
 ) -> Result<Vec<u8>, GpuError> {
     let (w, h) = (texture.width(), texture.height());
-    let padded = (w * texel).div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT)
-        * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded = padded_row_bytes(w * texel);
     let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let buffer = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("texture readback"),

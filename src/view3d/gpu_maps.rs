@@ -18,7 +18,7 @@ use wgpu::util::DeviceExt;
 
 use super::maps::{Base, ROUGHNESS_RADIUS, Rasters, Spectral, TerrainMaps};
 use super::subdivision;
-use crate::gpu::{GpuContext, GpuError, Shader, bind_buffers, read_bytes};
+use crate::gpu::{GpuContext, GpuError, Shader, bind_buffers, padded_row_bytes, read_bytes};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 
@@ -27,11 +27,8 @@ const SHADER: Shader = Shader {
     source: include_str!("../../shaders/view3d_maps.wgsl"),
 };
 
-/// The kernels of [`SHADER`], in [`Kernels`]' order.
+/// The kernels of [`SHADER`], in the order `run` takes them.
 const ENTRIES: [&str; 4] = ["spline_rows", "spline_columns", "gradients", "roughness"];
-
-/// A buffer copied into a texture holds its rows this many bytes apart, or a multiple.
-const ROW_ALIGN: usize = wgpu::COPY_BYTES_PER_ROW_ALIGNMENT as usize;
 
 /// The textures [`prepare`] fills, bound by the renderer as they are.
 #[derive(Clone, Debug)]
@@ -81,9 +78,10 @@ pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
     Ok(())
 }
 
-/// `texels` elements of `bytes` each, rounded up to a whole copyable row.
+/// The row stride, in elements of `bytes` each, of `texels` of them in a buffer copied into
+/// a texture.
 fn stride(texels: usize, bytes: usize) -> usize {
-    (texels * bytes).div_ceil(ROW_ALIGN) * ROW_ALIGN / bytes
+    padded_row_bytes((texels * bytes) as u32) as usize / bytes
 }
 
 /// [`TerrainMaps::new`] of `field` on `gpu`, the device the view draws with: the same maps
