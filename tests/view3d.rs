@@ -7,6 +7,7 @@ mod common;
 
 use strahler::gpu::GpuContext;
 use strahler::heightfield::Heightfield;
+use strahler::view3d::maps::Rasters;
 use strahler::view3d::renderer::CLEAR;
 use strahler::view3d::{Camera, CameraMode, Renderer, TerrainMaps, View3dSettings};
 
@@ -200,14 +201,7 @@ fn maps_made_on_the_gpu_are_the_cpus() {
     ];
     for (k, (field, max_side)) in cases.iter().enumerate() {
         let cpu = TerrainMaps::new(field, CELL, *max_side);
-        let gpu = pollster::block_on(strahler::view3d::gpu_maps::prepare(
-            &ctx,
-            field,
-            CELL,
-            *max_side,
-            &strahler::jobs::JobCtx::detached(),
-        ))
-        .unwrap();
+        let gpu = gpu_maps(&ctx, field, None, *max_side);
         assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height), "case {k}");
         assert_eq!(
             (gpu.hurst, gpu.zmin, gpu.zmax),
@@ -217,9 +211,9 @@ fn maps_made_on_the_gpu_are_the_cpus() {
             panic!("the CPU's maps hold their rasters");
         };
         let rasters = match &gpu.rasters {
-            strahler::view3d::maps::Rasters::Gpu(r) => r,
+            Rasters::Gpu(r) => r,
             // Too small for a wavelet transform: made on the CPU.
-            strahler::view3d::maps::Rasters::Cpu { .. } => {
+            Rasters::Cpu { .. } => {
                 assert_eq!(k, 3, "only the tiny field stays on the CPU");
                 continue;
             }
@@ -256,7 +250,68 @@ fn maps_made_on_the_gpu_are_the_cpus() {
             .unwrap();
         assert!(worst <= 1, "case {k}: roughness off by {worst} of 255");
         assert!(roughness.iter().any(|&e| e > 50), "case {k}: a rough map");
+
+        // The field already on the GPU (as a stage leaves it) gives the same bits; where
+        // the maps need it reduced, it is not used.
+        let resident = gpu_maps(&ctx, field, Some(&on_gpu(&ctx, field, 0.0)), *max_side);
+        assert_eq!(
+            resident.control, gpu.control,
+            "case {k}: from the GPU's copy"
+        );
+        let Rasters::Gpu(again) = &resident.rasters else {
+            panic!("case {k}: made on the GPU");
+        };
+        for (a, b, texel) in [
+            (&again.gradients, &rasters.gradients, 4),
+            (&again.roughness, &rasters.roughness, 1),
+        ] {
+            assert!(read_texture(&ctx, a, texel) == read_texture(&ctx, b, texel));
+        }
+        // It is read there rather than uploaded: a copy raised by 100 m raises the control
+        // points by 100 m (unless reduced, when the CPU's field is reduced and uploaded).
+        let raised = gpu_maps(&ctx, field, Some(&on_gpu(&ctx, field, 100.0)), *max_side);
+        let shift = raised.control[0] - gpu.control[0];
+        let expected = if gpu.width == field.width() {
+            100.0
+        } else {
+            0.0
+        };
+        assert!(
+            (shift - expected).abs() < 1e-2,
+            "case {k}: shifted by {shift}"
+        );
     }
+}
+
+/// `field` plus `offset` in a buffer, as a GPU stage hands its terrain on.
+fn on_gpu(ctx: &GpuContext, field: &Heightfield, offset: f32) -> strahler::gpu::GpuField {
+    use wgpu::util::DeviceExt;
+    let data: Vec<f32> = field.data().iter().map(|z| z + offset).collect();
+    let buffer = ctx
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("test field"),
+            contents: bytemuck::cast_slice(&data),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        });
+    strahler::gpu::GpuField::new(ctx, buffer, field.width(), field.height())
+}
+
+fn gpu_maps(
+    ctx: &GpuContext,
+    field: &Heightfield,
+    on_gpu: Option<&strahler::gpu::GpuField>,
+    max_side: usize,
+) -> TerrainMaps {
+    pollster::block_on(strahler::view3d::gpu_maps::prepare(
+        ctx,
+        field,
+        on_gpu,
+        CELL,
+        max_side,
+        &strahler::jobs::JobCtx::detached(),
+    ))
+    .unwrap()
 }
 
 /// The same terrain drawn from CPU-made and GPU-made maps gives the same picture (to the
@@ -272,6 +327,7 @@ fn the_view_draws_gpu_made_maps_like_the_cpus() {
             pollster::block_on(strahler::view3d::gpu_maps::prepare(
                 &ctx,
                 &field,
+                None,
                 CELL,
                 r.max_texture_side(),
                 &strahler::jobs::JobCtx::detached(),

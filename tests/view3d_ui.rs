@@ -18,6 +18,8 @@ struct ViewOnly {
     /// Make the rasters on the GPU the view draws with (a context on eframe's device).
     gpu_maps: bool,
     gpu: Option<std::sync::Arc<strahler::gpu::GpuContext>>,
+    /// The field on that GPU too, as the pipeline's GPU stages leave it.
+    on_gpu: Option<strahler::gpu::GpuField>,
 }
 
 impl eframe::App for ViewOnly {
@@ -33,11 +35,23 @@ impl eframe::App for ViewOnly {
                         &state.queue,
                     ))
                 });
+                self.on_gpu = self.gpu.as_ref().map(|gpu| {
+                    use wgpu::util::DeviceExt;
+                    let buffer = gpu
+                        .device
+                        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                            label: Some("test terrain"),
+                            contents: bytemuck::cast_slice(self.field.data()),
+                            usage: wgpu::BufferUsages::STORAGE,
+                        });
+                    strahler::gpu::GpuField::new(gpu, buffer, n, n)
+                });
             }
             self.view.show(
                 ui,
                 frame,
                 Some((&self.field, 1)),
+                self.on_gpu.as_ref(),
                 Some((&self.rivers, n)),
                 cell,
                 self.gpu.as_ref(),
@@ -77,6 +91,7 @@ fn view_only(gpu_maps: bool) -> Harness<'static, ViewOnly> {
             rivers,
             gpu_maps,
             gpu: None,
+            on_gpu: None,
         })
 }
 

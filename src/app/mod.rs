@@ -874,7 +874,14 @@ impl eframe::App for StrahlerApp {
                     .path
                     .gpu()
                     .filter(|g| crate::view3d::gpu_maps::pays_on(g));
-                self.view3d.show(ui, frame, field, rivers, cell, gpu);
+                // The terrain on the GPU too, if the pipeline left it there.
+                let on_gpu = self
+                    .output
+                    .as_ref()
+                    .filter(|o| self.map.field().is_some_and(|f| std::ptr::eq(f, &*o.field)))
+                    .and_then(|o| o.gpu.as_ref());
+                self.view3d
+                    .show(ui, frame, field, on_gpu, rivers, cell, gpu);
             });
             let status = self.view3d.status();
             self.automation.update(|s| s.view3d = status);

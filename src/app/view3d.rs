@@ -132,12 +132,15 @@ impl View3d {
     /// Draws the view into the rest of `ui`: uploads a changed terrain, moves the camera from
     /// input and renders a frame. `rivers` is the skeleton's Strahler order per cell (square);
     /// `cell` the field's cell size in metres. With `gpu` (the device the view draws with)
-    /// the rasters are made there, else on the CPU.
+    /// the rasters are made there, else on the CPU; `on_gpu` is the field already on a GPU,
+    /// if the pipeline left it there (read there instead of uploaded).
+    #[allow(clippy::too_many_arguments)]
     pub fn show(
         &mut self,
         ui: &mut Ui,
         frame: &eframe::Frame,
         field: Option<(&crate::heightfield::Heightfield, u64)>,
+        on_gpu: Option<&crate::gpu::GpuField>,
         rivers: Option<(&[u8], usize)>,
         cell: f32,
         gpu: Option<&std::sync::Arc<crate::gpu::GpuContext>>,
@@ -175,10 +178,12 @@ impl View3d {
             let rivers = rivers.map(|(order, side)| (order.to_vec(), side));
             let repaint = ui.ctx().clone();
             let gpu = gpu.cloned();
+            let on_gpu = on_gpu.filter(|_| gpu.is_some()).cloned();
             let spawned = crate::jobs::spawn(
                 "3D view",
                 move |job| async move {
-                    let maps = prepare_maps(gpu.as_deref(), &field, cell, max_side, &job).await?;
+                    let gpu = gpu.as_deref().map(|g| (g, on_gpu.as_ref()));
+                    let maps = prepare_maps(gpu, &field, cell, max_side, &job).await?;
                     // The skeleton's cells may be coarser than the field's (detail levels).
                     let water = rivers.map(|(order, side)| {
                         let river_cell = cell * field.width() as f32 / side.max(1) as f32;
@@ -480,18 +485,18 @@ fn steer(
     }
 }
 
-/// The terrain's 3D maps on `gpu` where given, else (or when the GPU fails, which is
-/// logged) on the CPU.
+/// The terrain's 3D maps on `gpu` where given (with the field on a GPU, if it is), else
+/// (or when the GPU fails, which is logged) on the CPU.
 async fn prepare_maps(
-    gpu: Option<&crate::gpu::GpuContext>,
+    gpu: Option<(&crate::gpu::GpuContext, Option<&crate::gpu::GpuField>)>,
     field: &crate::heightfield::Heightfield,
     cell: f32,
     max_side: usize,
     job: &crate::jobs::JobCtx,
 ) -> Result<TerrainMaps, crate::jobs::Cancelled> {
-    if let Some(gpu) = gpu {
+    if let Some((gpu, on_gpu)) = gpu {
         use crate::view3d::gpu_maps::{self, GpuMapsError};
-        match gpu_maps::prepare(gpu, field, cell, max_side, job).await {
+        match gpu_maps::prepare(gpu, field, on_gpu, cell, max_side, job).await {
             Ok(maps) => return Ok(maps),
             Err(GpuMapsError::Cancelled(c)) => return Err(c),
             Err(GpuMapsError::Gpu(err)) => log::warn!("3D maps on the CPU: {err}"),

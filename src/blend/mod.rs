@@ -10,6 +10,7 @@
 
 pub mod block;
 pub mod guide;
+pub mod on_gpu;
 pub mod poisson;
 
 use thiserror::Error;

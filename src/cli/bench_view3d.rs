@@ -41,6 +41,7 @@ pub fn run(sizes: &[usize], gpu: &GpuContext) -> Result<(), Box<dyn std::error::
         let on_gpu = pollster::block_on(crate::view3d::gpu_maps::prepare(
             gpu,
             &field,
+            None,
             cell,
             renderer.max_texture_side(),
             &crate::jobs::JobCtx::detached(),

@@ -35,7 +35,7 @@ use crate::blend::{self, BlendError, BlockSolve};
 use crate::compute::Backend;
 use crate::diffusion::Method;
 use crate::erosion::{self, Eroded};
-use crate::gpu::{GpuContext, GpuError};
+use crate::gpu::{GpuContext, GpuError, GpuField};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::scene::{Scene, SceneError};
@@ -108,6 +108,8 @@ pub struct Detailed {
     pub rms: synthesis::DetailRms,
     pub millis: f64,
     pub backend: &'static str,
+    /// `field` on the GPU that made it (the GPU path).
+    pub gpu: Option<GpuField>,
 }
 
 /// The style stage's output.
@@ -126,6 +128,8 @@ pub struct Blended {
     pub solves: Vec<BlockSolve>,
     pub millis: f64,
     pub backend: &'static str,
+    /// `field` on the GPU the terrain before it was on, if it was there.
+    pub gpu: Option<GpuField>,
 }
 
 /// A finished run: every stage's output (shared with the cache) and the final terrain.
@@ -138,6 +142,9 @@ pub struct Output {
     pub blend: Option<Arc<Blended>>,
     /// The final terrain (the last stage's output).
     pub field: Arc<Heightfield>,
+    /// [`Output::field`], bit for bit, on the backend's GPU, when the stages left it there
+    /// (what the 3D view's GPU rasters start from instead of an upload).
+    pub gpu: Option<GpuField>,
     /// Horizontal size of a cell of [`Output::field`] in metres.
     pub cell_m: f64,
     pub report: Report,
@@ -231,6 +238,9 @@ async fn run_stages(
     };
     times.extend(hydrology.report.stages.iter().cloned());
     let mut field = hydrology.terrain.clone();
+    // The terrain on the GPU too, while the GPU stages hand it on (the CPU stages, erosion
+    // and style, leave it on the CPU only).
+    let mut on_gpu = hydrology.gpu.clone();
     let mut key = key;
 
     // 2. Erosion, on when the scene has an erosion section.
@@ -262,6 +272,7 @@ async fn run_stages(
             }
         };
         eroded = Some(follow(&mut field, &mut times, "erosion", out));
+        on_gpu = None;
     }
 
     // 3. Style from real terrain.
@@ -280,6 +291,7 @@ async fn run_stages(
             }
         };
         styled = Some(follow(&mut field, &mut times, "style", out));
+        on_gpu = None;
     }
 
     // 4. Wavelet detail under the painted mask.
@@ -289,11 +301,12 @@ async fn run_stages(
         let out = match stages.detail.get(key) {
             Some(cached) => cached,
             None => {
-                let out = detail(scene, &field, backend, ctx).await?;
+                let out = detail(scene, &field, on_gpu.as_ref(), backend, ctx).await?;
                 computed.push("detail");
                 stages.detail.put(key, out)
             }
         };
+        on_gpu = out.gpu.clone();
         detailed = Some(follow(&mut field, &mut times, "detail", out));
     }
 
@@ -304,11 +317,12 @@ async fn run_stages(
         let out = match stages.blend.get(key) {
             Some(cached) => cached,
             None => {
-                let out = blend_blocks(scene, &field, backend, ctx).await?;
+                let out = blend_blocks(scene, &field, on_gpu.as_ref(), backend, ctx).await?;
                 computed.push("blend");
                 stages.blend.put(key, out)
             }
         };
+        on_gpu = out.gpu.clone();
         blended = Some(follow(&mut field, &mut times, "blend", out));
     }
     stages.forget_unused(
@@ -338,6 +352,7 @@ async fn run_stages(
         detail: detailed,
         blend: blended,
         field,
+        gpu: on_gpu,
         cell_m,
         report,
         computed,
@@ -427,6 +442,7 @@ async fn style(
 async fn detail(
     scene: &Scene,
     source: &Heightfield,
+    on_gpu: Option<&GpuField>,
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Detailed, PipelineError> {
@@ -436,7 +452,7 @@ async fn detail(
     let n = synthesis::output_len(source.width(), params.levels);
     let backend = &backend.fitting(n, n);
     let clock = Instant::now();
-    let out = wavelet::amplify_on(backend, source, &params, mask.as_ref(), ctx)
+    let out = wavelet::amplify_from(backend, source, on_gpu, &params, mask.as_ref(), ctx)
         .await
         .map_err(|e| match e {
             AmplifyFailure::Cancelled(c) => PipelineError::Cancelled(c),
@@ -450,14 +466,17 @@ async fn detail(
         rms,
         millis,
         backend: backend.key(),
+        gpu: out.gpu,
     })
 }
 
 /// The blend stage: every block of the scene solved into `terrain`, in order (seed 000,
-/// Sec. VI, Algorithm 1).
+/// Sec. VI, Algorithm 1). With `terrain` also on the backend's GPU (`on_gpu`), the result
+/// stays there too ([`blend::on_gpu::follow`]); a GPU failure there only drops that copy.
 async fn blend_blocks(
     scene: &Scene,
     terrain: &Heightfield,
+    on_gpu: Option<&GpuField>,
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Blended, PipelineError> {
@@ -471,11 +490,21 @@ async fn blend_blocks(
             }
             other => PipelineError::Blend(other.to_string()),
         })?;
+    let mut gpu = None;
+    if let (Some(before), Backend::Gpu(context)) = (on_gpu, backend) {
+        let (w, h) = (field.width(), field.height());
+        let rects: Vec<_> = scene.blend.iter().map(|b| b.rect_on(w, h)).collect();
+        match blend::on_gpu::follow(context, before, &field, &rects).await {
+            Ok(kept) => gpu = kept,
+            Err(err) => log::warn!("the blended terrain stays on the CPU: {err}"),
+        }
+    }
     Ok(Blended {
         field: Arc::new(field),
         solves,
         millis: clock.elapsed().as_secs_f64() * 1e3,
         backend: backend.key(),
+        gpu,
     })
 }
 

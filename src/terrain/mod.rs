@@ -130,6 +130,9 @@ pub struct Generated {
     pub ridges: Vec<RidgeSegment>,
     pub skeleton: Skeleton,
     pub report: TerrainReport,
+    /// The same terrain, bit for bit, still on the GPU that solved it, when the stages after
+    /// the solver left it there unchanged (the next GPU stage reads it instead of an upload).
+    pub gpu: Option<crate::gpu::GpuField>,
 }
 
 /// The diffusion stage of a generated terrain, with the terrain's checksum and range (what
@@ -419,21 +422,30 @@ pub async fn generate(
     {
         flooded_on_gpu = Some(flood_on_gpu(gpu, on_gpu, ctx).await?);
     }
+    let on_gpu = match &field {
+        diffusion::FieldOut::Gpu(on_gpu) => Some(on_gpu.clone()),
+        diffusion::FieldOut::Cpu(_) => None,
+    };
     let mut terrain = field
         .into_cpu(backend)
         .await
         .map_err(DiffusionError::from)?;
     // The CPU measures, and floods what is left (everything, unless the GPU flooded it).
-    let (conditioning, drainage) = match flooded_on_gpu {
+    let (conditioning, drainage, left) = match flooded_on_gpu {
         Some(flooded) => {
             let (left, drainage) =
                 drainage::condition_and_measure(&mut terrain, &skeleton.kinds, ctx).await?;
-            (drainage::merge(flooded, left), drainage)
+            (drainage::merge(flooded, left), drainage, left)
         }
         None => {
-            drainage::condition_and_measure_on(backend, &mut terrain, &skeleton.kinds, ctx).await?
+            let (conditioning, drainage) =
+                drainage::condition_and_measure_on(backend, &mut terrain, &skeleton.kinds, ctx)
+                    .await?;
+            (conditioning, drainage, conditioning)
         }
     };
+    // The GPU's copy is the terrain as long as the CPU raised no cell after reading it.
+    let on_gpu = on_gpu.filter(|_| left.raised_cells == 0);
     lap("drainage", &mut stages);
 
     // The report's O(cells) scans, with the job's ticks between them.
@@ -486,6 +498,7 @@ pub async fn generate(
         ridges,
         skeleton,
         report,
+        gpu: on_gpu,
     })
 }
 

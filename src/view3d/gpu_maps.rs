@@ -11,14 +11,18 @@
 //! f64, the windows sum in f32, and the GPU rounds the half floats and the bytes.
 //!
 //! Cost: O(cells) on the CPU (the transform, the squares, the chunk tree), O(cells x 81) on
-//! the GPU; two fields go up (heights and squares) and one comes back (control points).
+//! the GPU; two fields go up (heights and squares) and one comes back (control points). A
+//! terrain a GPU stage left on this GPU (a [`GpuField`]) is read there: only the squares go
+//! up.
 
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
 use super::maps::{Base, ROUGHNESS_RADIUS, Rasters, Spectral, TerrainMaps};
 use super::subdivision;
-use crate::gpu::{GpuContext, GpuError, Shader, bind_buffers, padded_row_bytes, read_bytes};
+use crate::gpu::{
+    GpuContext, GpuError, GpuField, Shader, bind_buffers, padded_row_bytes, read_bytes,
+};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 
@@ -85,11 +89,14 @@ fn stride(texels: usize, bytes: usize) -> usize {
 }
 
 /// [`TerrainMaps::new`] of `field` on `gpu`, the device the view draws with: the same maps
-/// to rounding, with [`Rasters::Gpu`]. A grid too small for a wavelet transform is prepared
-/// on the CPU. Checks the job between the CPU's steps.
+/// to rounding, with [`Rasters::Gpu`]. `on_gpu`, if given, is `field` on a GPU (a stage's
+/// output): used as it is where it is on `gpu` and the maps need it unchanged (no
+/// reduction, no void), instead of an upload. A grid too small for a wavelet transform is
+/// prepared on the CPU. Checks the job between the CPU's steps.
 pub async fn prepare(
     gpu: &GpuContext,
     field: &Heightfield,
+    on_gpu: Option<&GpuField>,
     cell: f32,
     max_side: usize,
     job: &JobCtx,
@@ -119,10 +126,24 @@ pub async fn prepare(
     let hurst = spectral.hurst;
     // The CPU copies go once they are uploaded (a 4096^2 field is 64 MiB each).
     let heights = std::mem::take(&mut base.heights);
+    let unchanged =
+        (w, h) == (field.width(), field.height()) && field.data().iter().all(|z| z.is_finite());
+    let heights = match on_gpu {
+        Some(f) if unchanged && f.is_on(gpu, w, h) => Heights::OnGpu(f.buffer.clone()),
+        _ => Heights::Upload(heights),
+    };
     let (rasters, control) = run(gpu, heights, spectral.squares, &params).await?;
     job.checkpoint(0.9, "3D view: surface maps on the GPU")
         .await?;
     Ok(base.finish(Rasters::Gpu(rasters), control, hurst))
+}
+
+/// The heights the kernels read.
+enum Heights {
+    /// On the CPU, to upload.
+    Upload(Vec<f32>),
+    /// Already on the GPU (`w * h` floats, row-major).
+    OnGpu(wgpu::Buffer),
 }
 
 /// The kernels, the textures and the readback of the control points (unpadded, row-major).
@@ -130,7 +151,7 @@ pub async fn prepare(
 /// points' once the work is submitted (wgpu keeps them until the GPU is done with them).
 async fn run(
     gpu: &GpuContext,
-    heights: Vec<f32>,
+    heights: Heights,
     squares: Vec<f32>,
     p: &Params,
 ) -> Result<(GpuRasters, Vec<f32>), GpuError> {
@@ -163,9 +184,12 @@ async fn run(
         contents: bytemuck::bytes_of(p),
         usage: wgpu::BufferUsages::UNIFORM,
     });
-    let heights_buffer = upload("3D maps heights", bytemuck::cast_slice(&heights));
+    let heights_buffer = match heights {
+        Heights::Upload(heights) => upload("3D maps heights", bytemuck::cast_slice(&heights)),
+        Heights::OnGpu(buffer) => buffer,
+    };
     let squares_buffer = upload("3D maps detail", bytemuck::cast_slice(&squares));
-    drop((heights, squares));
+    drop(squares);
     let row_factors = upload("3D maps row factors", bytemuck::cast_slice(&factors(w)));
     let column_factors = upload("3D maps column factors", bytemuck::cast_slice(&factors(h)));
     let control_bytes = p.control_stride as usize * h * 4;

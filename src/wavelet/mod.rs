@@ -34,9 +34,26 @@ pub async fn amplify_on(
     mask: Option<&Mask>,
     ctx: &crate::jobs::JobCtx,
 ) -> Result<Amplified, AmplifyFailure> {
+    amplify_from(backend, source, None, params, mask, ctx).await
+}
+
+/// [`amplify_on`] of a source that may already be on the backend's GPU: `on_gpu`, the same
+/// values as `source` on that device (a previous stage's output), which the GPU path reads
+/// instead of uploading `source`. The GPU path's output keeps its buffer
+/// ([`Amplified::gpu`]) for the next stage and the 3D view.
+pub async fn amplify_from(
+    backend: &crate::compute::Backend,
+    source: &crate::heightfield::Heightfield,
+    on_gpu: Option<&crate::gpu::GpuField>,
+    params: &AmplifyParams,
+    mask: Option<&Mask>,
+    ctx: &crate::jobs::JobCtx,
+) -> Result<Amplified, AmplifyFailure> {
     match backend {
         crate::compute::Backend::Cpu => amplify(source, params, mask, ctx).await,
-        crate::compute::Backend::Gpu(gpu) => gpu::amplify(gpu, source, params, mask, ctx).await,
+        crate::compute::Backend::Gpu(gpu) => {
+            gpu::amplify(gpu, source, on_gpu, params, mask, ctx).await
+        }
     }
 }
 

@@ -80,6 +80,8 @@ pub struct Amplified {
     pub analysis: Analysis,
     /// Milliseconds per phase (`strahler bench --wavelet`, `amplify --report`).
     pub timings: Timings,
+    /// `field`, bit for bit, still on the GPU that made it (the GPU path).
+    pub gpu: Option<crate::gpu::GpuField>,
 }
 
 /// Wall-clock milliseconds of the phases of [`amplify`].
@@ -351,6 +353,7 @@ pub async fn amplify(
         field,
         analysis,
         timings,
+        gpu: None,
     })
 }
 

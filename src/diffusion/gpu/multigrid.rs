@@ -303,11 +303,7 @@ pub(in crate::diffusion) async fn multigrid(
         }
     }
     let field = if let [band] = levels[0].bands.as_slice() {
-        FieldOut::Gpu(GpuField {
-            buffer: band.u.clone(),
-            width: w,
-            height: h,
-        })
+        FieldOut::Gpu(GpuField::new(gpu, band.u.clone(), w, h))
     } else {
         let (rows, buffers) = levels[0].unknowns();
         let data = bands::read_owned_rows(gpu, &rows, &buffers, w).await?;

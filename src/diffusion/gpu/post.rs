@@ -36,17 +36,14 @@ pub async fn post_filter(
 ) -> Result<Heightfield, GpuError> {
     let (w, h) = (field.width(), field.height());
     gpu.check_field(w, h)?;
-    let input = GpuField {
-        buffer: gpu
-            .device
-            .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some("post field"),
-                contents: bytemuck::cast_slice(field.data()),
-                usage: wgpu::BufferUsages::STORAGE,
-            }),
-        width: w,
-        height: h,
-    };
+    let buffer = gpu
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("post field"),
+            contents: bytemuck::cast_slice(field.data()),
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+    let input = GpuField::new(gpu, buffer, w, h);
     post_filter_on(gpu, &input, weights, filter, seed)
         .await?
         .read(gpu)
@@ -170,9 +167,5 @@ pub async fn post_filter_on(
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()));
     }
-    Ok(GpuField {
-        buffer: out,
-        width: w,
-        height: h,
-    })
+    Ok(GpuField::new(gpu, out, w, h))
 }

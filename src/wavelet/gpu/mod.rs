@@ -15,7 +15,9 @@ use wgpu::util::DeviceExt;
 use super::analysis::Analysis;
 use super::synthesis::{Amplified, AmplifyFailure, AmplifyParams, SigmaTables, check, prepare};
 use super::{WaveletError, mask::Mask, rng};
-use crate::gpu::{GpuContext, GpuError, Shader, read_f32_buffer, wait_for_submitted_work};
+use crate::gpu::{
+    GpuContext, GpuError, GpuField, Shader, read_f32_buffer, wait_for_submitted_work,
+};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 
@@ -193,6 +195,7 @@ pub async fn prepare_on_gpu(
 pub async fn amplify(
     gpu: &GpuContext,
     source: &Heightfield,
+    on_gpu: Option<&GpuField>,
     params: &AmplifyParams,
     mask: Option<&Mask>,
     ctx: &JobCtx,
@@ -202,7 +205,11 @@ pub async fn amplify(
     ctx.checkpoint(0.0, "analysing the wavelet statistics (GPU)")
         .await?;
     let mut clock = web_time::Instant::now();
-    let source_buf = upload_source(gpu, source);
+    // A previous stage's output on this device is the source as it is: no upload.
+    let source_buf = match on_gpu {
+        Some(f) if f.is_on(gpu, source.width(), source.height()) => f.buffer.clone(),
+        _ => upload_source(gpu, source),
+    };
     let statistics = statistics(gpu, source, &source_buf, params).await?;
     let analysis_ms = super::synthesis::lap(&mut clock);
     ctx.checkpoint(0.2, "drawing detail coefficients (GPU)")
@@ -249,7 +256,10 @@ pub async fn amplify(
     let out = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("wavelet output"),
         size: (ow * oh * 4) as u64,
-        usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        // A [`GpuField`] once done: the next stage may copy into one like it.
+        usage: wgpu::BufferUsages::STORAGE
+            | wgpu::BufferUsages::COPY_SRC
+            | wgpu::BufferUsages::COPY_DST,
         mapped_at_creation: false,
     });
     let uniform = |p: &Params| {
@@ -334,5 +344,6 @@ pub async fn amplify(
         field,
         analysis: statistics.analysis,
         timings,
+        gpu: Some(GpuField::new(gpu, out, ow, oh)),
     })
 }
