@@ -9,7 +9,8 @@
 //   spline_columns  one invocation per column, in place on the control points
 //   gradients       one invocation per cell: (dz/dx, dz/dy) packed as two half floats
 //   roughness       one invocation per 4 cells of a row: the window's standard deviation of
-//                   the squared detail, times p.scale, as 4 bytes
+//                   the finest detail (squared from the heights' forward transform, made by
+//                   the wavelet analysis's kernels), times p.scale, as 4 bytes
 
 struct Params {
     w: u32,
@@ -24,6 +25,9 @@ struct Params {
     cell: f32,
     // 1 / (2 x the root mean square of the finest detail).
     scale: f32,
+    // The finest level's normalisation by cell parity, index x odd + 2 y odd (0 on the
+    // coarse cells, which hold no detail).
+    norms: vec4<f32>,
 }
 
 @group(0) @binding(0) var<uniform> p: Params;
@@ -33,8 +37,9 @@ struct Params {
 @group(0) @binding(3) var<storage, read> row_factors: array<f32>;
 @group(0) @binding(4) var<storage, read> column_factors: array<f32>;
 @group(0) @binding(5) var<storage, read_write> packed: array<u32>;
-// The squared, normalised finest detail per cell (0 on the coarse cells).
-@group(0) @binding(6) var<storage, read> squares: array<f32>;
+// The heights' forward wavelet transform (the CPU's lifting layout): the finest detail on
+// the cells with an odd coordinate.
+@group(0) @binding(6) var<storage, read> transform: array<f32>;
 
 // The tridiagonal solve of `subdivision.rs`'s `solve_line` (rows 1/6, 4/6, 1/6; the first and
 // last rows identities) on `len` values read at `src(i)`, written to control[dst(i)]: the
@@ -131,7 +136,8 @@ fn roughness_at(x: u32, y: u32) -> u32 {
     var sum = 0.0;
     for (var yy = y0; yy <= y1; yy += 1u) {
         for (var xx = x0; xx <= x1; xx += 1u) {
-            sum += squares[yy * p.w + xx];
+            let d = transform[yy * p.w + xx] * p.norms[(xx & 1u) + 2u * (yy & 1u)];
+            sum += d * d;
         }
     }
     let n = (x1 - x0 + 1u) * (y1 - y0 + 1u) - evens(x0, x1) * evens(y0, y1);

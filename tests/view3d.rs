@@ -186,7 +186,7 @@ fn half_to_f32(bits: u16) -> f32 {
 /// The 3D view's rasters made on the GPU (`view3d::gpu_maps`) are the CPU's to rounding:
 /// the control points (in the textures and read back for the camera) within 1e-5 of the
 /// height range, the gradients within a half float's rounding, the roughness within one
-/// step; H and the chunk tree the same. On odd, non-square, reduced and tiny fields.
+/// step, H within 1e-4; the chunk tree the same. On odd, non-square, reduced and tiny fields.
 #[test]
 fn maps_made_on_the_gpu_are_the_cpus() {
     let Some(ctx) = common::gpu() else { return };
@@ -203,10 +203,13 @@ fn maps_made_on_the_gpu_are_the_cpus() {
         let cpu = TerrainMaps::new(field, CELL, *max_side);
         let gpu = gpu_maps(&ctx, field, None, *max_side);
         assert_eq!((gpu.width, gpu.height), (cpu.width, cpu.height), "case {k}");
-        assert_eq!(
-            (gpu.hurst, gpu.zmin, gpu.zmax),
-            (cpu.hurst, cpu.zmin, cpu.zmax)
+        // H from the GPU's energies (f32 sums per workgroup) agrees to rounding.
+        assert!(
+            (gpu.hurst - cpu.hurst).abs() <= 1e-4,
+            "case {k}: H {}",
+            gpu.hurst
         );
+        assert_eq!((gpu.zmin, gpu.zmax), (cpu.zmin, cpu.zmax));
         let Some((gradients, roughness)) = cpu.cpu_rasters() else {
             panic!("the CPU's maps hold their rasters");
         };

@@ -42,7 +42,7 @@ impl eframe::App for ViewOnly {
                         .create_buffer_init(&wgpu::util::BufferInitDescriptor {
                             label: Some("test terrain"),
                             contents: bytemuck::cast_slice(self.field.data()),
-                            usage: wgpu::BufferUsages::STORAGE,
+                            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                         });
                     strahler::gpu::GpuField::new(gpu, buffer, n, n)
                 });

@@ -3,28 +3,32 @@
 //! are written straight into the textures the renderer binds, and only the control points
 //! come back (the camera's ground height and the chunk tree need them on the CPU).
 //!
-//! What stays on the CPU, as in [`super::maps`]: reducing a field larger than the texture
-//! limit, `H` (one wavelet transform and its spectral fit) and the finest level's squared
-//! detail with its mean. What moves to the GPU: the tridiagonal solves (one invocation per
-//! row, then per column), the differences and the roughness's 9 x 9 windows. The rasters
-//! agree with the CPU's to rounding (`tests/view3d.rs`): the solves run in f32 instead of
-//! f64, the windows sum in f32, and the GPU rounds the half floats and the bytes.
+//! What stays on the CPU: reducing a field larger than the texture limit (as in
+//! [`super::maps`]), the line fits of `H` from the levels' energies and the chunk tree. What
+//! runs on the GPU: the heights' forward wavelet transform and its levels' energies (the
+//! wavelet analysis's kernels, [`wavelet::gpu::transform`]: one small readback of sums),
+//! the tridiagonal solves (one invocation per row, then per column), the differences and the
+//! roughness's 9 x 9 windows of the finest detail squared. The rasters agree with the CPU's
+//! to rounding (`tests/view3d.rs`): the solves run in f32 instead of f64, the energies and
+//! the windows sum in f32, and the GPU rounds the half floats and the bytes.
 //!
-//! Cost: O(cells) on the CPU (the transform, the squares, the chunk tree), O(cells x 81) on
-//! the GPU; two fields go up (heights and squares) and one comes back (control points). A
-//! terrain a GPU stage left on this GPU (a [`GpuField`]) is read there: only the squares go
-//! up.
+//! Cost: O(cells) on the CPU (the height range and the chunk tree), O(cells x 81) on the
+//! GPU; the heights go up (unless a GPU stage left the terrain on this GPU, a [`GpuField`],
+//! which is read there) and the control points come back.
 
 use thiserror::Error;
 use wgpu::util::DeviceExt;
 
-use super::maps::{Base, ROUGHNESS_RADIUS, Rasters, Spectral, TerrainMaps};
+use super::maps::{
+    Base, ROUGHNESS_RADIUS, Rasters, TerrainMaps, finest_mean, hurst_from_gamma, roughness_scale,
+};
 use super::subdivision;
 use crate::gpu::{
     GpuContext, GpuError, GpuField, Shader, bind_buffers, padded_row_bytes, read_bytes,
 };
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::wavelet::{self, AnalysisParams, lifting, lifting::Band};
 
 const SHADER: Shader = Shader {
     name: "view3d_maps.wgsl",
@@ -65,13 +69,15 @@ struct Params {
     radius: u32,
     cell: f32,
     scale: f32,
+    /// The finest level's normalisation by cell parity, `x odd + 2 y odd` (0 on the coarse
+    /// cells): the roughness squares the transform's detail times these.
+    norms: [f32; 4],
 }
 
 /// Whether the app makes the 3D maps on `gpu` rather than on the CPU: on hardware (a
 /// software rasteriser runs the windows slower than the CPU: 3.4 s against 0.6 s at 4096^2
 /// on lavapipe) where the CPU path has one thread (the page). With threads, the CPU path
-/// runs everything in bands and is as fast as this one's serial CPU share (the transform
-/// for `H`, the squares, the chunk tree: about 0.3 s at 4096^2 on one core).
+/// runs everything in bands.
 pub fn pays_on(gpu: &GpuContext) -> bool {
     gpu.runs_heavy_stages() && crate::parallel::threads() == 1
 }
@@ -92,7 +98,7 @@ fn stride(texels: usize, bytes: usize) -> usize {
 /// to rounding, with [`Rasters::Gpu`]. `on_gpu`, if given, is `field` on a GPU (a stage's
 /// output): used as it is where it is on `gpu` and the maps need it unchanged (no
 /// reduction, no void), instead of an upload. A grid too small for a wavelet transform is
-/// prepared on the CPU. Checks the job between the CPU's steps.
+/// prepared on the CPU. Checks the job between the steps.
 pub async fn prepare(
     gpu: &GpuContext,
     field: &Heightfield,
@@ -103,15 +109,44 @@ pub async fn prepare(
 ) -> Result<TerrainMaps, GpuMapsError> {
     job.checkpoint(0.0, "3D view: surface maps on the GPU")
         .await?;
-    let mut base = Base::of(field, cell, max_side);
+    let (fw, fh) = (field.width(), field.height());
+    let unchanged =
+        Base::factor(field, max_side) == 1 && field.data().iter().all(|z| z.is_finite());
+    // (The transform copies the heights first: the buffer must allow it.)
+    let copyable = |f: &&GpuField| f.buffer.usage().contains(wgpu::BufferUsages::COPY_SRC);
+    let resident = on_gpu.filter(|f| unchanged && f.is_on(gpu, fw, fh) && copyable(f));
+    // The heights on the GPU: the stage's buffer, or the (reduced, filled) field uploaded;
+    // the CPU's copy goes once uploaded (a 4096^2 field is 64 MiB).
+    let (base, heights) = match resident {
+        Some(f) => (Base::unchanged(field, cell), f.buffer.clone()),
+        None => {
+            let mut base = Base::of(field, cell, max_side);
+            if lifting::max_levels(base.width, base.height) < 2 {
+                return Ok(TerrainMaps::new(field, cell, max_side));
+            }
+            let heights = std::mem::take(&mut base.heights);
+            let buffer = gpu
+                .device
+                .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some("3D maps heights"),
+                    contents: bytemuck::cast_slice(&heights),
+                    usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                });
+            (base, buffer)
+        }
+    };
     let (w, h) = (base.width, base.height);
     let control_stride = stride(w, 4);
     gpu.check_field(control_stride, h)?;
-    let Some(spectral) = Spectral::of(&base.heights, w, h) else {
+    // H and the roughness's scale from the transform's global analysis (seed 001, eqs. 6-7).
+    let Some((transform, analysis)) =
+        wavelet::gpu::transform(gpu, &heights, (w, h), &AnalysisParams::default()).await?
+    else {
         return Ok(TerrainMaps::new(field, cell, max_side));
     };
     job.checkpoint(0.5, "3D view: surface maps on the GPU")
         .await?;
+    let norm = |x_odd, y_odd| Band::at(x_odd, y_odd).map_or(0.0, |b| b.normalisation(1) as f32);
     let params = Params {
         w: w as u32,
         h: h as u32,
@@ -121,38 +156,29 @@ pub async fn prepare(
         radius: ROUGHNESS_RADIUS as u32,
         cell: base.cell,
         // No detail: a roughness of 0 everywhere, as on the CPU.
-        scale: spectral.scale().unwrap_or(0.0) as f32,
+        scale: roughness_scale(finest_mean(&analysis)).unwrap_or(0.0) as f32,
+        norms: [
+            norm(false, false),
+            norm(true, false),
+            norm(false, true),
+            norm(true, true),
+        ],
     };
-    let hurst = spectral.hurst;
-    // The CPU copies go once they are uploaded (a 4096^2 field is 64 MiB each).
-    let heights = std::mem::take(&mut base.heights);
-    let unchanged =
-        (w, h) == (field.width(), field.height()) && field.data().iter().all(|z| z.is_finite());
-    let heights = match on_gpu {
-        Some(f) if unchanged && f.is_on(gpu, w, h) => Heights::OnGpu(f.buffer.clone()),
-        _ => Heights::Upload(heights),
-    };
-    let (rasters, control) = run(gpu, heights, spectral.squares, &params).await?;
+    let hurst = hurst_from_gamma(analysis.pooled_gamma());
+    let (rasters, control) = run(gpu, heights, transform, &params).await?;
     job.checkpoint(0.9, "3D view: surface maps on the GPU")
         .await?;
     Ok(base.finish(Rasters::Gpu(rasters), control, hurst))
 }
 
-/// The heights the kernels read.
-enum Heights {
-    /// On the CPU, to upload.
-    Upload(Vec<f32>),
-    /// Already on the GPU (`w * h` floats, row-major).
-    OnGpu(wgpu::Buffer),
-}
-
-/// The kernels, the textures and the readback of the control points (unpadded, row-major).
-/// `heights` and `squares` are dropped once uploaded, and every buffer but the control
-/// points' once the work is submitted (wgpu keeps them until the GPU is done with them).
+/// The kernels, the textures and the readback of the control points (unpadded, row-major),
+/// from the heights and their forward wavelet transform on the GPU. Every buffer but the
+/// control points' is dropped once the work is submitted (wgpu keeps them until the GPU is
+/// done with them).
 async fn run(
     gpu: &GpuContext,
-    heights: Heights,
-    squares: Vec<f32>,
+    heights_buffer: wgpu::Buffer,
+    transform: wgpu::Buffer,
     p: &Params,
 ) -> Result<(GpuRasters, Vec<f32>), GpuError> {
     let [rows, columns, gradients, roughness] = gpu.pipelines(&SHADER, ENTRIES).await?;
@@ -184,12 +210,6 @@ async fn run(
         contents: bytemuck::bytes_of(p),
         usage: wgpu::BufferUsages::UNIFORM,
     });
-    let heights_buffer = match heights {
-        Heights::Upload(heights) => upload("3D maps heights", bytemuck::cast_slice(&heights)),
-        Heights::OnGpu(buffer) => buffer,
-    };
-    let squares_buffer = upload("3D maps detail", bytemuck::cast_slice(&squares));
-    drop(squares);
     let row_factors = upload("3D maps row factors", bytemuck::cast_slice(&factors(w)));
     let column_factors = upload("3D maps column factors", bytemuck::cast_slice(&factors(h)));
     let control_bytes = p.control_stride as usize * h * 4;
@@ -220,7 +240,7 @@ async fn run(
         ),
         bind(
             &roughness,
-            &[(0, &uniform), (5, &packed_roughness), (6, &squares_buffer)],
+            &[(0, &uniform), (5, &packed_roughness), (6, &transform)],
         ),
     ];
     let (w32, h32) = (p.w, p.h);
@@ -293,7 +313,7 @@ async fn run(
         ),
     };
     gpu.submit(encoder.finish());
-    drop((heights_buffer, squares_buffer, row_factors, column_factors));
+    drop((heights_buffer, transform, row_factors, column_factors));
     drop((packed_gradients, packed_roughness, groups));
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()));

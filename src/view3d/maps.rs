@@ -207,7 +207,7 @@ impl Base {
     pub(super) fn of(field: &Heightfield, cell: f32, max_side: usize) -> Self {
         let (w, h) = (field.width(), field.height());
         let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
-        let factor = w.max(h).div_ceil(max_side.max(2)).max(1);
+        let factor = Self::factor(field, max_side);
         let (heights, width, height) = if factor == 1 {
             let data = field
                 .data()
@@ -223,6 +223,26 @@ impl Base {
             height,
             cell: cell * factor as f32,
             heights,
+            zmin: lo,
+            zmax: hi.max(lo + 1e-3),
+        }
+    }
+
+    /// By how much `field` is reduced to fit `max_side` texels a side (1: not reduced).
+    pub(super) fn factor(field: &Heightfield, max_side: usize) -> usize {
+        let (w, h) = (field.width(), field.height());
+        w.max(h).div_ceil(max_side.max(2)).max(1)
+    }
+
+    /// [`Self::of`] of a field that needs neither reducing nor filling, without copying
+    /// its heights (`heights` is left empty: the caller has them elsewhere).
+    pub(super) fn unchanged(field: &Heightfield, cell: f32) -> Self {
+        let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
+        Self {
+            width: field.width(),
+            height: field.height(),
+            cell,
+            heights: Vec::new(),
             zmin: lo,
             zmax: hi.max(lo + 1e-3),
         }
@@ -305,7 +325,7 @@ impl Spectral {
     /// The scale the window's standard deviation is multiplied by: 0.5 at the map's root
     /// mean square; `None` for a map without detail (roughness 0 everywhere).
     pub(super) fn scale(&self) -> Option<f64> {
-        (self.mean > 0.0 && self.mean.is_finite()).then(|| 1.0 / (2.0 * self.mean.sqrt()))
+        roughness_scale(self.mean)
     }
 
     /// Eq. 5's roughness `e` per cell: the standard deviation of the L2-normalised finest
@@ -343,6 +363,28 @@ fn squared_detail(data: &mut [f32], w: usize, h: usize) -> f64 {
             };
         }
     }
+    if count > 0 { total / count as f64 } else { 0.0 }
+}
+
+/// The roughness's scale for a finest detail of mean square `mean`: 1 / (2 x its root mean
+/// square); `None` without detail.
+pub(super) fn roughness_scale(mean: f64) -> Option<f64> {
+    (mean > 0.0 && mean.is_finite()).then(|| 1.0 / (2.0 * mean.sqrt()))
+}
+
+/// The mean square of the finest level's normalised detail over its three bands, from a
+/// global analysis (the mean [`squared_detail`] returns, to float rounding).
+pub(super) fn finest_mean(analysis: &analysis::Analysis) -> f64 {
+    let Some(finest) = analysis.levels.first() else {
+        return 0.0;
+    };
+    let count: usize = finest.counts.iter().sum();
+    let total: f64 = finest
+        .variances
+        .iter()
+        .zip(finest.counts)
+        .map(|(v, n)| v * n as f64)
+        .sum();
     if count > 0 { total / count as f64 } else { 0.0 }
 }
 

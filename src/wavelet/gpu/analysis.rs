@@ -27,7 +27,7 @@ use super::{Params as SynthesisParams, SHADER as SYNTHESIS_SHADER, gpu_err, lift
 use crate::gpu::{GpuContext, GpuError, Shader, bind_buffers, read_f32_buffer};
 use crate::wavelet::WaveletError;
 use crate::wavelet::analysis::MAX_LOCAL_GAMMA;
-use crate::wavelet::analysis::{Analysis, LocalDesign};
+use crate::wavelet::analysis::{Analysis, AnalysisParams, LocalDesign};
 use crate::wavelet::lifting::{self, Band};
 use crate::wavelet::synthesis::{self, AmplifyFailure, AmplifyParams, Scope, SigmaTables};
 
@@ -203,6 +203,135 @@ fn storage(gpu: &GpuContext, label: &str, floats: usize, copy_src: bool) -> wgpu
     })
 }
 
+/// Workgroups of the `energy` kernel at each of `levels` levels of a `width x height` grid.
+fn energy_groups((width, height): (usize, usize), levels: u32) -> Vec<(u32, u32)> {
+    (0..levels)
+        .map(|t| {
+            let s = 1usize << t;
+            groups(lifting::count_at(width, s), lifting::count_at(height, s))
+        })
+        .collect()
+}
+
+/// The per-workgroup sums the energies of `levels` levels need.
+fn energy_floats(size: (usize, usize), levels: u32) -> usize {
+    energy_groups(size, levels)
+        .iter()
+        .map(|(gx, gy)| (gx * gy) as usize * 3)
+        .sum()
+}
+
+/// The forward transform of the `width x height` field in `source` over `levels` levels
+/// (seed 001's CDF 5/3 lifting, the CPU's steps) in a new buffer, and GSA steps 1-2 (eqs.
+/// 6-7) from its levels' energies: one submission, then one read of per-workgroup sums
+/// (`partials` holds [`energy_floats`]), added in f64 on the CPU.
+async fn forward_and_energies(
+    gpu: &GpuContext,
+    (lift, energy): (&wgpu::ComputePipeline, &wgpu::ComputePipeline),
+    source: &wgpu::Buffer,
+    (width, height): (usize, usize),
+    levels: u32,
+    analysis_params: &AnalysisParams,
+    partials: &wgpu::Buffer,
+) -> Result<(wgpu::Buffer, Analysis), GpuError> {
+    let cells = width * height;
+    let data = storage(gpu, "wavelet analysis transform", cells, false);
+    let energy_groups = energy_groups((width, height), levels);
+    let energy_floats = energy_floats((width, height), levels);
+    let mut batch = Batch::new(gpu);
+    batch
+        .encoder
+        .copy_buffer_to_buffer(source, 0, &data, 0, (cells * 4) as u64);
+    for t in 0..levels {
+        for step in lift_steps(1 << t, true) {
+            let p = SynthesisParams {
+                out_w: width as u32,
+                out_h: height as u32,
+                ..step
+            };
+            let n = |len: usize| groups(lifting::count_at(len, p.stride as usize), 1).0;
+            batch.push(
+                lift,
+                bytemuck::bytes_of(&p),
+                &[(4, &data)],
+                (n(width), n(height)),
+            );
+        }
+    }
+    let mut offset = 0u32;
+    for (t, &(gx, gy)) in energy_groups.iter().enumerate() {
+        let s = 1usize << t;
+        let p = Params {
+            width: width as u32,
+            height: height as u32,
+            stride: s as u32,
+            nx: lifting::count_at(width, s) as u32,
+            ny: lifting::count_at(height, s) as u32,
+            partial_offset: offset,
+            ..bytemuck::Zeroable::zeroed()
+        };
+        batch.push(
+            energy,
+            bytemuck::bytes_of(&p),
+            &[(1, &data), (4, partials)],
+            (gx, gy),
+        );
+        offset += gx * gy * 3;
+    }
+    batch.submit();
+    let sums = read_f32_buffer(gpu, partials, energy_floats).await?;
+    let mut energies = Vec::with_capacity(levels as usize);
+    let mut start = 0;
+    for (depth, &(gx, gy)) in (1..).zip(&energy_groups) {
+        let len = (gx * gy) as usize * 3;
+        let raw = lane_sums(&sums[start..start + len], 3);
+        start += len;
+        energies.push(Band::ALL.map(|band| raw[band.index()] * band.normalisation(depth).powi(2)));
+    }
+    let analysis = Analysis::from_energies(width, height, &energies, analysis_params);
+    Ok((data, analysis))
+}
+
+/// The forward transform of the `width x height` field in `source` (a `STORAGE | COPY_SRC`
+/// buffer without voids) over every level it allows, on the GPU, with its global analysis
+/// (what [`crate::wavelet::analysis::analyze_transformed`] gives, to float rounding): the
+/// transform stays on the GPU (`STORAGE`, the CPU's [`lifting::forward`] layout). `None`
+/// for a grid too small for two levels. One submission and one small readback.
+pub async fn transform(
+    gpu: &GpuContext,
+    source: &wgpu::Buffer,
+    size: (usize, usize),
+    analysis_params: &AnalysisParams,
+) -> Result<Option<(wgpu::Buffer, Analysis)>, GpuError> {
+    let levels = lifting::max_levels(size.0, size.1);
+    if levels < 2 {
+        return Ok(None);
+    }
+    let [lift] = gpu.pipelines(&SYNTHESIS_SHADER, ["lift"]).await?;
+    let [energy] = gpu.pipelines(&SHADER, ["energy"]).await?;
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let partials = storage(
+        gpu,
+        "wavelet analysis sums",
+        energy_floats(size, levels),
+        true,
+    );
+    let result = forward_and_energies(
+        gpu,
+        (&lift, &energy),
+        source,
+        size,
+        levels,
+        analysis_params,
+        &partials,
+    )
+    .await;
+    if let Some(err) = scope.pop().await {
+        return Err(GpuError::Validation(err.to_string()));
+    }
+    result.map(Some)
+}
+
 /// The statistics of the `width x height` source in `source` (a `STORAGE | COPY_SRC`
 /// buffer) for `params`, over `levels` analysed levels (see
 /// [`crate::wavelet::analysis::analysable_levels`]). `None` where the local fit asks for more
@@ -236,77 +365,24 @@ pub(super) async fn statistics(
 
     // 1. Forward transform and the levels' energies.
     let cells = width * height;
-    let data = storage(gpu, "wavelet analysis transform", cells, false);
     let (cx, cy) = groups(width, height);
-    let energy_groups: Vec<(u32, u32)> = (0..levels)
-        .map(|t| {
-            let s = 1usize << t;
-            groups(lifting::count_at(width, s), lifting::count_at(height, s))
-        })
-        .collect();
-    let energy_floats: usize = energy_groups
-        .iter()
-        .map(|(gx, gy)| (gx * gy) as usize * 3)
-        .sum();
     let partials = storage(
         gpu,
         "wavelet analysis sums",
-        energy_floats.max((cx * cy) as usize * MAX_SUMS),
+        energy_floats((width, height), levels).max((cx * cy) as usize * MAX_SUMS),
         true,
     );
-    let mut batch = Batch::new(gpu);
-    batch
-        .encoder
-        .copy_buffer_to_buffer(source, 0, &data, 0, (cells * 4) as u64);
-    for t in 0..levels {
-        for step in lift_steps(1 << t, true) {
-            let p = SynthesisParams {
-                out_w: width as u32,
-                out_h: height as u32,
-                ..step
-            };
-            let n = |len: usize| groups(lifting::count_at(len, p.stride as usize), 1).0;
-            batch.push(
-                &lift,
-                bytemuck::bytes_of(&p),
-                &[(4, &data)],
-                (n(width), n(height)),
-            );
-        }
-    }
-    let mut offset = 0u32;
-    for (t, &(gx, gy)) in energy_groups.iter().enumerate() {
-        let s = 1usize << t;
-        let p = Params {
-            width: width as u32,
-            height: height as u32,
-            stride: s as u32,
-            nx: lifting::count_at(width, s) as u32,
-            ny: lifting::count_at(height, s) as u32,
-            partial_offset: offset,
-            ..bytemuck::Zeroable::zeroed()
-        };
-        batch.push(
-            &kernels[0],
-            bytemuck::bytes_of(&p),
-            &[(1, &data), (4, &partials)],
-            (gx, gy),
-        );
-        offset += gx * gy * 3;
-    }
-    batch.submit();
-    let sums = read_f32_buffer(gpu, &partials, energy_floats)
-        .await
-        .map_err(gpu_err)?;
-    let mut energies = Vec::with_capacity(levels as usize);
-    let mut start = 0;
-    for (depth, &(gx, gy)) in (1..).zip(&energy_groups) {
-        let len = (gx * gy) as usize * 3;
-        let raw = lane_sums(&sums[start..start + len], 3);
-        start += len;
-        energies.push(Band::ALL.map(|band| raw[band.index()] * band.normalisation(depth).powi(2)));
-    }
-    let analysis = Analysis::from_energies(width, height, &energies, &params.analysis);
+    let (data, analysis) = forward_and_energies(
+        gpu,
+        (&lift, &kernels[0]),
+        source,
+        (width, height),
+        levels,
+        &params.analysis,
+        &partials,
+    )
+    .await
+    .map_err(gpu_err)?;
 
     let Some((local, design)) = local else {
         if let Some(err) = scope.pop().await {

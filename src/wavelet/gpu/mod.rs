@@ -4,11 +4,14 @@
 //! (`shaders/wavelet.wgsl`): one `fill` dispatch writes the source samples and every
 //! synthetic coefficient (same counter-based Gaussians as the CPU, same eq. 9 mask factor),
 //! then four `lift` dispatches per new level undo the lifting steps. The source is uploaded
-//! once; the output is read back once. Results equal the CPU's within float rounding (the
+//! once (or read where a previous stage left it on the GPU); the output is read back once
+//! and stays on the GPU for the next stage. Results equal the CPU's within float rounding (the
 //! GPU's `log`/`exp2`/`cos` are not bit-identical to `libm`'s, and its sums run in f32 within
 //! a workgroup).
 
 mod analysis;
+
+pub use analysis::transform;
 
 use wgpu::util::DeviceExt;
 
