@@ -1,6 +1,7 @@
 //! The pipeline's GPU stages hand the terrain to each other on the GPU: the hydrology
-//! stage's flooded terrain goes to the wavelet detail without an upload, the detail's output
-//! to the blend, and the blend's (its blocks written over a device copy) to the 3D view.
+//! stage's flooded terrain (or the GPU erosion's) goes to the wavelet detail without an
+//! upload, the detail's output to the blend, and the blend's (its blocks written over a
+//! device copy) to the 3D view.
 //! Each copy is its stage's terrain to the bit, and the terrain is the one the stages give
 //! from uploads.
 
@@ -115,19 +116,43 @@ fn gpu_stages_hand_the_terrain_on() {
     assert!(bits(&read(&gpu, again.gpu.as_ref(), "moved block")) == bits(&again.field));
     assert!(bits(&again.field) != bits(&out.field));
 
-    // A CPU stage between them (erosion) leaves the terrain on the CPU; the detail after it
-    // uploads it and hands its own output on.
+    // Erosion on the GPU hands its terrain on too (its solver's flooded heights), and the
+    // detail after it reads that copy.
     let mut eroded = scene.clone();
     eroded.erosion = Some(strahler::erosion::ErosionSettings::default());
-    let after_cpu = run(&mut pipeline, &eroded, &backend);
-    assert!(bits(&read(&gpu, after_cpu.gpu.as_ref(), "after erosion")) == bits(&after_cpu.field));
+    let after = run(&mut pipeline, &eroded, &backend);
+    let erosion = after.erosion.as_ref().expect("an erosion stage");
+    assert_eq!(erosion.report.backend, "gpu");
+    assert!(bits(&read(&gpu, erosion.gpu.as_ref(), "erosion")) == bits(&erosion.field));
+    let uploaded = pollster::block_on(strahler::wavelet::amplify_on(
+        &backend,
+        &erosion.field,
+        &params,
+        None,
+        &JobCtx::detached(),
+    ))
+    .expect("the detail from an upload");
+    let detail = after.detail.as_ref().expect("a detail stage");
+    assert!(bits(&uploaded.field) == bits(&detail.field));
+    assert!(bits(&read(&gpu, after.gpu.as_ref(), "after erosion")) == bits(&after.field));
+
+    // A CPU stage (style) ends the chain: the detail after it uploads the styled terrain and
+    // hands its own output on.
+    let mut styled = eroded.clone();
+    styled.style = strahler::scene::StyleSettings::bundled("mountains");
+    let after = run(&mut pipeline, &styled, &backend);
+    assert_eq!(after.computed, ["style", "detail", "blend"]);
+    assert!(bits(&read(&gpu, after.gpu.as_ref(), "after style")) == bits(&after.field));
 }
 
 /// On the CPU no stage keeps a GPU copy.
 #[test]
 fn cpu_stages_keep_no_gpu_copy() {
-    let out = run(&mut Pipeline::new(), &scene(), &Backend::Cpu);
+    let mut scene = scene();
+    scene.erosion = Some(strahler::erosion::ErosionSettings::default());
+    let out = run(&mut Pipeline::new(), &scene, &Backend::Cpu);
     assert!(out.hydrology.gpu.is_none());
+    assert!(out.erosion.as_ref().is_some_and(|e| e.gpu.is_none()));
     assert!(out.detail.as_ref().is_some_and(|d| d.gpu.is_none()));
     assert!(out.blend.as_ref().is_some_and(|b| b.gpu.is_none()));
     assert!(out.gpu.is_none());

@@ -61,7 +61,7 @@ use super::params::ErosionParams;
 use super::thermal::THERMAL_PASSES;
 use super::{ErosionError, check_finite, check_grid, check_len};
 use crate::gpu::{
-    GpuContext, GpuError, Shader, read_bytes, read_f32_buffer, wait_for_submitted_work,
+    GpuContext, GpuError, GpuField, Shader, read_bytes, read_f32_buffer, wait_for_submitted_work,
 };
 use crate::jobs::{Cancelled, JobCtx};
 
@@ -143,6 +143,8 @@ pub struct GpuEroded {
     pub conditioning: Option<crate::terrain::drainage::Conditioning>,
     /// Milliseconds on the GPU side: upload, steps, the two readbacks.
     pub gpu_ms: f64,
+    /// `heights`, still on the GPU (what the next GPU stage reads instead of an upload).
+    pub on_gpu: GpuField,
 }
 
 #[repr(C)]
@@ -560,6 +562,7 @@ async fn erode_with(
         area,
         conditioning,
         gpu_ms: clock.elapsed().as_secs_f64() * 1e3,
+        on_gpu: GpuField::new(gpu, heights_buf, w, h),
     })
 }
 

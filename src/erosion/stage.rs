@@ -12,6 +12,7 @@ use super::coarse::{self, MAX_SOLVER_SIDE};
 use super::gpu::{self, GpuErosionError, GpuInput};
 use super::{CHUNK_CELLS, Eroder, ErosionError, ErosionParams};
 use crate::compute::Backend;
+use crate::gpu::GpuField;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 use crate::parallel;
@@ -168,6 +169,9 @@ pub struct Eroded {
     pub drainage_area: Arc<Heightfield>,
     pub report: ErosionReport,
     pub millis: f64,
+    /// `field`, bit for bit, on the GPU that eroded it (the GPU solver, when the CPU's
+    /// conditioning found nothing left to fill).
+    pub gpu: Option<GpuField>,
 }
 
 impl Eroded {
@@ -587,6 +591,8 @@ pub(super) struct Solved {
     /// What the GPU solver's own depression filling raised (none on the CPU, whose surface
     /// the stage's conditioning fills).
     pub conditioning: Option<drainage::Conditioning>,
+    /// `heights` on the GPU that solved them, if one did.
+    pub gpu: Option<GpuField>,
 }
 
 /// Runs `params` on the `n` x `n` fields of `prepared` (cells `cell_m` wide) on the GPU
@@ -612,6 +618,7 @@ pub(super) async fn run_solver(
                         area: out.area,
                         ran_on: "gpu",
                         conditioning: out.conditioning,
+                        gpu: Some(out.on_gpu),
                     });
                 }
                 Err(GpuErosionError::Gpu(err)) => {
@@ -649,6 +656,7 @@ pub(super) async fn run_solver(
         area,
         ran_on: "cpu",
         conditioning: None,
+        gpu: None,
     })
 }
 
@@ -732,6 +740,8 @@ pub async fn erode_field_within(
     let area = Heightfield::from_vec(n, n, solved.area)?;
     let mut eroded = Heightfield::from_vec(n, n, solved.heights)?;
     let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
+    // The GPU's copy is the terrain as long as the CPU raised no cell after reading it.
+    let gpu = solved.gpu.filter(|_| conditioning.raised_cells == 0);
     let conditioning = drainage::merge(solved.conditioning, conditioning);
     let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
     in_bands(ctx, (0.97, "eroding: measuring"), n, n, |rows| {
@@ -762,5 +772,6 @@ pub async fn erode_field_within(
             millis: 0.0,
         },
         millis: 0.0,
+        gpu,
     })
 }

@@ -238,8 +238,8 @@ async fn run_stages(
     };
     times.extend(hydrology.report.stages.iter().cloned());
     let mut field = hydrology.terrain.clone();
-    // The terrain on the GPU too, while the GPU stages hand it on (the CPU stages, erosion
-    // and style, leave it on the CPU only).
+    // The terrain on the GPU too, while the GPU stages hand it on (the CPU stage, style,
+    // and erosion on the CPU leave it on the CPU only).
     let mut on_gpu = hydrology.gpu.clone();
     let mut key = key;
 
@@ -271,8 +271,8 @@ async fn run_stages(
                 stages.erosion.put(key, Eroded { millis, ..out })
             }
         };
+        on_gpu = out.gpu.clone();
         eroded = Some(follow(&mut field, &mut times, "erosion", out));
-        on_gpu = None;
     }
 
     // 3. Style from real terrain.
