@@ -75,8 +75,8 @@ struct Params {
 }
 
 /// Whether the app makes the 3D maps on `gpu` rather than on the CPU: on hardware (a
-/// software rasteriser runs the windows slower than the CPU: 3.4 s against 0.6 s at 4096^2
-/// on lavapipe) where the CPU path has one thread (the page). With threads, the CPU path
+/// software rasteriser runs the transform and the windows slower than the CPU: 4.3 s
+/// against 0.6 s at 4096^2 on lavapipe) where the CPU path has one thread (the page). With threads, the CPU path
 /// runs everything in bands.
 pub fn pays_on(gpu: &GpuContext) -> bool {
     gpu.runs_heavy_stages() && crate::parallel::threads() == 1
@@ -109,22 +109,38 @@ pub async fn prepare(
 ) -> Result<TerrainMaps, GpuMapsError> {
     job.checkpoint(0.0, "3D view: surface maps on the GPU")
         .await?;
-    let (fw, fh) = (field.width(), field.height());
-    let unchanged =
-        Base::factor(field, max_side) == 1 && field.data().iter().all(|z| z.is_finite());
-    // (The transform copies the heights first: the buffer must allow it.)
-    let copyable = |f: &&GpuField| f.buffer.usage().contains(wgpu::BufferUsages::COPY_SRC);
-    let resident = on_gpu.filter(|f| unchanged && f.is_on(gpu, fw, fh) && copyable(f));
+    // Heights the kernels' f32 sums of squares cannot hold (no terrain, but a mis-scaled or
+    // hostile file) take the CPU's f64 sums.
+    let in_range = field
+        .finite_range()
+        .is_none_or(|(lo, hi)| lo.abs().max(hi.abs()) <= wavelet::gpu::MAX_HEIGHT);
+    if !in_range {
+        return Ok(TerrainMaps::new(field, cell, max_side));
+    }
+    // A stage's copy is used where the maps need the field as it is (not reduced, no void)
+    // and the transform can copy it.
+    let as_it_is = |f: &&GpuField| {
+        f.is_on(gpu, field.width(), field.height())
+            && f.buffer.usage().contains(wgpu::BufferUsages::COPY_SRC)
+            && Base::factor(field, max_side) == 1
+            && field.data().iter().all(|z| z.is_finite())
+    };
     // The heights on the GPU: the stage's buffer, or the (reduced, filled) field uploaded;
     // the CPU's copy goes once uploaded (a 4096^2 field is 64 MiB).
-    let (base, heights) = match resident {
-        Some(f) => (Base::unchanged(field, cell), f.buffer.clone()),
+    let (base, heights) = match on_gpu.filter(as_it_is) {
+        Some(f) => {
+            let base = Base::unchanged(field, cell);
+            gpu.check_field(stride(base.width, 4), base.height)?;
+            (base, f.buffer.clone())
+        }
         None => {
             let mut base = Base::of(field, cell, max_side);
             if lifting::max_levels(base.width, base.height) < 2 {
                 return Ok(TerrainMaps::new(field, cell, max_side));
             }
+            gpu.check_field(stride(base.width, 4), base.height)?;
             let heights = std::mem::take(&mut base.heights);
+            let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
             let buffer = gpu
                 .device
                 .create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -132,12 +148,14 @@ pub async fn prepare(
                     contents: bytemuck::cast_slice(&heights),
                     usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
                 });
+            if let Some(err) = scope.pop().await {
+                return Err(GpuError::Validation(err.to_string()).into());
+            }
             (base, buffer)
         }
     };
     let (w, h) = (base.width, base.height);
     let control_stride = stride(w, 4);
-    gpu.check_field(control_stride, h)?;
     // H and the roughness's scale from the transform's global analysis (seed 001, eqs. 6-7).
     let Some((transform, analysis)) =
         wavelet::gpu::transform(gpu, &heights, (w, h), &AnalysisParams::default()).await?

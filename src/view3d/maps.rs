@@ -290,21 +290,22 @@ pub fn spectral(heights: &[f32], w: usize, h: usize) -> (f32, Vec<u8>) {
     }
 }
 
-/// What [`spectral`] measures before the roughness's windows (which the GPU path runs on
-/// the GPU): `H`, and the finest level's squared, L2-normalised detail with its mean.
-pub(super) struct Spectral {
-    pub(super) hurst: f32,
-    pub(super) width: usize,
-    pub(super) height: usize,
+/// What [`spectral`] measures before the roughness's windows: `H`, and the finest level's
+/// squared, L2-normalised detail with its mean (the GPU path, `gpu_maps`, measures the same
+/// from its own transform).
+struct Spectral {
+    hurst: f32,
+    width: usize,
+    height: usize,
     /// Per cell, 0 on the coarse (even, even) cells.
-    pub(super) squares: Vec<f32>,
+    squares: Vec<f32>,
     /// Mean of the squares over the detail cells (f64 sum, row-major).
-    pub(super) mean: f64,
+    mean: f64,
 }
 
 impl Spectral {
     /// `None` for a grid too small to transform. O(cells).
-    pub(super) fn of(heights: &[f32], w: usize, h: usize) -> Option<Self> {
+    fn of(heights: &[f32], w: usize, h: usize) -> Option<Self> {
         let field = Heightfield::from_vec(w, h, heights[..w * h].to_vec()).ok()?;
         let t = Transformed::of(&field).ok()?;
         drop(field);
@@ -324,7 +325,7 @@ impl Spectral {
 
     /// The scale the window's standard deviation is multiplied by: 0.5 at the map's root
     /// mean square; `None` for a map without detail (roughness 0 everywhere).
-    pub(super) fn scale(&self) -> Option<f64> {
+    fn scale(&self) -> Option<f64> {
         roughness_scale(self.mean)
     }
 

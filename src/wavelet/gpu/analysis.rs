@@ -53,7 +53,7 @@ const MAX_FIT_LEVELS: u32 = 16;
 /// Largest height magnitude (metres) the kernels take. A detail coefficient is at most about
 /// 4 times it; its square (1.6e25), summed over a window of 65^2 coefficients and scaled by
 /// the 16th level's squared normalisation (2^30), stays below f32's 3.4e38.
-pub(super) const MAX_HEIGHT: f32 = 1e12;
+pub const MAX_HEIGHT: f32 = 1e12;
 /// Per-workgroup sums the kernels write at most (3 bands x 3 new levels), the tables'
 /// count: `MAX_SUMS` in the shader and the size of `Params::tables`.
 const MAX_SUMS: usize = 9;
@@ -128,6 +128,16 @@ fn lane_sums(partials: &[f32], count: usize) -> Vec<f64> {
         }
     }
     sums
+}
+
+/// Pops `scope`, a validation error becoming a [`GpuError`]. The scopes here only span work
+/// recorded without waiting: in the page other jobs push and pop scopes of their own while
+/// this one waits for a readback, and WebGPU's scopes must be popped in reverse order.
+async fn close(scope: wgpu::ErrorScopeGuard) -> Result<(), GpuError> {
+    match scope.pop().await {
+        Some(err) => Err(GpuError::Validation(err.to_string())),
+        None => Ok(()),
+    }
 }
 
 /// The dispatches of one submission, recorded in order into one compute pass.
@@ -235,6 +245,7 @@ async fn forward_and_energies(
     partials: &wgpu::Buffer,
 ) -> Result<(wgpu::Buffer, Analysis), GpuError> {
     let cells = width * height;
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let data = storage(gpu, "wavelet analysis transform", cells, false);
     let energy_groups = energy_groups((width, height), levels);
     let energy_floats = energy_floats((width, height), levels);
@@ -279,6 +290,7 @@ async fn forward_and_energies(
         offset += gx * gy * 3;
     }
     batch.submit();
+    close(scope).await?;
     let sums = read_f32_buffer(gpu, partials, energy_floats).await?;
     let mut energies = Vec::with_capacity(levels as usize);
     let mut start = 0;
@@ -316,7 +328,8 @@ pub async fn transform(
         energy_floats(size, levels),
         true,
     );
-    let result = forward_and_energies(
+    close(scope).await?;
+    forward_and_energies(
         gpu,
         (&lift, &energy),
         source,
@@ -325,11 +338,8 @@ pub async fn transform(
         analysis_params,
         &partials,
     )
-    .await;
-    if let Some(err) = scope.pop().await {
-        return Err(GpuError::Validation(err.to_string()));
-    }
-    result.map(Some)
+    .await
+    .map(Some)
 }
 
 /// The statistics of the `width x height` source in `source` (a `STORAGE | COPY_SRC`
@@ -361,17 +371,18 @@ pub(super) async fn statistics(
         .await
         .map_err(gpu_err)?;
     let kernels = gpu.pipelines(&SHADER, ENTRIES).await.map_err(gpu_err)?;
-    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
 
     // 1. Forward transform and the levels' energies.
     let cells = width * height;
     let (cx, cy) = groups(width, height);
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let partials = storage(
         gpu,
         "wavelet analysis sums",
         energy_floats((width, height), levels).max((cx * cy) as usize * MAX_SUMS),
         true,
     );
+    close(scope).await.map_err(gpu_err)?;
     let (data, analysis) = forward_and_energies(
         gpu,
         (&lift, &kernels[0]),
@@ -385,9 +396,6 @@ pub(super) async fn statistics(
     .map_err(gpu_err)?;
 
     let Some((local, design)) = local else {
-        if let Some(err) = scope.pop().await {
-            return Err(gpu_err(GpuError::Validation(err.to_string())));
-        }
         let tables = SigmaTables::build(&analysis, None, params.levels, width, height);
         let sigmas = tables.tables.iter().map(|t| t[0]).collect();
         return Ok(Some(Statistics {
@@ -412,6 +420,7 @@ pub(super) async fn statistics(
             rows_len = rows_len.max(nx * ny);
         }
     }
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let rows = storage(gpu, "wavelet analysis window rows", rows_len, false);
     let logs = storage(gpu, "wavelet analysis window logs", logs_len, false);
     let fit_base = Params {
@@ -466,6 +475,7 @@ pub(super) async fn statistics(
         (cx, cy),
     );
     batch.submit();
+    close(scope).await.map_err(gpu_err)?;
     let slope_floats = (cx * cy) as usize * 6;
     let sums = read_f32_buffer(gpu, &partials, slope_floats)
         .await
@@ -496,6 +506,7 @@ pub(super) async fn statistics(
         }
     }
     let table_count = 3 * params.levels as usize;
+    let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let sigma = storage(gpu, "wavelet sigma", table_count * cells, true);
     let sigma_params = Params {
         shrink,
@@ -510,6 +521,7 @@ pub(super) async fn statistics(
         (cx, cy),
     );
     batch.submit();
+    close(scope).await.map_err(gpu_err)?;
     if !local.as_written {
         let sums = read_f32_buffer(gpu, &partials, (cx * cy) as usize * table_count)
             .await
@@ -518,6 +530,7 @@ pub(super) async fn statistics(
             // Each level's mean of 2^(log2 var - line) over the map; the shift brings it to 1.
             tables[t][1] = -(sum / cells as f64).max(1e-300).log2() as f32;
         }
+        let scope = gpu.device.push_error_scope(wgpu::ErrorFilter::Validation);
         let mut batch = Batch::new(gpu);
         batch.push(
             &kernels[5],
@@ -529,9 +542,7 @@ pub(super) async fn statistics(
             (cx, cy),
         );
         batch.submit();
-    }
-    if let Some(err) = scope.pop().await {
-        return Err(gpu_err(GpuError::Validation(err.to_string())));
+        close(scope).await.map_err(gpu_err)?;
     }
     Ok(Some(Statistics {
         analysis,

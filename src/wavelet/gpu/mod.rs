@@ -11,7 +11,7 @@
 
 mod analysis;
 
-pub use analysis::transform;
+pub use analysis::{MAX_HEIGHT, transform};
 
 use wgpu::util::DeviceExt;
 
