@@ -6,7 +6,7 @@ mod common;
 use common::app::{wait_idle, wait_until};
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use strahler::app::{CameraRequest, Command, StrahlerApp, View3d, ViewKind};
+use strahler::app::{CameraRequest, Command, MapsChoice, StrahlerApp, View3d, ViewKind};
 use strahler::heightfield::Heightfield;
 
 /// Just the 3D view over an analytic terrain with one river, so the snapshot depends on the
@@ -168,6 +168,22 @@ fn the_app_switches_to_3d_and_the_camera_drives_the_level_of_detail() {
     harness.key_press(egui::Key::D);
     harness.run_steps(2);
     assert_eq!(harness.state().tool(), strahler::app::Tool::Pan);
+    // Scripts choose where the rasters are made: on the app's GPU (lavapipe here, which
+    // `auto` leaves to the CPU), then on the CPU again; each choice prepares them anew.
+    let maps_now = |h: &Harness<'static, StrahlerApp>| h.state().view3d_status().unwrap().maps;
+    assert_eq!(maps_now(&harness), "cpu");
+    let on_gpu = harness.state().compute_path().gpu().is_some();
+    // CI's lavapipe computes: the GPU half must run there.
+    assert!(on_gpu || std::env::var_os("STRAHLER_REQUIRE_GPU").is_none());
+    if on_gpu {
+        for (choice, expected) in [(MapsChoice::Gpu, "gpu"), (MapsChoice::Cpu, "cpu")] {
+            harness
+                .state()
+                .automation()
+                .push(Command::View3dMaps(choice));
+            wait_until(&mut harness, expected, |h| maps_now(h) == expected);
+        }
+    }
     // 2 goes back to the map.
     harness.key_press(egui::Key::Num2);
     harness.run_steps(2);

@@ -160,6 +160,8 @@ pub enum Command {
     SetView(super::ViewKind),
     /// Move the 3D camera (and show the 3D view).
     SetCamera(super::CameraRequest),
+    /// Where the 3D view's rasters are made (and show the 3D view).
+    View3dMaps(super::MapsChoice),
     /// A scene file's bytes (open button or drop).
     OpenScene {
         name: String,

@@ -26,7 +26,7 @@ pub use automation::{Automation, Command, JobStatus, Status};
 pub use export::encode as encode_heightmap;
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use side_panel::SolverSettings;
-pub use view3d::{CameraRequest, View3d, View3dStatus, ViewKind};
+pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};
 
 use egui::pos2;
 use glam::DVec2;
@@ -590,6 +590,10 @@ impl StrahlerApp {
                 Command::Undo => self.undo(),
                 Command::Redo => self.redo(),
                 Command::SetView(view) => self.set_view(view),
+                Command::View3dMaps(maps) => {
+                    self.set_view(ViewKind::ThreeD);
+                    self.view3d.set_maps(maps);
+                }
                 Command::SetCamera(request) => {
                     self.set_view(ViewKind::ThreeD);
                     self.view3d.request_camera(request);
@@ -869,11 +873,9 @@ impl eframe::App for StrahlerApp {
                     (s.river_order.as_slice(), s.size)
                 });
                 let cell = self.output.as_ref().map_or(1.0, |o| o.cell_m as f32);
-                // The 3D view's rasters on the GPU it draws with, where that pays.
-                let gpu = self
-                    .path
-                    .gpu()
-                    .filter(|g| crate::view3d::gpu_maps::pays_on(g));
+                // The 3D view's rasters on the GPU it draws with, where that pays (or where
+                // a script asked).
+                let gpu = self.view3d.maps().pick(self.path.gpu());
                 // The terrain on the GPU too, if the pipeline left it there.
                 let on_gpu = self
                     .output

@@ -46,6 +46,34 @@ pub struct View3dStatus {
     pub pitch: f32,
     /// Where the terrain's rasters were made: "gpu" or "cpu".
     pub maps: String,
+    /// Whether the GPU-made rasters read the terrain from the pipeline's GPU copy (no
+    /// upload).
+    pub from_gpu_copy: bool,
+}
+
+/// Where the 3D view's rasters are made: `Auto` picks the GPU where it pays
+/// ([`crate::view3d::gpu_maps::pays_on`]: a hardware GPU in the page), `Gpu` on any GPU that
+/// computes, `Cpu` always on the CPU (scripts choose, `setView('3d', {maps})`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum MapsChoice {
+    #[default]
+    Auto,
+    Gpu,
+    Cpu,
+}
+
+impl MapsChoice {
+    /// The GPU to make the rasters on, of `gpu` (the app's computing GPU, if any).
+    pub fn pick(
+        self,
+        gpu: Option<&std::sync::Arc<crate::gpu::GpuContext>>,
+    ) -> Option<&std::sync::Arc<crate::gpu::GpuContext>> {
+        match self {
+            MapsChoice::Auto => gpu.filter(|g| crate::view3d::gpu_maps::pays_on(g)),
+            MapsChoice::Gpu => gpu,
+            MapsChoice::Cpu => None,
+        }
+    }
 }
 
 /// A camera request from a script: distance in map widths, angles in degrees.
@@ -76,6 +104,8 @@ pub struct View3d {
     pending: Option<CameraRequest>,
     /// The terrain (map version) being prepared for upload.
     preparing: Option<(u64, PrepareJob)>,
+    /// Where the rasters are made.
+    maps: MapsChoice,
 }
 
 type Prepared = (TerrainMaps, Option<(Vec<u8>, usize)>);
@@ -87,6 +117,19 @@ impl View3d {
             settings,
             ..Default::default()
         }
+    }
+
+    /// Where the rasters are made from now on; a change prepares the terrain again.
+    pub fn set_maps(&mut self, maps: MapsChoice) {
+        if self.maps != maps {
+            self.maps = maps;
+            self.uploaded = None;
+            self.preparing = None;
+        }
+    }
+
+    pub fn maps(&self) -> MapsChoice {
+        self.maps
     }
 
     /// Applies a script's camera request (now, or once the first terrain is shown).
@@ -107,9 +150,9 @@ impl View3d {
     /// What scripts see.
     pub fn status(&self) -> Option<View3dStatus> {
         let (stats, camera) = (self.stats?, self.camera?);
-        let maps = match self.renderer.as_ref()?.maps()?.rasters {
-            crate::view3d::maps::Rasters::Gpu(_) => "gpu",
-            crate::view3d::maps::Rasters::Cpu { .. } => "cpu",
+        let (maps, from_gpu_copy) = match &self.renderer.as_ref()?.maps()?.rasters {
+            crate::view3d::maps::Rasters::Gpu(r) => ("gpu", r.from_gpu_copy),
+            crate::view3d::maps::Rasters::Cpu { .. } => ("cpu", false),
         };
         Some(View3dStatus {
             triangles: stats.triangles,
@@ -126,6 +169,7 @@ impl View3d {
             yaw: camera.yaw.to_degrees(),
             pitch: camera.pitch.to_degrees(),
             maps: maps.into(),
+            from_gpu_copy,
         })
     }
 

@@ -47,6 +47,8 @@ pub struct GpuRasters {
     pub gradients: wgpu::Texture,
     /// Eq. 5's roughness (`R8Unorm`).
     pub roughness: wgpu::Texture,
+    /// Whether the heights were read from a stage's GPU copy (else uploaded).
+    pub from_gpu_copy: bool,
 }
 
 /// Why the GPU did not prepare the maps (the caller prepares them on the CPU instead).
@@ -127,7 +129,9 @@ pub async fn prepare(
     };
     // The heights on the GPU: the stage's buffer, or the (reduced, filled) field uploaded;
     // the CPU's copy goes once uploaded (a 4096^2 field is 64 MiB).
-    let (base, heights) = match on_gpu.filter(as_it_is) {
+    let copy = on_gpu.filter(as_it_is);
+    let from_gpu_copy = copy.is_some();
+    let (base, heights) = match copy {
         Some(f) => {
             let base = Base::unchanged(field, cell);
             gpu.check_field(stride(base.width, 4), base.height)?;
@@ -183,7 +187,8 @@ pub async fn prepare(
         ],
     };
     let hurst = hurst_from_gamma(analysis.pooled_gamma());
-    let (rasters, control) = run(gpu, heights, transform, &params).await?;
+    let (mut rasters, control) = run(gpu, heights, transform, &params).await?;
+    rasters.from_gpu_copy = from_gpu_copy;
     job.checkpoint(0.9, "3D view: surface maps on the GPU")
         .await?;
     Ok(base.finish(Rasters::Gpu(rasters), control, hurst))
@@ -329,6 +334,7 @@ async fn run(
             &packed_roughness,
             p.roughness_stride * 4,
         ),
+        from_gpu_copy: false,
     };
     gpu.submit(encoder.finish());
     drop((heights_buffer, transform, row_factors, column_factors));

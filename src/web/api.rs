@@ -19,10 +19,11 @@
 //! - `undo()`, `redo()`: one step of the document's history.
 //! - `generate({size})`: a promise of the report `strahler generate --report` writes, for the
 //!   current scene at `size` (the map is not changed).
-//! - `setView('2d' | '3d')`: the map or the 3D view; `setCamera({distance, yaw, pitch})`:
-//!   the 3D orbit camera (distance in map widths, angles in degrees; shows the 3D view).
-//!   `status().view3d` then reports `{triangles, chunks, finestLevel, width, height, mode,
-//!   distance, yaw, pitch}` of the last frame.
+//! - `setView('2d' | '3d', {maps})`: the map or the 3D view; `maps` ('auto', 'gpu' or
+//!   'cpu', 3D only) chooses where the view's rasters are made. `setCamera({distance, yaw,
+//!   pitch})`: the 3D orbit camera (distance in map widths, angles in degrees; shows the 3D
+//!   view). `status().view3d` then reports `{triangles, chunks, finestLevel, width, height,
+//!   mode, distance, yaw, pitch, maps, fromGpuCopy}` of the last frame.
 
 use wasm_bindgen::JsCast;
 use wasm_bindgen::prelude::*;
@@ -297,15 +298,34 @@ pub(super) fn install(automation: &Automation) {
     generate.forget();
 
     let view_target = automation.clone();
-    let set_view =
-        Closure::<dyn Fn(String) -> Result<js_sys::Promise, JsValue>>::new(move |view: String| {
+    let set_view = Closure::<dyn Fn(String, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
+        move |view: String, options: JsValue| {
             let view = match view.as_str() {
                 "2d" => crate::app::ViewKind::Map,
                 "3d" => crate::app::ViewKind::ThreeD,
                 other => return Err(error(format!("setView('2d' | '3d'), not '{other}'"))),
             };
-            Ok(applied(&view_target, Command::SetView(view)))
-        });
+            if options.is_undefined() || options.is_null() {
+                return Ok(applied(&view_target, Command::SetView(view)));
+            }
+            let o: ViewOptions = serde_json::from_str(&json_text(&options)?)
+                .map_err(|e| error(format!("setView options: {e}")))?;
+            let maps = match o.maps.as_str() {
+                "auto" => crate::app::MapsChoice::Auto,
+                "gpu" => crate::app::MapsChoice::Gpu,
+                "cpu" => crate::app::MapsChoice::Cpu,
+                other => {
+                    return Err(error(format!(
+                        "setView options: maps is 'auto', 'gpu' or 'cpu', not '{other}'"
+                    )));
+                }
+            };
+            if view != crate::app::ViewKind::ThreeD {
+                return Err(error("setView options: maps applies to the 3D view ('3d')"));
+            }
+            Ok(applied(&view_target, Command::View3dMaps(maps)))
+        },
+    );
     set(&api, "setView", set_view.as_ref());
     set_view.forget();
 
@@ -465,6 +485,13 @@ struct PlaceOptions {
     mirror: bool,
     #[serde(default = "one")]
     z_scale: f32,
+}
+
+/// `setView`'s options.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ViewOptions {
+    maps: String,
 }
 
 /// `setCamera`'s argument.

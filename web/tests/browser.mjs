@@ -403,6 +403,32 @@ async function check3d(page, mode) {
   await page.waitForFunction(() => window.strahler.status().view3d.mode === 'fly', null, { timeout: 5_000 })
     .catch(() => null);
   check('F switches to the fly camera', (await view3d()).mode === 'fly');
+  if (mode === 'webgpu') {
+    // The rasters made on the page's GPU (what a hardware GPU does by default), reading the
+    // terrain from the pipeline's own GPU copy: the WGSL runs in the browser's compiler.
+    await page.evaluate(() => window.strahler.setView('3d', { maps: 'gpu' }));
+    await page.waitForFunction(() => window.strahler.status().view3d?.maps === 'gpu', null,
+      { timeout: 60_000 }).catch(() => null);
+    await page.keyboard.press('Home');
+    await page.waitForTimeout(500);
+    const made = await view3d();
+    check("the page makes the 3D maps on its GPU from the pipeline's GPU copy of the terrain",
+      made?.maps === 'gpu' && made.fromGpuCopy === true && made.triangles > 0, JSON.stringify(made));
+    const gpuShot = decodePng(await page.screenshot({ path: join(output, `${mode}-3d-gpu-maps.png`) }));
+    const shades = new Set();
+    for (let y = 300; y < 600; y += 6) {
+      for (let x = 450; x < 850; x += 6) {
+        const p = gpuShot.pixel(x, y);
+        shades.add((p[0] >> 3) * 1024 + (p[1] >> 3) * 32 + (p[2] >> 3));
+      }
+    }
+    check('the 3D view draws shaded terrain from GPU-made maps', shades.size > 40, `${shades.size} colours`);
+    const badMaps = await page.evaluate(() => {
+      try { window.strahler.setView('3d', { maps: 'tpu' }); return null; } catch (e) { return e.message; }
+    });
+    check('setView() names a bad maps choice', badMaps !== null && badMaps.includes('maps'), String(badMaps));
+    await page.evaluate(() => window.strahler.setView('3d', { maps: 'auto' }));
+  }
   await page.evaluate(() => window.strahler.setView('2d'));
 }
 
