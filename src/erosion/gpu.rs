@@ -211,12 +211,14 @@ pub async fn profile(
 }
 
 /// Submits what `encoder` holds, waits for it and adds the wall time since `clock` to `slot`
-/// (profiling only).
+/// (profiling only). The step's error scope is closed before the wait and opened again
+/// after it, so no scope stays open while other work may push its own.
 async fn flush(
     gpu: &GpuContext,
     encoder: &mut wgpu::CommandEncoder,
     clock: &mut web_time::Instant,
     slot: &mut f64,
+    scope: &mut Option<wgpu::ErrorScopeGuard>,
 ) -> Result<(), GpuError> {
     let done = std::mem::replace(
         encoder,
@@ -226,10 +228,23 @@ async fn flush(
             }),
     );
     gpu.submit(done.finish());
+    close(scope.take()).await?;
     wait_for_submitted_work(gpu).await?;
     *slot += clock.elapsed().as_secs_f64() * 1e3;
     *clock = web_time::Instant::now();
+    *scope = Some(gpu.device.push_error_scope(wgpu::ErrorFilter::Validation));
     Ok(())
+}
+
+/// Pops `scope`, if open, a validation error becoming a [`GpuError`].
+async fn close(scope: Option<wgpu::ErrorScopeGuard>) -> Result<(), GpuError> {
+    match scope {
+        Some(scope) => match scope.pop().await {
+            Some(err) => Err(GpuError::Validation(err.to_string())),
+            None => Ok(()),
+        },
+        None => Ok(()),
+    }
 }
 
 async fn erode_with(
@@ -437,7 +452,7 @@ async fn erode_with(
     let sweeps = ((r as f32).sqrt().ceil() as usize).clamp(2, 8);
     let steps = p.steps;
     for step in 0..steps {
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let mut scope = Some(device.push_error_scope(wgpu::ErrorFilter::Validation));
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("erosion step"),
         });
@@ -460,7 +475,7 @@ async fn erode_with(
         }
         run(&mut encoder, &list);
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[0]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[0], &mut scope).await?;
         }
         let mut list = vec![(3, &g_lake_init)];
         for l in 0..LAKE_PASSES {
@@ -469,7 +484,7 @@ async fn erode_with(
         list.extend([(5, &g_lake_apply), (0, &g_receivers), (6, &g_area_init)]);
         run(&mut encoder, &list);
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[1]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[1], &mut scope).await?;
         }
         // 3. Drainage area: each level adds to a copy of the partial sums.
         for l in 0..levels {
@@ -478,7 +493,7 @@ async fn erode_with(
             run(&mut encoder, &[(7, &g_area_jump[s])]);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[2]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[2], &mut scope).await?;
         }
         // 4. Incision.
         run(&mut encoder, &[(8, &g_lift), (9, &g_implicit_init)]);
@@ -494,7 +509,7 @@ async fn erode_with(
             encoder.copy_buffer_to_buffer(&tmp, 0, &heights_buf, 0, bytes);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[3]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[3], &mut scope).await?;
         }
         // 5. Diffusion: the right-hand side is the heights after incision.
         if p.diffusivity > 0.0 {
@@ -506,7 +521,7 @@ async fn erode_with(
             run(&mut encoder, &list);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[4]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[4], &mut scope).await?;
         }
         // 6. Talus (the share in `tmp`, the new heights in `coef`, no longer needed).
         if p.talus_deg.is_some() {
@@ -516,19 +531,17 @@ async fn erode_with(
             }
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[5]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[5], &mut scope).await?;
         }
         // 7. The floor.
         if let Some(g) = &g_floor {
             run(&mut encoder, &[(17, g)]);
         }
         if let Some(t) = profile.as_deref_mut() {
-            flush(gpu, &mut encoder, &mut phase_clock, &mut t[6]).await?;
+            flush(gpu, &mut encoder, &mut phase_clock, &mut t[6], &mut scope).await?;
         }
         gpu.submit(encoder.finish());
-        if let Some(err) = scope.pop().await {
-            return Err(GpuError::Validation(err.to_string()).into());
-        }
+        close(scope).await?;
         wait_for_submitted_work(gpu).await?;
         ctx.checkpoint(
             0.6 + 0.3 * (step + 1) as f32 / steps as f32,
