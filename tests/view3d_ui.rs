@@ -169,7 +169,7 @@ fn the_app_switches_to_3d_and_the_camera_drives_the_level_of_detail() {
     harness.run_steps(2);
     assert_eq!(harness.state().tool(), strahler::app::Tool::Pan);
     // Scripts choose where the rasters are made: on the app's GPU (lavapipe here, which
-    // `auto` leaves to the CPU), then on the CPU again; each choice prepares them anew.
+    // `auto` leaves to the CPU), then on the CPU again; each move prepares them anew.
     let maps_now = |h: &Harness<'static, StrahlerApp>| h.state().view3d_status().unwrap().maps;
     assert_eq!(maps_now(&harness), "cpu");
     let on_gpu = harness.state().compute_path().gpu().is_some();
@@ -181,7 +181,8 @@ fn the_app_switches_to_3d_and_the_camera_drives_the_level_of_detail() {
                 .state()
                 .automation()
                 .push(Command::View3dMaps(choice));
-            wait_until(&mut harness, expected, |h| maps_now(h) == expected);
+            let what = format!("3D maps made on the {expected}");
+            wait_until(&mut harness, &what, |h| maps_now(h) == expected);
         }
     }
     // 2 goes back to the map.

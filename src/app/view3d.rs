@@ -95,19 +95,22 @@ pub struct View3d {
     pub settings: View3dSettings,
     renderer: Option<Renderer>,
     texture: Option<egui::TextureId>,
-    /// The map version uploaded to the renderer.
-    uploaded: Option<u64>,
+    /// The terrain uploaded to the renderer: its map version and whether a GPU was asked
+    /// to make its rasters.
+    uploaded: Option<Made>,
     /// Map width in metres of the uploaded terrain.
     map_width: f32,
     pub stats: Option<FrameStats>,
     /// A camera request from a script, applied once a terrain is shown.
     pending: Option<CameraRequest>,
-    /// The terrain (map version) being prepared for upload.
-    preparing: Option<(u64, PrepareJob)>,
+    /// The terrain being prepared for upload.
+    preparing: Option<(Made, PrepareJob)>,
     /// Where the rasters are made.
     maps: MapsChoice,
 }
 
+/// A terrain's map version, and whether its rasters were asked of a GPU.
+type Made = (u64, bool);
 type Prepared = (TerrainMaps, Option<(Vec<u8>, usize)>);
 type PrepareJob = crate::jobs::JobHandle<Result<Prepared, crate::jobs::Cancelled>>;
 
@@ -119,13 +122,10 @@ impl View3d {
         }
     }
 
-    /// Where the rasters are made from now on; a change prepares the terrain again.
+    /// Where the rasters are made from now on. Where that moves them (CPU to GPU or back),
+    /// the terrain is prepared again; the old rasters stay drawn until the new ones are in.
     pub fn set_maps(&mut self, maps: MapsChoice) {
-        if self.maps != maps {
-            self.maps = maps;
-            self.uploaded = None;
-            self.preparing = None;
-        }
+        self.maps = maps;
     }
 
     pub fn maps(&self) -> MapsChoice {
@@ -214,8 +214,9 @@ impl View3d {
         let renderer = self
             .renderer
             .get_or_insert_with(|| Renderer::new(&state.device));
-        let wanted = self.uploaded != Some(version);
-        if wanted && self.preparing.as_ref().map(|(v, _)| *v) != Some(version) {
+        let made = (version, gpu.is_some());
+        let wanted = self.uploaded != Some(made);
+        if wanted && self.preparing.as_ref().map(|(m, _)| *m) != Some(made) {
             // O(cells), off the UI thread; a newer terrain cancels the older preparation.
             let max_side = renderer.max_texture_side();
             let field = field.clone();
@@ -241,7 +242,7 @@ impl View3d {
                 move || repaint.request_repaint(),
             );
             match spawned {
-                Ok(handle) => self.preparing = Some((version, handle)),
+                Ok(handle) => self.preparing = Some((made, handle)),
                 Err(err) => log::error!("{err}"),
             }
         }

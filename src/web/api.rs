@@ -305,12 +305,19 @@ pub(super) fn install(automation: &Automation) {
                 "3d" => crate::app::ViewKind::ThreeD,
                 other => return Err(error(format!("setView('2d' | '3d'), not '{other}'"))),
             };
-            if options.is_undefined() || options.is_null() {
+            let o: ViewOptions = if options.is_undefined() || options.is_null() {
+                ViewOptions { maps: None }
+            } else {
+                serde_json::from_str(&json_text(&options)?)
+                    .map_err(|e| error(format!("setView options: {e}")))?
+            };
+            let Some(maps) = o.maps else {
                 return Ok(applied(&view_target, Command::SetView(view)));
+            };
+            if view != crate::app::ViewKind::ThreeD {
+                return Err(error("setView options: maps applies to the 3D view ('3d')"));
             }
-            let o: ViewOptions = serde_json::from_str(&json_text(&options)?)
-                .map_err(|e| error(format!("setView options: {e}")))?;
-            let maps = match o.maps.as_str() {
+            let maps = match maps.as_str() {
                 "auto" => crate::app::MapsChoice::Auto,
                 "gpu" => crate::app::MapsChoice::Gpu,
                 "cpu" => crate::app::MapsChoice::Cpu,
@@ -320,8 +327,15 @@ pub(super) fn install(automation: &Automation) {
                     )));
                 }
             };
-            if view != crate::app::ViewKind::ThreeD {
-                return Err(error("setView options: maps applies to the 3D view ('3d')"));
+            // As generate({backend: 'gpu'}): an error where the page computes on the CPU.
+            if let (
+                crate::app::MapsChoice::Gpu,
+                Some(crate::compute::ComputePath::Cpu { reason }),
+            ) = (maps, view_target.compute_path())
+            {
+                return Err(error(format!(
+                    "setView options: maps 'gpu' needs a GPU that computes, but {reason}"
+                )));
             }
             Ok(applied(&view_target, Command::View3dMaps(maps)))
         },
@@ -491,7 +505,7 @@ struct PlaceOptions {
 #[derive(serde::Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ViewOptions {
-    maps: String,
+    maps: Option<String>,
 }
 
 /// `setCamera`'s argument.

@@ -428,6 +428,12 @@ async function check3d(page, mode) {
     });
     check('setView() names a bad maps choice', badMaps !== null && badMaps.includes('maps'), String(badMaps));
     await page.evaluate(() => window.strahler.setView('3d', { maps: 'auto' }));
+  } else {
+    const refused = await page.evaluate(() => {
+      try { window.strahler.setView('3d', { maps: 'gpu' }); return null; } catch (e) { return e.message; }
+    });
+    check("setView('3d', {maps: 'gpu'}) explains that the page computes on the CPU",
+      refused !== null && refused.includes('needs a GPU'), String(refused));
   }
   await page.evaluate(() => window.strahler.setView('2d'));
 }
