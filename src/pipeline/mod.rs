@@ -22,6 +22,12 @@
 //! re-runs blend, and a river edit re-runs everything. Outputs are shared ([`Arc`]), never
 //! copied, between the cache, the app and the exports. Each map size (the preview and the
 //! full size) keeps its own entries.
+//!
+//! **GPU copies.** A stage that ran on the GPU keeps its terrain there too (`gpu` in its
+//! output, a [`GpuField`] that is the CPU field bit for bit), and the next GPU stage reads
+//! that instead of uploading the CPU's field: the hydrology's or the GPU erosion's terrain
+//! goes to the detail, the detail's to the blend, the last one to the 3D view
+//! ([`Output::gpu`]). A stage on the CPU (style, erosion on the CPU) ends the chain.
 
 mod cache;
 mod report;
