@@ -62,20 +62,6 @@ fn read(gpu: &GpuContext, field: Option<&GpuField>, stage: &str) -> Heightfield 
     pollster::block_on(field.read(gpu)).expect("a readback")
 }
 
-/// `field` plus `offset` in a buffer of `gpu`, as a stage hands its terrain on.
-fn raised_copy(gpu: &GpuContext, field: &Heightfield, offset: f32) -> GpuField {
-    use wgpu::util::DeviceExt;
-    let data: Vec<f32> = field.data().iter().map(|z| z + offset).collect();
-    let buffer = gpu
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("raised copy"),
-            contents: bytemuck::cast_slice(&data),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        });
-    GpuField::new(gpu, buffer, field.width(), field.height())
-}
-
 fn mean_difference(a: &Heightfield, b: &Heightfield) -> f64 {
     let sum: f64 = a
         .data()
@@ -122,7 +108,7 @@ fn gpu_stages_hand_the_terrain_on() {
     assert!(bits(&uploaded.field) == bits(&detail.field));
     // And the detail stage reads the copy it is given, not the CPU's: a copy raised by
     // 100 m raises its output by 100 m.
-    let raised = raised_copy(&gpu, &out.hydrology.terrain, 100.0);
+    let raised = common::gpu_copy(&gpu, &out.hydrology.terrain, 100.0);
     let from_raised = pollster::block_on(strahler::wavelet::amplify_from(
         &backend,
         &out.hydrology.terrain,

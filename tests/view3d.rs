@@ -256,7 +256,12 @@ fn maps_made_on_the_gpu_are_the_cpus() {
 
         // The field already on the GPU (as a stage leaves it) gives the same bits; where
         // the maps need it reduced, it is not used.
-        let resident = gpu_maps(&ctx, field, Some(&on_gpu(&ctx, field, 0.0)), *max_side);
+        let resident = gpu_maps(
+            &ctx,
+            field,
+            Some(&common::gpu_copy(&ctx, field, 0.0)),
+            *max_side,
+        );
         assert_eq!(
             resident.control, gpu.control,
             "case {k}: from the GPU's copy"
@@ -272,7 +277,12 @@ fn maps_made_on_the_gpu_are_the_cpus() {
         }
         // It is read there rather than uploaded: a copy raised by 100 m raises the control
         // points by 100 m (unless reduced, when the CPU's field is reduced and uploaded).
-        let raised = gpu_maps(&ctx, field, Some(&on_gpu(&ctx, field, 100.0)), *max_side);
+        let raised = gpu_maps(
+            &ctx,
+            field,
+            Some(&common::gpu_copy(&ctx, field, 100.0)),
+            *max_side,
+        );
         let shift = raised.control[0] - gpu.control[0];
         let expected = if gpu.width == field.width() {
             100.0
@@ -284,20 +294,6 @@ fn maps_made_on_the_gpu_are_the_cpus() {
             "case {k}: shifted by {shift}"
         );
     }
-}
-
-/// `field` plus `offset` in a buffer, as a GPU stage hands its terrain on.
-fn on_gpu(ctx: &GpuContext, field: &Heightfield, offset: f32) -> strahler::gpu::GpuField {
-    use wgpu::util::DeviceExt;
-    let data: Vec<f32> = field.data().iter().map(|z| z + offset).collect();
-    let buffer = ctx
-        .device
-        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
-            label: Some("test field"),
-            contents: bytemuck::cast_slice(&data),
-            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-        });
-    strahler::gpu::GpuField::new(ctx, buffer, field.width(), field.height())
 }
 
 fn gpu_maps(

@@ -21,6 +21,26 @@ pub fn gpu() -> Option<GpuContext> {
     }
 }
 
+/// `field` plus `offset` in a storage buffer of `ctx`, as a GPU stage hands its terrain on
+/// (`STORAGE | COPY_SRC`).
+#[allow(dead_code)] // Only the tests of the GPU copies use it.
+pub fn gpu_copy(
+    ctx: &GpuContext,
+    field: &strahler::heightfield::Heightfield,
+    offset: f32,
+) -> strahler::gpu::GpuField {
+    use wgpu::util::DeviceExt;
+    let data: Vec<f32> = field.data().iter().map(|z| z + offset).collect();
+    let buffer = ctx
+        .device
+        .create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("test terrain"),
+            contents: bytemuck::cast_slice(&data),
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+        });
+    strahler::gpu::GpuField::new(ctx, buffer, field.width(), field.height())
+}
+
 /// With `STRAHLER_SHOTS=<folder>`, writes a picture (tightly packed RGBA rows) there as
 /// `<name>.png`, to look at; otherwise does nothing.
 #[allow(dead_code)] // Only the 3D view's tests take pictures.

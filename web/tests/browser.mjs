@@ -355,6 +355,19 @@ async function goldenScenes(page, mode) {
   check('exportHeightmap() waits for the terrain of the scene just loaded', bytes > 1000, String(bytes));
 }
 
+// Distinct colours (5 bits a channel) in the middle of the 3D area: lit terrain has many,
+// a flat fill or the sky few.
+function shadedColours(shot) {
+  const colours = new Set();
+  for (let y = 300; y < 600; y += 6) {
+    for (let x = 450; x < 850; x += 6) {
+      const p = shot.pixel(x, y);
+      colours.add((p[0] >> 3) * 1024 + (p[1] >> 3) * 32 + (p[2] >> 3));
+    }
+  }
+  return colours.size;
+}
+
 async function check3d(page, mode) {
   const view3d = () => page.evaluate(() => window.strahler.status().view3d);
   await page.evaluate(() => window.strahler.setView('3d'));
@@ -381,15 +394,8 @@ async function check3d(page, mode) {
   check('setCamera() explains a bad argument', bad !== null && bad.includes('distance'), String(bad));
   const overview = await at({ distance: 1.2, yaw: 0, pitch: 35 });
   const shot = decodePng(await page.screenshot({ path: join(output, `${mode}-3d.png`) }));
-  // The middle of the 3D area shows lit terrain: many distinct colours, not one flat fill.
-  const colours = new Set();
-  for (let y = 300; y < 600; y += 6) {
-    for (let x = 450; x < 850; x += 6) {
-      const p = shot.pixel(x, y);
-      colours.add((p[0] >> 3) * 1024 + (p[1] >> 3) * 32 + (p[2] >> 3));
-    }
-  }
-  check('the 3D view draws shaded terrain', colours.size > 40, `${colours.size} colours`);
+  const colours = shadedColours(shot);
+  check('the 3D view draws shaded terrain', colours > 40, `${colours} colours`);
   // A mouse drag on the view turns the camera.
   await page.mouse.move(650, 450);
   await page.mouse.down();
@@ -415,14 +421,8 @@ async function check3d(page, mode) {
     check("the page makes the 3D maps on its GPU from the pipeline's GPU copy of the terrain",
       made?.maps === 'gpu' && made.fromGpuCopy === true && made.triangles > 0, JSON.stringify(made));
     const gpuShot = decodePng(await page.screenshot({ path: join(output, `${mode}-3d-gpu-maps.png`) }));
-    const shades = new Set();
-    for (let y = 300; y < 600; y += 6) {
-      for (let x = 450; x < 850; x += 6) {
-        const p = gpuShot.pixel(x, y);
-        shades.add((p[0] >> 3) * 1024 + (p[1] >> 3) * 32 + (p[2] >> 3));
-      }
-    }
-    check('the 3D view draws shaded terrain from GPU-made maps', shades.size > 40, `${shades.size} colours`);
+    const shades = shadedColours(gpuShot);
+    check('the 3D view draws shaded terrain from GPU-made maps', shades > 40, `${shades} colours`);
     const badMaps = await page.evaluate(() => {
       try { window.strahler.setView('3d', { maps: 'tpu' }); return null; } catch (e) { return e.message; }
     });
