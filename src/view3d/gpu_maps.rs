@@ -78,8 +78,8 @@ struct Params {
 
 /// Whether the app makes the 3D maps on `gpu` rather than on the CPU: on hardware (a
 /// software rasteriser runs the transform and the windows slower than the CPU: 4.3 s
-/// against 0.6 s at 4096^2 on lavapipe) where the CPU path has one thread (the page). With threads, the CPU path
-/// runs everything in bands.
+/// against 0.6 s at 4096^2 on lavapipe) where the CPU path has one thread (the page). With
+/// threads, the CPU path runs everything in bands.
 pub fn pays_on(gpu: &GpuContext) -> bool {
     gpu.runs_heavy_stages() && crate::parallel::threads() == 1
 }
@@ -113,9 +113,8 @@ pub async fn prepare(
         .await?;
     // Heights the kernels' f32 sums of squares cannot hold (no terrain, but a mis-scaled or
     // hostile file) take the CPU's f64 sums.
-    let in_range = field
-        .finite_range()
-        .is_none_or(|(lo, hi)| lo.abs().max(hi.abs()) <= wavelet::gpu::MAX_HEIGHT);
+    let range = field.finite_range();
+    let in_range = range.is_none_or(|(lo, hi)| lo.abs().max(hi.abs()) <= wavelet::gpu::MAX_HEIGHT);
     if !in_range {
         return Ok(TerrainMaps::new(field, cell, max_side));
     }
@@ -133,7 +132,7 @@ pub async fn prepare(
     let from_gpu_copy = copy.is_some();
     let (base, heights) = match copy {
         Some(f) => {
-            let base = Base::unchanged(field, cell);
+            let base = Base::unchanged(field, cell, range);
             gpu.check_field(stride(base.width, 4), base.height)?;
             (base, f.buffer.clone())
         }

@@ -235,9 +235,10 @@ impl Base {
     }
 
     /// [`Self::of`] of a field that needs neither reducing nor filling, without copying
-    /// its heights (`heights` is left empty: the caller has them elsewhere).
-    pub(super) fn unchanged(field: &Heightfield, cell: f32) -> Self {
-        let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
+    /// its heights (`heights` is left empty: the caller has them elsewhere); `range` is the
+    /// field's [`Heightfield::finite_range`], which the caller has measured.
+    pub(super) fn unchanged(field: &Heightfield, cell: f32, range: Option<(f32, f32)>) -> Self {
+        let (lo, hi) = range.unwrap_or((0.0, 0.0));
         Self {
             width: field.width(),
             height: field.height(),
