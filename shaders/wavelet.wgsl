@@ -169,3 +169,65 @@ fn lift(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     out[here] = out[here] + params.coef * (a + b);
 }
+
+// The detail's RMS (src/wavelet/synthesis.rs `detail_rms`): the output minus the source's
+// bilinear interpolation, squared and summed apart where the mask leaves the detail free
+// (below 0.01) and where it covers it fully (0.99 and above). Each workgroup sums a tile of
+// 16 columns by 16 * RMS_ROWS rows into one `partials` entry: (free sum, free cells, covered
+// sum, covered cells); the CPU adds the entries in f64.
+const RMS_ROWS: u32 = 8u;
+
+@group(0) @binding(5) var<storage, read_write> partials: array<vec4<f32>>;
+
+var<workgroup> rms_sums: array<vec4<f32>, 256>;
+
+fn source_at(i: u32, j: u32) -> f32 {
+    return source[min(j, params.src_h - 1u) * params.src_w + min(i, params.src_w - 1u)];
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn detail_rms(
+    @builtin(local_invocation_id) lid: vec3<u32>,
+    @builtin(local_invocation_index) li: u32,
+    @builtin(workgroup_id) wid: vec3<u32>,
+    @builtin(num_workgroups) groups: vec3<u32>,
+) {
+    let f = 1u << params.levels;
+    let x = wid.x * 16u + lid.x;
+    var acc = vec4<f32>(0.0);
+    if (x < params.out_w) {
+        let x0 = min(x / f, params.src_w - 2u);
+        let tx = f32(x - x0 * f) / f32(f);
+        for (var r = 0u; r < RMS_ROWS; r++) {
+            let y = (wid.y * RMS_ROWS + r) * 16u + lid.y;
+            if (y >= params.out_h) {
+                break;
+            }
+            let y0 = min(y / f, params.src_h - 2u);
+            let ty = f32(y - y0 * f) / f32(f);
+            let top = source_at(x0, y0) * (1.0 - tx) + source_at(x0 + 1u, y0) * tx;
+            let bottom = source_at(x0, y0 + 1u) * (1.0 - tx) + source_at(x0 + 1u, y0 + 1u) * tx;
+            let d = out[y * params.out_w + x] - (top * (1.0 - ty) + bottom * ty);
+            var m = 0.0;
+            if (params.has_mask == 1u) {
+                m = mask_at(i32(x), i32(y));
+            }
+            if (m < 0.01) {
+                acc += vec4<f32>(d * d, 1.0, 0.0, 0.0);
+            } else if (m >= 0.99) {
+                acc += vec4<f32>(0.0, 0.0, d * d, 1.0);
+            }
+        }
+    }
+    rms_sums[li] = acc;
+    workgroupBarrier();
+    for (var s = 128u; s > 0u; s >>= 1u) {
+        if (li < s) {
+            rms_sums[li] += rms_sums[li + s];
+        }
+        workgroupBarrier();
+    }
+    if (li == 0u) {
+        partials[wid.y * groups.x + wid.x] = rms_sums[0];
+    }
+}

@@ -117,9 +117,10 @@ fn a_second_solve_builds_no_kernels_and_gives_the_same_bits() {
     assert_eq!((reused.modules_created, reused.pipelines_created), (0, 0));
     assert_eq!(bits(&first), bits(&second));
 
-    // The wavelet path: the analysis's six kernels and the synthesis's two, in two modules.
+    // The wavelet path: the analysis's six kernels and the synthesis's two and its RMS
+    // measure, in two modules.
     let (first, built) = counted(&gpu, amplify);
-    assert_eq!((built.modules_created, built.pipelines_created), (2, 8));
+    assert_eq!((built.modules_created, built.pipelines_created), (2, 9));
     let (second, reused) = counted(&gpu, amplify);
     assert_eq!((reused.modules_created, reused.pipelines_created), (0, 0));
     assert_eq!(bits(&first), bits(&second));
@@ -138,7 +139,7 @@ fn a_second_solve_builds_no_kernels_and_gives_the_same_bits() {
         bits(&amplify(&backend)),
         bits(&amplify(&Backend::Gpu(gpu.clone())))
     );
-    assert_eq!(gpu.stats().pipelines_created, 22);
+    assert_eq!(gpu.stats().pipelines_created, 23);
     assert_eq!(gpu.stats().modules_created, 5);
 }
 
@@ -223,10 +224,10 @@ fn warming_builds_every_kernel_once() {
     pollster::block_on(diffusion::warm_gpu(&gpu)).expect("diffusion kernels");
     pollster::block_on(wavelet::gpu::warm(&gpu)).expect("wavelet kernels");
     let warmed = gpu.stats();
-    // The wavelet statistics' module and six kernels only where the device runs them (not
-    // beside a software rasteriser under auto).
+    // The wavelet statistics' module and six kernels, and the detail's RMS measure, only
+    // where the device runs them (not beside a software rasteriser under auto).
     let expected = if gpu.runs_heavy_stages() {
-        (5, 22)
+        (5, 23)
     } else {
         (4, 16)
     };
@@ -246,7 +247,7 @@ fn warming_builds_every_kernel_once() {
     pollster::block_on(wavelet::gpu::warm(&all)).expect("statistics kernels");
     assert_eq!(
         (all.stats().modules_created, all.stats().pipelines_created),
-        (5, 22)
+        (5, 23)
     );
 }
 

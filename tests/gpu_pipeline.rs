@@ -106,6 +106,19 @@ fn gpu_stages_hand_the_terrain_on() {
     ))
     .expect("the detail from an upload");
     assert!(bits(&uploaded.field) == bits(&detail.field));
+    // The stage's RMS, summed on the GPU here, is the CPU's measure of its terrain.
+    let measured = strahler::wavelet::synthesis::detail_rms(
+        &out.hydrology.terrain,
+        &detail.field,
+        params.levels,
+        None,
+    );
+    assert!(uploaded.rms.is_some(), "the GPU measured the RMS");
+    assert!(
+        (detail.rms.unmasked - measured.unmasked).abs() <= 1e-3 * measured.unmasked,
+        "{:?} against {measured:?}",
+        detail.rms
+    );
     // And the detail stage reads the copy it is given, not the CPU's: a copy raised by
     // 100 m raises its output by 100 m.
     let raised = common::gpu_copy(&gpu, &out.hydrology.terrain, 100.0);

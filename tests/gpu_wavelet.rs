@@ -17,6 +17,15 @@ fn run(
     params: &AmplifyParams,
     mask: Option<&Mask>,
 ) -> Heightfield {
+    amplified(backend, source, params, mask).field
+}
+
+fn amplified(
+    backend: &Backend,
+    source: &Heightfield,
+    params: &AmplifyParams,
+    mask: Option<&Mask>,
+) -> wavelet::Amplified {
     pollster::block_on(wavelet::amplify_on(
         backend,
         source,
@@ -25,7 +34,6 @@ fn run(
         &JobCtx::detached(),
     ))
     .expect("amplify")
-    .field
 }
 
 #[test]
@@ -60,7 +68,9 @@ fn synthesis_matches_the_cpu(gpu: &Backend) {
                     ..Default::default()
                 };
                 let cpu = run(&Backend::Cpu, &source, &params, mask);
-                let on_gpu = run(gpu, &source, &params, mask);
+                let out = amplified(gpu, &source, &params, mask);
+                check_rms(gpu, &source, &out, levels, mask);
+                let on_gpu = out.field;
                 assert_eq!(
                     (cpu.width(), cpu.height()),
                     (on_gpu.width(), on_gpu.height())
@@ -74,6 +84,39 @@ fn synthesis_matches_the_cpu(gpu: &Backend) {
                 );
             }
         }
+    }
+}
+
+/// The detail's RMS the GPU measured beside the synthesis (where it runs the heavy stages)
+/// is the CPU's measure of the same output, free and under the mask.
+fn check_rms(
+    gpu: &Backend,
+    source: &Heightfield,
+    out: &wavelet::Amplified,
+    levels: u32,
+    mask: Option<&Mask>,
+) {
+    let Backend::Gpu(context) = gpu else {
+        unreachable!("a GPU backend")
+    };
+    let Some(measured) = out.rms else {
+        assert!(!context.runs_heavy_stages(), "the GPU measures the RMS");
+        return;
+    };
+    let cpu = wavelet::synthesis::detail_rms(source, &out.field, levels, mask);
+    let near = |a: f64, b: f64| (a - b).abs() <= 1e-3 * b.max(1e-6);
+    assert!(cpu.unmasked > 0.0, "{cpu:?}");
+    assert!(
+        near(measured.unmasked, cpu.unmasked),
+        "{measured:?} against {cpu:?}"
+    );
+    assert_eq!(
+        measured.masked.is_some(),
+        cpu.masked.is_some(),
+        "{measured:?} {cpu:?}"
+    );
+    if let (Some(a), Some(b)) = (measured.masked, cpu.masked) {
+        assert!(near(a, b), "{measured:?} against {cpu:?}");
     }
 }
 
@@ -198,11 +241,13 @@ fn gpu_amplify_reads_back_a_fixed_number_of_times() {
     }
     let gpu = Arc::new(gpu.with_all_stages());
     let backend = Backend::Gpu(gpu.clone());
+    // With every stage on the GPU: the statistics' readbacks, the output's and the detail's
+    // RMS sums.
     for (side, scope, expected) in [
-        (33, Scope::Global, 2),
-        (257, Scope::Global, 2),
-        (33, Scope::Local(LocalParams::default()), 4),
-        (257, Scope::Local(LocalParams::default()), 4),
+        (33, Scope::Global, 3),
+        (257, Scope::Global, 3),
+        (33, Scope::Local(LocalParams::default()), 5),
+        (257, Scope::Local(LocalParams::default()), 5),
     ] {
         let source = fbm::diamond_square(side, side, 0.8, 5).unwrap();
         let params = AmplifyParams {

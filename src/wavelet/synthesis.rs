@@ -82,6 +82,9 @@ pub struct Amplified {
     pub timings: Timings,
     /// `field`, bit for bit, still on the GPU that made it (the GPU path).
     pub gpu: Option<crate::gpu::GpuField>,
+    /// The detail's RMS ([`detail_rms`]) where the GPU measured it beside the synthesis
+    /// (on hardware); `None` elsewhere.
+    pub rms: Option<DetailRms>,
 }
 
 /// Wall-clock milliseconds of the phases of [`amplify`].
@@ -354,6 +357,7 @@ pub async fn amplify(
         analysis,
         timings,
         gpu: None,
+        rms: None,
     })
 }
 
@@ -377,7 +381,8 @@ pub struct DetailRms {
 }
 
 /// Measures [`DetailRms`] of `amplified` (made from `source` with `levels` new levels).
-/// O(output cells).
+/// O(output cells), in row bands on every thread natively; each row's sums are kept and
+/// added in row order, so the result does not depend on the number of threads.
 pub fn detail_rms(
     source: &Heightfield,
     amplified: &Heightfield,
@@ -388,33 +393,45 @@ pub fn detail_rms(
     let f = 1usize << levels;
     let (ow, oh) = (amplified.width(), amplified.height());
     let mask = mask.filter(|m| !m.is_clear());
-    let (mut free, mut free_n, mut covered, mut covered_n) = (0.0f64, 0usize, 0.0f64, 0usize);
     let du = 1.0 / (ow.max(2) - 1) as f64;
     let dv = 1.0 / (oh.max(2) - 1) as f64;
-    for y in 0..oh {
+    let at = |i: usize, j: usize| f64::from(source.data()[j.min(sh - 1) * sw + i.min(sw - 1)]);
+    // Per row: (free sum, free cells, covered sum, covered cells).
+    let row_sums = |y: usize| {
+        let mut sums = [0.0f64; 4];
         let y0 = (y / f).min(sh.saturating_sub(2));
         let ty = (y as f64 - (y0 * f) as f64) / f as f64;
         for x in 0..ow {
             let x0 = (x / f).min(sw.saturating_sub(2));
             let tx = (x as f64 - (x0 * f) as f64) / f as f64;
-            let at =
-                |i: usize, j: usize| f64::from(source.data()[j.min(sh - 1) * sw + i.min(sw - 1)]);
             let top = at(x0, y0) * (1.0 - tx) + at(x0 + 1, y0) * tx;
             let bottom = at(x0, y0 + 1) * (1.0 - tx) + at(x0 + 1, y0 + 1) * tx;
             let d = f64::from(amplified.data()[y * ow + x]) - (top * (1.0 - ty) + bottom * ty);
             let m = mask.map_or(0.0, |m| m.sample(x as f64 * du, y as f64 * dv));
             if m < 0.01 {
-                free += d * d;
-                free_n += 1;
+                sums[0] += d * d;
+                sums[1] += 1.0;
             } else if m >= 0.99 {
-                covered += d * d;
-                covered_n += 1;
+                sums[2] += d * d;
+                sums[3] += 1.0;
             }
         }
-    }
+        sums
+    };
+    let mut rows = vec![[0.0f64; 4]; oh];
+    let band = oh.div_ceil(crate::parallel::bands(ow, oh));
+    crate::parallel::for_each_band(&mut rows, band, |k, sums| {
+        for (i, s) in sums.iter_mut().enumerate() {
+            *s = row_sums(k * band + i);
+        }
+    });
+    let [free, free_n, covered, covered_n] = rows.iter().fold([0.0f64; 4], |mut t, r| {
+        t.iter_mut().zip(r).for_each(|(t, r)| *t += r);
+        t
+    });
     DetailRms {
-        unmasked: (free / free_n.max(1) as f64).sqrt(),
-        masked: (covered_n > 0).then(|| (covered / covered_n as f64).sqrt()),
+        unmasked: (free / free_n.max(1.0)).sqrt(),
+        masked: (covered_n > 0.0).then(|| (covered / covered_n).sqrt()),
     }
 }
 

@@ -10,6 +10,7 @@
 //! a workgroup).
 
 mod analysis;
+mod rms;
 
 pub use analysis::{MAX_HEIGHT, transform};
 
@@ -61,6 +62,7 @@ pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
     // The statistics' kernels only where the device runs them (see `statistics`).
     if gpu.runs_heavy_stages() {
         analysis::warm(gpu).await?;
+        gpu.pipelines(&SHADER, rms::ENTRY).await?;
     }
     Ok(())
 }
@@ -250,6 +252,12 @@ pub async fn amplify(
     };
 
     let [fill, lift] = gpu.pipelines(&SHADER, ENTRIES).await.map_err(gpu_err)?;
+    // The detail's RMS beside the synthesis where the device runs the heavy stages (as the
+    // statistics); elsewhere the caller measures it on the CPU.
+    let rms_kernel = match gpu.runs_heavy_stages() {
+        true => Some(gpu.pipelines(&SHADER, rms::ENTRY).await.map_err(gpu_err)?),
+        false => None,
+    };
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mask_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some("wavelet mask"),
@@ -306,6 +314,15 @@ pub async fn amplify(
             lifts.push((buffer, group, n(ow), n(oh)));
         }
     }
+    let measure = rms_kernel.map(|[kernel]| {
+        let inputs = rms::Inputs {
+            params: &fill_params,
+            source: &source_buf,
+            mask: &mask_buf,
+            out: &out,
+        };
+        rms::Measure::new(gpu, kernel, &inputs, ow, oh)
+    });
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("wavelet synthesis"),
     });
@@ -326,6 +343,9 @@ pub async fn amplify(
             pass.set_bind_group(0, group, &[]);
             pass.dispatch_workgroups(*gx, *gy, 1);
         }
+        if let Some(measure) = &measure {
+            measure.record(&mut pass);
+        }
     }
     gpu.submit(encoder.finish());
     if let Some(err) = scope.pop().await {
@@ -337,6 +357,10 @@ pub async fn amplify(
     let data = read_f32_buffer(gpu, &out, ow * oh).await.map_err(gpu_err)?;
     let field =
         Heightfield::from_vec(ow, oh, data).map_err(|e| WaveletError::Internal(e.to_string()))?;
+    let rms = match &measure {
+        Some(m) => Some(m.read(gpu).await.map_err(gpu_err)?),
+        None => None,
+    };
     // The GPU's fill and lifting run in one submission: all of it counts as `inverse`.
     let timings = super::synthesis::Timings {
         analysis: analysis_ms,
@@ -348,5 +372,6 @@ pub async fn amplify(
         analysis: statistics.analysis,
         timings,
         gpu: Some(GpuField::new(gpu, out, ow, oh)),
+        rms,
     })
 }
