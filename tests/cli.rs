@@ -1362,7 +1362,8 @@ fn bench_wavelet_json_counts_the_gpu_paths_work() {
 }
 
 /// Issue 18, point 6: `bench --pipeline --backend gpu` runs the pipeline on the GPU and adds
-/// a row of GPU times, the diffusion's measured and the CPU stages' shown as `-`.
+/// a row of GPU times, the diffusion's measured and the CPU stages' shown as `-`, and a row
+/// of the time outside the GPU's work.
 #[test]
 fn bench_pipeline_on_the_gpu_gives_the_stages_gpu_time() {
     let out = strahler(&[
@@ -1407,6 +1408,30 @@ fn bench_pipeline_on_the_gpu_gives_the_stages_gpu_time() {
     assert!(diffuse > 0.0 && drainage > 0.0, "{text}");
     // Each printed to 0.1 ms.
     assert!(diffuse + drainage <= total + 0.15, "{text}");
+    // The `off gpu` row: each stage's time less its GPU time, all of it for the CPU stages.
+    let numbers = |start: &str, skip: usize| -> Vec<f64> {
+        text.lines()
+            .find(|line| line.trim_start().starts_with(start))
+            .unwrap_or_else(|| panic!("a row {start:?}: {text}"))
+            .split_whitespace()
+            .skip(skip)
+            .take(8)
+            .map(|v| v.parse().expect("a time in ms"))
+            .collect()
+    };
+    let wall = numbers("32 ", 2);
+    let off = numbers("off gpu", 2);
+    assert_eq!(off.len(), 8, "{text}");
+    for k in 0..5 {
+        assert!((off[k] - wall[k]).abs() <= 0.15, "stage {k}: {text}");
+    }
+    for (k, gpu) in [(5, diffuse), (6, drainage), (7, total)] {
+        assert!(off[k] >= 0.0, "{text}");
+        assert!(
+            (off[k] - (wall[k] - gpu)).abs() <= 0.25,
+            "stage {k}: {text}"
+        );
+    }
 }
 
 /// Issue 22, points 9 and 11-16: a result that is not what was asked is an error (or a

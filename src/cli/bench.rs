@@ -134,7 +134,8 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         if gpu.has_timestamps() {
             println!(
                 "'gpu ms' rows: the GPU's own time of each stage's submissions (timestamp \
-                 queries), '-' where a stage used no GPU"
+                 queries), '-' where a stage used no GPU; 'off gpu' rows: the rest of each \
+                 stage's time (CPU work, transfers, waits), which a faster GPU does not shorten"
             );
         } else {
             println!("this GPU has no timestamp queries: no GPU times");
@@ -175,6 +176,8 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         let mut times: Vec<Vec<f64>> = vec![Vec::new(); STAGES.len() + 2];
         // The same on the GPU's clock, `None` where a stage submitted nothing.
         let mut gpu_times: Vec<Vec<Option<f64>>> = vec![Vec::new(); STAGES.len() + 2];
+        // And each stage's time outside them (all of it where a stage submitted nothing).
+        let mut off_gpu: Vec<Vec<f64>> = vec![Vec::new(); STAGES.len() + 2];
         let mut last = None;
         for _ in 0..runs {
             let timing = gpu.as_ref().is_some_and(|gpu| gpu.start_timing());
@@ -206,6 +209,11 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
                 gpu_times[STAGES.len()]
                     .push((!hydrology.is_empty()).then(|| hydrology.iter().sum()));
                 gpu_times[STAGES.len() + 1].push(Some(timing.ms()));
+                for (k, off) in off_gpu.iter_mut().enumerate() {
+                    let wall = times[k].last().copied().unwrap_or(0.0);
+                    let on_gpu = gpu_times[k].last().copied().flatten().unwrap_or(0.0);
+                    off.push((wall - on_gpu).max(0.0));
+                }
             }
             last = Some(g.report);
         }
@@ -241,6 +249,11 @@ fn pipeline(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
             gpu_cell(g[4], 9),
             gpu_cell(g[5], 8),
             gpu_cell(g[7], 9),
+        );
+        let o: Vec<f64> = off_gpu.into_iter().map(median).collect();
+        println!(
+            "{:>6} {:>7} {:>8.1} {:>8.1} {:>8.1} {:>8.1} {:>9.1} {:>9.1} {:>8.1} {:>9.1}",
+            "", "off gpu", o[0], o[1], o[2], o[3], o[6], o[4], o[5], o[7],
         );
     }
     println!(
