@@ -20,15 +20,17 @@ pub async fn wait_for_submitted_work(ctx: &GpuContext) -> Result<(), GpuError> {
 }
 
 /// Copies `source` (a `STORAGE | COPY_SRC` buffer of `len` `f32`s) into a staging buffer,
-/// maps it and returns its contents.
+/// maps it and returns its contents, copied once from the mapped range into the `f32`s.
 pub async fn read_f32_buffer(
     ctx: &GpuContext,
     source: &wgpu::Buffer,
     len: usize,
 ) -> Result<Vec<f32>, GpuError> {
-    let bytes = read_bytes(ctx, source, (len * 4) as u64).await?;
-    // One copy into aligned f32s (every target here is little-endian, as GPU buffers are).
-    Ok(bytemuck::pod_collect_to_vec(&bytes))
+    let bytes = (len * 4) as u64;
+    let staging = copy_to_staging(ctx, source, bytes).await?;
+    ctx.kernels.count_readback();
+    // Every target here is little-endian, as GPU buffers are.
+    map_with(ctx, &staging, bytes, bytemuck::pod_collect_to_vec).await
 }
 
 /// Copies the first `bytes` bytes of `source` (with `COPY_SRC`) back to the CPU. A copy
@@ -39,6 +41,17 @@ pub async fn read_bytes(
     source: &wgpu::Buffer,
     bytes: u64,
 ) -> Result<Vec<u8>, GpuError> {
+    let staging = copy_to_staging(ctx, source, bytes).await?;
+    read_staging(ctx, &staging, bytes).await
+}
+
+/// A new staging buffer with the first `bytes` bytes of `source` copied in (submitted). A
+/// copy the device refuses is an error.
+async fn copy_to_staging(
+    ctx: &GpuContext,
+    source: &wgpu::Buffer,
+    bytes: u64,
+) -> Result<wgpu::Buffer, GpuError> {
     let scope = ctx.device.push_error_scope(wgpu::ErrorFilter::Validation);
     let staging = ctx.device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback staging"),
@@ -56,8 +69,7 @@ pub async fn read_bytes(
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()));
     }
-
-    read_staging(ctx, &staging, bytes).await
+    Ok(staging)
 }
 
 /// The bytes a row of `bytes` takes in a buffer copied to or from a texture: rounded up to
@@ -134,6 +146,17 @@ pub(super) async fn map_staging(
     staging: &wgpu::Buffer,
     bytes: u64,
 ) -> Result<Vec<u8>, GpuError> {
+    map_with(ctx, staging, bytes, <[u8]>::to_vec).await
+}
+
+/// Maps the first `bytes` bytes of `staging`, hands them to `read` (which copies out what
+/// it keeps) and unmaps it again.
+async fn map_with<T>(
+    ctx: &GpuContext,
+    staging: &wgpu::Buffer,
+    bytes: u64,
+    read: impl FnOnce(&[u8]) -> T,
+) -> Result<T, GpuError> {
     let (tx, rx) = oneshot::channel();
     staging.map_async(wgpu::MapMode::Read, 0..bytes, move |result| {
         let _ = tx.send(result);
@@ -142,10 +165,11 @@ pub(super) async fn map_staging(
     rx.await
         .map_err(|_| GpuError::Readback("the map callback was dropped".into()))?
         .map_err(|err| GpuError::Readback(err.to_string()))?;
-    let values = staging
-        .get_mapped_range(0..bytes)
-        .map_err(|err| GpuError::Readback(err.to_string()))?
-        .to_vec();
+    let values = read(
+        &staging
+            .get_mapped_range(0..bytes)
+            .map_err(|err| GpuError::Readback(err.to_string()))?,
+    );
     staging.unmap();
     Ok(values)
 }
