@@ -263,7 +263,8 @@ fn gpu_amplify_reads_back_a_fixed_number_of_times() {
 }
 
 /// Heights far beyond any terrain (a mis-scaled file) would overflow the kernels' f32 sums:
-/// the statistics then come from the CPU's f64 ones, and the detail stays finite.
+/// the statistics and the detail's RMS then come from the CPU's f64 ones, and the detail
+/// stays finite.
 #[test]
 fn gpu_statistics_of_huge_heights_come_from_the_cpu() {
     let Some(gpu) = common::gpu() else { return };
@@ -282,6 +283,10 @@ fn gpu_statistics_of_huge_heights_come_from_the_cpu() {
         cpu.tables == on_gpu.tables,
         "the tables of heights near 1e20 m were not the CPU's"
     );
-    let out = run(&Backend::Gpu(Arc::new(gpu)), &huge, &params, None);
-    assert!(out.data().iter().all(|v| v.is_finite()));
+    let out = amplified(&Backend::Gpu(Arc::new(gpu)), &huge, &params, None);
+    assert!(out.field.data().iter().all(|v| v.is_finite()));
+    // And the detail's RMS is left to the CPU's f64 measure, which stays finite.
+    assert!(out.rms.is_none(), "{:?}", out.rms);
+    let rms = wavelet::synthesis::detail_rms(&huge, &out.field, params.levels, None);
+    assert!(rms.unmasked.is_finite() && rms.unmasked > 0.0, "{rms:?}");
 }

@@ -83,7 +83,8 @@ pub struct Amplified {
     /// `field`, bit for bit, still on the GPU that made it (the GPU path).
     pub gpu: Option<crate::gpu::GpuField>,
     /// The detail's RMS ([`detail_rms`]) where the GPU measured it beside the synthesis
-    /// (on hardware); `None` elsewhere.
+    /// (where it runs the heavy stages: hardware, or every stage asked of it); `None`
+    /// elsewhere.
     pub rms: Option<DetailRms>,
 }
 

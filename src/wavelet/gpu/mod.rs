@@ -138,15 +138,7 @@ async fn statistics_where(
     on_gpu: bool,
 ) -> Result<analysis::Statistics, AmplifyFailure> {
     let size = (source.width(), source.height());
-    // The kernels sum squares in f32: heights beyond `MAX_HEIGHT` (no terrain, but a
-    // mis-scaled or hostile file) could overflow them, so those take the CPU's f64 sums.
-    // (Voids are refused by either path.)
-    let in_range = || {
-        source
-            .finite_range()
-            .is_some_and(|(lo, hi)| lo.abs().max(hi.abs()) <= analysis::MAX_HEIGHT)
-    };
-    if on_gpu && in_range() {
+    if on_gpu && in_range(source) {
         let levels = super::analysis::analysable_levels(source)?;
         if let Some(statistics) =
             analysis::statistics(gpu, source_buf, size, levels, params).await?
@@ -176,6 +168,15 @@ async fn statistics_where(
         ))
     };
     Ok(analysis::Statistics { analysis, sigmas })
+}
+
+/// Whether the kernels' f32 sums of squares hold `source`'s heights: those beyond
+/// `MAX_HEIGHT` (no terrain, but a mis-scaled or hostile file) could overflow them, so they
+/// take the CPU's f64 sums. (Voids are refused by either path.)
+fn in_range(source: &Heightfield) -> bool {
+    source
+        .finite_range()
+        .is_some_and(|(lo, hi)| lo.abs().max(hi.abs()) <= analysis::MAX_HEIGHT)
 }
 
 /// The global analysis and the standard-deviation tables of the synthesis, computed on the
@@ -253,8 +254,9 @@ pub async fn amplify(
 
     let [fill, lift] = gpu.pipelines(&SHADER, ENTRIES).await.map_err(gpu_err)?;
     // The detail's RMS beside the synthesis where the device runs the heavy stages (as the
-    // statistics); elsewhere the caller measures it on the CPU.
-    let rms_kernel = match gpu.runs_heavy_stages() {
+    // statistics) and the heights are in the f32 sums' range; elsewhere the caller measures
+    // it on the CPU.
+    let rms_kernel = match gpu.runs_heavy_stages() && in_range(source) {
         true => Some(gpu.pipelines(&SHADER, rms::ENTRY).await.map_err(gpu_err)?),
         false => None,
     };
@@ -358,7 +360,7 @@ pub async fn amplify(
     let field =
         Heightfield::from_vec(ow, oh, data).map_err(|e| WaveletError::Internal(e.to_string()))?;
     let rms = match &measure {
-        Some(m) => Some(m.read(gpu).await.map_err(gpu_err)?),
+        Some(m) => m.read(gpu).await.map_err(gpu_err)?,
         None => None,
     };
     // The GPU's fill and lifting run in one submission: all of it counts as `inverse`.

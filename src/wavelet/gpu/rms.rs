@@ -2,8 +2,8 @@
 //! `shaders/wavelet.wgsl`, the same measure as [`crate::wavelet::synthesis::detail_rms`]
 //! (in f32 per workgroup, the workgroups' sums added in f64 here). Cost: O(output cells) on
 //! the GPU and a readback of 16 bytes per 16 x 128 cells, instead of an O(output cells) pass
-//! on one CPU thread (about 0.3 s natively for a 4093^2 output, several times that in the
-//! page).
+//! on the CPU (in row bands natively: 160-240 ms for a 4093^2 output on two cores; on one
+//! thread in the page, several times that).
 
 use crate::gpu::{GpuContext, GpuError, bind_buffers, read_f32_buffer};
 use crate::wavelet::synthesis::DetailRms;
@@ -77,8 +77,9 @@ impl Measure {
         pass.dispatch_workgroups(self.groups.0, self.groups.1, 1);
     }
 
-    /// Reads the workgroups' sums back (one small readback) and adds them up.
-    pub(super) async fn read(&self, gpu: &GpuContext) -> Result<DetailRms, GpuError> {
+    /// Reads the workgroups' sums back (one small readback) and adds them up; `None` where
+    /// a sum is not finite (f32 overflowed), for the CPU's f64 measure to take over.
+    pub(super) async fn read(&self, gpu: &GpuContext) -> Result<Option<DetailRms>, GpuError> {
         let count = (self.groups.0 * self.groups.1) as usize;
         let sums = read_f32_buffer(gpu, &self.partials, count * 4).await?;
         let mut total = [0.0f64; 4];
@@ -87,10 +88,13 @@ impl Measure {
                 *t += f64::from(v);
             }
         }
+        if total.iter().any(|t| !t.is_finite()) {
+            return Ok(None);
+        }
         let [free, free_n, covered, covered_n] = total;
-        Ok(DetailRms {
+        Ok(Some(DetailRms {
             unmasked: (free / free_n.max(1.0)).sqrt(),
             masked: (covered_n > 0.0).then(|| (covered / covered_n).sqrt()),
-        })
+        }))
     }
 }
