@@ -268,3 +268,34 @@ fn a_refused_readback_is_an_error() {
         "{result:?}"
     );
 }
+
+/// A device the app shares (eframe's, handed over with `GpuContext::from_device`) logs the
+/// errors no error scope captured, where wgpu's default handler would panic natively and end
+/// the app with the user's unsaved work; the device goes on working.
+#[test]
+fn a_shared_device_survives_an_uncaptured_error() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let mut descriptor = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+    descriptor.backends = wgpu::Backends::from_env().unwrap_or(wgpu::Backends::PRIMARY);
+    let instance = wgpu::Instance::new(descriptor);
+    let adapter = pollster::block_on(instance.request_adapter(&Default::default()))
+        .expect("the adapter common::gpu found");
+    let (device, queue) =
+        pollster::block_on(adapter.request_device(&strahler::gpu::device_descriptor(&adapter)))
+            .expect("a device");
+    let gpu = GpuContext::from_device(&adapter, &device, &queue);
+    // A buffer mapped both ways is invalid without a feature the app does not ask for; no
+    // error scope is open.
+    let _refused = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("mapped both ways"),
+        size: 16,
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::MAP_WRITE,
+        mapped_at_creation: false,
+    });
+    let field = fbm::diamond_square(17, 9, 0.7, 2).unwrap();
+    let copy = common::gpu_copy(&gpu, &field, 0.0);
+    let back = pollster::block_on(copy.read(&gpu)).expect("the device still works");
+    assert!(bits(&back) == bits(&field));
+}

@@ -146,6 +146,7 @@ impl GpuContext {
         device: &wgpu::Device,
         queue: &wgpu::Queue,
     ) -> Self {
+        log_uncaptured_errors(device);
         let info = adapter.get_info();
         Self {
             device: device.clone(),
@@ -191,11 +192,7 @@ impl GpuContext {
             })
             .await
             .map_err(|err| GpuError::RequestDevice(err.to_string()))?;
-        // wgpu's default handler panics on an uncaptured error; stages capture theirs with
-        // error scopes, so anything left over is logged, never a crash.
-        device.on_uncaptured_error(Arc::new(|err: wgpu::Error| {
-            log::error!("uncaptured GPU error: {err}");
-        }));
+        log_uncaptured_errors(&device);
         let info = adapter.get_info();
         let context = Self {
             caps: Capabilities::of(&adapter, &device),
@@ -241,6 +238,17 @@ impl GpuContext {
         }
         Ok(())
     }
+}
+
+/// Logs the errors on `device` that no error scope captured, instead of wgpu's default
+/// handler, which panics natively. The stages capture their validation errors with scopes
+/// and fall back to the CPU; what is left over (a buffer the GPU has no memory for, an error
+/// while drawing) must not end the app and lose the user's work. Shared devices (the one
+/// eframe draws with) get it too.
+fn log_uncaptured_errors(device: &wgpu::Device) {
+    device.on_uncaptured_error(Arc::new(|err: wgpu::Error| {
+        log::error!("uncaptured GPU error: {err}");
+    }));
 }
 
 /// The device descriptor used everywhere: the adapter's real limits (so 4096^2 fields and
