@@ -3,9 +3,10 @@
 //! per-cell fits and the standard-deviation tables), then the synthesis
 //! (`shaders/wavelet.wgsl`): one `fill` dispatch writes the source samples and every
 //! synthetic coefficient (same counter-based Gaussians as the CPU, same eq. 9 mask factor),
-//! then four `lift` dispatches per new level undo the lifting steps. The source is uploaded
-//! once (or read where a previous stage left it on the GPU); the output is read back once
-//! and stays on the GPU for the next stage. Results equal the CPU's within float rounding (the
+//! then four `lift` dispatches per new level undo the lifting steps, and (where the device
+//! runs the heavy stages) one `detail_rms` dispatch measures the detail ([`rms`]). The
+//! source is uploaded once (or read where a previous stage left it on the GPU); the output
+//! is read back once and stays on the GPU for the next stage. Results equal the CPU's within float rounding (the
 //! GPU's `log`/`exp2`/`cos` are not bit-identical to `libm`'s, and its sums run in f32 within
 //! a workgroup).
 
@@ -256,9 +257,10 @@ pub async fn amplify(
     // The detail's RMS beside the synthesis where the device runs the heavy stages (as the
     // statistics) and the heights are in the f32 sums' range; elsewhere the caller measures
     // it on the CPU.
-    let rms_kernel = match gpu.runs_heavy_stages() && in_range(source) {
-        true => Some(gpu.pipelines(&SHADER, rms::ENTRY).await.map_err(gpu_err)?),
-        false => None,
+    let rms_kernel = if gpu.runs_heavy_stages() && in_range(source) {
+        Some(gpu.pipelines(&SHADER, rms::ENTRY).await.map_err(gpu_err)?)
+    } else {
+        None
     };
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let mask_buf = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
