@@ -106,46 +106,30 @@ fn receiver_at(z: &[f32], w: usize, h: usize, i: usize) -> u32 {
     best
 }
 
-/// D8 receivers of row `y` into `out` (`w` entries), as [`receiver_at`] gives them. The
-/// interior cells go direction by direction along the row (the same comparisons in the same
-/// order for each cell, so the same receivers) over contiguous slices.
-fn receivers_of_row(
-    z: &[f32],
-    w: usize,
-    h: usize,
-    y: usize,
-    out: &mut [u32],
-    steepest: &mut Vec<f32>,
-) {
+/// Whether each cell of row `y` has a strictly lower neighbour, into `out` (`w` entries):
+/// exactly where [`receiver_at`] gives a receiver (a lower neighbour's slope is positive for
+/// any heights, infinities included, and a NaN never compares lower either way). The
+/// interior cells go direction by direction along the row over contiguous slices, with no
+/// division: the drainage count only needs the receivers of river cells.
+fn lower_neighbours_of_row(z: &[f32], w: usize, h: usize, y: usize, out: &mut [bool]) {
     let row = y * w;
     if y == 0 || y + 1 == h || w < 3 {
-        for (x, r) in out.iter_mut().enumerate() {
-            *r = receiver_at(z, w, h, row + x);
+        for (x, lower) in out.iter_mut().enumerate() {
+            *lower = receiver_at(z, w, h, row + x) != NO_RECEIVER;
         }
         return;
     }
-    out[0] = receiver_at(z, w, h, row);
-    out[w - 1] = receiver_at(z, w, h, row + w - 1);
+    out[0] = receiver_at(z, w, h, row) != NO_RECEIVER;
+    out[w - 1] = receiver_at(z, w, h, row + w - 1) != NO_RECEIVER;
     let centre = &z[row + 1..row + w - 1];
-    let best = &mut out[1..w - 1];
-    best.fill(NO_RECEIVER);
-    steepest.clear();
-    steepest.resize(w - 2, 0.0);
-    for (dx, dy, dist) in NEIGHBOURS {
+    let lower = &mut out[1..w - 1];
+    lower.fill(false);
+    for (dx, dy, _) in NEIGHBOURS {
         // The neighbour of the row's second cell.
         let start = (row + 1).wrapping_add_signed(dy as isize * w as isize + dx as isize);
         let neighbours = &z[start..start + w - 2];
-        for (k, ((s, b), (&c, &n))) in steepest
-            .iter_mut()
-            .zip(best.iter_mut())
-            .zip(centre.iter().zip(neighbours))
-            .enumerate()
-        {
-            let slope = (c - n) / dist;
-            if slope > *s {
-                *s = slope;
-                *b = (start + k) as u32;
-            }
+        for (l, (&c, &n)) in lower.iter_mut().zip(centre.iter().zip(neighbours)) {
+            *l |= n < c;
         }
     }
 }
@@ -204,29 +188,29 @@ impl Counts {
     }
 }
 
-/// Counts of `rows`, receivers computed row by row.
+/// Counts of `rows`: pits from whether each cell has a lower neighbour, computed row by row;
+/// the D8 receiver only of river cells (whether they drain along the river).
 fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Counts {
     let (w, h) = (field.width(), field.height());
     let z = field.data();
-    let (mut recv, mut steepest) = (vec![0u32; w], Vec::new());
-    let all_kinds = kinds;
+    let mut lower = vec![false; w];
     let mut c = Counts::default();
     for y in rows {
-        receivers_of_row(z, w, h, y, &mut recv, &mut steepest);
+        lower_neighbours_of_row(z, w, h, y, &mut lower);
         let border_row = y == 0 || y + 1 == h;
-        let kinds = &kinds[y * w..(y + 1) * w];
-        for (x, (&r, &kind)) in recv.iter().zip(kinds).enumerate() {
+        let row = &kinds[y * w..(y + 1) * w];
+        for (x, (&has_lower, &kind)) in lower.iter().zip(row).enumerate() {
             let border = border_row || x == 0 || x + 1 == w;
-            if r == NO_RECEIVER && !border {
+            if !has_lower && !border {
                 c.pit_cells += 1;
                 c.pits.push((y * w + x) as u32);
             }
             if kind == CellKind::River {
                 c.river_cells += 1;
-                let ok = if r == NO_RECEIVER {
-                    border
+                let ok = if has_lower {
+                    kinds[receiver_at(z, w, h, y * w + x) as usize] == CellKind::River
                 } else {
-                    all_kinds[r as usize] == CellKind::River
+                    border
                 };
                 c.river_cells_draining += usize::from(ok);
             }
@@ -1037,18 +1021,33 @@ mod tests {
             .collect()
     }
 
-    /// The row-wise (vectorised) receivers are the reference's, ties included.
+    /// The row-wise (vectorised) lower-neighbour test says where the reference has a
+    /// receiver, on terrains with flats, voids and infinities.
     #[test]
-    fn row_receivers_equal_the_reference_receivers() {
-        for field in test_terrains() {
+    fn row_lower_neighbours_are_where_the_reference_has_receivers() {
+        let mut terrains = test_terrains();
+        let mut extreme = terrains.last().expect("terrains").clone();
+        let w = extreme.width();
+        for (i, v) in extreme.data_mut().iter_mut().enumerate() {
+            match i % 17 {
+                3 => *v = f32::INFINITY,
+                7 => *v = f32::NEG_INFINITY,
+                11 => *v = f32::MIN_POSITIVE * 1e-6,
+                13 => *v = 0.0,
+                _ => {}
+            }
+        }
+        extreme.data_mut()[w + 1] = f32::from_bits(1);
+        terrains.push(extreme);
+        for field in terrains {
             let (w, h) = (field.width(), field.height());
             let mut reference = Vec::new();
             receivers_of_rows(&field, 0..h, &mut reference);
-            let (mut row, mut steepest) = (vec![0u32; w], Vec::new());
+            let mut row = vec![false; w];
             for y in 0..h {
-                receivers_of_row(field.data(), w, h, y, &mut row, &mut steepest);
-                for (x, &r) in row.iter().enumerate() {
-                    assert_eq!(reference[y * w + x], (r != NO_RECEIVER).then_some(r));
+                lower_neighbours_of_row(field.data(), w, h, y, &mut row);
+                for (x, &lower) in row.iter().enumerate() {
+                    assert_eq!(reference[y * w + x].is_some(), lower, "({x}, {y})");
                 }
             }
         }
