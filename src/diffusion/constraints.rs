@@ -73,7 +73,14 @@ impl FixedMask {
     /// Fixes (`x`, `y`); cells outside the grid are ignored.
     pub fn fix(&mut self, x: usize, y: usize) {
         if x < self.width && y < self.height {
-            let i = y * self.width + x;
+            self.fix_index(y * self.width + x);
+        }
+    }
+
+    /// Fixes the cell at row-major index `i`; indices past the grid are ignored.
+    #[inline]
+    pub fn fix_index(&mut self, i: usize) {
+        if i < self.width * self.height {
             self.words[i >> 5] |= 1 << (i & 31);
         }
     }

@@ -73,7 +73,7 @@ impl Skeleton {
         let (mut sum, mut count) = (0.0f64, 0usize);
         for (i, k) in self.kinds.iter().enumerate() {
             if *k != CellKind::Free {
-                fixed.fix(i % n, i / n);
+                fixed.fix_index(i);
                 sum += f64::from(self.heights[i]);
                 count += 1;
             }
