@@ -381,6 +381,17 @@ pub struct DetailRms {
     pub masked: Option<f64>,
 }
 
+impl DetailRms {
+    /// From the sums of squared detail and the cell counts: `[free sum, free cells, covered
+    /// sum, covered cells]` (the CPU's rows and the GPU's workgroups both sum these).
+    pub fn from_sums([free, free_n, covered, covered_n]: [f64; 4]) -> Self {
+        Self {
+            unmasked: (free / free_n.max(1.0)).sqrt(),
+            masked: (covered_n > 0.0).then(|| (covered / covered_n).sqrt()),
+        }
+    }
+}
+
 /// Measures [`DetailRms`] of `amplified` (made from `source` with `levels` new levels).
 /// O(output cells), in row bands on every thread natively; each row's sums are kept and
 /// added in row order, so the result does not depend on the number of threads.
@@ -426,14 +437,10 @@ pub fn detail_rms(
             *s = row_sums(k * band + i);
         }
     });
-    let [free, free_n, covered, covered_n] = rows.iter().fold([0.0f64; 4], |mut t, r| {
+    DetailRms::from_sums(rows.iter().fold([0.0f64; 4], |mut t, r| {
         t.iter_mut().zip(r).for_each(|(t, r)| *t += r);
         t
-    });
-    DetailRms {
-        unmasked: (free / free_n.max(1.0)).sqrt(),
-        masked: (covered_n > 0.0).then(|| (covered / covered_n).sqrt()),
-    }
+    }))
 }
 
 #[cfg(test)]

@@ -91,10 +91,6 @@ impl Measure {
         if total.iter().any(|t| !t.is_finite()) {
             return Ok(None);
         }
-        let [free, free_n, covered, covered_n] = total;
-        Ok(Some(DetailRms {
-            unmasked: (free / free_n.max(1.0)).sqrt(),
-            masked: (covered_n > 0.0).then(|| (covered / covered_n).sqrt()),
-        }))
+        Ok(Some(DetailRms::from_sums(total)))
     }
 }
