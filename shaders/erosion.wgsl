@@ -4,8 +4,10 @@
 //   dh/dt = U - K A^m S^n + kappa lap(h)          (Braun & Willett 2013, eq. 1)
 //
 // One time step, every kernel one thread per cell on 16 x 16 workgroups:
-// 1. `receivers`: D8 steepest descent, ties to the first direction in D8 order (the CPU's
-//    rule in `flow.rs`); base-level cells and pits get NONE.
+// 1. `receivers`: the CPU's rule in `flow.rs`: D8 steepest descent, ties to the first
+//    direction in D8 order, or (params.random) one lower neighbour drawn in proportion to
+//    the slopes (Freeman 1991's weights) from lowbias32(cell ^ route_key), the step's key;
+//    base-level cells and pits get NONE.
 // 2. Lakes (Planchon & Darboux 2001): `root_init` + `root_jump` (pointer jumping) find the
 //    terminal cell of every flow path; cells whose path ends in a pit start at BIG, the rest
 //    at their height, and `lake_pass` lowers the water level W_i towards
@@ -27,8 +29,9 @@
 struct Params {
     width: u32,
     height: u32,
-    _pad0: u32,
-    _pad1: u32,
+    // The step's key of the random receivers, and whether they are drawn (1) or steepest (0).
+    route_key: u32,
+    random: u32,
     // r = kappa dt / cell^2 of the diffusion.
     r: f32,
     // Talus limits of the drop to an axis and to a diagonal neighbour, metres.
@@ -96,18 +99,47 @@ fn receivers(@builtin(global_invocation_id) gid: vec3<u32>) {
     let hi = heights[i];
     var best = NONE;
     var steepest = 0.0;
+    var slope: array<f32, 8>;
+    var total = 0.0;
     for (var d = 0u; d < 8u; d++) {
         let j = neighbour(gid.x, gid.y, d);
-        if (j == NONE) {
-            continue;
+        var s = 0.0;
+        if (j != NONE) {
+            s = (hi - heights[j]) * select(1.0, 0.70710678118654752, diagonal(d));
         }
-        let s = (hi - heights[j]) * select(1.0, 0.70710678118654752, diagonal(d));
+        slope[d] = s;
+        total += max(s, 0.0);
         if (s > steepest) {
             steepest = s;
             best = j;
         }
     }
+    if (params.random != 0u && best != NONE) {
+        // The lower neighbour whose share of the slopes' sum holds u * sum.
+        let pick = f32(hash32(i ^ params.route_key) >> 8u) * (1.0 / 16777216.0) * total;
+        var sum = 0.0;
+        for (var d = 0u; d < 8u; d++) {
+            if (slope[d] > 0.0) {
+                sum += slope[d];
+                best = neighbour(gid.x, gid.y, d);
+                if (pick < sum) {
+                    break;
+                }
+            }
+        }
+    }
     receivers_out[i] = best;
+}
+
+// Chris Wellons' lowbias32 integer hash (the CPU's `flow::hash32`).
+fn hash32(v: u32) -> u32 {
+    var x = v;
+    x ^= x >> 16u;
+    x *= 0x7feb352du;
+    x ^= x >> 15u;
+    x *= 0x846ca68bu;
+    x ^= x >> 16u;
+    return x;
 }
 
 // ---- pointer jumping (roots and drainage area) ----------------------------------------

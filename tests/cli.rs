@@ -1626,3 +1626,112 @@ fn generate_applies_the_scenes_vertical_scale_to_its_output() {
         assert!((b - 2.5 * a).abs() <= 1e-3 * a.abs().max(1.0), "{a} {b}");
     }
 }
+
+/// Issue 33, points 1, 13, 14 and 17: the style source is an input a run never writes over;
+/// a cell size of 0, NaN, infinity or below 0 is refused by name; a hillshade is a PNG and
+/// refuses another name; negative numbers are values, not flags.
+#[test]
+fn inputs_cell_sizes_pictures_and_negative_numbers() {
+    let dir = out_dir().join("round3");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    std::fs::copy(test_dem("olinda.tif"), dir.join("style.tif")).unwrap();
+    let original = std::fs::read(dir.join("style.tif")).unwrap();
+    refused(
+        &[
+            "generate",
+            "--size",
+            "64",
+            "--backend",
+            "cpu",
+            "--style-from",
+            &p("style.tif"),
+            "--out",
+            &p("style.tif"),
+        ],
+        &["style.tif", "style source"],
+    );
+    assert_eq!(std::fs::read(dir.join("style.tif")).unwrap(), original);
+    let png = test_dem("olinda.png");
+    let png = png.to_string_lossy();
+    for bad in ["0", "nan", "inf", "-1"] {
+        refused(
+            &["analyze", &png, &format!("--cell-size={bad}")],
+            &["cell size", bad],
+        );
+        refused(
+            &["hillshade", &png, "--out", &p("h.png"), "--cell-size", bad],
+            &["cell size"],
+        );
+    }
+    refused(
+        &["hillshade", &png, "--out", &p("shade.tif")],
+        &["PNG", "shade.tif"],
+    );
+    assert!(!dir.join("shade.tif").exists());
+    let out = strahler(&["convert", &png, &p("low.tif"), "--z-scale", "-1"]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
+/// Issue 32, point 5: `analyze --compare` prints the new measures of both DEMs side by side,
+/// and its JSON holds the second DEM's report.
+#[test]
+fn analyze_compares_two_dems_measure_by_measure() {
+    let a = test_dem("srtm_n44e005_crop.tif");
+    let b = test_dem("olinda.tif");
+    let out = strahler(&[
+        "analyze",
+        &a.to_string_lossy(),
+        "--compare",
+        &b.to_string_lossy(),
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for row in [
+        "grid-direction index",
+        "straight channel runs",
+        "flats (< 0.5 deg)",
+        "hypsometric integral",
+        "spectral bump",
+        "olinda.tif",
+    ] {
+        assert!(text.contains(row), "{row}: {text}");
+    }
+    let out = strahler(&[
+        "analyze",
+        &a.to_string_lossy(),
+        "--compare",
+        &b.to_string_lossy(),
+        "--json",
+    ]);
+    let json: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON");
+    let ours = &json["realism"];
+    let theirs = &json["compare"]["realism"];
+    for key in [
+        "grid_direction_index",
+        "flat_fraction",
+        "hypsometric_integral",
+        "straight_channel_fraction",
+    ] {
+        assert!(ours[key].is_f64() && theirs[key].is_f64(), "{key}");
+    }
+    // Olinda is a coastal lowland: far more flats than the Vercors.
+    assert!(theirs["flat_fraction"].as_f64() > ours["flat_fraction"].as_f64());
+    refused(
+        &[
+            "analyze",
+            &a.to_string_lossy(),
+            "--compare",
+            "/nonexistent.tif",
+        ],
+        &["nonexistent.tif"],
+    );
+}

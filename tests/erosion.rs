@@ -190,3 +190,56 @@ fn maps_larger_than_the_solver_grid_are_refined_at_full_resolution() {
         "{single} cells drain only themselves"
     );
 }
+
+/// Issue 32: the same design reads as land at 2, 10 and 50 km map widths. Slopes face every
+/// way (grid-direction index within real land's 0.005-0.09, as the receivers are drawn in
+/// proportion to the slopes), no cell stands steeper than the talus angle + 5 degrees (the
+/// solver's threshold-slope limit; before it, 2 km maps stood at 50-75 degrees), the relief
+/// stays within a quarter of the map's width, few cells are flat (the valley floors rise with
+/// the range: 5.6% flats at 50 km before), and the hypsometric integral is in real land's
+/// range.
+#[test]
+fn one_design_reads_as_land_at_every_map_width() {
+    let talus = ErosionSettings::default().talus_deg.expect("a talus angle");
+    for width_km in [2.0, 10.0, 50.0] {
+        let size = 512;
+        let scene = Scene {
+            size,
+            cell_size: width_km * 1000.0 / size as f64,
+            rivers: vec![river([0.5, 1.0], [0.5, 0.35], 3, 5)],
+            ..Scene::default()
+        };
+        let out = run(&scene);
+        let m = &out.report.realism.as_ref().expect("measured").measures;
+        let what = format!("{width_km} km: {m:?}");
+        assert!(m.grid_direction_index.abs() <= 0.09, "{what}");
+        assert!(m.relief_m <= 0.25 * width_km * 1000.0, "{what}");
+        assert!(m.flat_fraction <= 0.03, "{what}");
+        assert!((0.15..=0.4).contains(&m.hypsometric_integral), "{what}");
+        let steepest = steepest_deg(&out.field, scene.cell_size);
+        assert!(steepest <= talus + 5.0, "{width_km} km: {steepest} degrees");
+    }
+}
+
+/// The steepest Horn slope of the interior cells, degrees.
+fn steepest_deg(field: &Heightfield, cell: f64) -> f64 {
+    let (w, h) = (field.width(), field.height());
+    let z = |x: usize, y: usize| f64::from(field.data()[y * w + x]);
+    let mut steepest = 0.0f64;
+    for y in 1..h - 1 {
+        for x in 1..w - 1 {
+            let dx = (z(x + 1, y - 1) + 2.0 * z(x + 1, y) + z(x + 1, y + 1)
+                - z(x - 1, y - 1)
+                - 2.0 * z(x - 1, y)
+                - z(x - 1, y + 1))
+                / (8.0 * cell);
+            let dy = (z(x - 1, y + 1) + 2.0 * z(x, y + 1) + z(x + 1, y + 1)
+                - z(x - 1, y - 1)
+                - 2.0 * z(x, y - 1)
+                - z(x + 1, y - 1))
+                / (8.0 * cell);
+            steepest = steepest.max(dx.hypot(dy).atan().to_degrees());
+        }
+    }
+    steepest
+}

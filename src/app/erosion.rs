@@ -54,7 +54,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     .labelled_by(label.id);
                 ui.end_row();
             };
-            row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years where the design stands highest above its rivers; in proportion to that height elsewhere, 0 on the rivers.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
+            row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years where the design stands highest above its rivers; 15% of it beside the rivers, levelling off towards the highest ground.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
             row(ui, "Erodibility K", "K of the stream-power law, in m^(1-2m) per year: how fast water cuts rock. Larger K carves deeper valleys.", &mut e.erodibility, 0.0..=1.0, 1e-6);
             row(ui, "m", "Drainage-area exponent m (m/n is the concavity of river profiles, 0.3 to 0.7 in real rivers).", &mut e.m, 0.1..=1.0, 0.01);
             row(ui, "n", "Slope exponent n (1 for most bedrock rivers).", &mut e.n, 0.5..=2.0, 0.01);
@@ -69,7 +69,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             let mut talus = e.talus_deg.is_some();
             let label = ui
                 .label("Talus angle")
-                .on_hover_text("Thermal erosion: scree slides where slopes exceed this angle.");
+                .on_hover_text("Thermal erosion: scree slides where slopes exceed this angle, and (on the CPU) what stands steeper after each step fails, as landslides do.");
             ui.horizontal(|ui| {
                 ui.checkbox(&mut talus, "scree");
                 let mut deg = e.talus_deg.unwrap_or(35.0);
@@ -103,8 +103,9 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 /// the map (when turned on, each run measures it: about 0.1 s at 512 x 512).
 pub(super) fn realism_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.label(RichText::new("Realism").strong()).on_hover_text(
-        "Slope distribution, harmonic cells, geomorphons, drainage density and the wavelet \
-         spectral slope: compare them with `strahler analyze` of a real DEM.",
+        "Slope distribution, harmonic cells, geomorphons, drainage density, the wavelet \
+         spectral slope and bump, the grid-direction index, straight channel runs, flats and \
+         the hypsometric integral: compare them with `strahler analyze DEM --compare REAL`.",
     );
     if ui
         .checkbox(&mut app.measure_realism, "Measure each terrain")

@@ -48,7 +48,7 @@ pub struct AmplifyArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Height range of a PNG heightmap input without a text chunk or sidecar JSON.
-    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
     pub z_range: Option<(f32, f32)>,
     /// Write a JSON report here.
     #[arg(long)]

@@ -21,13 +21,13 @@ pub struct AnalyzeArgs {
     /// The DEM (.tif GeoTIFF, or .png heightmap with its height range).
     pub input: PathBuf,
     /// Height range of a PNG heightmap without a text chunk or sidecar JSON.
-    #[arg(long, value_name = "MIN,MAX", value_parser = parse_z_range)]
+    #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = parse_z_range)]
     pub z_range: Option<(f32, f32)>,
     /// Levels whose band has fewer coefficients are not fitted (the paper uses 16).
     #[arg(long, default_value_t = 16)]
     pub min_coefficients: usize,
     /// Cell size in metres where the file gives none (PNG, RAW) [default: 1].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long, value_parser = super::parse_cell_size)]
     pub cell_size: Option<f64>,
     /// Print JSON instead of the table.
     #[arg(long)]
@@ -41,12 +41,41 @@ pub struct AnalyzeArgs {
     pub network: bool,
     /// Channel initiation area in m² for --network: cells with at least this upstream area
     /// are channels [default: 100000 m², at least 10 cells].
-    #[arg(long, value_name = "M2", requires = "network")]
+    #[arg(
+        allow_hyphen_values = true,
+        long,
+        value_name = "M2",
+        requires = "network"
+    )]
     pub channel_area: Option<f64>,
     /// The scene whose grown river networks --network compares with [default: the scene of
     /// `strahler generate` without arguments, one river from the south edge].
     #[arg(long, value_name = "SCENE.json", requires = "network")]
     pub scene: Option<PathBuf>,
+    /// A second DEM (e.g. a real one) whose realism measures are printed beside the input's.
+    #[arg(long, value_name = "DEM")]
+    pub compare: Option<PathBuf>,
+}
+
+/// The realism report of the DEM at `path` (`--compare`), with its cell size from its
+/// georeferencing, else `cell_size` metres.
+pub fn reference_report(
+    path: &std::path::Path,
+    limits: ReadLimits,
+    cell_size: Option<f64>,
+) -> Result<RealismReport, Box<dyn std::error::Error>> {
+    let dem = super::io::read_dem(path, limits, None)?;
+    let (cx, cy) = dem
+        .georef
+        .cell_size_m(dem.field.height())
+        .or(cell_size.map(|c| (c, c)))
+        .ok_or_else(|| {
+            format!(
+                "{}: its cell size is unknown (no georeferencing); give --cell-size",
+                path.display()
+            )
+        })?;
+    Ok(RealismReport::of(&dem.field, cx, cy))
 }
 
 /// `--network`: the DEM's channel network and the scene's grown networks.
@@ -171,6 +200,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
         .or(args.cell_size.map(|c| (c, c)))
         .unwrap_or((1.0, 1.0));
     let realism = RealismReport::of(&dem.field, cell_x, cell_y);
+    let reference = args
+        .compare
+        .as_deref()
+        .map(|path| reference_report(path, limits, args.cell_size))
+        .transpose()?;
     let network = args
         .network
         .then(|| compare_networks(args, &dem.field, cell_x, cell_y))
@@ -202,6 +236,12 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
             "realism": realism,
         });
         let mut json = json;
+        if let (Some(reference), Some(path)) = (&reference, &args.compare) {
+            json["compare"] = serde_json::json!({
+                "input": path.display().to_string(),
+                "realism": reference,
+            });
+        }
         if let Some(network) = &network {
             json["network"] = serde_json::to_value(network)?;
         }
@@ -259,10 +299,24 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
     for line in realism.lines() {
         println!("  {line}");
     }
+    if let (Some(reference), Some(path)) = (&reference, &args.compare) {
+        let names = (file_name(&args.input), file_name(path));
+        for line in realism.comparison_lines(reference, (&names.0, &names.1)) {
+            println!("  {line}");
+        }
+    }
     if let Some(network) = &network {
         for line in network_table(network) {
             println!("{line}");
         }
     }
     Ok(())
+}
+
+/// The file name of `path` (the whole path where it has none).
+pub fn file_name(path: &std::path::Path) -> String {
+    path.file_name().map_or_else(
+        || path.display().to_string(),
+        |n| n.to_string_lossy().into_owned(),
+    )
 }

@@ -71,7 +71,8 @@ pub fn run(
                             prepared.uplift.clone(),
                             params,
                         )?
-                        .with_floor(prepared.floor.clone())?;
+                        .with_floor(prepared.floor.clone())?
+                        .with_seed(prepared.seed);
                         while e.step() {}
                         (e.into_heights(), f64::NAN)
                     }

@@ -27,7 +27,7 @@ pub struct BlendArgs {
     #[arg(long, value_parser = parse_pair)]
     pub ref_at: (usize, usize),
     /// Multiply the reference's heights (and so its gradients).
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale_z: f32,
     /// Output file (format from the extension).
     #[arg(long)]
@@ -36,7 +36,7 @@ pub struct BlendArgs {
     #[arg(long, default_value = "cpu")]
     pub backend: BackendChoice,
     /// Height range MIN,MAX for PNG/RAW inputs without one.
-    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
     pub z_range: Option<(f32, f32)>,
     /// Write a JSON report of the solve here.
     #[arg(long)]

@@ -21,7 +21,7 @@ pub struct ConvertArgs {
     /// Output: .tif, .png (+ .json), .r16 (+ .json), .asc, .hgt, .obj.
     pub output: PathBuf,
     /// Height range MIN,MAX for PNG and RAW inputs that do not carry one.
-    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
     pub z_range: Option<(f32, f32)>,
     /// Fill no-data cells by harmonic (Laplace) diffusion instead of keeping them.
     #[arg(long)]
@@ -33,7 +33,7 @@ pub struct ConvertArgs {
     #[arg(long)]
     pub size: Option<usize>,
     /// Multiply the heights.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub z_scale: f32,
     /// Refuse inputs with more cells than this.
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]

@@ -28,16 +28,16 @@ pub struct FeaturesArgs {
     #[arg(long)]
     pub rebuild: Option<PathBuf>,
     /// K_gray of eqs. 1-2 (fraction of cells clipped at each end of the grey range).
-    #[arg(long, default_value_t = FeatureParams::default().k_gray)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = FeatureParams::default().k_gray)]
     pub k_gray: f64,
     /// w of eq. 3 (profile threshold).
-    #[arg(long, default_value_t = FeatureParams::default().w)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = FeatureParams::default().w)]
     pub w: f64,
     /// Replace an existing file beside a PNG/R16 output that is not its own sidecar.
     #[arg(long)]
     pub force: bool,
     /// Height range of a PNG heightmap without a text chunk or sidecar JSON.
-    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
     pub z_range: Option<(f32, f32)>,
 }
 

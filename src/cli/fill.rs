@@ -33,7 +33,7 @@ pub struct FillArgs {
     #[arg(long)]
     pub iterations: Option<u32>,
     /// Multigrid residual tolerance as a fraction of the fixed heights' range.
-    #[arg(long, default_value_t = MultigridParams::default().tolerance)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = MultigridParams::default().tolerance)]
     pub tol: f32,
     /// Write a JSON report of the solve here.
     #[arg(long)]
@@ -42,7 +42,7 @@ pub struct FillArgs {
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
     /// Height range MIN,MAX for PNG and RAW inputs that do not carry one.
-    #[arg(long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
+    #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
     pub z_range: Option<(f32, f32)>,
     /// Write the output (and exit 0) even when the solver stops before converging.
     #[arg(long)]

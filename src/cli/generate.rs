@@ -32,19 +32,19 @@ pub struct GenerateArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Width of the map in metres [default: 10000].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub map_width: Option<f64>,
     /// Branching angle theta in degrees [default: 30].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub theta: Option<f64>,
     /// River slope (metres per metre of channel) [default: 0.01].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub slope: Option<f64>,
     /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub alpha: Option<f64>,
     /// Amplitude of the ridge noise of eq. 5, in metres [default: 25].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub noise: Option<f64>,
     /// MD/MDI enrichment passes (0 = off) [default: 2].
     #[arg(long)]
@@ -57,10 +57,10 @@ pub struct GenerateArgs {
     #[arg(long, value_name = "RULE", value_parser = parse_distance_rule)]
     pub distance_rule: Option<crate::skeleton::enrich::DistanceRule>,
     /// Gaussian smoothing of the filled terrain, sigma in cells, kept off the rivers [default: 0].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub smooth: Option<f32>,
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub fbm: Option<f32>,
     /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn erosion off
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
@@ -86,6 +86,10 @@ pub struct GenerateArgs {
     /// Let the output's sidecar `.json` replace an existing file this run did not write.
     #[arg(long)]
     pub force: bool,
+    /// A DEM (e.g. a real one of the same extent) whose realism measures are printed beside
+    /// the terrain's.
+    #[arg(long, value_name = "DEM")]
+    pub compare: Option<PathBuf>,
 }
 
 /// The scene the arguments describe: the file (or the defaults), then the options on top.
@@ -258,12 +262,24 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     if let Some(path) = &args.scene {
         outputs.input(path, "scene");
     }
+    if let Some(path) = &args.style_from {
+        outputs.input(path, "style source");
+    }
+    if let Some(path) = &args.compare {
+        outputs.input(path, "comparison DEM");
+    }
     if let Some(path) = &args.out {
         outputs.claim_dem(path, "output")?;
     }
     if let Some(path) = &args.report {
         outputs.claim(path, "report")?;
     }
+    // The reference is read first: a bad file is reported before the run.
+    let reference = args
+        .compare
+        .as_deref()
+        .map(|path| super::analyze::reference_report(path, crate::dem::ReadLimits::default(), None))
+        .transpose()?;
     let path = super::compute_path(args.backend);
     let backend = args.backend.resolve(&path)?;
     let out = pollster::block_on(pipeline::generate(&scene, &backend, &JobCtx::detached()))?;
@@ -324,6 +340,12 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("realism:");
         for line in realism.lines() {
             println!("  {line}");
+        }
+        if let (Some(reference), Some(path)) = (&reference, &args.compare) {
+            let other = super::analyze::file_name(path);
+            for line in realism.comparison_lines(reference, ("generated", &other)) {
+                println!("  {line}");
+            }
         }
     }
     for note in &r.rivers.trimmed {

@@ -21,10 +21,10 @@ pub struct HillshadeArgs {
     #[arg(long, default_value_t = 512)]
     pub panel: usize,
     /// Cell size in metres for files that give none (PNG, RAW) [default: 1].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long, value_parser = super::parse_cell_size)]
     pub cell_size: Option<f64>,
     /// Height exaggeration.
-    #[arg(long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub z_factor: f64,
 }
 
@@ -36,6 +36,17 @@ pub fn run(args: &HillshadeArgs) -> Result<(), Box<dyn std::error::Error>> {
         return Err(format!(
             "--z-factor must be above 0 and at most 1000, got {}",
             args.z_factor
+        )
+        .into());
+    }
+    let is_png = args
+        .out
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("png"));
+    if !is_png {
+        return Err(format!(
+            "hillshade writes a PNG picture: give --out a .png name, got {}",
+            args.out.display()
         )
         .into());
     }

@@ -57,6 +57,16 @@ pub enum Command {
 
 /// The compute path of the command line: a headless GPU if one computes, else the CPU with
 /// the reason. With `--backend cpu` no GPU is probed at all.
+/// Parses a cell size: a finite number of metres above 0 (at most 1000 km).
+pub fn parse_cell_size(text: &str) -> Result<f64, String> {
+    match text.trim().parse::<f64>() {
+        Ok(v) if v.is_finite() && v > 0.0 && v <= 1.0e6 => Ok(v),
+        _ => Err(format!(
+            "a cell size is a number of metres above 0 (at most 1000000), got {text:?}"
+        )),
+    }
+}
+
 pub fn compute_path(choice: crate::compute::BackendChoice) -> crate::compute::ComputePath {
     use crate::compute::{BackendChoice, ComputePath, CpuReason};
     if choice == BackendChoice::Cpu {

@@ -231,6 +231,7 @@ async fn refine(
         base,
         uplift: Vec::new(),
         floor,
+        seed,
     };
     run_solver(prepared, n, cell_m, params, backend, ctx).await
 }

@@ -7,6 +7,19 @@
 //! `A_i = sum over the donor tree of the cell areas`, accumulated by walking the
 //! stack in reverse.
 //!
+//! Which lower neighbour is the receiver ([`Pick`]): the steepest (D8, O'Callaghan and Mark
+//! 1984), or one drawn at random among the strictly lower neighbours with probabilities in
+//! proportion to their slopes, drawn anew every time step from a hash of the seed, the step
+//! and the cell. The draw is the single-receiver form of the multiple-flow-direction
+//! partition of Freeman (1991), "Calculating catchment area with divergent flow based on a
+//! regular grid", Computers & Geosciences 17(3), and Quinn et al. (1991), with slope
+//! exponent 1: the expected flow direction follows the surface's gradient at any angle,
+//! where the steepest of 8 neighbours locks it to the 8 grid directions (the randomised
+//! single direction of Fairfield and Leymarie 1991, "Drainage networks from grid digital
+//! elevation models", Water Resources Research 27(5), with Freeman's weights). The implicit
+//! solver keeps one receiver a cell, and since the draw changes every step, the channels
+//! the steps carve together follow the land, not the grid.
+//!
 //! Receivers are stored as a D8 direction code per cell (1 byte; [`NONE`] for
 //! base-level cells and pits), not as indices, and the donors of each cell as a
 //! bitmask of D8 directions (1 byte), so the depth-first walk needs no donor lists;
@@ -20,6 +33,36 @@ use super::grid::{D8_DIST, Grid};
 /// Code of a cell without receiver (base level, pit or flat).
 pub(super) const NONE: u8 = 8;
 
+/// How a cell picks its receiver among its strictly lower neighbours (see the module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Pick {
+    /// The steepest descent, ties to the first in D8 order.
+    Steepest,
+    /// One drawn in proportion to the slopes, with this routing's key ([`step_key`]).
+    Random(u32),
+}
+
+/// The key of the random receivers of time step `step` of a run seeded with `seed`.
+pub(super) fn step_key(seed: u64, step: u32) -> u32 {
+    hash32(seed as u32 ^ hash32((seed >> 32) as u32 ^ hash32(step.wrapping_add(1))))
+}
+
+/// Chris Wellons' `lowbias32` integer hash: every input bit moves every output bit; the same
+/// bits in `shaders/erosion.wgsl`.
+pub(super) fn hash32(mut x: u32) -> u32 {
+    x ^= x >> 16;
+    x = x.wrapping_mul(0x7feb_352d);
+    x ^= x >> 15;
+    x = x.wrapping_mul(0x846c_a68b);
+    x ^ (x >> 16)
+}
+
+/// The uniform number in `[0, 1)` of cell `i` under routing key `key` (24 bits).
+#[inline(always)]
+fn draw(key: u32, i: usize) -> f32 {
+    (hash32(i as u32 ^ key) >> 8) as f32 * (1.0 / 16_777_216.0)
+}
+
 /// Receiver codes, donor bitmasks and the stack of one surface.
 pub(super) struct Network {
     /// D8 receiver code per cell ([`NONE`]: no receiver).
@@ -30,6 +73,8 @@ pub(super) struct Network {
     pub(super) stack: Vec<u32>,
     /// Index offset of each receiver code ([`NONE`]: 0).
     pub(super) off: [isize; 9],
+    /// How the next routing picks receivers.
+    pub(super) pick: Pick,
 }
 
 impl Network {
@@ -41,6 +86,7 @@ impl Network {
             donors: vec![0; n],
             stack: Vec::with_capacity(n),
             off: std::array::from_fn(|k| if k < 8 { off[k] } else { 0 }),
+            pick: Pick::Steepest,
         }
     }
 
@@ -181,7 +227,7 @@ impl Network {
                 let code = if base[i] {
                     NONE
                 } else {
-                    steepest(grid, h, x, y, &off)
+                    receiver(grid, h, x, y, &off, self.pick)
                 };
                 self.dir[i] = code;
                 if code != NONE {
@@ -209,7 +255,7 @@ impl Network {
         let off = self.off;
         let (x, y) = grid.xy(i);
         let old = usize::from(self.dir[i]);
-        let new = steepest(grid, h, x, y, &off);
+        let new = receiver(grid, h, x, y, &off, self.pick);
         if old != NONE as usize {
             self.donors[i.wrapping_add_signed(off[old])] &= !(1 << (7 - old));
         }
@@ -334,19 +380,21 @@ struct StackWalk {
     top: usize,
 }
 
-/// D8 code of the steepest strictly lower neighbour of `(x, y)`, or [`NONE`].
+/// `1 / distance` of each D8 step, in cells.
+const INV: [f32; 8] = [
+    std::f32::consts::FRAC_1_SQRT_2,
+    1.0,
+    std::f32::consts::FRAC_1_SQRT_2,
+    1.0,
+    1.0,
+    std::f32::consts::FRAC_1_SQRT_2,
+    1.0,
+    std::f32::consts::FRAC_1_SQRT_2,
+];
+
+/// The slope `dh / distance` (`f32`) to each D8 neighbour of `(x, y)`, 0 off the map.
 #[inline(always)]
-fn steepest(grid: Grid, h: &[f32], x: usize, y: usize, off: &[isize; 9]) -> u8 {
-    const INV: [f32; 8] = [
-        std::f32::consts::FRAC_1_SQRT_2,
-        1.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-        1.0,
-        1.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-        1.0,
-        std::f32::consts::FRAC_1_SQRT_2,
-    ];
+fn slopes(grid: Grid, h: &[f32], x: usize, y: usize, off: &[isize; 9]) -> [f32; 8] {
     debug_assert!(
         INV.iter()
             .zip(D8_DIST)
@@ -355,20 +403,94 @@ fn steepest(grid: Grid, h: &[f32], x: usize, y: usize, off: &[isize; 9]) -> u8 {
     let i = y * grid.width + x;
     let hi = h[i];
     let interior = grid.interior(x, y);
-    let (mut best, mut steepest) = (NONE, 0.0f32);
-    for d in 0..8 {
+    std::array::from_fn(|d| {
         let j = if interior {
             i.wrapping_add_signed(off[d])
         } else {
             match grid.neighbour(x, y, d) {
                 Some(j) => j,
-                None => continue,
+                None => return 0.0,
             }
         };
-        let s = (hi - h[j]) * INV[d];
+        (hi - h[j]) * INV[d]
+    })
+}
+
+/// D8 code of the receiver of `(x, y)` by `pick`, or [`NONE`] where no neighbour is
+/// strictly lower.
+#[inline(always)]
+fn receiver(grid: Grid, h: &[f32], x: usize, y: usize, off: &[isize; 9], pick: Pick) -> u8 {
+    let s = slopes(grid, h, x, y, off);
+    match pick {
+        Pick::Steepest => steepest(&s),
+        Pick::Random(key) => drawn(&s, draw(key, y * grid.width + x)),
+    }
+}
+
+/// The steepest positive slope's code (ties to the first), or [`NONE`].
+#[inline(always)]
+fn steepest(s: &[f32; 8]) -> u8 {
+    let (mut best, mut steepest) = (NONE, 0.0f32);
+    for (d, &s) in s.iter().enumerate() {
         let better = s > steepest;
         steepest = if better { s } else { steepest };
         best = if better { d as u8 } else { best };
     }
     best
+}
+
+/// The code whose share of the positive slopes' sum holds `u * sum` (`u` in `[0, 1)`): each
+/// lower neighbour with probability `slope / sum`. [`NONE`] without a positive slope.
+#[inline(always)]
+fn drawn(s: &[f32; 8], u: f32) -> u8 {
+    let total: f32 = s.iter().map(|s| s.max(0.0)).sum();
+    let target = u * total;
+    let (mut sum, mut last) = (0.0f32, NONE);
+    for (d, &s) in s.iter().enumerate() {
+        if s > 0.0 {
+            sum += s;
+            last = d as u8;
+            if target < sum {
+                return last;
+            }
+        }
+    }
+    last // rounding: the last lower neighbour
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Over uniform draws, each lower neighbour is picked in proportion to its slope; higher
+    /// neighbours and neighbours off the map (slope 0) never.
+    #[test]
+    fn draws_follow_the_slopes() {
+        let s = [0.5, -1.0, 0.0, 1.5, 0.0, 2.0, -0.2, 0.0];
+        let mut counts = [0usize; 9];
+        let draws = 40_000;
+        for k in 0..draws {
+            counts[usize::from(drawn(&s, draw(step_key(9, 0), k)))] += 1;
+        }
+        for (d, &slope) in s.iter().enumerate() {
+            let expected = f64::from(slope.max(0.0)) / 4.0;
+            let got = counts[d] as f64 / draws as f64;
+            assert!(
+                (got - expected).abs() < 0.01,
+                "direction {d}: {got} vs {expected}"
+            );
+        }
+        assert_eq!(counts[usize::from(NONE)], 0);
+        assert_eq!(drawn(&[0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0.5), NONE);
+        assert_eq!(steepest(&s), 5);
+    }
+
+    /// The draws change with the step and the seed, and are the same for the same ones.
+    #[test]
+    fn keys_depend_on_seed_and_step() {
+        assert_eq!(step_key(1, 2), step_key(1, 2));
+        assert_ne!(step_key(1, 2), step_key(1, 3));
+        assert_ne!(step_key(1, 2), step_key(2, 2));
+        assert_ne!(step_key(1 << 40, 2), step_key(0, 2));
+    }
 }

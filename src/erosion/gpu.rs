@@ -3,9 +3,10 @@
 //! "Large-scale terrain authoring through interactive erosion simulation", ACM TOG 42(5).
 //!
 //! One step (all on the GPU, no readback; the host only records dispatches):
-//! 1. **Receivers**: D8 steepest descent with the CPU's tie rule (first direction in D8
-//!    order, strict descent), the same `f32` slopes, so the same heights give the same
-//!    receivers.
+//! 1. **Receivers**: the CPU's rule (`flow.rs`) with the same `f32` slopes, so the same
+//!    heights give the same receivers: D8 steepest descent (ties to the first direction in
+//!    D8 order, strict descent), or, with a seed, one lower neighbour drawn in proportion
+//!    to the slopes from the same hash of the seed, the step and the cell.
 //! 2. **Lakes**: where a flow path ends in a pit (found by pointer jumping to each path's
 //!    terminal cell), the water level is found by Planchon & Darboux (2001), "A fast, simple
 //!    and versatile algorithm to fill the depressions of digital elevation models", Catena
@@ -48,6 +49,10 @@
 //! (Priority-Flood + epsilon of the basins of any pit left, as after the CPU solver), so its
 //! guarantees (no pit, every cell reaching an outlet) hold whatever the GPU's lakes left.
 //!
+//! Not yet on the GPU: the CPU's threshold-slope limit (`slope_limit.rs`, two raster scans a
+//! step, sequential by nature): the GPU's surfaces keep only the talus relaxation, and stand
+//! steeper than the talus angle on small maps where uplift outpaces it.
+//!
 //! Why it is not bit-exact with the CPU: talus in Jacobi form, `f32` on the GPU where the
 //! CPU's incision works in `f64`, the tree solved in another order (other rounding), lakes
 //! filled by bounded passes; a different bit can flip a receiver at a near-tie, and then
@@ -57,6 +62,7 @@
 
 use wgpu::util::DeviceExt;
 
+use super::flow::step_key;
 use super::params::ErosionParams;
 use super::thermal::THERMAL_PASSES;
 use super::{ErosionError, check_finite, check_grid, check_len};
@@ -127,6 +133,9 @@ pub struct GpuInput<'a> {
     /// Heights no cell is lowered below after each step, or none.
     pub floor: Option<&'a [f32]>,
     pub params: ErosionParams,
+    /// The random receivers' seed ([`Eroder::with_seed`](super::Eroder::with_seed)); `None`:
+    /// steepest descent.
+    pub seed: Option<u64>,
 }
 
 /// The GPU solver's result: the heights after the last step with the pits it left (lakes
@@ -152,7 +161,10 @@ pub struct GpuEroded {
 struct Params {
     width: u32,
     height: u32,
-    _pad: [u32; 2],
+    /// The step's routing key ([`step_key`]) and whether receivers are drawn (1) or the
+    /// steepest (0).
+    route_key: u32,
+    random: u32,
     r: f32,
     limit_axis: f32,
     limit_diag: f32,
@@ -263,6 +275,7 @@ async fn erode_with(
         uplift,
         floor,
         params: p,
+        seed,
     } = input;
     let grid = check_grid(w, h, cell_m)?;
     let n = grid.len();
@@ -304,7 +317,8 @@ async fn erode_with(
     let uniform = Params {
         width: w as u32,
         height: h as u32,
-        _pad: [0; 2],
+        route_key: 0,
+        random: u32::from(seed.is_some()),
         r: r as f32,
         limit_axis: (tan * cell_m) as f32,
         limit_diag: (tan * std::f64::consts::SQRT_2 * cell_m) as f32,
@@ -334,7 +348,7 @@ async fn erode_with(
     let params = init(
         "erosion params",
         bytemuck::bytes_of(&uniform),
-        wgpu::BufferUsages::UNIFORM,
+        wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
     );
     let mut words = vec![0u32; n.div_ceil(32)];
     for (i, _) in base_level.iter().enumerate().filter(|(_, b)| **b) {
@@ -452,6 +466,13 @@ async fn erode_with(
     let sweeps = ((r as f32).sqrt().ceil() as usize).clamp(2, 8);
     let steps = p.steps;
     for step in 0..steps {
+        if let Some(seed) = seed {
+            let key = Params {
+                route_key: step_key(seed, step),
+                ..uniform
+            };
+            gpu.queue.write_buffer(&params, 0, bytemuck::bytes_of(&key));
+        }
         let mut scope = Some(device.push_error_scope(wgpu::ErrorFilter::Validation));
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("erosion step"),

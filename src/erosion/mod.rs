@@ -10,17 +10,25 @@
 //! fluvial incision and landscape evolution", Geomorphology 180–181, 170–179.
 //!
 //! One [`Eroder::step`] (all O(cells), single-threaded, deterministic):
-//! 1. D8 steepest-descent receivers (`flow.rs`); free cells without a lower
-//!    neighbour (pits) are detected in the same pass, and only if there are any, their
+//! 1. receivers (`flow.rs`): D8 steepest descent, or with [`Eroder::with_seed`] (as the
+//!    pipeline runs it) one lower neighbour drawn in proportion to the slopes, anew each
+//!    step, so that channels do not lock onto the grid's 8 directions; free cells without a
+//!    lower neighbour (pits) are detected in the same pass, and only if there are any, their
 //!    depressions are filled to the sill (Priority-Flood + epsilon, `fill.rs`);
 //! 2. the depth-first stack from the base-level cells and the drainage area along
 //!    the reversed stack (`flow.rs`);
-//! 3. implicit stream-power incision + uplift in stack order (`stream_power.rs`);
+//! 3. implicit stream-power incision + uplift in stack order (`stream_power.rs`), then,
+//!    when set, the threshold-slope limit (`slope_limit.rs`);
 //! 4. implicit hillslope diffusion (`diffusion.rs`) and optional talus relaxation
 //!    (`thermal.rs`): operator splitting, receivers are fixed within a step.
 //!
 //! After the last step the routing is redone once more, so the final surface has a
 //! strictly descending path from every free cell to base level.
+//!
+//! With [`Eroder::with_slope_limit`] (the pipeline sets it with the talus angle) each step
+//! also holds the slopes to the threshold angle after the incision (`slope_limit.rs`), so
+//! small maps, where uplift outpaces the talus relaxation, keep slopes rock stands. The GPU
+//! solver does not have this limit yet (see `gpu.rs`).
 //!
 //! [`Eroder::advance`] runs a step in pieces of about [`CHUNK_CELLS`] cells (bands of rows,
 //! runs of the stack in its fixed order, lakes one by one), so a browser job can yield
@@ -45,6 +53,7 @@ pub mod gpu;
 mod grid;
 mod layers;
 mod params;
+mod slope_limit;
 mod stage;
 mod stream_power;
 mod thermal;
@@ -84,6 +93,9 @@ enum Phase {
     },
     /// Talus relaxation: the pass and the next row of its scan.
     Talus { pass: usize, row: usize },
+    /// The threshold-slope limit ([`Eroder::with_slope_limit`]): the scan (forward, then
+    /// backward) and the next row of it.
+    Limit { forward: bool, row: usize },
     /// The floor, from cell `next` on.
     Floor { next: usize },
 }
@@ -112,6 +124,10 @@ pub struct Eroder {
     finishing: bool,
     /// Cells of work per [`Eroder::advance`] ([`CHUNK_CELLS`]).
     chunk: usize,
+    /// The seed of the random receivers ([`Eroder::with_seed`]); `None`: steepest descent.
+    seed: Option<u64>,
+    /// The threshold-slope limit after each step's incision ([`Eroder::with_slope_limit`]).
+    limit: Option<slope_limit::Mask>,
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -213,7 +229,37 @@ impl Eroder {
             phase: Phase::Route(flow::Route::new(None)),
             finishing: false,
             chunk: CHUNK_CELLS,
+            seed: None,
+            limit: None,
         })
+    }
+
+    /// Holds the slopes of the surface to `talus_deg` after each step's incision, before the
+    /// hillslope diffusion (`slope_limit.rs`: what stands above the threshold slope fails, as
+    /// landslides do, and the diffusion rounds the crests the limit leaves): one forward and
+    /// one backward scan a step, exact where no base-level cell bends the paths, and the
+    /// next step's scans go on from there.
+    pub fn with_slope_limit(mut self, talus_deg: f64) -> Self {
+        let g = self.grid;
+        self.limit = Some(slope_limit::Mask::new(g.width, g.height, g.cell, talus_deg));
+        self
+    }
+
+    /// Draws each cell's receiver at random among its lower neighbours, in proportion to
+    /// their slopes, anew every step, from `seed` (see `flow.rs`): isotropic channels, the
+    /// same bits for the same seed. Without it receivers are the steepest descent (D8).
+    pub fn with_seed(mut self, seed: u64) -> Self {
+        self.seed = Some(seed);
+        self.net.pick = self.pick();
+        self
+    }
+
+    /// How the current step's routing picks receivers.
+    fn pick(&self) -> flow::Pick {
+        match self.seed {
+            Some(seed) => flow::Pick::Random(flow::step_key(seed, self.steps_done)),
+            None => flow::Pick::Steepest,
+        }
     }
 
     /// Sets heights below which no cell is lowered (applied after every step). The pipeline
@@ -297,6 +343,17 @@ impl Eroder {
                 }
                 *sweep == self.diffusion.sweeps()
             }
+            Phase::Limit { forward, row } => {
+                let band = *row..row.saturating_add(rows).min(g.height);
+                if let Some(mask) = &self.limit {
+                    mask.scan(&mut self.heights, &self.base, band.clone(), *forward);
+                }
+                *row = band.end;
+                if *row == g.height && *forward {
+                    (*forward, *row) = (false, 0);
+                }
+                *row == g.height
+            }
             Phase::Talus { pass, row } => {
                 let band = *row..row.saturating_add(rows).min(g.height);
                 if let Some(talus) = &self.talus {
@@ -335,7 +392,11 @@ impl Eroder {
             }
             Phase::Area { .. } if self.finishing => return self.end_step(),
             Phase::Area { .. } => Phase::Incise { next: 0 },
-            Phase::Incise { .. } if p.diffusivity > 0.0 => {
+            Phase::Incise { .. } if self.limit.is_some() => Phase::Limit {
+                forward: true,
+                row: 0,
+            },
+            Phase::Incise { .. } | Phase::Limit { .. } if p.diffusivity > 0.0 => {
                 self.scratch.copy_from_slice(&self.heights);
                 Phase::Hillslope {
                     sweep: 0,
@@ -343,15 +404,21 @@ impl Eroder {
                     row: 0,
                 }
             }
-            Phase::Incise { .. } | Phase::Hillslope { .. } if self.talus.is_some() => {
+            Phase::Incise { .. } | Phase::Limit { .. } | Phase::Hillslope { .. }
+                if self.talus.is_some() =>
+            {
                 Phase::Talus { pass: 0, row: 0 }
             }
-            Phase::Incise { .. } | Phase::Hillslope { .. } | Phase::Talus { .. }
+            Phase::Incise { .. }
+            | Phase::Limit { .. }
+            | Phase::Hillslope { .. }
+            | Phase::Talus { .. }
                 if !self.floor.is_empty() =>
             {
                 Phase::Floor { next: 0 }
             }
             Phase::Incise { .. }
+            | Phase::Limit { .. }
             | Phase::Hillslope { .. }
             | Phase::Talus { .. }
             | Phase::Floor { .. } => {
@@ -370,6 +437,7 @@ impl Eroder {
     fn end_step(&mut self) -> bool {
         self.steps_done += 1;
         self.finishing = false;
+        self.net.pick = self.pick();
         self.phase = Phase::Route(flow::Route::new(None));
         true
     }

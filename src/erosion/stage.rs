@@ -27,7 +27,8 @@ pub struct ErosionSettings {
     /// The preset these values came from ("custom" once edited); for the user only.
     pub preset: String,
     /// Uplift rate U in metres per thousand years where the design stands highest above its
-    /// nearest river; elsewhere in proportion to that height (0 on the rivers).
+    /// nearest river; [`RIVERSIDE_UPLIFT`] of it beside the rivers, levelling off towards the
+    /// highest ground ([`uplift_from_design`]).
     pub uplift_m_per_kyr: f64,
     /// Erodibility K of the stream-power law, in m^(1-2m) per year.
     pub erodibility: f64,
@@ -397,8 +398,18 @@ impl ChannelWalk {
     }
 }
 
-/// The uplift map (m/yr): `max_m_per_yr` times the design's height above its nearest
-/// channel (`channel`, from [`nearest_channel`]), over the largest such height.
+/// Share of the largest uplift rate that the land beside the rivers gets.
+pub const RIVERSIDE_UPLIFT: f32 = 0.15;
+
+/// The uplift map (m/yr) from the design: with `r` the design's height above its nearest
+/// channel (`channel`, from [`nearest_channel`]) over the largest such height,
+/// `U = max_m_per_yr * (s + (1 - s) (1 - (1 - r)^2))`, `s` = [`RIVERSIDE_UPLIFT`].
+///
+/// The whole range rises, as rock uplift does (the rivers then cut their valleys into it),
+/// and the rate levels off towards the design's highest ground: land in proportion to `r`
+/// alone would stay flat beside every river (no uplift there, the valley floors left as the
+/// design drew them: flat strips 8 cells wide at 50 km) and rise fastest in the map's corners,
+/// farthest from the rivers, which then hold the highest ground of every map.
 pub fn uplift_from_design(field: &Heightfield, channel: &[f32], max_m_per_yr: f64) -> Vec<f32> {
     let above: Vec<f32> = field
         .data()
@@ -407,12 +418,15 @@ pub fn uplift_from_design(field: &Heightfield, channel: &[f32], max_m_per_yr: f6
         .map(|(h, b)| (h - b).max(0.0))
         .collect();
     let top = above.iter().copied().fold(0.0f32, f32::max);
-    let scale = if top > 0.0 {
-        max_m_per_yr as f32 / top
-    } else {
-        0.0
-    };
-    above.iter().map(|a| a * scale).collect()
+    let max = max_m_per_yr as f32;
+    let s = RIVERSIDE_UPLIFT;
+    above
+        .iter()
+        .map(|a| {
+            let r = if top > 0.0 { a / top } else { 0.0 };
+            max * (s + (1.0 - s) * (1.0 - (1.0 - r) * (1.0 - r)))
+        })
+        .collect()
 }
 
 /// Adds zero-mean noise of standard deviation `sigma` metres to every cell that is not base
@@ -480,6 +494,8 @@ pub struct Prepared {
     /// m/yr; empty: none.
     pub uplift: Vec<f32>,
     pub floor: Vec<f32>,
+    /// The seed of the solver's random receivers ([`super::Eroder::with_seed`]).
+    pub seed: u64,
 }
 
 impl Prepared {
@@ -494,6 +510,7 @@ impl Prepared {
             uplift: &self.uplift,
             floor: Some(&self.floor),
             params,
+            seed: Some(self.seed),
         }
     }
 
@@ -516,6 +533,7 @@ impl Prepared {
             base,
             uplift,
             floor,
+            seed,
         }
     }
 
@@ -553,6 +571,7 @@ impl Prepared {
             base,
             uplift,
             floor,
+            seed,
         })
     }
 }
@@ -636,8 +655,15 @@ pub(super) async fn run_solver(
         base,
         uplift,
         floor,
+        seed,
     } = prepared;
-    let mut eroder = Eroder::new(start, n, n, cell_m, base, uplift, params)?.with_floor(floor)?;
+    let mut eroder = Eroder::new(start, n, n, cell_m, base, uplift, params)?
+        .with_floor(floor)?
+        .with_seed(seed);
+    // The talus relaxation moves scree below the angle; the limit cuts what it could not.
+    if let Some(talus) = params.talus_deg {
+        eroder = eroder.with_slope_limit(talus);
+    }
     let steps = params.steps.max(1);
     // Piece by piece (a band of rows, a run of the stack, a few lakes), so the browser gets
     // its turn every few milliseconds.

@@ -21,7 +21,17 @@ use crate::radix_heap::{RadixHeap, ordered_key_f64};
 pub(super) struct Drainage {
     /// Channel length (km) per km² of finite cells.
     pub(super) density_per_km: f64,
+    /// Among the [`STRAIGHT_TOP_SHARE`] of cells with the largest upstream area, the share
+    /// whose flow has kept one D8 direction for [`STRAIGHT_RUN_CELLS`] cells or more
+    /// upstream (along the donor of largest area): real land 0.04-0.13, channels locked to
+    /// the grid's lines more.
+    pub(super) straight_fraction: f64,
 }
+
+/// Share of the cells (largest upstream area first) the straight-run measure looks at.
+pub const STRAIGHT_TOP_SHARE: f64 = 0.05;
+/// Cells of one direction that make a run straight.
+pub const STRAIGHT_RUN_CELLS: u32 = 8;
 
 /// Is cell `(r, c)` an outlet: on the border, or next to a non-finite cell?
 fn is_outlet(g: &Grid, r: usize, c: usize) -> bool {
@@ -158,6 +168,7 @@ pub(super) fn drainage(g: &Grid, threshold_m2: f64) -> Drainage {
             length_m += step;
         }
     }
+    let straight_fraction = straight_fraction(&area, &rcv);
     let finite = g.z.iter().filter(|v| v.is_finite()).count();
     let area_km2 = finite as f64 * g.cx * g.cy / 1e6;
     let density_per_km = if area_km2 > 0.0 {
@@ -165,7 +176,46 @@ pub(super) fn drainage(g: &Grid, threshold_m2: f64) -> Drainage {
     } else {
         0.0
     };
-    Drainage { density_per_km }
+    Drainage {
+        density_per_km,
+        straight_fraction,
+    }
+}
+
+/// [`Drainage::straight_fraction`] of the routing `rcv` with upstream areas `area`. Every
+/// cell drains more area than each of its donors, so cells in ascending area come after
+/// their donors: one pass in that order carries each cell's run of one direction down to
+/// its receiver. O(cells log cells).
+fn straight_fraction(area: &[f64], rcv: &[Option<(usize, f64)>]) -> f64 {
+    let mut order: Vec<usize> = (0..rcv.len()).filter(|&i| rcv[i].is_some()).collect();
+    if order.is_empty() {
+        return 0.0;
+    }
+    order.sort_by(|&a, &b| area[a].total_cmp(&area[b]).then(a.cmp(&b)));
+    // The donor of largest area of each cell (usize::MAX: none yet) and each cell's run.
+    let mut main = vec![usize::MAX; rcv.len()];
+    let mut run = vec![0u32; rcv.len()];
+    let step = |i: usize| rcv[i].map(|(j, _)| j as isize - i as isize);
+    for &i in &order {
+        let m = main[i];
+        run[i] = if m != usize::MAX && step(m) == step(i) {
+            run[m] + 1
+        } else {
+            1
+        };
+        if let Some((j, _)) = rcv[i] {
+            let k = main[j];
+            if k == usize::MAX || area[i] > area[k] || (area[i] == area[k] && i < k) {
+                main[j] = i;
+            }
+        }
+    }
+    let top = ((order.len() as f64 * STRAIGHT_TOP_SHARE).ceil() as usize).max(1);
+    let straight = order[order.len() - top..]
+        .iter()
+        .filter(|&&i| run[i] >= STRAIGHT_RUN_CELLS)
+        .count();
+    straight as f64 / top as f64
 }
 
 #[cfg(test)]

@@ -8,7 +8,9 @@
 //! * geomorphon class fractions (Jasiewicz and Stepinski 2013);
 //! * drainage density from D8 flow accumulation on a Priority-Flood+ε filled copy
 //!   (Barnes et al. 2014);
-//! * relief and the number of measured cells.
+//! * relief and the number of measured cells;
+//! * the grid-direction index, flat fraction and hypsometric integral (`landform.rs`) and the
+//!   share of straight channel runs (`drainage.rs`): the marks of a synthetic terrain.
 //!
 //! [`network`] extracts a DEM's channel network (the same fill and D8) as a forest of
 //! channel cells and gives it the river statistics of a generated network.
@@ -20,6 +22,7 @@ mod drainage;
 mod geomorphon;
 mod grid;
 mod harmonic;
+mod landform;
 pub mod network;
 mod report;
 mod slope;
@@ -27,8 +30,10 @@ mod ssim;
 #[cfg(test)]
 mod tests;
 
+pub use self::drainage::{STRAIGHT_RUN_CELLS, STRAIGHT_TOP_SHARE};
 pub use self::geomorphon::GEOMORPHON_NAMES;
 use self::grid::Grid;
+pub use self::landform::FLAT_DEG;
 pub use self::network::{ChannelNetwork, ChannelReport, extract_channels};
 pub use self::report::{BandFit, RealismReport};
 pub use self::ssim::ssim;
@@ -55,6 +60,17 @@ pub struct Realism {
     pub channel_threshold_m2: f64,
     /// Maximum minus minimum of the finite heights, m.
     pub relief_m: f64,
+    /// Slope-weighted mean of `cos(8 aspect)` (central differences): about 0 on real land
+    /// (0.005-0.09), 0.2-0.3 where slopes face the 8 grid directions (D8 routing's mark).
+    pub grid_direction_index: f64,
+    /// Share of the interior cells flatter than [`FLAT_DEG`] degrees.
+    pub flat_fraction: f64,
+    /// `(mean - min) / (max - min)` of the finite heights (real land 0.15-0.36).
+    pub hypsometric_integral: f64,
+    /// Among the [`STRAIGHT_TOP_SHARE`] of cells with the largest D8 drainage area, the share
+    /// whose flow kept one direction for [`STRAIGHT_RUN_CELLS`] cells or more (real land
+    /// 0.04-0.13).
+    pub straight_channel_fraction: f64,
     /// Number of interior cells measured (not on the border, 3x3 window finite).
     pub cells: usize,
 }
@@ -126,8 +142,8 @@ pub fn measure(
         0.0
     };
     // The drainage (a serial flood and routing) beside the local measures, natively.
-    let (density, local) = crate::parallel::join(
-        || drainage::drainage(&g, threshold).density_per_km,
+    let (flow, local) = crate::parallel::join(
+        || drainage::drainage(&g, threshold),
         || {
             (report.cells > 0).then(|| {
                 let mut slopes = slope::slopes_deg(&g, &interior);
@@ -136,15 +152,24 @@ pub fn measure(
                 let harmonic = harmonic::harmonic_fraction(&g, &interior);
                 let radius = params.geomorphon_radius_cells.max(1);
                 let forms = geomorphon::class_fractions(&g, &interior, radius, flat_deg);
-                (percentiles, harmonic, forms)
+                (
+                    percentiles,
+                    harmonic,
+                    forms,
+                    landform::landform(&g, &interior),
+                )
             })
         },
     );
-    report.drainage_density_per_km = density;
-    if let Some((percentiles, harmonic, forms)) = local {
+    report.drainage_density_per_km = flow.density_per_km;
+    report.straight_channel_fraction = flow.straight_fraction;
+    if let Some((percentiles, harmonic, forms, land)) = local {
         report.slope_deg_percentiles = percentiles;
         report.harmonic_fraction = harmonic;
         report.geomorphons = forms;
+        report.grid_direction_index = land.grid_direction_index;
+        report.flat_fraction = land.flat_fraction;
+        report.hypsometric_integral = land.hypsometric_integral;
     }
     report
 }

@@ -21,6 +21,10 @@ pub struct RealismReport {
     pub wavelet_fits: Vec<BandFit>,
     /// log2 of the detail variance per level, finest first, the bands pooled (their mean).
     pub log2_variance: Vec<Option<f64>>,
+    /// Largest distance (log2 units) of a level's pooled log-variance from the least-squares
+    /// line through the levels the wavelet fits use: real land 0.3-0.9; a terrain dissected at one spacing has
+    /// one level standing out by 2.
+    pub spectral_bump: Option<f64>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -61,7 +65,7 @@ impl RealismReport {
             })
             .collect();
         let spectral_gamma = analysis.as_ref().and_then(wavelet::Analysis::pooled_gamma);
-        let log2_variance = analysis
+        let log2_variance: Vec<Option<f64>> = analysis
             .iter()
             .flat_map(|a| {
                 a.levels.iter().map(|l| {
@@ -70,11 +74,23 @@ impl RealismReport {
                 })
             })
             .collect();
+        // The bump over the levels the fits use (enough coefficients to be measured).
+        let fitted: Vec<Option<f64>> = analysis
+            .iter()
+            .flat_map(|a| {
+                a.levels
+                    .iter()
+                    .zip(&log2_variance)
+                    .map(|(l, v)| v.filter(|_| l.fitted.iter().any(|f| *f)))
+            })
+            .collect();
+        let spectral_bump = spectral_bump(&fitted);
         Self {
             measures,
             spectral_gamma,
             wavelet_fits,
             log2_variance,
+            spectral_bump,
         }
     }
 
@@ -115,6 +131,156 @@ impl RealismReport {
             )),
             None => lines.push("spectral slope: no wavelet fit (voids or too small)".into()),
         }
+        if let Some(b) = self.spectral_bump {
+            lines.push(format!(
+                "spectral bump {b:.2} log2 units (largest level off the line; real land 0.3 to 0.9)"
+            ));
+        }
+        lines.push(format!(
+            "grid-direction index {:.3} (real land 0.005 to 0.09); straight channel runs {:.1}% \
+             (real 4 to 13%)",
+            m.grid_direction_index,
+            m.straight_channel_fraction * 100.0
+        ));
+        lines.push(format!(
+            "flats (under {} degrees) {:.1}% (mountains about 1%); hypsometric integral {:.2} \
+             (real 0.15 to 0.36)",
+            super::FLAT_DEG,
+            m.flat_fraction * 100.0,
+            m.hypsometric_integral
+        ));
         lines
+    }
+}
+
+impl RealismReport {
+    /// `self` and `other` (e.g. a real DEM) side by side, a measure a line, with the range of
+    /// real land where one is known (`shared/docs/realism.md`).
+    pub fn comparison_lines(&self, other: &RealismReport, names: (&str, &str)) -> Vec<String> {
+        let rows: Vec<(&str, [String; 2], &str)> = vec![
+            (
+                "relief (m)",
+                self.pair(other, |r| format!("{:.0}", r.measures.relief_m)),
+                "",
+            ),
+            ("slope p10 (deg)", self.pair(other, |r| slope(r, 0)), ""),
+            ("slope median (deg)", self.pair(other, |r| slope(r, 2)), ""),
+            ("slope p90 (deg)", self.pair(other, |r| slope(r, 4)), ""),
+            (
+                "grid-direction index",
+                self.pair(other, |r| format!("{:.3}", r.measures.grid_direction_index)),
+                "0.005-0.09",
+            ),
+            (
+                "straight channel runs",
+                self.pair(other, |r| percent(r.measures.straight_channel_fraction)),
+                "4-13%",
+            ),
+            (
+                "flats (< 0.5 deg)",
+                self.pair(other, |r| percent(r.measures.flat_fraction)),
+                "~1% (mountains)",
+            ),
+            (
+                "harmonic cells",
+                self.pair(other, |r| percent(r.measures.harmonic_fraction)),
+                "2-5%",
+            ),
+            (
+                "hypsometric integral",
+                self.pair(other, |r| format!("{:.2}", r.measures.hypsometric_integral)),
+                "0.15-0.36",
+            ),
+            (
+                "spectral slope gamma",
+                self.pair(other, |r| optional(r.spectral_gamma)),
+                "2.5-4.5",
+            ),
+            (
+                "spectral bump (log2)",
+                self.pair(other, |r| optional(r.spectral_bump)),
+                "0.3-0.9",
+            ),
+            (
+                "drainage density (/km)",
+                self.pair(other, |r| {
+                    format!("{:.2}", r.measures.drainage_density_per_km)
+                }),
+                "",
+            ),
+        ];
+        let mut lines = vec![format!(
+            "{:<24}{:>14}{:>14}  {}",
+            "",
+            clip(names.0),
+            clip(names.1),
+            "real land"
+        )];
+        for (label, [a, b], real) in rows {
+            lines.push(format!("{label:<24}{a:>14}{b:>14}  {real}"));
+        }
+        lines
+    }
+
+    fn pair(&self, other: &RealismReport, f: impl Fn(&RealismReport) -> String) -> [String; 2] {
+        [f(self), f(other)]
+    }
+}
+
+fn slope(r: &RealismReport, k: usize) -> String {
+    format!("{:.1}", r.measures.slope_deg_percentiles[k])
+}
+
+fn percent(f: f64) -> String {
+    format!("{:.1}%", f * 100.0)
+}
+
+fn optional(v: Option<f64>) -> String {
+    v.map_or("-".to_owned(), |v| format!("{v:.2}"))
+}
+
+/// The last 13 characters of a column's name.
+fn clip(name: &str) -> String {
+    let chars: Vec<char> = name.chars().collect();
+    chars[chars.len().saturating_sub(13)..].iter().collect()
+}
+
+/// The largest distance of a level's value from the least-squares line through the levels
+/// that have one (`None` with fewer than 3).
+pub(super) fn spectral_bump(log2_variance: &[Option<f64>]) -> Option<f64> {
+    let points: Vec<(f64, f64)> = log2_variance
+        .iter()
+        .enumerate()
+        .filter_map(|(k, v)| v.map(|v| (k as f64, v)))
+        .collect();
+    if points.len() < 3 {
+        return None;
+    }
+    let n = points.len() as f64;
+    let (mx, my) = points
+        .iter()
+        .fold((0.0, 0.0), |(a, b), (x, y)| (a + x / n, b + y / n));
+    let sxy: f64 = points.iter().map(|(x, y)| (x - mx) * (y - my)).sum();
+    let sxx: f64 = points.iter().map(|(x, _)| (x - mx) * (x - mx)).sum();
+    let slope = sxy / sxx;
+    points
+        .iter()
+        .map(|(x, y)| (y - my - slope * (x - mx)).abs())
+        .reduce(f64::max)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::spectral_bump;
+
+    #[test]
+    fn bump_is_the_largest_distance_from_the_line() {
+        assert_eq!(spectral_bump(&[Some(1.0), None, Some(3.0)]), None);
+        let line: Vec<Option<f64>> = (0..6).map(|k| Some(2.0 * k as f64 - 1.0)).collect();
+        assert!(spectral_bump(&line).expect("a fit") < 1e-12);
+        let mut bumped = line.clone();
+        bumped[2] = Some(3.0 + 2.0);
+        let b = spectral_bump(&bumped).expect("a fit");
+        assert!(b > 1.5 && b < 2.0, "{b}");
     }
 }
