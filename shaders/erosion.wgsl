@@ -16,7 +16,7 @@
 //    receiver matrix (nilpotent on a forest), A = (I - M)^-1 a = prod_k (I + M^(2^k)) a, so
 //    log2(cells) passes, each adding every cell's partial sum to the cell 2^k hops downstream
 //    (integer cell counts, atomicAdd: exact and deterministic).
-// 4. The implicit update h_i' = (h_i + dt U_i + F_i h_r') / (1 + F_i), F_i = K dt A^m / L^n
+// 4. The implicit update h_i' = (h_i + dt U_i + F_i h_r') / (1 + F_i), F_i = K_i dt A^m / L^n
 //    (Braun & Willett eq. 22 for n = 1) is the linear recurrence h_i' = b_i + c_i h_r' along
 //    the receiver tree, solved by the same pointer jumping (`implicit_init`,
 //    `implicit_jump`: b_i += c_i b_p, c_i *= c_p); `implicit_polish` then runs Jacobi passes
@@ -372,6 +372,8 @@ fn lift(@builtin(global_invocation_id) gid: vec3<u32>) {
 @group(0) @binding(3) var<storage, read> inc_start: array<f32>;
 @group(0) @binding(4) var<storage, read_write> coef_out: array<f32>;
 @group(0) @binding(5) var<storage, read_write> bc_out: array<vec2<f32>>;
+// Each cell's factor on K (rock hardness; 1 where the rock is uniform).
+@group(0) @binding(6) var<storage, read> inc_erodibility: array<f32>;
 
 // Receiver of `i` as a D8 direction, found from the indices (8 if none).
 fn direction(i: u32, r: u32) -> u32 {
@@ -397,7 +399,8 @@ fn implicit_init(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     let a = f32(inc_cells[i]) * params.cell_area;
     let diag = diagonal(direction(i, r));
-    let f = select(params.coef_axis, params.coef_diag, diag) * pow(a, params.m);
+    let f = select(params.coef_axis, params.coef_diag, diag) * pow(a, params.m)
+        * inc_erodibility[i];
     coef_out[i] = f;
     // n != 1: F linearised around the slope at the start of the step (Picard).
     var fl = f;

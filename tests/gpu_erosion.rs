@@ -78,8 +78,9 @@ fn gpu_matches_cpu_on_a_real_terrain() {
         let settings = scene.erosion.clone().expect("a preset");
         let field = &hydrology.terrain;
         let n = field.width();
-        let prepared = Prepared::new(field, &hydrology.skeleton.kinds, &settings, 5);
         let cell = scene.map_width() / n as f64;
+        let prepared = Prepared::new(field, &hydrology.skeleton.kinds, &settings, cell, 5);
+        // The stage's CPU solver without its threshold-slope limit, which the GPU has not got.
         let mut cpu = Eroder::new(
             prepared.heights.clone(),
             n,
@@ -90,8 +91,11 @@ fn gpu_matches_cpu_on_a_real_terrain() {
             settings.params(),
         )
         .and_then(|e| e.with_floor(prepared.floor.clone()))
-        .expect("valid input")
-        .with_seed(prepared.seed);
+        .and_then(|e| {
+            e.with_seed(prepared.seed)
+                .with_erodibility(prepared.erodibility.clone())
+        })
+        .expect("valid input");
         while cpu.step() {}
         let cpu = cpu.into_heights();
         let out = gpu_erode(&gpu, prepared.gpu_input(n, cell, settings.params()));
@@ -193,6 +197,7 @@ fn gpu_reaches_the_analytic_steady_state() {
             floor: None,
             params,
             seed: Some(2),
+            erodibility: &[],
         },
     );
     let z = &out.heights;

@@ -60,6 +60,8 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             row(ui, "n", "Slope exponent n (1 for most bedrock rivers).", &mut e.n, 0.5..=2.0, 0.01);
             row(ui, "Diffusivity (m²/yr)", "Hillslope diffusivity kappa: soil creep that rounds ridges and fills hollows.", &mut e.diffusivity, 0.0..=10.0, 0.01);
             row(ui, "Years", "Simulated time.", &mut e.years, 0.0..=1.0e8, 1000.0);
+            row(ui, "Rock contrast", "Rock hardness: how many times faster the softest rock erodes than the hardest (1 = uniform rock). Soft rock is dissected finely, hard rock stands in broader massifs.", &mut e.rock_contrast, 1.0..=100.0, 0.1);
+            row(ui, "Rock patches (m)", "The size of the patches of harder and softer rock, in metres.", &mut e.rock_patch_m, 10.0..=1.0e6, 10.0);
             let label = ui.label("Steps").on_hover_text("Time steps (the implicit scheme is stable at any step; more steps follow the evolution more closely).");
             ui.add(DragValue::new(&mut e.steps).range(1..=1000)).labelled_by(label.id);
             ui.end_row();

@@ -13,7 +13,7 @@
 
 use crate::compute::Backend;
 use crate::erosion::gpu;
-use crate::erosion::{Eroder, ErosionSettings, Prepared, erode_field};
+use crate::erosion::{ErosionSettings, Prepared, erode_field};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 use crate::skeleton::CellKind;
@@ -53,7 +53,7 @@ pub fn run(
     for &n in sizes {
         let (field, kinds) = terrain(n)?;
         let cell = MAP_M / n as f64;
-        let prepared = Prepared::new(&field, &kinds, &settings, 1);
+        let prepared = Prepared::new(&field, &kinds, &settings, cell, 1);
         let mut cpu_heights: Option<Vec<f32>> = None;
         for backend in backends {
             let mut best = (f64::INFINITY, 0.0);
@@ -62,17 +62,7 @@ pub fn run(
                 let clock = web_time::Instant::now();
                 let (heights, solver) = match backend {
                     Backend::Cpu => {
-                        let mut e = Eroder::new(
-                            prepared.heights.clone(),
-                            n,
-                            n,
-                            cell,
-                            prepared.base.clone(),
-                            prepared.uplift.clone(),
-                            params,
-                        )?
-                        .with_floor(prepared.floor.clone())?
-                        .with_seed(prepared.seed);
+                        let mut e = prepared.clone().into_eroder(n, cell, params)?;
                         while e.step() {}
                         (e.into_heights(), f64::NAN)
                     }
@@ -180,8 +170,9 @@ fn phase_table(
     );
     for &n in sizes {
         let (field, kinds) = terrain(n)?;
-        let prepared = Prepared::new(&field, &kinds, settings, 1);
-        let input = prepared.gpu_input(n, MAP_M / n as f64, settings.params());
+        let cell = MAP_M / n as f64;
+        let prepared = Prepared::new(&field, &kinds, settings, cell, 1);
+        let input = prepared.gpu_input(n, cell, settings.params());
         let (_, times) = pollster::block_on(gpu::profile(context, input))?;
         println!(
             "{:>6} {}",

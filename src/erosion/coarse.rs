@@ -7,7 +7,7 @@ use std::ops::Range;
 use super::ErosionSettings;
 use super::stage::{
     FINISHING, FLOOR_CELLS, PREPARING, Prepared, Solved, StageError, floor_near_rivers, in_bands,
-    in_row_bands, nearest_channel_in_steps, roughen_from, run_solver, solve,
+    in_row_bands, nearest_channel_in_steps, rock_of, roughen_from, run_solver, solve,
 };
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
@@ -171,6 +171,8 @@ pub(super) async fn erode_coarse_to_fine(
         heights,
         base,
         floor,
+        // The coarse run's rock, at full resolution (positions in metres: the same patches).
+        erodibility: rock_of(settings, n, cell_m, seed),
     };
     refine(
         fine,
@@ -185,12 +187,13 @@ pub(super) async fn erode_coarse_to_fine(
 }
 
 /// A map eroded on a coarser grid and brought back to full resolution: the interpolated
-/// heights (river and bank cells at their designed heights), the base level and the
-/// near-river floor, all at full resolution.
+/// heights (river and bank cells at their designed heights), the base level, the
+/// near-river floor and the rock's erodibility factors, all at full resolution.
 struct Refinement {
     heights: Vec<f32>,
     base: Vec<bool>,
     floor: Vec<f32>,
+    erodibility: Vec<f32>,
 }
 
 /// The refinement at full resolution of a map eroded on a coarser grid: one more step of
@@ -216,6 +219,7 @@ async fn refine(
         mut heights,
         base,
         floor,
+        erodibility,
     } = fine;
     let roughness_m = settings.roughness_m * cell_m / coarse_cell_m;
     in_row_bands(ctx, FINISHING, &mut heights, n, |rows, h| {
@@ -232,6 +236,7 @@ async fn refine(
         uplift: Vec::new(),
         floor,
         seed,
+        erodibility,
     };
     run_solver(prepared, n, cell_m, params, backend, ctx).await
 }

@@ -58,7 +58,7 @@
 //! filled by bounded passes; a different bit can flip a receiver at a near-tie, and then
 //! the drainage network (and the valleys it carves) differs locally.
 //!
-//! Memory: 15 four-byte fields per cell on the GPU (about 60 MiB at 1024^2).
+//! Memory: 16 four-byte fields per cell on the GPU (about 64 MiB at 1024^2).
 
 use wgpu::util::DeviceExt;
 
@@ -136,6 +136,9 @@ pub struct GpuInput<'a> {
     /// The random receivers' seed ([`Eroder::with_seed`](super::Eroder::with_seed)); `None`:
     /// steepest descent.
     pub seed: Option<u64>,
+    /// Each cell's factor on the erodibility
+    /// ([`Eroder::with_erodibility`](super::Eroder::with_erodibility)); empty: uniform rock.
+    pub erodibility: &'a [f32],
 }
 
 /// The GPU solver's result: the heights after the last step with the pits it left (lakes
@@ -177,10 +180,10 @@ struct Params {
 
 /// Whether `gpu` can hold the solver's fields for a `width` x `height` grid: its widest
 /// field (`b`, `c` of the implicit update) has 8 bytes per cell, as many as a `f32` field of
-/// twice the rows, and its kernels bind up to 5 storage buffers.
+/// twice the rows, and its kernels bind up to 6 storage buffers.
 pub fn fits(gpu: &GpuContext, width: usize, height: usize) -> bool {
     gpu.caps.fits_field(width, height.saturating_mul(2))
-        && gpu.caps.max_storage_buffers_per_shader_stage >= 5
+        && gpu.caps.max_storage_buffers_per_shader_stage >= 6
 }
 
 /// Builds the erosion kernels on `gpu` now (later calls cost a few map lookups).
@@ -276,6 +279,7 @@ async fn erode_with(
         floor,
         params: p,
         seed,
+        erodibility,
     } = input;
     let grid = check_grid(w, h, cell_m)?;
     let n = grid.len();
@@ -289,6 +293,10 @@ async fn erode_with(
     if let Some(f) = floor {
         check_len("floor", f.len(), n)?;
         check_finite("floor", f)?;
+    }
+    if !erodibility.is_empty() {
+        check_len("erodibility", erodibility.len(), n)?;
+        check_finite("erodibility", erodibility)?;
     }
     p.validate()
         .map_err(|(field, problem)| ErosionError::InvalidParam { field, problem })?;
@@ -368,6 +376,15 @@ async fn erode_with(
         init("uplift dt", bytemuck::cast_slice(&uplift_dt), rw)
     };
     let floor_buf = floor.map(|f| init("floor", bytemuck::cast_slice(f), rw));
+    // Uniform rock: factors of 1.
+    let ones;
+    let factors = if erodibility.is_empty() {
+        ones = vec![1.0f32; n];
+        &ones[..]
+    } else {
+        erodibility
+    };
+    let erodibility_buf = init("erodibility", bytemuck::cast_slice(factors), rw);
     let rcv = empty("receivers", 4);
     let ptr = [empty("jump a", 4), empty("jump b", 4)];
     let cells = [empty("cells a", 4), empty("cells b", 4)];
@@ -429,6 +446,7 @@ async fn erode_with(
             (3, &start),
             (4, &coef),
             (5, &bc[0]),
+            (6, &erodibility_buf),
         ],
     );
     let g_implicit_jump = [0, 1].map(|s| {

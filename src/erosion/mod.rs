@@ -53,6 +53,7 @@ pub mod gpu;
 mod grid;
 mod layers;
 mod params;
+mod rock;
 mod slope_limit;
 mod stage;
 mod stream_power;
@@ -65,6 +66,7 @@ pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
+pub use self::rock::erodibility_factors;
 pub use self::stage::{
     Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
     erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
@@ -128,6 +130,8 @@ pub struct Eroder {
     seed: Option<u64>,
     /// The threshold-slope limit after each step's incision ([`Eroder::with_slope_limit`]).
     limit: Option<slope_limit::Mask>,
+    /// Each cell's factor on the erodibility ([`Eroder::with_erodibility`]); empty: 1.
+    erodibility: Vec<f32>,
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -231,7 +235,25 @@ impl Eroder {
             chunk: CHUNK_CELLS,
             seed: None,
             limit: None,
+            erodibility: Vec::new(),
         })
+    }
+
+    /// Multiplies the erodibility `K` of each cell by `factors` (rock of varying hardness,
+    /// `rock.rs`); empty: uniform rock. Factors must be finite and above 0.
+    pub fn with_erodibility(mut self, factors: Vec<f32>) -> Result<Self, ErosionError> {
+        if !factors.is_empty() {
+            check_len("erodibility", factors.len(), self.grid.len())?;
+            check_finite("erodibility", &factors)?;
+            if let Some(index) = factors.iter().position(|k| *k <= 0.0) {
+                return Err(ErosionError::NonFinite {
+                    what: "erodibility (a factor at or below 0)",
+                    index,
+                });
+            }
+        }
+        self.erodibility = factors;
+        Ok(self)
     }
 
     /// Holds the slopes of the surface to `talus_deg` after each step's incision, before the
@@ -318,8 +340,13 @@ impl Eroder {
             Phase::Incise { next } => {
                 let run = *next..next.saturating_add(chunk).min(self.net.stack.len());
                 *next = run.end;
+                let fields = stream_power::Fields {
+                    area: &self.area,
+                    uplift: &self.uplift,
+                    erodibility: &self.erodibility,
+                };
                 self.incision
-                    .apply(&self.net, run, &self.area, &self.uplift, &mut self.heights);
+                    .apply(&self.net, run, &fields, &mut self.heights);
                 *next == self.net.stack.len()
             }
             Phase::Hillslope { sweep, colour, row } => {

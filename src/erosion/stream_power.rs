@@ -17,6 +17,8 @@
 //!   `c = h_i + dt U_i - h_r'`, `F = K dt A^m / L^n`; the root lies in `(0, c]`, and a
 //!   step leaving that bracket is replaced by bisection, so it converges for any `n`.
 //!
+//! The erodibility may vary from cell to cell (`K_i`, rock of varying hardness: `rock.rs`).
+//!
 //! When `h_i + dt U_i <= h_r'` (a receiver uplifted faster than its donor) there is no
 //! downhill slope: the node only gets its uplift and becomes a pit for the next step.
 
@@ -67,10 +69,14 @@ impl Incision {
         &self,
         net: &Network,
         run: std::ops::Range<usize>,
-        area: &[f32],
-        uplift: &[f32],
+        fields: &Fields<'_>,
         h: &mut [f32],
     ) {
+        let Fields {
+            area,
+            uplift,
+            erodibility,
+        } = *fields;
         let linear = self.n == 1.0;
         for &i in &net.stack[run] {
             let i = i as usize;
@@ -88,7 +94,11 @@ impl Incision {
             } else {
                 a.powf(self.m)
             };
-            let f = self.coef[code] * a_m;
+            // An empty field is uniform rock: no factor, the bits of before.
+            let f = match erodibility.get(i) {
+                Some(k) => self.coef[code] * a_m * f64::from(*k),
+                None => self.coef[code] * a_m,
+            };
             let damp = 1.0 / (1.0 + f);
             // Everything above is independent of the receiver's new height, which
             // was computed just before: keep the dependent chain short.
@@ -104,6 +114,15 @@ impl Incision {
             h[i] = new as f32;
         }
     }
+}
+
+/// The per-cell fields the incision reads: drainage area (m^2), uplift (m/yr; empty: none)
+/// and the erodibility's factor (empty: 1).
+#[derive(Clone, Copy)]
+pub(super) struct Fields<'a> {
+    pub(super) area: &'a [f32],
+    pub(super) uplift: &'a [f32],
+    pub(super) erodibility: &'a [f32],
 }
 
 /// Solves `x - c + f x^n = 0` for `x` in `(0, c]` (`c > 0`, `f > 0`).

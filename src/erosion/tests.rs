@@ -583,3 +583,42 @@ fn a_dome_erodes_without_the_grid_mark() {
     assert!(random.abs() <= 0.05, "random receivers: {random}");
     assert!(steepest > 0.1, "steepest descent: {steepest}");
 }
+
+/// Rock hardness: uniform factors of 1 give the bits of no factors; where the rock is four
+/// times softer the land is cut lower.
+#[test]
+fn softer_rock_is_cut_lower() {
+    let (w, h) = (64, 64);
+    let (z, base) = rough_surface(w, h, 5, 50.0);
+    let p = params(2e-5, 0.5, 1.0, 0.01, 1.0e6, 10);
+    let eroder = |factors: Vec<f32>| {
+        Eroder::new(z.clone(), w, h, 20.0, base.clone(), vec![1e-3; w * h], p)
+            .and_then(|e| e.with_erodibility(factors))
+            .expect("valid input")
+    };
+    let plain = run(eroder(Vec::new())).into_heights();
+    assert_eq!(run(eroder(vec![1.0; w * h])).into_heights(), plain);
+    let halves: Vec<f32> = (0..w * h)
+        .map(|i| if i % w < w / 2 { 4.0 } else { 1.0 })
+        .collect();
+    let soft_left = run(eroder(halves)).into_heights();
+    let mean = |z: &[f32], left: bool| {
+        let cells: Vec<f32> = (0..w * h)
+            .filter(|i| (i % w < w / 2) == left && !base[*i])
+            .map(|i| z[i])
+            .collect();
+        cells.iter().sum::<f32>() / cells.len() as f32
+    };
+    let lowered = |left| mean(&plain, left) - mean(&soft_left, left);
+    assert!(
+        lowered(true) > 5.0 * lowered(false).abs().max(0.1),
+        "{} {}",
+        lowered(true),
+        lowered(false)
+    );
+    assert!(
+        Eroder::new(z.clone(), w, h, 20.0, base.clone(), Vec::new(), p)
+            .and_then(|e| e.with_erodibility(vec![0.0; w * h]))
+            .is_err()
+    );
+}

@@ -262,6 +262,8 @@ fn every_field_scene() -> Scene {
     let mut erosion = crate::erosion::ErosionSettings::preset("badlands").unwrap();
     erosion.steps = 3;
     erosion.river_band = 2;
+    erosion.rock_contrast = 3.0;
+    erosion.rock_patch_m = 700.0;
     scene.erosion = Some(erosion);
     scene.style = Some(crate::scene::StyleSettings {
         strength: 0.5,
