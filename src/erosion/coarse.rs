@@ -7,7 +7,7 @@ use std::ops::Range;
 use super::ErosionSettings;
 use super::stage::{
     FINISHING, FLOOR_CELLS, PREPARING, Prepared, Solved, StageError, floor_near_rivers, in_bands,
-    in_row_bands, nearest_channel_in_steps, rock_of, roughen_from, run_solver, solve,
+    in_row_bands, nearest_channel_in_steps, rock_in_bands, roughen_from, run_solver, solve,
 };
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
@@ -172,7 +172,7 @@ pub(super) async fn erode_coarse_to_fine(
         base,
         floor,
         // The coarse run's rock, at full resolution (positions in metres: the same patches).
-        erodibility: rock_of(settings, n, cell_m, seed),
+        erodibility: rock_in_bands(settings, n, cell_m, seed, ctx).await?,
     };
     refine(
         fine,

@@ -66,7 +66,7 @@ pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
-pub use self::rock::erodibility_factors;
+pub use self::rock::{Rock, erodibility_factors};
 pub use self::stage::{
     Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
     erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,

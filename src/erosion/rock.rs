@@ -32,13 +32,40 @@ pub fn erodibility_factors(
     if contrast == 1.0 || n == 0 {
         return Vec::new();
     }
-    let perlin = Perlin::new(crate::terrain::stage_seed(seed, "rock"));
-    let cycles = n as f64 * cell_m / patch_m;
-    let fbm = FbmGrid::new(&perlin, n, cycles, OCTAVES, ROUGHNESS);
-    let ln = contrast.ln();
-    (0..n * n)
-        .map(|i| (ln * fbm.at(i % n, i / n).clamp(-0.5, 0.5)).exp() as f32)
-        .collect()
+    let mut out = vec![0.0; n * n];
+    Rock::new(n, cell_m, contrast, patch_m, seed).rows(0, &mut out);
+    out
+}
+
+/// The hardness field of one map, to be sampled row by row ([`Rock::rows`]).
+pub struct Rock {
+    perlin: Perlin,
+    n: usize,
+    /// fBm cycles across the map.
+    cycles: f64,
+    ln_contrast: f64,
+}
+
+impl Rock {
+    pub fn new(n: usize, cell_m: f64, contrast: f64, patch_m: f64, seed: u64) -> Self {
+        Self {
+            perlin: Perlin::new(crate::terrain::stage_seed(seed, "rock")),
+            n,
+            cycles: n as f64 * cell_m / patch_m,
+            ln_contrast: contrast.ln(),
+        }
+    }
+
+    /// Fills `out` (whole rows) with the factors of the rows from `first_row` on. The same
+    /// values however the rows are split. O(cells of the rows x octaves + n x octaves).
+    pub fn rows(&self, first_row: usize, out: &mut [f32]) {
+        let n = self.n.max(1);
+        let fbm = FbmGrid::new(&self.perlin, n, self.cycles, OCTAVES, ROUGHNESS);
+        for (k, v) in out.iter_mut().enumerate() {
+            let (x, y) = (k % n, first_row + k / n);
+            *v = (self.ln_contrast * fbm.at(x, y).clamp(-0.5, 0.5)).exp() as f32;
+        }
+    }
 }
 
 #[cfg(test)]

@@ -623,8 +623,7 @@ impl Prepared {
             );
         })
         .await?;
-        ctx.tick(PREPARING.0, PREPARING.1).await?;
-        let erodibility = rock_of(settings, n, cell_m, seed);
+        let erodibility = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
         Ok(Self {
             heights,
             base,
@@ -637,7 +636,7 @@ impl Prepared {
 }
 
 /// The erodibility factors of `settings`' rock on an `n` x `n` map of `cell_m` cells (empty
-/// for uniform rock). O(cells); a tenth of a second at 1024^2 natively.
+/// for uniform rock). O(cells).
 pub(super) fn rock_of(settings: &ErosionSettings, n: usize, cell_m: f64, seed: u64) -> Vec<f32> {
     super::erodibility_factors(
         n,
@@ -646,6 +645,32 @@ pub(super) fn rock_of(settings: &ErosionSettings, n: usize, cell_m: f64, seed: u
         settings.rock_patch_m,
         seed,
     )
+}
+
+/// [`rock_of`] in bands of rows with the job's ticks between them (the same values).
+pub(super) async fn rock_in_bands(
+    settings: &ErosionSettings,
+    n: usize,
+    cell_m: f64,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<Vec<f32>, Cancelled> {
+    if settings.rock_contrast == 1.0 {
+        return Ok(Vec::new());
+    }
+    let rock = super::Rock::new(
+        n,
+        cell_m,
+        settings.rock_contrast,
+        settings.rock_patch_m,
+        seed,
+    );
+    let mut factors = vec![0.0f32; n * n];
+    in_row_bands(ctx, PREPARING, &mut factors, n, |rows, part| {
+        rock.rows(rows.start, part)
+    })
+    .await?;
+    Ok(factors)
 }
 
 /// Runs the solver on `field` (square, cells `cell_m` wide) with the rivers of `kinds` as
