@@ -100,6 +100,9 @@ fn receivers(@builtin(global_invocation_id) gid: vec3<u32>) {
     var best = NONE;
     var steepest = 0.0;
     var slope: array<f32, 8>;
+    // Running sums of max(slope, 0) in D8 order: the `max` stands between the slope's
+    // product and the add, so no driver fuses them, and the sums are the CPU's bits.
+    var running: array<f32, 8>;
     var total = 0.0;
     for (var d = 0u; d < 8u; d++) {
         let j = neighbour(gid.x, gid.y, d);
@@ -109,6 +112,7 @@ fn receivers(@builtin(global_invocation_id) gid: vec3<u32>) {
         }
         slope[d] = s;
         total += max(s, 0.0);
+        running[d] = total;
         if (s > steepest) {
             steepest = s;
             best = j;
@@ -117,12 +121,10 @@ fn receivers(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (params.random != 0u && best != NONE) {
         // The lower neighbour whose share of the slopes' sum holds u * sum.
         let pick = f32(hash32(i ^ params.route_key) >> 8u) * (1.0 / 16777216.0) * total;
-        var sum = 0.0;
         for (var d = 0u; d < 8u; d++) {
             if (slope[d] > 0.0) {
-                sum += slope[d];
                 best = neighbour(gid.x, gid.y, d);
-                if (pick < sum) {
+                if (pick < running[d]) {
                     break;
                 }
             }

@@ -643,3 +643,28 @@ fn kernels_are_built_at_start_so_the_first_edit_creates_none() {
     assert_eq!(work.pipelines_created, 0, "{work:?}");
     assert!(work.submissions > 0, "{work:?}");
 }
+
+/// Issue 32, point 5: the Realism section, once turned on, measures each terrain and shows the
+/// marks of a synthetic one (grid-direction index, flats, hypsometry, spectral bump), and
+/// `window.strahler.status()` carries the same report.
+#[test]
+fn the_realism_section_measures_the_grid_mark() {
+    let mut harness = tall_cpu_harness();
+    wait_idle(&mut harness);
+    assert!(harness.state().automation().status().realism.is_none());
+    harness.get_by_label("Measure each terrain").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let realism = harness
+        .state()
+        .automation()
+        .status()
+        .realism
+        .expect("measured with the next terrain");
+    let m = &realism.measures;
+    assert!(m.grid_direction_index.abs() < 0.09, "{m:?}");
+    assert!((0.1..0.5).contains(&m.hypsometric_integral), "{m:?}");
+    assert!(realism.spectral_bump.is_some());
+    harness.get_by_label_contains("grid-direction index");
+    harness.get_by_label_contains("hypsometric integral");
+}

@@ -1735,3 +1735,90 @@ fn analyze_compares_two_dems_measure_by_measure() {
         &["nonexistent.tif"],
     );
 }
+
+/// Issue 33, points 7, 8, 9, 11, 12, 15, 16 and 20: a scene's work and physical values are
+/// bounded by name; heights a 16-bit file cannot hold are refused; a PNG written bottom-up
+/// reads back top-down; a sidecar of another size is refused; a 1 x 1 raster is no SRTM tile;
+/// a truncated GeoTIFF says it is.
+#[test]
+fn ranges_flips_sidecars_and_tiny_tiles() {
+    let dir = out_dir().join("round3b");
+    std::fs::create_dir_all(&dir).unwrap();
+    let p = |name: &str| dir.join(name).to_string_lossy().into_owned();
+    let asc = |name: &str, n: usize, values: &[f64]| {
+        let mut text =
+            format!("ncols {n}\nnrows {n}\nxllcorner 0\nyllcorner 0\ncellsize 10\n");
+        for row in values.chunks(n) {
+            let row: Vec<String> = row.iter().map(|v| format!("{v:e}")).collect();
+            text += &(row.join(" ") + "\n");
+        }
+        std::fs::write(dir.join(name), text).unwrap();
+    };
+    // 8: heights of +-3.4e38 do not fit 16-bit samples over their range.
+    asc("huge.asc", 2, &[3.4e38, -3.4e38, 0.0, 1.0]);
+    for out in ["huge.png", "huge.r16"] {
+        refused(&["convert", &p("huge.asc"), &p(out)], &["32-bit float", ".tif"]);
+        assert!(!dir.join(out).exists());
+    }
+    // 16: a 1 x 1 raster is no SRTM tile (its 2 bytes could not be read back).
+    asc("one.asc", 1, &[5.0]);
+    refused(&["convert", &p("one.asc"), &p("one.hgt")], &["2 x 2"]);
+    // 9: written bottom-up for Unity, read back as it was.
+    let olinda = test_dem("olinda.tif");
+    let olinda = olinda.to_string_lossy();
+    for (png, flip) in [("up.png", true), ("down.png", false)] {
+        let mut args = vec!["convert", &olinda, &p(png)];
+        if flip {
+            args.push("--flip-y");
+        }
+        assert!(strahler(&args).status.success());
+        let tif = p(&png.replace(".png", ".tif"));
+        assert!(strahler(&["convert", &p(png), &tif]).status.success());
+    }
+    let up = read_tif(&dir.join("up.tif")).field;
+    let down = read_tif(&dir.join("down.tif")).field;
+    assert_eq!(up.data(), down.data(), "a flipped PNG reads back the right way up");
+    // 15: a sidecar that describes another heightmap.
+    std::fs::copy(dir.join("down.png"), dir.join("lying.png")).unwrap();
+    std::fs::write(
+        dir.join("lying.json"),
+        r#"{"zmin": 0, "zmax": 10, "width": 5, "height": 5}"#,
+    )
+    .unwrap();
+    refused(
+        &["convert", &p("lying.png"), &p("lying.tif")],
+        &["lying.json", "5 x 5", "111 x 111"],
+    );
+    // 20: a truncated GeoTIFF says so, in words.
+    let bytes = std::fs::read(test_dem("olinda.tif")).unwrap();
+    std::fs::write(dir.join("cut.tif"), &bytes[..bytes.len() / 2]).unwrap();
+    let err = refused(&["analyze", &p("cut.tif")], &["truncated"]);
+    assert!(!err.contains("failed to fill"), "{err}");
+    // 7, 11 and 12: scene values out of their physical range, named.
+    for (section, field) in [
+        (r#""erosion": {"steps": 1000000}"#, "steps"),
+        (r#""erosion": {"erodibility": 1e300}"#, "erodibility"),
+        (r#""erosion": {"diffusivity": 1e39}"#, "diffusivity"),
+        (r#""erosion": {"years": 1e300}"#, "years"),
+        (r#""vertical_scale": 1e-50"#, "vertical_scale"),
+        (r#""vertical_scale": 1e39"#, "vertical_scale"),
+    ] {
+        let scene = dir.join(format!("{field}.json"));
+        std::fs::write(
+            &scene,
+            format!(r#"{{"version": 1, "size": 64, {section}}}"#),
+        )
+        .unwrap();
+        refused(
+            &[
+                "generate",
+                scene.to_str().unwrap(),
+                "--river",
+                "0.5,1,0.5,0.4",
+                "--backend",
+                "cpu",
+            ],
+            &[field],
+        );
+    }
+}

@@ -41,6 +41,10 @@ pub struct Status {
     pub blend: Option<BlendStatus>,
     /// The terrain on the map (after detail and blending).
     pub terrain: Option<TerrainStatus>,
+    /// The realism measures of the terrain on the map (grid-direction index, flats,
+    /// hypsometry, slopes, spectral slope and bump...), when the Realism section measures
+    /// each terrain; `generate({realism: true})` returns them for any run.
+    pub realism: Option<crate::realism::RealismReport>,
     /// Undo and redo steps available.
     pub undo: usize,
     pub redo: usize,

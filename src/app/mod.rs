@@ -547,6 +547,8 @@ impl StrahlerApp {
         self.show_blend_status(&output);
         self.automation
             .set_terrain(output.field.clone(), output.cell_m);
+        let realism = output.report.realism.clone();
+        self.automation.update(|s| s.realism = realism);
         self.showing_before = self.show_before_erosion && before.is_some();
         let shown = if self.showing_before {
             before.clone()

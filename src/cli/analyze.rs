@@ -27,7 +27,7 @@ pub struct AnalyzeArgs {
     #[arg(long, default_value_t = 16)]
     pub min_coefficients: usize,
     /// Cell size in metres where the file gives none (PNG, RAW) [default: 1].
-    #[arg(allow_hyphen_values = true, long, value_parser = super::parse_cell_size)]
+    #[arg(allow_negative_numbers = true, long, value_parser = super::parse_cell_size)]
     pub cell_size: Option<f64>,
     /// Print JSON instead of the table.
     #[arg(long)]
@@ -71,7 +71,8 @@ pub fn reference_report(
         .or(cell_size.map(|c| (c, c)))
         .ok_or_else(|| {
             format!(
-                "{}: its cell size is unknown (no georeferencing); give --cell-size",
+                "{}: its cell size is unknown (no georeferencing): compare with a GeoTIFF, \
+                 or give `strahler analyze` the --cell-size of both",
                 path.display()
             )
         })?;

@@ -21,7 +21,7 @@ pub struct BenchArgs {
     #[arg(long, default_value = "both")]
     pub backend: String,
     /// Fraction of fixed cells in the test problem (a rasterised skeleton is about 1.5%).
-    #[arg(allow_hyphen_values = true, long, default_value_t = 0.015)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 0.015)]
     pub fixed: f32,
     /// Jacobi sweeps for the paper's baseline.
     #[arg(long, default_value_t = 5500)]

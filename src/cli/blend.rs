@@ -27,7 +27,7 @@ pub struct BlendArgs {
     #[arg(long, value_parser = parse_pair)]
     pub ref_at: (usize, usize),
     /// Multiply the reference's heights (and so its gradients).
-    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 1.0)]
     pub scale_z: f32,
     /// Output file (format from the extension).
     #[arg(long)]

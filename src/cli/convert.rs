@@ -33,7 +33,7 @@ pub struct ConvertArgs {
     #[arg(long)]
     pub size: Option<usize>,
     /// Multiply the heights.
-    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 1.0)]
     pub z_scale: f32,
     /// Refuse inputs with more cells than this.
     #[arg(long, default_value_t = ReadLimits::default().max_cells)]

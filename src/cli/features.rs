@@ -28,10 +28,10 @@ pub struct FeaturesArgs {
     #[arg(long)]
     pub rebuild: Option<PathBuf>,
     /// K_gray of eqs. 1-2 (fraction of cells clipped at each end of the grey range).
-    #[arg(allow_hyphen_values = true, long, default_value_t = FeatureParams::default().k_gray)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = FeatureParams::default().k_gray)]
     pub k_gray: f64,
     /// w of eq. 3 (profile threshold).
-    #[arg(allow_hyphen_values = true, long, default_value_t = FeatureParams::default().w)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = FeatureParams::default().w)]
     pub w: f64,
     /// Replace an existing file beside a PNG/R16 output that is not its own sidecar.
     #[arg(long)]

@@ -33,7 +33,7 @@ pub struct FillArgs {
     #[arg(long)]
     pub iterations: Option<u32>,
     /// Multigrid residual tolerance as a fraction of the fixed heights' range.
-    #[arg(allow_hyphen_values = true, long, default_value_t = MultigridParams::default().tolerance)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = MultigridParams::default().tolerance)]
     pub tol: f32,
     /// Write a JSON report of the solve here.
     #[arg(long)]

@@ -32,19 +32,19 @@ pub struct GenerateArgs {
     #[arg(long)]
     pub seed: Option<u64>,
     /// Width of the map in metres [default: 10000].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub map_width: Option<f64>,
     /// Branching angle theta in degrees [default: 30].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub theta: Option<f64>,
     /// River slope (metres per metre of channel) [default: 0.01].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub slope: Option<f64>,
     /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub alpha: Option<f64>,
     /// Amplitude of the ridge noise of eq. 5, in metres [default: 25].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub noise: Option<f64>,
     /// MD/MDI enrichment passes (0 = off) [default: 2].
     #[arg(long)]
@@ -57,10 +57,10 @@ pub struct GenerateArgs {
     #[arg(long, value_name = "RULE", value_parser = parse_distance_rule)]
     pub distance_rule: Option<crate::skeleton::enrich::DistanceRule>,
     /// Gaussian smoothing of the filled terrain, sigma in cells, kept off the rivers [default: 0].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub smooth: Option<f32>,
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
-    #[arg(allow_hyphen_values = true, long)]
+    #[arg(allow_negative_numbers = true, long)]
     pub fbm: Option<f32>,
     /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn erosion off
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].

@@ -21,10 +21,10 @@ pub struct HillshadeArgs {
     #[arg(long, default_value_t = 512)]
     pub panel: usize,
     /// Cell size in metres for files that give none (PNG, RAW) [default: 1].
-    #[arg(allow_hyphen_values = true, long, value_parser = super::parse_cell_size)]
+    #[arg(allow_negative_numbers = true, long, value_parser = super::parse_cell_size)]
     pub cell_size: Option<f64>,
     /// Height exaggeration.
-    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
+    #[arg(allow_negative_numbers = true, long, default_value_t = 1.0)]
     pub z_factor: f64,
 }
 

@@ -28,8 +28,8 @@ pub fn read_dem(path: &Path, limits: ReadLimits, z_range: Option<(f32, f32)>) ->
 /// [`read_dem`] with every import option. The file is read through
 /// [`format::read_file`] (size checked from its length and header first). A PNG or RAW
 /// file's sidecar `.json`, when present, gives the height range (unless `z_range` is given),
-/// the RAW file's width and height, and its row order; a malformed sidecar is an error that
-/// names it.
+/// the file's width and height (a PNG's must match it) and its row order; a malformed
+/// sidecar is an error that names it.
 pub fn read_dem_with(path: &Path, options: &ImportOptions) -> Result<Dem> {
     let name = path.to_string_lossy();
     let at = |e: DemError| format!("{}: {e}", path.display());
@@ -52,7 +52,28 @@ pub fn read_dem_with(path: &Path, options: &ImportOptions) -> Result<Dem> {
         )
         .map_err(at)?);
     }
-    Ok(format::read(&name, &bytes, &options).map_err(at)?)
+    let mut dem = format::read(&name, &bytes, &options).map_err(at)?;
+    if format == Some(Format::Png) {
+        // A sidecar describes its own heightmap: its size must be the PNG's, and a PNG
+        // written bottom-up (`flip_y`, for Unity) is read back top-down.
+        let (w, h) = (dem.field.width(), dem.field.height());
+        if let Some((sw, sh)) = sidecar.size
+            && (sw, sh) != (w, h)
+        {
+            return Err(format!(
+                "{}: the sidecar {} says {sw} x {sh} cells, but the PNG holds {w} x {h}: \
+                 it belongs to another heightmap (give the range with --z-range and move it \
+                 away)",
+                path.display(),
+                super::output::sidecar_of(path).display()
+            )
+            .into());
+        }
+        if sidecar.flip_y == Some(true) {
+            dem.field = crate::dem::resize::flipped_y(&dem.field);
+        }
+    }
+    Ok(dem)
 }
 
 /// The sidecar at `path`, or nothing said when there is none.

@@ -55,8 +55,6 @@ pub enum Command {
     Bench(bench::BenchArgs),
 }
 
-/// The compute path of the command line: a headless GPU if one computes, else the CPU with
-/// the reason. With `--backend cpu` no GPU is probed at all.
 /// Parses a cell size: a finite number of metres above 0 (at most 1000 km).
 pub fn parse_cell_size(text: &str) -> Result<f64, String> {
     match text.trim().parse::<f64>() {
@@ -67,6 +65,8 @@ pub fn parse_cell_size(text: &str) -> Result<f64, String> {
     }
 }
 
+/// The compute path of the command line: a headless GPU if one computes, else the CPU with
+/// the reason. With `--backend cpu` no GPU is probed at all.
 pub fn compute_path(choice: crate::compute::BackendChoice) -> crate::compute::ComputePath {
     use crate::compute::{BackendChoice, ComputePath, CpuReason};
     if choice == BackendChoice::Cpu {

@@ -330,6 +330,15 @@ pub fn write(
             "the cell size must be a positive number, got {cell}"
         )));
     }
+    if matches!(format, Format::Png | Format::R16)
+        && let Some((lo, hi)) = out.finite_range()
+    {
+        // 16-bit samples are spread over the range: a range wider than an f32 holds would
+        // make every sample 0 and the sidecar unreadable.
+        super::sidecar::check_range(lo, hi, format.name()).map_err(|problem| {
+            DemError::Write(format!("{problem}; write .tif (32-bit floats) instead"))
+        })?;
+    }
     if options.flip_y && matches!(format, Format::Png) {
         out = resize::flipped_y(&out);
     }

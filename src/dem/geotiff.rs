@@ -18,11 +18,29 @@ use crate::heightfield::Heightfield;
 /// they are read.
 pub const MAX_ASCII_TAG: u64 = 64 * 1024;
 
+/// The `tiff` crate's error in words a user can act on: a truncated file or tags that
+/// contradict each other, where the crate says "failed to fill whole buffer" or
+/// "inconsistent sizes encountered".
+fn tiff_message(e: tiff::TiffError) -> String {
+    use tiff::{TiffError, TiffFormatError};
+    match &e {
+        TiffError::IoError(io) if io.kind() == std::io::ErrorKind::UnexpectedEof => {
+            "the file ends before the image data its tags describe (truncated?)".into()
+        }
+        TiffError::FormatError(TiffFormatError::InconsistentSizesEncountered) => {
+            "its tags disagree about the size of the image or of its strips or tiles (a \
+             damaged or hand-edited file)"
+                .into()
+        }
+        _ => e.to_string(),
+    }
+}
+
 /// Reads the first image of a GeoTIFF. Cells equal to GDAL_NODATA (and NaN floats) become
 /// NaN; a GDAL_NODATA that is not a number is an error, and so is a finite sample beyond the
 /// `f32` range. The size is checked against `limits` before the pixels are decoded.
 pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
-    let tiff_err = |e: tiff::TiffError| DemError::Tiff(e.to_string());
+    let tiff_err = |e: tiff::TiffError| DemError::Tiff(tiff_message(e));
     let mut decoder = Decoder::new(Cursor::new(bytes)).map_err(tiff_err)?;
     let (width, height) = decoder.dimensions().map_err(tiff_err)?;
     limits.check(u64::from(width), u64::from(height))?;

@@ -28,8 +28,8 @@ pub fn read(name: &str, bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemErro
     let n = samples.isqrt();
     if n * n != samples || n < 2 {
         return Err(bad(format!(
-            "{samples} samples is not a square grid; SRTM tiles are 1201 x 1201 (2,884,802 \
-             bytes) or 3601 x 3601 (25,934,402 bytes)"
+            "{samples} samples is not a square grid of at least 2 x 2; SRTM tiles are 1201 x \
+             1201 (2,884,802 bytes) or 3601 x 3601 (25,934,402 bytes)"
         )));
     }
     limits.check(n as u64, n as u64)?;
@@ -128,6 +128,13 @@ pub fn write(field: &Heightfield) -> Result<Vec<u8>, DemError> {
             "an SRTM tile is square; this field is {} x {}",
             field.width(),
             field.height()
+        )));
+    }
+    // The reader takes at least 2 x 2 (a tile's edges are shared with its neighbours).
+    if field.width() < 2 {
+        return Err(DemError::Write(format!(
+            "an SRTM tile has at least 2 x 2 samples; this field is {0} x {0}",
+            field.width()
         )));
     }
     let outside: Vec<f32> = field

@@ -24,6 +24,8 @@ pub enum ErosionError {
     NonFinite { what: &'static str, index: usize },
     /// `base_level` has no `true` cell, so water has nowhere to go.
     NoBaseLevel,
+    /// A factor that must be above 0 (the erodibility's) is 0 or below.
+    NotPositive { what: &'static str, index: usize },
 }
 
 impl fmt::Display for ErosionError {
@@ -45,6 +47,7 @@ impl fmt::Display for ErosionError {
                 write!(f, "{what}[{index}] is not a finite number")
             }
             Self::NoBaseLevel => write!(f, "base_level marks no cell; rivers need an outlet"),
+            Self::NotPositive { what, index } => write!(f, "{what}[{index}] must be above 0"),
         }
     }
 }

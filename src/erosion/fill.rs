@@ -6,8 +6,8 @@
 //! Choice: depressions are filled to their sill plus a strictly increasing epsilon
 //! gradient away from the outlet (one `f32` ulp per cell), rather than routed across
 //! a graph of basins (Cordonnier et al. 2019). Filling is simple and exact, and it
-//! leaves every free cell with a strictly lower D8 neighbour, so plain
-//! steepest-descent receivers reach base level from everywhere. The filled volume
+//! leaves every free cell with a strictly lower D8 neighbour, so the receivers (steepest
+//! or drawn among the lower neighbours) reach base level from everywhere. The filled volume
 //! acts as instant lake sedimentation.
 //!
 //! Cost: pits are found during the O(cells) receiver pass, and nothing runs when there
@@ -299,13 +299,17 @@ impl Lakes {
                     s.lake.clear(c); // all were reached; this only guards the invariant
                 }
             }
-            // Raising the lake only changes the receivers of lake cells and of cells that
-            // drained into the lake (their donors); other slopes did not get steeper.
+            // Raising the lake only changes the steepest receivers of lake cells and of cells
+            // that drained into the lake (their donors); other slopes did not get steeper.
+            // A drawn receiver depends on every lower neighbour's slope, so there every
+            // neighbour of the lake is drawn again (as the GPU redraws every cell).
+            let random = matches!(net.pick, super::flow::Pick::Random(_));
             for &c in &s.lake_list {
-                let (donors, off) = (net.donors[c], net.off);
+                let donors = net.donors[c];
+                let (x, y) = grid.xy(c);
                 for j in (0..8)
-                    .filter(|d| donors >> d & 1 == 1)
-                    .map(|d| c.wrapping_add_signed(off[d]))
+                    .filter(|&d| random || donors >> d & 1 == 1)
+                    .filter_map(|d| grid.neighbour(x, y, d))
                 {
                     if net.update_receiver(grid, h, base, j) {
                         self.work.push_back(j);

@@ -1,7 +1,8 @@
-//! Flow routing: D8 receivers, the Braun–Willett stack and drainage area.
+//! Flow routing: one receiver per cell among its 8 neighbours, the Braun–Willett stack and
+//! drainage area.
 //!
-//! Braun & Willett (2013), node ordering: every node `i` has one receiver `r(i)`, its
-//! steepest-descent neighbour (D8 here); the *stack* orders the nodes so that every
+//! Braun & Willett (2013), node ordering: every node `i` has one receiver `r(i)`, a lower
+//! neighbour (their steepest descent, or one drawn as below); the *stack* orders the nodes so that every
 //! receiver precedes its donors, built by a depth-first walk of the donor tree from
 //! each base-level node (their recursive `add_to_stack`). Drainage area is their
 //! `A_i = sum over the donor tree of the cell areas`, accumulated by walking the
@@ -207,9 +208,9 @@ impl Network {
         self.dir.iter().enumerate().map(to).collect()
     }
 
-    /// Steepest-descent (D8) receiver code of every cell of `rows`: slopes are
-    /// `dh / distance`, diagonals at `sqrt(2)` cells, ties to the first direction in `D8`
-    /// order. Base-level cells and free cells without a strictly lower neighbour (pits,
+    /// Receiver code of every cell of `rows` by [`Network::pick`]: slopes are
+    /// `dh / distance`, diagonals at `sqrt(2)` cells; the steepest takes ties to the first
+    /// direction in `D8` order. Base-level cells and free cells without a strictly lower neighbour (pits,
     /// flats) get [`NONE`]; the free ones are added to `pits` (an O(cells) pit test). The
     /// donor masks must be cleared before the first rows.
     fn receivers(
@@ -441,16 +442,24 @@ fn steepest(s: &[f32; 8]) -> u8 {
 
 /// The code whose share of the positive slopes' sum holds `u * sum` (`u` in `[0, 1)`): each
 /// lower neighbour with probability `slope / sum`. [`NONE`] without a positive slope.
+///
+/// The running sums are taken once, as `max(s, 0)` added in D8 order, and compared with
+/// `u * sum`: the WGSL kernel does exactly these operations (a `max` between the slope's
+/// product and the add, so no GPU fuses them), so the same heights draw the same neighbour.
 #[inline(always)]
 fn drawn(s: &[f32; 8], u: f32) -> u8 {
-    let total: f32 = s.iter().map(|s| s.max(0.0)).sum();
+    let mut running = [0.0f32; 8];
+    let mut total = 0.0f32;
+    for (sum, &s) in running.iter_mut().zip(s) {
+        total += s.max(0.0);
+        *sum = total;
+    }
     let target = u * total;
-    let (mut sum, mut last) = (0.0f32, NONE);
+    let mut last = NONE;
     for (d, &s) in s.iter().enumerate() {
         if s > 0.0 {
-            sum += s;
             last = d as u8;
-            if target < sum {
+            if target < running[d] {
                 return last;
             }
         }

@@ -294,10 +294,7 @@ async fn erode_with(
         check_len("floor", f.len(), n)?;
         check_finite("floor", f)?;
     }
-    if !erodibility.is_empty() {
-        check_len("erodibility", erodibility.len(), n)?;
-        check_finite("erodibility", erodibility)?;
-    }
+    super::check_factors(erodibility, n)?;
     p.validate()
         .map_err(|(field, problem)| ErosionError::InvalidParam { field, problem })?;
     if !base_level.contains(&true) {

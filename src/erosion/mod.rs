@@ -23,7 +23,9 @@
 //!    (`thermal.rs`): operator splitting, receivers are fixed within a step.
 //!
 //! After the last step the routing is redone once more, so the final surface has a
-//! strictly descending path from every free cell to base level.
+//! strictly descending path from every free cell to base level. That last routing draws
+//! with the last step's key, so the drainage area the solver leaves (the stage's layer) is
+//! that of one draw of receivers.
 //!
 //! With [`Eroder::with_slope_limit`] (the pipeline sets it with the talus angle) each step
 //! also holds the slopes to the threshold angle after the incision (`slope_limit.rs`), so
@@ -242,16 +244,7 @@ impl Eroder {
     /// Multiplies the erodibility `K` of each cell by `factors` (rock of varying hardness,
     /// `rock.rs`); empty: uniform rock. Factors must be finite and above 0.
     pub fn with_erodibility(mut self, factors: Vec<f32>) -> Result<Self, ErosionError> {
-        if !factors.is_empty() {
-            check_len("erodibility", factors.len(), self.grid.len())?;
-            check_finite("erodibility", &factors)?;
-            if let Some(index) = factors.iter().position(|k| *k <= 0.0) {
-                return Err(ErosionError::NonFinite {
-                    what: "erodibility (a factor at or below 0)",
-                    index,
-                });
-            }
-        }
+        check_factors(&factors, self.grid.len())?;
         self.erodibility = factors;
         Ok(self)
     }
@@ -405,8 +398,8 @@ impl Eroder {
     }
 
     /// Moves on from the completed phase; returns whether the step ended. The phases of a
-    /// step: route, area, incision, hillslope diffusion (when `diffusivity > 0`), talus
-    /// (when on) and the floor (when set); the last step then routes once more, so the
+    /// step: route, area, incision, the threshold-slope limit (when set), hillslope
+    /// diffusion (when `diffusivity > 0`), talus (when on) and the floor (when set); the last step then routes once more, so the
     /// surface is left pit-free with the matching drainage area.
     fn next_phase(&mut self) -> bool {
         let p = self.params;
@@ -516,6 +509,22 @@ fn check_len(what: &'static str, got: usize, expected: usize) -> Result<(), Eros
             expected,
             got,
         })
+    }
+}
+
+/// Checks erodibility factors: none (uniform rock), or one per cell, finite and above 0.
+fn check_factors(factors: &[f32], cells: usize) -> Result<(), ErosionError> {
+    if factors.is_empty() {
+        return Ok(());
+    }
+    check_len("erodibility", factors.len(), cells)?;
+    check_finite("erodibility", factors)?;
+    match factors.iter().position(|k| *k <= 0.0) {
+        Some(index) => Err(ErosionError::NotPositive {
+            what: "erodibility",
+            index,
+        }),
+        None => Ok(()),
     }
 }
 

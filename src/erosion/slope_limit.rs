@@ -22,8 +22,10 @@
 //! pair a time step, after the incision ([`super::Eroder::with_slope_limit`]): exact where
 //! no base-level cell bends the paths, and the next step's pair goes on from there.
 //!
-//! No pit is made: a lowered cell ends at `h_j + c_ij` above some cell `j`, which is lower,
-//! and a cell not lowered keeps its lower neighbour, which only went down.
+//! Pits are rare: a lowered cell ends at `h_j + c_ij` above some cell `j` within two cells,
+//! which is lower, and a cell not lowered keeps its lower neighbour, which only went down;
+//! only where `j` is a knight's move away behind two higher base-level cells can a lowered
+//! cell be left without a lower neighbour, and the next routing fills it.
 
 use std::ops::Range;
 

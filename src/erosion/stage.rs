@@ -77,6 +77,9 @@ impl Default for ErosionSettings {
     }
 }
 
+/// The most time steps a scene may ask for.
+pub const MAX_SCENE_STEPS: u32 = 1000;
+
 /// The default [`ErosionSettings::rock_contrast`]: the softest rock erodes 10 times faster
 /// than the hardest (measured K of sandstone against limestone or granite differ by 10 to
 /// 100); at 4 the patches barely show through the threshold slopes.
@@ -161,6 +164,24 @@ impl ErosionSettings {
                 "rock_patch_m",
                 format!("must be 10 m to 1000 km, got {}", self.rock_patch_m),
             ));
+        }
+        // Physical ranges, and a bound on the work a scene can ask for (the solver itself
+        // takes any finite values: tests run 2000 steps of an analytic profile).
+        let limits: [(&'static str, f64, f64, &str); 4] = [
+            ("erodibility", self.erodibility, 1.0, "m^(1-2m)/yr (real rock: 1e-7 to 1e-3)"),
+            ("diffusivity", self.diffusivity, 10.0, "m^2/yr (soil creep: 1e-3 to 5e-2)"),
+            ("years", self.years, 1.0e8, "years (landscapes settle within 1e5 to 1e7)"),
+            (
+                "steps",
+                f64::from(self.steps),
+                f64::from(MAX_SCENE_STEPS),
+                "steps (the presets take 20; each step is one pass over the map)",
+            ),
+        ];
+        for (field, value, max, unit) in limits {
+            if value > max {
+                return Err((field, format!("must be at most {max} {unit}, got {value}")));
+            }
         }
         if self.river_band > 16 {
             return Err((

@@ -485,10 +485,13 @@ impl Scene {
                 ),
             );
         }
-        if !(self.vertical_scale.is_finite() && self.vertical_scale > 0.0) {
+        if !(self.vertical_scale.is_finite() && (1e-4..=1e4).contains(&self.vertical_scale)) {
             return bad(
                 "vertical_scale",
-                format!("must be positive, got {}", self.vertical_scale),
+                format!(
+                    "must be a factor from 0.0001 to 10000 on every height, got {}",
+                    self.vertical_scale
+                ),
             );
         }
         if self.rivers.len() > MAX_RIVERS {
