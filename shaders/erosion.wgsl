@@ -637,3 +637,52 @@ fn apply_floor(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     floored[i] = max(floored[i], floor_in[i]);
 }
+
+// ---- 4b. the threshold-slope limit -----------------------------------------------------
+// The CPU's `slope_limit.rs` in Jacobi form: each pass lowers every free cell to
+// min_j (h_j + tan(talus) |x_i - x_j|) over the 8 neighbours and the 8 knight's moves (the
+// 5 x 5 mask), reading one buffer and writing the other. The CPU's two raster scans carry a
+// cut across the whole map in one step; a pass here carries it two cells, so the host runs
+// a bounded number a step (LIMIT_PASSES) and the steps after go on from there.
+
+@group(0) @binding(2) var<storage, read> lim_in: array<f32>;
+@group(0) @binding(3) var<storage, read_write> lim_out: array<f32>;
+
+@compute @workgroup_size(16, 16, 1)
+fn slope_limit(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = cell_of(gid);
+    if (i == NONE) {
+        return;
+    }
+    let h = lim_in[i];
+    if (is_base(i)) {
+        lim_out[i] = h;
+        return;
+    }
+    // limit_axis = tan(talus) * cell; the knight's move is sqrt(5) cells.
+    let knight = params.limit_axis * 2.2360679774997897;
+    var cap = h;
+    for (var dy = -2; dy <= 2; dy++) {
+        for (var dx = -2; dx <= 2; dx++) {
+            let ax = abs(dx);
+            let ay = abs(dy);
+            // The 5 x 5 mask: the 8 neighbours and the 8 knight's moves.
+            if ((ax == 0 && ay == 0) || (ax == 2 && ay != 1) || (ay == 2 && ax != 1)) {
+                continue;
+            }
+            let nx = i32(gid.x) + dx;
+            let ny = i32(gid.y) + dy;
+            if (nx < 0 || ny < 0 || nx >= i32(params.width) || ny >= i32(params.height)) {
+                continue;
+            }
+            var rise = params.limit_axis;
+            if (ax + ay == 2) {
+                rise = params.limit_diag;
+            } else if (ax + ay == 3) {
+                rise = knight;
+            }
+            cap = min(cap, lim_in[u32(ny) * params.width + u32(nx)] + rise);
+        }
+    }
+    lim_out[i] = cap;
+}

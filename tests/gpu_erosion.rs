@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use strahler::compute::Backend;
 use strahler::erosion::gpu::{self, GpuInput};
-use strahler::erosion::{Eroder, ErosionParams, ErosionSettings, PRESETS, Prepared};
+use strahler::erosion::{ErosionParams, ErosionSettings, PRESETS, Prepared};
 use strahler::gpu::GpuContext;
 use strahler::jobs::JobCtx;
 use strahler::pipeline::{Output, Pipeline, RunOptions};
@@ -80,22 +80,12 @@ fn gpu_matches_cpu_on_a_real_terrain() {
         let n = field.width();
         let cell = scene.map_width() / n as f64;
         let prepared = Prepared::new(field, &hydrology.skeleton.kinds, &settings, cell, 5);
-        // The stage's CPU solver without its threshold-slope limit, which the GPU has not got.
-        let mut cpu = Eroder::new(
-            prepared.heights.clone(),
-            n,
-            n,
-            cell,
-            prepared.base.clone(),
-            prepared.uplift.clone(),
-            settings.params(),
-        )
-        .and_then(|e| e.with_floor(prepared.floor.clone()))
-        .and_then(|e| {
-            e.with_seed(prepared.seed)
-                .with_erodibility(prepared.erodibility.clone())
-        })
-        .expect("valid input");
+        // The stage's CPU solver: drawn receivers, rock, and the threshold-slope limit where
+        // the preset has a talus angle (the GPU runs it in Jacobi passes).
+        let mut cpu = prepared
+            .clone()
+            .into_eroder(n, cell, settings.params())
+            .expect("valid input");
         while cpu.step() {}
         let cpu = cpu.into_heights();
         let out = gpu_erode(&gpu, prepared.gpu_input(n, cell, settings.params()));

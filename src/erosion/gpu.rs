@@ -49,11 +49,13 @@
 //! (Priority-Flood + epsilon of the basins of any pit left, as after the CPU solver), so its
 //! guarantees (no pit, every cell reaching an outlet) hold whatever the GPU's lakes left.
 //!
-//! Not yet on the GPU: the CPU's threshold-slope limit (`slope_limit.rs`, two raster scans a
-//! step, sequential by nature): the GPU's surfaces keep only the talus relaxation, and stand
-//! steeper than the talus angle on small maps where uplift outpaces it.
+//! 4b. **Threshold-slope limit** (with a talus angle): the CPU's `slope_limit.rs` in Jacobi
+//!    form, [`LIMIT_PASSES`] passes a step over the same 5 x 5 mask. The CPU's two raster
+//!    scans carry a cut across the whole map in one step; the passes carry it 16 cells a step,
+//!    and the following steps go on, so a slope left steeper after the last step is one the
+//!    CPU would have cut farther than 16 cells from where it started.
 //!
-//! Why it is not bit-exact with the CPU: talus in Jacobi form, `f32` on the GPU where the
+//! Why it is not bit-exact with the CPU: talus and the slope limit in Jacobi form, `f32` on the GPU where the
 //! CPU's incision works in `f64`, the tree solved in another order (other rounding), lakes
 //! filled by bounded passes; a different bit can flip a receiver at a near-tie, and then
 //! the drainage network (and the valleys it carves) differs locally.
@@ -78,7 +80,7 @@ pub(super) const EROSION: Shader = Shader {
 };
 
 /// Entry points of `shaders/erosion.wgsl`, in the order [`Kernels`] takes them.
-const ENTRIES: [&str; 18] = [
+const ENTRIES: [&str; 19] = [
     "receivers",
     "root_init",
     "root_jump",
@@ -97,6 +99,7 @@ const ENTRIES: [&str; 18] = [
     "talus_share",
     "talus_apply",
     "apply_floor",
+    "slope_limit",
 ];
 
 /// Planchon–Darboux passes per step for the lakes, each 24 iterations within 16 x 16 tiles
@@ -105,6 +108,9 @@ const ENTRIES: [&str; 18] = [
 pub const LAKE_PASSES: u32 = 32;
 /// Jacobi passes of the exact incision rule after the pointer-jumping solve.
 pub const POLISH_PASSES: u32 = 4;
+/// Jacobi passes of the threshold-slope limit a step (even: the last writes the heights).
+/// Each carries a cut two cells, 16 a step; the CPU's raster scans carry it across the map.
+pub const LIMIT_PASSES: u32 = 8;
 
 const WORKGROUP: u32 = 16;
 
@@ -469,6 +475,11 @@ async fn erode_with(
     let g_floor = floor_buf
         .as_ref()
         .map(|f| b(17, &[(1, f), (2, &heights_buf)]));
+    // The slope limit reads one of the heights and `tmp` and writes the other.
+    let g_limit = [
+        b(18, &[(1, &base), (2, &heights_buf), (3, &tmp)]),
+        b(18, &[(1, &base), (2, &tmp), (3, &heights_buf)]),
+    ];
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()).into());
     }
@@ -543,6 +554,13 @@ async fn erode_with(
         for _ in 0..POLISH_PASSES {
             run(&mut encoder, &[(12, &g_polish)]);
             encoder.copy_buffer_to_buffer(&tmp, 0, &heights_buf, 0, bytes);
+        }
+        // 4b. The threshold-slope limit (the CPU's, in Jacobi passes).
+        if p.talus_deg.is_some() {
+            let list: Vec<(usize, &wgpu::BindGroup)> = (0..LIMIT_PASSES)
+                .map(|l| (18, &g_limit[(l % 2) as usize]))
+                .collect();
+            run(&mut encoder, &list);
         }
         if let Some(t) = profile.as_deref_mut() {
             flush(gpu, &mut encoder, &mut phase_clock, &mut t[3], &mut scope).await?;

@@ -30,7 +30,7 @@
 //! With [`Eroder::with_slope_limit`] (the pipeline sets it with the talus angle) each step
 //! also holds the slopes to the threshold angle after the incision (`slope_limit.rs`), so
 //! small maps, where uplift outpaces the talus relaxation, keep slopes rock stands. The GPU
-//! solver does not have this limit yet (see `gpu.rs`).
+//! solver runs it in Jacobi passes (see `gpu.rs`).
 //!
 //! [`Eroder::advance`] runs a step in pieces of about [`CHUNK_CELLS`] cells (bands of rows,
 //! runs of the stack in its fixed order, lakes one by one), so a browser job can yield

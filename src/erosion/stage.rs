@@ -168,9 +168,24 @@ impl ErosionSettings {
         // Physical ranges, and a bound on the work a scene can ask for (the solver itself
         // takes any finite values: tests run 2000 steps of an analytic profile).
         let limits: [(&'static str, f64, f64, &str); 4] = [
-            ("erodibility", self.erodibility, 1.0, "m^(1-2m)/yr (real rock: 1e-7 to 1e-3)"),
-            ("diffusivity", self.diffusivity, 10.0, "m^2/yr (soil creep: 1e-3 to 5e-2)"),
-            ("years", self.years, 1.0e8, "years (landscapes settle within 1e5 to 1e7)"),
+            (
+                "erodibility",
+                self.erodibility,
+                1.0,
+                "m^(1-2m)/yr (real rock: 1e-7 to 1e-3)",
+            ),
+            (
+                "diffusivity",
+                self.diffusivity,
+                10.0,
+                "m^2/yr (soil creep: 1e-3 to 5e-2)",
+            ),
+            (
+                "years",
+                self.years,
+                1.0e8,
+                "years (landscapes settle within 1e5 to 1e7)",
+            ),
             (
                 "steps",
                 f64::from(self.steps),
