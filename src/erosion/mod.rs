@@ -39,10 +39,11 @@
 //! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
 //! them, the map border) keep their heights exactly and are the roots of the stack.
 //!
-//! Memory besides the caller's heights (`f32`), mask (`bool`) and uplift (`f32`):
-//! receiver codes (`u8`), donor bitmasks (`u8`), stack (`u32`), drainage area (`f32`)
-//! and, when `diffusivity > 0`, one `f32` scratch field for the implicit diffusion:
-//! at most 14 bytes per cell (3.5 four-byte fields). Depression filling, only when
+//! Memory besides the caller's heights (`f32`), mask (`bool`), uplift (`f32`) and
+//! erodibility factors (`f32`, when the rock varies): receiver codes (`u8`), donor bitmasks
+//! (`u8`), stack (`u32`), drainage area (`f32`) and, when `diffusivity > 0`, one `f32`
+//! scratch field for the implicit diffusion: at most 14 bytes per cell (3.5 four-byte
+//! fields). Depression filling, only when
 //! pits exist, temporarily allocates two bit sets (2 bits per cell) plus a heap and
 //! queues sized by the lakes.
 
