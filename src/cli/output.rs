@@ -248,8 +248,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), OutputError> {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
+    // The output's name, cut to 64 characters, so that any name the file system takes for
+    // the output also fits its temporary file (255 bytes is the usual limit).
+    let stem: String = name.to_string_lossy().chars().take(64).collect();
     let mut tmp_name = std::ffi::OsString::from(".");
-    tmp_name.push(name);
+    tmp_name.push(stem);
     tmp_name.push(format!(
         ".strahler-tmp-{}-{}",
         std::process::id(),
@@ -305,6 +308,17 @@ mod tests {
                 n.contains("strahler-tmp").then_some(n)
             })
             .collect()
+    }
+
+    /// Issue 33, point 18: an output name the file system takes (240 bytes) is written,
+    /// though the output's name and the temporary suffix together would pass 255 bytes.
+    #[test]
+    fn a_long_output_name_is_written() {
+        let dir = scratch("long");
+        let path = dir.join(format!("{}.tif", "n".repeat(236)));
+        write_atomic(&path, b"long").unwrap();
+        assert_eq!(fs::read(&path).unwrap(), b"long");
+        assert!(leftovers(&dir).is_empty());
     }
 
     #[test]
