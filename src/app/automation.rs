@@ -171,6 +171,11 @@ pub enum Command {
         name: String,
         bytes: Vec<u8>,
     },
+    /// A chosen file refused before it was read (empty, or larger than its format allows).
+    FileRefused {
+        name: String,
+        message: String,
+    },
 }
 
 type Repaint = Arc<dyn Fn() + Send + Sync>;

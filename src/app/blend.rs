@@ -136,7 +136,7 @@ impl StrahlerApp {
         let (w, h) = (dem.field.width(), dem.field.height());
         let side = w.min(h).min(256);
         self.blend.selection = [(h - side) / 2, (w - side) / 2, side, side];
-        let cell = dem.georef.cell_size().map_or(1.0, |c| c.0 as f32);
+        let cell = dem.georef.cell_size_m(h).map_or(1.0, |c| c.0 as f32);
         let image = super::relief::shaded_relief(&dem.field, cell.max(1e-6));
         let preview = Some(ctx.load_texture("dem preview", image, egui::TextureOptions::LINEAR));
         let (zmin, zmax) = dem.field.finite_range().unwrap_or((0.0, 0.0));
@@ -147,7 +147,7 @@ impl StrahlerApp {
             zmin,
             zmax,
             void_cells: dem.void_cells(),
-            cell_size: dem.georef.cell_size().map(|c| c.0),
+            cell_size: dem.georef.cell_size_m(h).map(|c| c.0),
             crs: dem.georef.crs_label(),
         };
         self.automation.update(|s| s.dem = Some(status));
@@ -480,7 +480,9 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         ui.add(egui::TextEdit::singleline(&mut app.blend.path_input).hint_text("path/to/dem.tif"));
         if ui.button("Open").clicked() {
             let path = std::path::PathBuf::from(app.blend.path_input.trim());
-            match std::fs::read(&path) {
+            // The same checks as the command line: a regular file, its size bounded by its
+            // header (a pipe or a 3 GB file is refused before it is read).
+            match crate::dem::format::read_file(&path, crate::dem::ReadLimits::default()) {
                 Ok(bytes) => {
                     let name = path.to_string_lossy().into_owned();
                     app.load_dem(&ctx, &name, bytes);
@@ -706,8 +708,12 @@ pub(super) fn upload(app: &mut StrahlerApp) {
     {
         let automation = app.automation.clone();
         let accept = ".tif,.tiff,.hgt,.asc,.png,.r16,.raw";
-        if let Err(err) = super::files::pick_file(accept, move |name, bytes| {
-            automation.push(super::Command::LoadDem { name, bytes });
+        let check = super::files::check_elevation_file;
+        if let Err(err) = super::files::pick_file(accept, check, move |name, read| {
+            automation.push(match read {
+                Ok(bytes) => super::Command::LoadDem { name, bytes },
+                Err(message) => super::Command::FileRefused { name, message },
+            });
         }) {
             app.set_error(err);
         }

@@ -155,7 +155,7 @@ impl StrahlerApp {
                 #[cfg(target_arch = "wasm32")]
                 let bytes = file.bytes_async().await;
                 #[cfg(not(target_arch = "wasm32"))]
-                let bytes = file.bytes();
+                let bytes = read_dropped(file.path(), target);
                 (name, target, bytes)
             },
             move || repaint.request_repaint(),
@@ -299,8 +299,12 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         #[cfg(target_arch = "wasm32")]
         if ui.button("Import mask PNG...").clicked() {
             let automation = app.automation.clone();
-            if let Err(err) = super::files::pick_file(".png", move |name, bytes| {
-                automation.push(super::Command::ImportMask { name, bytes });
+            let check = super::files::check_elevation_file;
+            if let Err(err) = super::files::pick_file(".png", check, move |name, read| {
+                automation.push(match read {
+                    Ok(bytes) => super::Command::ImportMask { name, bytes },
+                    Err(message) => super::Command::FileRefused { name, message },
+                });
             }) {
                 app.set_error(err);
             }
@@ -313,4 +317,19 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     if let Some(text) = &app.notice {
         ui.label(RichText::new(text).weak());
     }
+}
+
+/// A file dropped on the native window, read with the command line's checks: a regular file
+/// (a dropped pipe would block the app), its length within what its kind may take.
+#[cfg(not(target_arch = "wasm32"))]
+fn read_dropped(path: &std::path::Path, target: ImportTarget) -> Result<Vec<u8>, String> {
+    let read = match target {
+        ImportTarget::Scene => {
+            crate::dem::read_bounded(path, crate::scene::MAX_SCENE_BYTES, "a scene file may take")
+        }
+        ImportTarget::Mask | ImportTarget::Dem => {
+            crate::dem::format::read_file(path, crate::dem::ReadLimits::default())
+        }
+    };
+    read.map_err(|e| e.to_string())
 }

@@ -78,6 +78,21 @@ fn free_stem_in(dir: &std::path::Path, stem: &str, extensions: &[&str]) -> Strin
 mod tests {
     use super::*;
 
+    /// Issue 33: the page's file inputs refuse empty and oversized files by their length,
+    /// before the browser reads them, with the command line's messages.
+    #[test]
+    fn picked_files_are_checked_before_they_are_read() {
+        let empty = check_elevation_file("dem.tif", 0).unwrap_err();
+        assert!(empty.contains("empty (0 bytes)"), "{empty}");
+        let huge = check_elevation_file("dem.png", 3 << 30).unwrap_err();
+        assert!(huge.contains("3221225472 bytes"), "{huge}");
+        assert!(check_elevation_file("dem.tif", 1 << 20).is_ok());
+        assert!(check_scene_file("a.json", 0).is_err());
+        let big = check_scene_file("a.json", crate::scene::MAX_SCENE_BYTES + 1).unwrap_err();
+        assert!(big.contains("scene file"), "{big}");
+        assert!(check_scene_file("a.json", 100).is_ok());
+    }
+
     /// A save never replaces a file: a taken name is refused, and free stems skip names taken
     /// by any of the extensions saved together (a heightmap and its sidecar).
     #[test]
@@ -119,10 +134,36 @@ fn download(name: &str, mime: &str, bytes: &[u8]) -> Result<(), wasm_bindgen::Js
     Ok(())
 }
 
+/// [`pick_file`]'s check for an elevation file or a mask PNG: the command line's length rules.
+#[cfg(any(target_arch = "wasm32", test))]
+pub fn check_elevation_file(name: &str, len: u64) -> Result<(), String> {
+    crate::dem::format::check_length(name, len, crate::dem::ReadLimits::default())
+        .map_err(|e| e.to_string())
+}
+
+/// [`pick_file`]'s check for a scene file: not empty, within the scene's size limit.
+#[cfg(any(target_arch = "wasm32", test))]
+pub fn check_scene_file(_name: &str, len: u64) -> Result<(), String> {
+    let limit = crate::scene::MAX_SCENE_BYTES;
+    match len {
+        0 => Err("the file is empty (0 bytes)".into()),
+        n if n > limit => Err(format!(
+            "the file is {n} bytes, more than the {limit} bytes a scene file may take; not read"
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// Opens the browser's file picker for `accept` (e.g. ".tif,.png"); the chosen file's name
-/// and bytes go to `deliver` once read. Nothing happens if the user cancels.
+/// and bytes go to `deliver` once read. `check` sees the name and length first, before the
+/// browser reads the file into memory: what it refuses is delivered as the message instead
+/// of the bytes (a 3 GB or empty file is never read). Nothing happens if the user cancels.
 #[cfg(target_arch = "wasm32")]
-pub fn pick_file(accept: &str, deliver: impl Fn(String, Vec<u8>) + 'static) -> Result<(), String> {
+pub fn pick_file(
+    accept: &str,
+    check: fn(&str, u64) -> Result<(), String>,
+    deliver: impl Fn(String, Result<Vec<u8>, String>) + 'static,
+) -> Result<(), String> {
     use wasm_bindgen::JsCast;
     use wasm_bindgen::closure::Closure;
     let fail = |e: wasm_bindgen::JsValue| format!("the file picker failed: {e:?}");
@@ -143,11 +184,15 @@ pub fn pick_file(accept: &str, deliver: impl Fn(String, Vec<u8>) + 'static) -> R
             return;
         };
         let deliver = deliver.clone();
+        let name = file.name();
+        if let Err(message) = check(&name, file.size() as u64) {
+            deliver(name, Err(message));
+            return;
+        }
         wasm_bindgen_futures::spawn_local(async move {
-            let name = file.name();
             match wasm_bindgen_futures::JsFuture::from(file.array_buffer()).await {
-                Ok(buffer) => deliver(name, js_sys::Uint8Array::new(&buffer).to_vec()),
-                Err(err) => log::warn!("cannot read {name}: {err:?}"),
+                Ok(buffer) => deliver(name, Ok(js_sys::Uint8Array::new(&buffer).to_vec())),
+                Err(err) => deliver(name, Err(format!("the browser could not read it: {err:?}"))),
             }
         });
     });

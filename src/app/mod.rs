@@ -589,6 +589,9 @@ impl StrahlerApp {
                     z_scale,
                 } => self.place_block(ctx, window, Some(rect), quarter_turns, mirror, z_scale),
                 Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
+                Command::FileRefused { name, message } => {
+                    self.set_error(format!("{name}: {message}"))
+                }
                 Command::Undo => self.undo(),
                 Command::Redo => self.redo(),
                 Command::SetView(view) => self.set_view(view),

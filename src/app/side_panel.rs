@@ -143,8 +143,12 @@ fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             .clicked()
         {
             let automation = app.automation.clone();
-            if let Err(err) = super::files::pick_file(".json", move |name, bytes| {
-                automation.push(super::Command::OpenScene { name, bytes });
+            let check = super::files::check_scene_file;
+            if let Err(err) = super::files::pick_file(".json", check, move |name, read| {
+                automation.push(match read {
+                    Ok(bytes) => super::Command::OpenScene { name, bytes },
+                    Err(message) => super::Command::FileRefused { name, message },
+                });
             }) {
                 app.set_error(err);
             }

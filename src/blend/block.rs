@@ -67,6 +67,17 @@ impl BlendBlock {
         }
     }
 
+    /// The reference's cells as its PNG header declares them, read without decoding it
+    /// (`None` when the header is not a PNG's; [`BlendBlock::validate`] says why).
+    pub fn reference_cells(&self) -> Option<u64> {
+        // 32 base64 characters are the first 24 bytes: the signature and IHDR's size.
+        let head = self.reference_png.trim().get(..32)?;
+        let bytes = base64::engine::general_purpose::STANDARD
+            .decode(head)
+            .ok()?;
+        crate::dem::format::png_size(&bytes).map(|(w, h)| w.saturating_mul(h))
+    }
+
     /// The decoded reference block (before the transform).
     pub fn reference(&self) -> Result<Heightfield, String> {
         let bytes = base64::engine::general_purpose::STANDARD

@@ -27,19 +27,19 @@ pub struct AmplifyArgs {
     /// The DEM (.tif GeoTIFF, or .png heightmap with its height range).
     pub input: PathBuf,
     /// New levels of detail, 1 to 3 (each doubles the resolution: n -> 2n - 1).
-    #[arg(long, default_value_t = 1)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1)]
     pub levels: u32,
     /// Where the detail variances come from.
     #[arg(long, value_enum, default_value = "global")]
     pub scope: ScopeArg,
     /// Window side in coefficients for --scope local and local-paper (odd).
-    #[arg(long, default_value_t = LocalParams::default().window)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = LocalParams::default().window)]
     pub window: usize,
     /// Energy-reduction mask: greyscale PNG, white removes the synthetic detail.
     #[arg(long)]
     pub mask: Option<PathBuf>,
     /// Seed of the synthetic coefficients (same seed, same bytes).
-    #[arg(long, default_value_t = 1)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1)]
     pub seed: u64,
     /// auto (GPU if it computes, else CPU), cpu or gpu.
     #[arg(long, default_value = "auto")]
@@ -54,9 +54,10 @@ pub struct AmplifyArgs {
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Refuse inputs with more cells than this.
-    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
-    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
+    /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
 }
@@ -120,7 +121,12 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
         analysis: AnalysisParams::default(),
     };
     // Parameter and size errors before any GPU is probed.
-    wavelet::synthesis::check(&dem.field, &params)?;
+    let (ow, oh) = wavelet::synthesis::check(&dem.field, &params)?;
+    super::memory::check_cells(
+        "the amplified terrain",
+        super::memory::Work::Amplify,
+        ow as u64 * oh as u64,
+    )?;
     let backend = args.backend.resolve(&super::compute_path(args.backend))?;
     // With the default backend a GPU that cannot hold the output in one binding hands the
     // work to the CPU (the wavelet kernels do not tile yet); `--backend gpu` keeps the error.
@@ -150,7 +156,7 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
     let field = &amplified.field;
     let factor = f64::from(1u32 << args.levels);
     let georef = dem.georef.refined(factor);
-    let cell = georef.cell_size().map(|(x, _)| x);
+    let cell = georef.cell_size_m(field.height()).map(|(x, _)| x);
     super::io::write_dem(&outputs, &args.out, field, &georef, cell)?;
     println!(
         "{} x {} -> {} x {} ({} level{}, {:?} scope{}) on the {} in {:.0} ms",
@@ -186,5 +192,6 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
         };
         outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
+    outputs.commit()?;
     Ok(())
 }

@@ -24,16 +24,16 @@ pub struct AnalyzeArgs {
     #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = parse_z_range)]
     pub z_range: Option<(f32, f32)>,
     /// Levels whose band has fewer coefficients are not fitted (the paper uses 16).
-    #[arg(long, default_value_t = 16)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 16)]
     pub min_coefficients: usize,
     /// Cell size in metres where the file gives none (PNG, RAW) [default: 1].
-    #[arg(allow_negative_numbers = true, long, value_parser = super::parse_cell_size)]
+    #[arg(allow_hyphen_values = true, long, value_parser = super::parse_cell_size)]
     pub cell_size: Option<f64>,
     /// Print JSON instead of the table.
     #[arg(long)]
     pub json: bool,
     /// Refuse inputs with more cells than this.
-    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
     /// Also extract the DEM's channel network (D8 flow accumulation on the Priority-Flood
     /// filled DEM) and print its river statistics beside those of a generated network.
@@ -192,6 +192,11 @@ pub fn run(args: &AnalyzeArgs) -> Result<(), Box<dyn std::error::Error>> {
         max_cells: args.max_cells,
     };
     let dem = super::io::read_dem(&args.input, limits, args.z_range)?;
+    super::memory::check_cells(
+        "the analysis",
+        super::memory::Work::Analyze,
+        (dem.field.width() as u64) * (dem.field.height() as u64),
+    )?;
     let params = AnalysisParams {
         min_coefficients: args.min_coefficients.max(1),
     };

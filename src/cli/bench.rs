@@ -15,23 +15,23 @@ use crate::jobs::JobCtx;
 #[derive(Debug, Args)]
 pub struct BenchArgs {
     /// Grid sides to run (square grids).
-    #[arg(long, value_delimiter = ',', default_values_t = [512usize, 1024, 2048, 4096])]
+    #[arg(allow_hyphen_values = true, long, value_delimiter = ',', default_values_t = [512usize, 1024, 2048, 4096])]
     pub sizes: Vec<usize>,
     /// Backends: cpu, gpu or both.
     #[arg(long, default_value = "both")]
     pub backend: String,
     /// Fraction of fixed cells in the test problem (a rasterised skeleton is about 1.5%).
-    #[arg(allow_negative_numbers = true, long, default_value_t = 0.015)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 0.015)]
     pub fixed: f32,
     /// Jacobi sweeps for the paper's baseline.
-    #[arg(long, default_value_t = 5500)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 5500)]
     pub jacobi_sweeps: u32,
     /// Largest side on which the Jacobi baseline runs (it is slow by design).
-    #[arg(long, default_value_t = 1024)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1024)]
     pub jacobi_max_size: usize,
     /// Give the GPU only this many MiB per storage binding, as a small device would: fields
     /// larger than that run tiled in bands of rows (the diffusion table only).
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub max_binding_mib: Option<u64>,
     /// Time the hydrology pipeline stage by stage instead (four rivers, phi 2 to 4), beside
     /// the paper's Table 3: on the CPU, or with `--backend gpu` every stage with a GPU version
@@ -40,7 +40,7 @@ pub struct BenchArgs {
     pub pipeline: bool,
     /// Runs per size for the pipeline table, which prints each stage's median (the first run
     /// in a process also pays for fresh memory).
-    #[arg(long, default_value_t = 5)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 5)]
     pub runs: usize,
     /// Time the wavelet levels of detail instead (2 new levels on each size as the source:
     /// global and local scope, with and without a mask).
@@ -61,7 +61,7 @@ pub struct BenchArgs {
     /// Solves per size, backend and method in the diffusion benchmark (runs per case with
     /// --wavelet, which prints medians; runs per size and backend with --erosion, the best
     /// kept). On the GPU the first builds the kernels; later ones reuse them.
-    #[arg(long, default_value_t = 1)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1)]
     pub repeat: usize,
     /// How the GPU multigrid smooths in the diffusion table (the other tables ignore it):
     /// `tiles` (each pre- or post-smoothing one dispatch, tile by tile in workgroup memory,

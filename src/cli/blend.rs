@@ -21,13 +21,13 @@ pub struct BlendArgs {
     /// The real terrain whose features are blended in.
     pub reference: PathBuf,
     /// The block of TARGET to solve: ROW,COL,HEIGHT,WIDTH in cells, row 0 = north.
-    #[arg(long, value_parser = parse_block)]
+    #[arg(allow_hyphen_values = true, long, value_parser = parse_block)]
     pub block: BlockRect,
     /// Top-left ROW,COL of the same-sized window of REFERENCE that guides it.
-    #[arg(long, value_parser = parse_pair)]
+    #[arg(allow_hyphen_values = true, long, value_parser = parse_pair)]
     pub ref_at: (usize, usize),
     /// Multiply the reference's heights (and so its gradients).
-    #[arg(allow_negative_numbers = true, long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale_z: f32,
     /// Output file (format from the extension).
     #[arg(long)]
@@ -41,7 +41,8 @@ pub struct BlendArgs {
     /// Write a JSON report of the solve here.
     #[arg(long)]
     pub report: Option<PathBuf>,
-    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
+    /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
 }
@@ -98,6 +99,11 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
         outputs.claim(report, "report")?;
     }
     let target = super::io::read_dem(&args.target, limits, args.z_range)?;
+    super::memory::check_cells(
+        "the blend",
+        super::memory::Work::Solve,
+        (target.field.width() as u64) * (target.field.height() as u64),
+    )?;
     let reference = super::io::read_dem(&args.reference, limits, args.z_range)?;
     let b = args.block;
     b.check_inside(target.field.width(), target.field.height())?;
@@ -124,7 +130,7 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
         &args.out,
         &field,
         &target.georef,
-        target.georef.cell_size().map(|c| c.0),
+        target.georef.cell_size_m(field.height()).map(|c| c.0),
     )?;
     println!(
         "blended {} x {} cells at row {}, col {} on the {} in {:.0} ms: {} cycles, residual {:.1e} of the range{}",
@@ -155,5 +161,6 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
         };
         outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
+    outputs.commit()?;
     Ok(())
 }

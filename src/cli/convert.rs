@@ -30,15 +30,16 @@ pub struct ConvertArgs {
     #[arg(long)]
     pub flip_y: bool,
     /// Resample to SIZE x SIZE cells (corners kept), e.g. 1025 or 2049 for engines.
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub size: Option<usize>,
     /// Multiply the heights.
-    #[arg(allow_negative_numbers = true, long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub z_scale: f32,
     /// Refuse inputs with more cells than this.
-    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
-    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
+    /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
 }
@@ -56,6 +57,11 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
             z_range: args.z_range,
             flip_y: args.flip_y,
         },
+    )?;
+    super::memory::check_cells(
+        "the conversion",
+        super::memory::Work::Copy,
+        (dem.field.width() as u64) * (dem.field.height() as u64),
     )?;
     let voids = dem.void_cells();
     if args.fill_voids && voids > 0 {
@@ -75,9 +81,13 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
         size: args.size,
         flip_y: args.flip_y,
         z_scale: args.z_scale,
-        cell_size: dem.georef.cell_size().map_or(1.0, |c| c.0),
+        cell_size: dem
+            .georef
+            .cell_size_m(dem.field.height())
+            .map_or(1.0, |c| c.0),
     };
     super::io::write_dem_with(&outputs, &args.output, &dem.field, &dem.georef, &options)?;
+    outputs.commit()?;
     println!(
         "{} ({} x {}) -> {}",
         args.input.display(),

@@ -28,12 +28,13 @@ pub struct FeaturesArgs {
     #[arg(long)]
     pub rebuild: Option<PathBuf>,
     /// K_gray of eqs. 1-2 (fraction of cells clipped at each end of the grey range).
-    #[arg(allow_negative_numbers = true, long, default_value_t = FeatureParams::default().k_gray)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = FeatureParams::default().k_gray)]
     pub k_gray: f64,
     /// w of eq. 3 (profile threshold).
-    #[arg(allow_negative_numbers = true, long, default_value_t = FeatureParams::default().w)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = FeatureParams::default().w)]
     pub w: f64,
-    /// Replace an existing file beside a PNG/R16 output that is not its own sidecar.
+    /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
+    /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
     /// Height range of a PNG heightmap without a text chunk or sidecar JSON.
@@ -52,6 +53,8 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         outputs.claim_dem(path, "rebuilt terrain")?;
     }
     let dem = super::io::read_dem(&args.input, ReadLimits::default(), args.z_range)?;
+    let cells = (dem.field.width() as u64) * (dem.field.height() as u64);
+    super::memory::check_cells("the feature extraction", super::memory::Work::Copy, cells)?;
     let (w, h) = (dem.field.width(), dem.field.height());
     let params = FeatureParams {
         k_gray: args.k_gray,
@@ -63,7 +66,21 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
     let millis = clock.elapsed().as_secs_f64() * 1e3;
     let (cx, _) = dem.georef.cell_size_m(h).unwrap_or((30.0, 30.0));
-    let scene = Scene::from_features(&found, w, h, cx)?;
+    let scene = Scene::from_features(&found, w, h, cx)
+        .map_err(|e| format!("{}: {e}", args.input.display()))?;
+    let s = &scene.sketch;
+    let kept = (s.ridges.len(), s.valleys.len(), s.peaks.len());
+    if kept != (found.ridges.len(), found.valleys.len(), found.peaks.len()) {
+        println!(
+            "note: a scene holds at most {} features and {} line points: kept the {} longest \
+             ridges, {} longest valleys and {} highest peaks",
+            crate::scene::MAX_SKETCH_ITEMS,
+            crate::scene::MAX_SKETCH_POINTS_TOTAL,
+            kept.0,
+            kept.1,
+            kept.2
+        );
+    }
     outputs.write(&args.out, scene.to_json().as_bytes())?;
     println!(
         "{}: {w} x {h} cells; {} ridges, {} valleys, {} peaks in {millis:.0} ms -> {}",
@@ -102,6 +119,7 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
             None => println!("rebuilt from the features: no SSIM (the DEM is too small)"),
         }
     }
+    outputs.commit()?;
     Ok(())
 }
 

@@ -30,16 +30,16 @@ pub struct FillArgs {
     #[arg(long, default_value = "multigrid", value_parser = ["multigrid", "jacobi"])]
     pub method: String,
     /// Jacobi sweeps (with --method jacobi), or the multigrid cycle limit.
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub iterations: Option<u32>,
     /// Multigrid residual tolerance as a fraction of the fixed heights' range.
-    #[arg(allow_negative_numbers = true, long, default_value_t = MultigridParams::default().tolerance)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = MultigridParams::default().tolerance)]
     pub tol: f32,
     /// Write a JSON report of the solve here.
     #[arg(long)]
     pub report: Option<PathBuf>,
     /// Refuse inputs with more cells than this.
-    #[arg(long, default_value_t = ReadLimits::default().max_cells)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = ReadLimits::default().max_cells)]
     pub max_cells: u64,
     /// Height range MIN,MAX for PNG and RAW inputs that do not carry one.
     #[arg(allow_hyphen_values = true, long, value_name = "MIN,MAX", value_parser = super::analyze::parse_z_range)]
@@ -47,7 +47,8 @@ pub struct FillArgs {
     /// Write the output (and exit 0) even when the solver stops before converging.
     #[arg(long)]
     pub allow_unconverged: bool,
-    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
+    /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
 }
@@ -98,6 +99,11 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
             max_cells: args.max_cells,
         },
         args.z_range,
+    )?;
+    super::memory::check_cells(
+        "the fill",
+        super::memory::Work::Solve,
+        (dem.field.width() as u64) * (dem.field.height() as u64),
     )?;
     let problem = diffusion::void_problem(&dem.field);
     let free = problem.width() * problem.height() - problem.fixed().count();
@@ -160,6 +166,7 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
     if !report.converged && !args.allow_unconverged {
         if let Some(path) = &args.report {
             outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
+            outputs.commit()?;
         }
         return Err(format!(
             "the fill stopped before converging after {} cycles (residual {:.1e} of the \
@@ -177,10 +184,11 @@ pub fn run(args: &FillArgs) -> Result<(), Box<dyn std::error::Error>> {
         &args.out,
         field,
         &dem.georef,
-        dem.georef.cell_size().map(|c| c.0),
+        dem.georef.cell_size_m(field.height()).map(|c| c.0),
     )?;
     if let Some(path) = &args.report {
         outputs.write(path, serde_json::to_string_pretty(&report)?.as_bytes())?;
     }
+    outputs.commit()?;
     Ok(())
 }

@@ -26,41 +26,41 @@ pub struct GenerateArgs {
     #[arg(long = "river", value_parser = parse_stroke)]
     pub rivers: Vec<Stroke>,
     /// Cells per side of the square map [default: 512].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub size: Option<usize>,
     /// Random seed [default: 1].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub seed: Option<u64>,
     /// Width of the map in metres [default: 10000].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub map_width: Option<f64>,
     /// Branching angle theta in degrees [default: 30].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub theta: Option<f64>,
     /// River slope (metres per metre of channel) [default: 0.01].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub slope: Option<f64>,
     /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub alpha: Option<f64>,
     /// Amplitude of the ridge noise of eq. 5, in metres [default: 25].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub noise: Option<f64>,
     /// MD/MDI enrichment passes (0 = off) [default: 2].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub passes: Option<u32>,
     /// Enrichment distance limit L in cells [default: 3].
-    #[arg(long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub distance_limit: Option<u32>,
     /// What L limits: the distance from the skeleton (`skeleton`, default) or, as the paper
     /// writes it, the distance between the points interpolated from (`points`).
     #[arg(long, value_name = "RULE", value_parser = parse_distance_rule)]
     pub distance_rule: Option<crate::skeleton::enrich::DistanceRule>,
     /// Gaussian smoothing of the filled terrain, sigma in cells, kept off the rivers [default: 0].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub smooth: Option<f32>,
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
-    #[arg(allow_negative_numbers = true, long)]
+    #[arg(allow_hyphen_values = true, long)]
     pub fbm: Option<f32>,
     /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn erosion off
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
@@ -83,7 +83,8 @@ pub struct GenerateArgs {
     pub report: Option<PathBuf>,
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
-    /// Let the output's sidecar `.json` replace an existing file this run did not write.
+    /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
+    /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
     /// A DEM (e.g. a real one of the same extent) whose realism measures are printed beside
@@ -110,6 +111,16 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(size) = args.size {
         scene.size = size;
+    }
+    if let Some(w) = args.map_width
+        && w / (scene.size.max(1) as f64) < crate::scene::MIN_CELL_SIZE_M
+    {
+        return Err(format!(
+            "--map-width {w} m over {} cells makes cells under {} m (1 cm); give a wider map",
+            scene.size,
+            crate::scene::MIN_CELL_SIZE_M
+        )
+        .into());
     }
     scene.cell_size = args.map_width.unwrap_or(width) / scene.size.max(1) as f64;
     if let Some(seed) = args.seed {
@@ -258,6 +269,7 @@ pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
 
 pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     let scene = scene_of(args)?;
+    super::memory::check("the terrain", generate_bytes(&scene))?;
     let mut outputs = Outputs::new(args.force);
     if let Some(path) = &args.scene {
         outputs.input(path, "scene");
@@ -315,6 +327,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     if let Some(path) = &args.report {
         outputs.write(path, serde_json::to_string_pretty(report)?.as_bytes())?;
     }
+    outputs.commit()?;
     let stages: Vec<String> = report
         .terrain
         .stages
@@ -352,6 +365,18 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("note: {note}");
     }
     Ok(())
+}
+
+/// The memory [`pipeline::generate`] holds at its peak for `scene`: the stages over the
+/// terrain's cells, and the detail levels over their output's.
+fn generate_bytes(scene: &Scene) -> u64 {
+    use super::memory::{Work, estimate};
+    let cells = (scene.size as u64).pow(2);
+    let detail = match scene.detail.levels {
+        0 => 0,
+        levels => (crate::wavelet::synthesis::output_len(scene.size, levels) as u64).pow(2),
+    };
+    estimate(Work::Generate, cells).saturating_add(estimate(Work::Amplify, detail))
 }
 
 fn write_heightmap(

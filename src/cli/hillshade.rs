@@ -18,14 +18,17 @@ pub struct HillshadeArgs {
     #[arg(long)]
     pub out: PathBuf,
     /// Side of each panel in pixels.
-    #[arg(long, default_value_t = 512)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 512)]
     pub panel: usize,
     /// Cell size in metres for files that give none (PNG, RAW) [default: 1].
-    #[arg(allow_negative_numbers = true, long, value_parser = super::parse_cell_size)]
+    #[arg(allow_hyphen_values = true, long, value_parser = super::parse_cell_size)]
     pub cell_size: Option<f64>,
     /// Height exaggeration.
-    #[arg(allow_negative_numbers = true, long, default_value_t = 1.0)]
+    #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub z_factor: f64,
+    /// Let the picture replace a read-only file or another user's file.
+    #[arg(long)]
+    pub force: bool,
 }
 
 pub fn run(args: &HillshadeArgs) -> Result<(), Box<dyn std::error::Error>> {
@@ -50,7 +53,7 @@ pub fn run(args: &HillshadeArgs) -> Result<(), Box<dyn std::error::Error>> {
         )
         .into());
     }
-    let mut outputs = Outputs::new(false);
+    let mut outputs = Outputs::new(args.force);
     for path in &args.inputs {
         outputs.input(path, "input");
     }
@@ -79,5 +82,6 @@ pub fn run(args: &HillshadeArgs) -> Result<(), Box<dyn std::error::Error>> {
     }
     let png = crate::dem::png16::write_grey8(width, side, &picture)?;
     outputs.write(&args.out, &png)?;
+    outputs.commit()?;
     Ok(())
 }

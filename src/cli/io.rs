@@ -103,7 +103,7 @@ pub fn write_dem(
         georef,
         &ExportOptions {
             cell_size: cell_size_m
-                .or_else(|| georef.cell_size().map(|c| c.0))
+                .or_else(|| georef.cell_size_m(field.height()).map(|c| c.0))
                 .unwrap_or(1.0),
             ..Default::default()
         },

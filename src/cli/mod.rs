@@ -15,6 +15,7 @@ mod generate;
 mod hillshade;
 mod info;
 mod io;
+mod memory;
 mod output;
 
 use std::process::ExitCode;
@@ -84,6 +85,7 @@ pub fn compute_path(choice: crate::compute::BackendChoice) -> crate::compute::Co
 
 /// Runs a subcommand and maps its outcome to an exit code (errors go to stderr).
 pub fn run(command: Command) -> ExitCode {
+    output::install_signal_cleanup();
     let result = match command {
         Command::Info(args) => info::run(&args),
         Command::Bench(args) => bench::run(&args),

@@ -103,6 +103,9 @@ pub struct ImportOptions {
 
 /// Reads `bytes` as the format `name`'s extension says.
 pub fn read(name: &str, bytes: &[u8], options: &ImportOptions) -> Result<Dem, DemError> {
+    if bytes.is_empty() && Format::from_name(name).is_some() {
+        return Err(DemError::EmptyFile);
+    }
     match Format::from_name(name) {
         Some(Format::GeoTiff) => geotiff::read(bytes, options.limits),
         Some(Format::Png) => png16::read_heightmap(bytes, options.z_range, options.limits),
@@ -140,6 +143,31 @@ impl Format {
     }
 }
 
+/// The checks on a file's length made before it is read, by the page's file inputs as by
+/// [`read_file`]: not empty, and no longer than a file of its format within `limits` can be
+/// (a 3 GB file is refused before the browser reads it into memory).
+pub fn check_length(name: &str, len: u64, limits: ReadLimits) -> Result<(), DemError> {
+    let format = Format::from_name(name)
+        .filter(|f| *f != Format::Obj)
+        .ok_or_else(|| DemError::UnknownFormat(name.to_owned()))?;
+    if len == 0 {
+        return Err(DemError::EmptyFile);
+    }
+    let limit = limits.max_file_bytes(format.max_bytes_per_cell());
+    if len > limit {
+        return Err(DemError::FileTooLarge {
+            bytes: len,
+            limit,
+            why: format!(
+                "{}s of at most {} cells can take",
+                format.name(),
+                limits.max_cells
+            ),
+        });
+    }
+    Ok(())
+}
+
 /// Reads the elevation file at `path` (format by its name) with every check made before the
 /// whole file is read: a regular file; its length within what `limits` allows for the format;
 /// the size the header declares (PNG, GeoTIFF, ASCII grid) within `limits`, and the length
@@ -151,7 +179,7 @@ pub fn read_file(path: &std::path::Path, limits: ReadLimits) -> Result<Vec<u8>, 
         .filter(|f| *f != Format::Obj)
         .ok_or_else(|| DemError::UnknownFormat(name.clone().into_owned()))?;
     let io = |e: std::io::Error| DemError::Io(e.to_string());
-    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut file = super::open_regular(path)?;
     let cap = limits.max_file_bytes(format.max_bytes_per_cell());
     let why = format!(
         "{}s of at most {} cells (--max-cells) can take",
@@ -159,6 +187,9 @@ pub fn read_file(path: &std::path::Path, limits: ReadLimits) -> Result<Vec<u8>, 
         limits.max_cells
     );
     let len = super::checked_len(&file, cap, &why)?;
+    if len == 0 {
+        return Err(DemError::EmptyFile);
+    }
     // The size the header declares, when the format has a header.
     let declared = match format {
         Format::Png | Format::Asc => {
@@ -201,7 +232,7 @@ pub fn read_file(path: &std::path::Path, limits: ReadLimits) -> Result<Vec<u8>, 
 }
 
 /// Width and height from a PNG's IHDR chunk.
-fn png_size(head: &[u8]) -> Option<(u64, u64)> {
+pub(crate) fn png_size(head: &[u8]) -> Option<(u64, u64)> {
     if head.len() < 24 || &head[..8] != b"\x89PNG\r\n\x1a\n" || &head[12..16] != b"IHDR" {
         return None;
     }
@@ -386,4 +417,36 @@ pub fn write(
             sidecar: None,
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Issue 33: the page's file inputs take the command line's checks: empty, huge and
+    /// lying files are refused by their length before they are read.
+    #[test]
+    fn lengths_are_checked_before_reading() {
+        let limits = ReadLimits::default();
+        assert!(matches!(
+            check_length("a.tif", 0, limits),
+            Err(DemError::EmptyFile)
+        ));
+        let err = check_length("a.png", 3 << 30, limits).unwrap_err();
+        assert!(err.to_string().contains("3221225472 bytes"), "{err}");
+        assert!(check_length("a.hgt", 2 * 1201 * 1201, limits).is_ok());
+        assert!(matches!(
+            check_length("a.obj", 10, limits),
+            Err(DemError::UnknownFormat(_))
+        ));
+        let options = ImportOptions {
+            limits,
+            z_range: Some((0.0, 1.0)),
+            flip_y: false,
+        };
+        for name in ["a.tif", "a.png", "a.r16", "a.asc", "N44E005.hgt"] {
+            let err = read(name, &[], &options).unwrap_err();
+            assert_eq!(err.to_string(), "the file is empty (0 bytes)", "{name}");
+        }
+    }
 }

@@ -78,6 +78,11 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
             )));
         }
     }
+    let bits = match decoder.colortype().map_err(tiff_err)? {
+        ColorType::Gray(bits) => u64::from(bits),
+        _ => 64,
+    };
+    check_data_present(&mut decoder, u64::from(width) * u64::from(height), bits)?;
     let georef = GeoRef {
         pixel_scale: decoder.get_tag_f64_vec(Tag::ModelPixelScaleTag).ok(),
         tiepoint: decoder.get_tag_f64_vec(Tag::ModelTiepointTag).ok(),
@@ -121,6 +126,49 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
     }
     let field = Heightfield::from_vec(w, h, values).map_err(|e| DemError::Tiff(e.to_string()))?;
     Ok(Dem { field, georef })
+}
+
+/// The most bytes one byte of compressed samples can decode to: LZW's 12-bit codes stand for
+/// at most 4096 bytes each (deflate's limit, 1032, and PackBits', 64, are lower).
+const MAX_EXPANSION: u64 = 4096;
+
+/// Refuses a file whose header declares more samples than its strips or tiles can hold, and
+/// one whose samples the machine cannot hold, before the decoder allocates them (a 198-byte
+/// file declaring 100000^2 cells would otherwise abort the process on a 40 GB allocation).
+fn check_data_present<R: std::io::Read + std::io::Seek>(
+    decoder: &mut Decoder<R>,
+    cells: u64,
+    bits: u64,
+) -> Result<(), DemError> {
+    let need = cells.saturating_mul(bits).div_ceil(8);
+    // Every TIFF writer records where its samples are; without the counts the decoder
+    // finds out by itself, and only the memory check below applies.
+    if let Ok(counts) = decoder
+        .get_tag_u64_vec(Tag::StripByteCounts)
+        .or_else(|_| decoder.get_tag_u64_vec(Tag::TileByteCounts))
+    {
+        let stored = counts.iter().fold(0u64, |a, &c| a.saturating_add(c));
+        let compressed = decoder.get_tag_u32(Tag::Compression).is_ok_and(|c| c != 1);
+        let most = if compressed {
+            stored.saturating_mul(MAX_EXPANSION)
+        } else {
+            stored
+        };
+        if most < need {
+            return Err(DemError::Tiff(format!(
+                "the header declares {cells} samples ({need} bytes) but the file stores \
+                 {stored} bytes of them{}: it is truncated or its header is wrong",
+                if compressed {
+                    ", more than any compression expands to"
+                } else {
+                    ""
+                }
+            )));
+        }
+    }
+    // The decoder's buffer plus the heights made from it, reserved now so that a size the
+    // machine cannot hold is an error, not an abort.
+    super::reserve_check(need.saturating_add(cells.saturating_mul(4)))
 }
 
 /// Converts decoded samples to `f32` heights, mapping no-data and NaN to NaN. Infinite

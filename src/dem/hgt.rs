@@ -26,7 +26,16 @@ pub fn read(name: &str, bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemErro
     }
     let samples = bytes.len() / 2;
     let n = samples.isqrt();
-    if n * n != samples || n < 2 {
+    if n < 2 {
+        return Err(bad(format!(
+            "the file is {} bytes, {samples} sample{}: too short for the smallest grid (2 x 2, \
+             8 bytes); SRTM tiles are 1201 x 1201 (2,884,802 bytes) or 3601 x 3601 \
+             (25,934,402 bytes)",
+            bytes.len(),
+            if samples == 1 { "" } else { "s" }
+        )));
+    }
+    if n * n != samples {
         return Err(bad(format!(
             "{samples} samples is not a square grid of at least 2 x 2; SRTM tiles are 1201 x \
              1201 (2,884,802 bytes) or 3601 x 3601 (25,934,402 bytes)"

@@ -45,6 +45,8 @@ pub enum DemError {
     Unsupported(String),
     #[error("the file has no cells")]
     Empty,
+    #[error("the file is empty (0 bytes)")]
+    EmptyFile,
     #[error("not a readable PNG: {0}")]
     Png(String),
     #[error("could not write the file: {0}")]
@@ -61,10 +63,27 @@ pub enum DemError {
     UnknownFormat(String),
     #[error("the file is {bytes} bytes, more than the {limit} bytes {why}; not read")]
     FileTooLarge { bytes: u64, limit: u64, why: String },
-    #[error("not a regular file ({0}); give the path of a file")]
+    #[error(
+        "it is {0}, not a regular file: give the path of a file (pipes, devices and folders are refused)"
+    )]
     NotAFile(String),
     #[error("cannot read the file: {0}")]
     Io(String),
+    #[error(
+        "reading it needs {} of memory, more than this machine can give; use a smaller file",
+        format_bytes(*bytes)
+    )]
+    OutOfMemory { bytes: u64 },
+}
+
+/// `bytes` in words: "3.2 GiB", "512 MiB".
+pub fn format_bytes(bytes: u64) -> String {
+    let b = bytes as f64;
+    if b >= f64::from(1u32 << 30) {
+        format!("{:.1} GiB", b / f64::from(1u32 << 30))
+    } else {
+        format!("{:.0} MiB", b / f64::from(1u32 << 20))
+    }
 }
 
 /// The most characters of a file's content an error message quotes.
@@ -79,28 +98,71 @@ pub fn clip(text: &str) -> String {
     }
 }
 
-/// Bytes a raster file may take beyond its cells: headers, tags, text chunks.
-pub const HEADER_SLACK: u64 = 1 << 20;
+/// Bytes a raster file may take beyond its cells: headers, tags, text chunks (a PNG may carry
+/// megabytes of metadata).
+pub const HEADER_SLACK: u64 = 16 << 20;
 
 /// Reads a regular file of at most `limit` bytes (`why` says where the limit comes from, for
 /// the message). The length is checked before anything is read, and no more than `limit`
 /// bytes are read even from a file that grows meanwhile.
 pub fn read_bounded(path: &std::path::Path, limit: u64, why: &str) -> Result<Vec<u8>, DemError> {
-    let mut file = std::fs::File::open(path).map_err(|e| DemError::Io(e.to_string()))?;
+    let mut file = open_regular(path)?;
     let len = checked_len(&file, limit, why)?;
     read_rest(&mut file, len, limit, why)
+}
+
+/// Opens a file to read it, refusing anything but a regular file before a byte is read.
+/// On Unix the file is opened without waiting (`O_NONBLOCK`), so a named pipe with no writer
+/// is refused by its kind instead of blocking the run forever; the flag changes nothing for
+/// a regular file.
+pub fn open_regular(path: &std::path::Path) -> Result<std::fs::File, DemError> {
+    let mut options = std::fs::OpenOptions::new();
+    options.read(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt as _;
+        options.custom_flags(libc::O_NONBLOCK);
+    }
+    let file = options
+        .open(path)
+        .map_err(|e| DemError::Io(e.to_string()))?;
+    let meta = file.metadata().map_err(|e| DemError::Io(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(DemError::NotAFile(file_kind(&meta).into()));
+    }
+    Ok(file)
+}
+
+/// What a path that is not a regular file is, in words.
+pub fn file_kind(meta: &std::fs::Metadata) -> &'static str {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::FileTypeExt as _;
+        let t = meta.file_type();
+        if t.is_fifo() {
+            return "a named pipe (FIFO)";
+        }
+        if t.is_char_device() || t.is_block_device() {
+            return "a device";
+        }
+        if t.is_socket() {
+            return "a socket";
+        }
+    }
+    if meta.is_dir() {
+        "a folder"
+    } else if meta.is_file() {
+        "a regular file"
+    } else {
+        "not a regular file"
+    }
 }
 
 /// The length of an open file, refusing anything but a regular file of at most `limit` bytes.
 pub(crate) fn checked_len(file: &std::fs::File, limit: u64, why: &str) -> Result<u64, DemError> {
     let meta = file.metadata().map_err(|e| DemError::Io(e.to_string()))?;
     if !meta.is_file() {
-        let kind = if meta.is_dir() {
-            "a folder"
-        } else {
-            "a device, pipe or socket"
-        };
-        return Err(DemError::NotAFile(kind.into()));
+        return Err(DemError::NotAFile(file_kind(&meta).into()));
     }
     if meta.len() > limit {
         return Err(DemError::FileTooLarge {
@@ -132,6 +194,16 @@ pub(crate) fn read_rest(
         });
     }
     Ok(bytes)
+}
+
+/// Checks that `bytes` can be allocated now, so that a file declaring more cells than the
+/// machine can hold is refused with a message instead of aborting the process.
+pub fn reserve_check(bytes: u64) -> Result<(), DemError> {
+    let mut probe: Vec<u8> = Vec::new();
+    usize::try_from(bytes)
+        .ok()
+        .and_then(|n| probe.try_reserve_exact(n).ok())
+        .ok_or(DemError::OutOfMemory { bytes })
 }
 
 /// Size limit checked before any allocation.

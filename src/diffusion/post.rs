@@ -160,6 +160,11 @@ pub fn protection(protected: &[bool], width: usize, height: usize, radius: f32) 
 
 /// Normalised Gaussian taps for `sigma` cells: `2 r + 1` weights with `r = ceil(3 sigma)`.
 pub fn gaussian_taps(sigma: f32) -> Vec<f32> {
+    // Under 0.05 cells a neighbour's weight, e^(-1 / 2 sigma^2) < e^-200, is 0 in f32 (and
+    // sigma^2 itself underflows to 0 near 1e-23): no blur, exactly.
+    if sigma.is_nan() || sigma < 0.05 {
+        return vec![1.0];
+    }
     let r = (3.0 * sigma).ceil().max(1.0) as i32;
     let taps: Vec<f32> = (-r..=r)
         .map(|i| (-(i * i) as f32 / (2.0 * sigma * sigma)).exp())

@@ -266,12 +266,27 @@ pub enum StageError {
 
 /// Base level: river and valley cells and `band` cells around them. The map border is not
 /// base level: the land drains to the drawn rivers (which leave the map at their estuaries),
-/// as in a closed catchment, rather than off every edge. O(cells x band).
+/// as in a closed catchment, rather than off every edge. A scene with no river or valley at
+/// all (a sketch of peaks and ridges) drains off the map's border instead. O(cells x band).
 pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
     let mut base = channel_cells(kinds);
+    if !base.contains(&true) {
+        return border_cells(n);
+    }
     for _ in 0..band {
         let grown = base.clone();
         widen(&grown, &mut base, n, 0..n);
+    }
+    base
+}
+
+/// The cells on the map's edge: the base level of a map without channels.
+fn border_cells(n: usize) -> Vec<bool> {
+    let mut base = vec![false; n * n];
+    for i in 0..n {
+        for cell in [i, (n - 1) * n + i, i * n, i * n + n - 1] {
+            base[cell] = true;
+        }
     }
     base
 }
@@ -284,6 +299,9 @@ async fn base_level_in_bands(
     ctx: &JobCtx,
 ) -> Result<Vec<bool>, Cancelled> {
     let mut base = channel_cells(kinds);
+    if !base.contains(&true) {
+        return Ok(border_cells(n));
+    }
     for _ in 0..band {
         let grown = base.clone();
         in_row_bands(ctx, PREPARING, &mut base, n, |rows, part| {
@@ -872,6 +890,14 @@ pub async fn erode_field_within(
     max_side: usize,
 ) -> Result<Eroded, StageError> {
     let n = field.width();
+    // Every walk below orders cells by height: a NaN would break them, so it is an error here.
+    if let Some(index) = field.data().iter().position(|v| !v.is_finite()) {
+        return Err(ErosionError::NonFinite {
+            what: "terrain heights",
+            index,
+        }
+        .into());
+    }
     let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(max_side.max(1));

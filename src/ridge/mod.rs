@@ -12,7 +12,7 @@ use crate::river::network::SegmentIndex;
 
 #[derive(Debug, Error)]
 pub enum RidgeError {
-    #[error("the Voronoi diagram could not be built: {0}")]
+    #[error("the ridges' Voronoi diagram could not be built from the river nodes: {0}")]
     Voronoi(String),
 }
 
@@ -93,7 +93,9 @@ pub fn extract(
         let offset = points.len() as u32;
         for (i, p) in net.nodes.iter().enumerate() {
             points.push(RiverPoint {
-                position: Point2::new(p.x, p.y),
+                // A coordinate closer to 0 than spade takes (2^-142, e.g. an estuary at
+                // x = 1e-320) is 0 for every purpose here.
+                position: spade::mitigate_underflow(Point2::new(p.x, p.y)),
                 height: net.height[i],
             });
             parent.push(net.parent[i].map_or(NO_PARENT, |p| offset + p));

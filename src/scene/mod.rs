@@ -30,6 +30,11 @@ pub const MAX_SKETCH_POINTS_TOTAL: usize = 20_000;
 pub const MAX_SKETCH_ITEMS: usize = 1_000;
 /// Blended blocks (each a Poisson solve).
 pub const MAX_BLEND_BLOCKS: usize = 64;
+/// The most reference cells all blend blocks of a scene hold together (two 8192^2 windows:
+/// decoding and resampling them takes a few seconds; 64 of that size took 199 s).
+pub const MAX_BLEND_REFERENCE_CELLS: u64 = 2 * 8192 * 8192;
+/// The smallest cell, in metres (1 cm): below it the slopes' arithmetic leaves `f32`.
+pub const MIN_CELL_SIZE_M: f64 = 0.01;
 /// Width of the map in metres (10000 km).
 pub const MAX_MAP_WIDTH_M: f64 = 1.0e7;
 /// The largest scene file read (a mask PNG in base64 included).
@@ -227,6 +232,10 @@ impl SketchSettings {
     /// The features extracted from a DEM (seed 003, Sec. 3.1) as editable sketch items,
     /// with the DEM's heights. `scale` maps the features' map units into the scene's square
     /// map (1 for a square DEM; a non-square one fills the square along its longer side).
+    ///
+    /// A large DEM can give more features than a scene holds ([`MAX_SKETCH_ITEMS`],
+    /// [`MAX_SKETCH_POINTS_TOTAL`]): then the same share of each kind is kept, the most
+    /// significant first (the extraction sorts lines longest first, peaks highest first).
     pub fn from_features(f: &crate::features::Features, scale: [f64; 2]) -> Self {
         let at = |p: &[f64; 2]| [p[0] * scale[0], p[1] * scale[1]];
         let line = |l: &crate::features::FeatureLine| SketchLine {
@@ -234,11 +243,39 @@ impl SketchSettings {
             height: None,
             heights: Some(l.heights.clone()),
         };
+        let items = f.ridges.len() + f.valleys.len() + f.peaks.len();
+        let points: usize = f
+            .ridges
+            .iter()
+            .chain(&f.valleys)
+            .map(|l| l.points.len())
+            .sum();
+        let share = (MAX_SKETCH_ITEMS as f64 / items.max(1) as f64)
+            .min(MAX_SKETCH_POINTS_TOTAL as f64 / points.max(1) as f64)
+            .min(1.0);
+        let kept = |n: usize| ((n as f64 * share).floor() as usize).min(n);
+        let mut ridges: Vec<SketchLine> =
+            f.ridges[..kept(f.ridges.len())].iter().map(line).collect();
+        let mut valleys: Vec<SketchLine> = f.valleys[..kept(f.valleys.len())]
+            .iter()
+            .map(line)
+            .collect();
+        // Rounding down keeps the count; the points can still be over when the kept lines
+        // are the long ones: drop the shortest kept line of the longer list until they fit.
+        let total = |r: &[SketchLine], v: &[SketchLine]| -> usize {
+            r.iter().chain(v).map(|l| l.points.len()).sum()
+        };
+        while total(&ridges, &valleys) > MAX_SKETCH_POINTS_TOTAL {
+            if ridges.len() >= valleys.len() {
+                ridges.pop();
+            } else {
+                valleys.pop();
+            }
+        }
         Self {
-            ridges: f.ridges.iter().map(line).collect(),
-            valleys: f.valleys.iter().map(line).collect(),
-            peaks: f
-                .peaks
+            ridges,
+            valleys,
+            peaks: f.peaks[..kept(f.peaks.len())]
                 .iter()
                 .map(|(p, h)| SketchPeak {
                     at: at(p),
@@ -436,18 +473,32 @@ impl Scene {
                 None => message,
             })
         };
+        // A byte-order mark (editors on Windows write one) is not part of the JSON.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let first = text.trim_start().chars().next();
         if first != Some('{') {
             let got = match first {
                 None => "nothing".to_owned(),
                 Some('[') => "an array".to_owned(),
-                Some(c) => format!("'{c}'"),
+                // Escaped, so an invisible character is seen.
+                Some(c) => format!("{c:?}"),
             };
             return Err(parse(format!(
                 "a scene is a JSON object ({{\"version\": 1, ...}}), got {got}"
             )));
         }
-        let scene: Scene = serde_json::from_str(text).map_err(|e| parse(e.to_string()))?;
+        // The path of the value serde refused (`params.noise.octaves: invalid type...`), so a
+        // wrong type names its field as a wrong value does.
+        let mut de = serde_json::Deserializer::from_str(text);
+        let scene: Scene = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+            let path = e.path().to_string();
+            parse(if path == "." {
+                e.inner().to_string()
+            } else {
+                format!("{path}: {}", e.inner())
+            })
+        })?;
+        de.end().map_err(|e| parse(e.to_string()))?;
         scene.validate()?;
         Ok(scene)
     }
@@ -476,11 +527,11 @@ impl Scene {
                 format!("must be 16 to 8192 cells, got {}", self.size),
             );
         }
-        if !(self.cell_size.is_finite() && self.cell_size > 0.0) {
+        if !(self.cell_size.is_finite() && self.cell_size >= MIN_CELL_SIZE_M) {
             return bad(
                 "cell_size",
                 format!(
-                    "must be a positive number of metres, got {}",
+                    "must be a number of metres from {MIN_CELL_SIZE_M} up, got {}",
                     self.cell_size
                 ),
             );
@@ -533,6 +584,22 @@ impl Scene {
                 ),
             );
         }
+        if d.levels > 0 {
+            // Checked here, before any stage runs, not after the whole pipeline.
+            let side = crate::wavelet::synthesis::output_len(self.size, d.levels) as u64;
+            let limit = crate::wavelet::synthesis::MAX_OUTPUT_CELLS;
+            if side * side > limit {
+                return bad(
+                    "detail.levels",
+                    format!(
+                        "{} levels turn the {size} x {size} terrain into {side} x {side} cells, \
+                         above the limit of {limit} cells; use fewer levels or a smaller size",
+                        d.levels,
+                        size = self.size
+                    ),
+                );
+            }
+        }
         if !["global", "local", "local-paper"].contains(&d.scope.as_str()) {
             return bad(
                 "detail.scope",
@@ -555,6 +622,23 @@ impl Scene {
                 format!(
                     "at most {MAX_BLEND_BLOCKS} blocks, got {}",
                     self.blend.len()
+                ),
+            );
+        }
+        // The references' sizes from their headers, before any is decoded: the work of
+        // decoding and resampling them is bounded with the scene.
+        let reference_cells = self
+            .blend
+            .iter()
+            .filter_map(crate::blend::BlendBlock::reference_cells)
+            .fold(0u64, u64::saturating_add);
+        if reference_cells > MAX_BLEND_REFERENCE_CELLS {
+            return bad(
+                "blend",
+                format!(
+                    "the blocks' references hold {reference_cells} cells together, above the \
+                     limit of {MAX_BLEND_REFERENCE_CELLS} (two 8192 x 8192 windows); place \
+                     smaller windows or fewer blocks"
                 ),
             );
         }
@@ -742,6 +826,14 @@ impl Scene {
         height: usize,
         cell_m: f64,
     ) -> Result<Self, SceneError> {
+        if found.ridges.is_empty() && found.valleys.is_empty() && found.peaks.is_empty() {
+            return Err(SceneError::Invalid {
+                field: "sketch".into(),
+                problem: "the DEM gave no ridge, valley or peak (is it flat?); there is nothing \
+                          to rebuild a terrain from"
+                    .into(),
+            });
+        }
         let side = width.max(height).clamp(16, 8192);
         let span = (side - 1).max(1) as f64;
         let scale = [
@@ -798,6 +890,37 @@ impl Scene {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A large DEM's features are cut to what a scene holds, the same share of each kind and
+    /// the most significant first; a DEM with none is refused, not written as an empty scene.
+    #[test]
+    fn features_fit_the_scene_or_are_refused() {
+        use crate::features::{FeatureLine, Features};
+        let line = |n: usize, len: usize| FeatureLine {
+            points: (0..len)
+                .map(|i| [0.1 + i as f64 * 1e-3, 0.1 + n as f64 * 1e-4])
+                .collect(),
+            heights: vec![100.0; len],
+        };
+        let found = Features {
+            ridges: (0..900).map(|n| line(n, 30)).collect(),
+            valleys: (0..900).map(|n| line(n, 10)).collect(),
+            peaks: (0..200).map(|n| ([0.5, 0.5], 1000.0 - n as f64)).collect(),
+            ..Features::default()
+        };
+        let scene = Scene::from_features(&found, 512, 512, 30.0).unwrap();
+        let s = &scene.sketch;
+        let items = s.ridges.len() + s.valleys.len() + s.peaks.len();
+        assert!(items <= MAX_SKETCH_ITEMS && items > 500, "{items}");
+        assert_eq!(s.ridges[0].points.len(), 30);
+        assert_eq!(s.peaks[0].height, Some(1000.0), "the highest peak is kept");
+        assert!(s.ridges.len() < 900 && s.valleys.len() < 900 && s.peaks.len() < 200);
+        let err = Scene::from_features(&Features::default(), 64, 64, 30.0).unwrap_err();
+        assert!(
+            err.to_string().contains("no ridge, valley or peak"),
+            "{err}"
+        );
+    }
 
     #[test]
     fn round_trips_and_fills_defaults() {

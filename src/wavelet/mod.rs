@@ -66,6 +66,13 @@ pub enum WaveletError {
     NoData { cells: usize },
     #[error("a {width}x{height} terrain is too small for wavelet statistics (at least 3x3 cells)")]
     TooSmall { width: usize, height: usize },
+    /// No style can be measured: the reason says which (no relief, or too few cells).
+    #[error("no style can be measured on this {width}x{height} DEM: {reason}")]
+    NoStyle {
+        width: usize,
+        height: usize,
+        reason: &'static str,
+    },
     #[error("levels of detail must be 1 to {max}, got {0}", max = synthesis::MAX_LEVELS)]
     Levels(u32),
     #[error("the local window must be an odd number of coefficients from 1 to 65, got {0}")]

@@ -55,16 +55,25 @@ pub fn bundled(name: &str) -> Option<[f64; 3]> {
 /// A style measured on any DEM (e.g. the one uploaded in the app): its fitted gamma per
 /// band. Errors on voids or a DEM too small for two fitted levels.
 pub fn measure(dem: &Heightfield) -> Result<[f64; 3], WaveletError> {
+    let no_style = |reason| WaveletError::NoStyle {
+        width: dem.width(),
+        height: dem.height(),
+        reason,
+    };
+    if dem.finite_range().is_some_and(|(lo, hi)| lo == hi) {
+        return Err(no_style(
+            "every height is the same; a style is measured on slopes",
+        ));
+    }
     let analysis = analyze_transformed(&Transformed::of(dem)?, &AnalysisParams::default());
     let mut gamma = [0.0; 3];
     for band in Band::ALL {
-        gamma[band.index()] =
-            analysis.fits[band.index()]
-                .map(|f| f.gamma)
-                .ok_or(WaveletError::TooSmall {
-                    width: dem.width(),
-                    height: dem.height(),
-                })?;
+        gamma[band.index()] = analysis.fits[band.index()]
+            .map(|f| f.gamma)
+            .ok_or(no_style(
+                "a style needs detail on two levels with at least 16 coefficients in each band \
+             (a DEM of at least 16 x 16 cells with relief)",
+            ))?;
     }
     Ok(gamma)
 }
@@ -105,9 +114,11 @@ pub fn apply(
         .filter(|l| l.counts.iter().all(|&c| c >= 64))
         .map(|l| l.depth)
         .max()
-        .ok_or(WaveletError::TooSmall {
+        .ok_or(WaveletError::NoStyle {
             width: w,
             height: h,
+            reason: "adding a style needs a level with at least 64 coefficients in each band \
+                     (a terrain of at least 16 x 16 cells)",
         })?;
     let mut data = t.data;
     let mut stats = StyleStats {
