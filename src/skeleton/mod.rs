@@ -3,6 +3,7 @@
 
 pub mod enrich;
 
+pub mod meander;
 mod raster;
 pub mod sketch;
 
@@ -166,17 +167,38 @@ pub async fn rasterise_rivers(
         .iter()
         .zip(orders)
         .flat_map(|(net, order)| {
-            net.link_pairs().map(|(p, c)| Line {
-                a: to_cell(net.nodes[p], n),
-                b: to_cell(net.nodes[c], n),
-                start: f64::from(net.height[p]),
-                rise: f64::from(net.height[c]) - f64::from(net.height[p]),
-                relief: [0.0; 2],
-                order: order[c].min(255) as u8,
+            net.link_pairs().flat_map(move |(p, c)| {
+                let (hp, hc) = (f64::from(net.height[p]), f64::from(net.height[c]));
+                wandering_link(net.nodes[p], net.nodes[c], (hp, hc), n, order[c])
             })
         })
         .collect();
     in_bands(sk, &lines, bands, ctx, |band, line| band.river(line)).await
+}
+
+/// The straight pieces of a link's wandering course ([`meander::course`]), with eq. 5's
+/// linear heights from `heights.0` at `a` to `heights.1` at `b` by length along the course.
+fn wandering_link(a: DVec2, b: DVec2, heights: (f64, f64), n: usize, order: u32) -> Vec<Line> {
+    let points = meander::course(a, b, n);
+    let total: f64 = points.windows(2).map(|w| (w[1] - w[0]).length()).sum();
+    let height_at = |s: f64| heights.0 + (heights.1 - heights.0) * (s / total.max(1e-300));
+    let mut along = 0.0;
+    points
+        .windows(2)
+        .map(|w| {
+            let step = (w[1] - w[0]).length();
+            let line = Line {
+                a: to_cell(w[0], n),
+                b: to_cell(w[1], n),
+                start: height_at(along),
+                rise: height_at(along + step) - height_at(along),
+                relief: [0.0; 2],
+                order: order.min(255) as u8,
+            };
+            along += step;
+            line
+        })
+        .collect()
 }
 
 /// Draws the ridge segments into `sk` (after or before the rivers) with eq. 5's heights, in
@@ -213,7 +235,41 @@ pub async fn rasterise_ridges(
     in_bands(sk, &lines, bands, ctx, |band, line| {
         band.ridge(line, &noise)
     })
-    .await
+    .await?;
+    free_ridges_beside_rivers(sk);
+    Ok(())
+}
+
+/// How close (cells, in x and in y) to a river a ridge cell may stand: the river, the bank
+/// band erosion keeps with it (1 cell by default) and one cell of slope between them.
+const RIDGE_CLEARANCE: i64 = 3;
+
+/// Frees the ridge cells within [`RIDGE_CLEARANCE`] cells of a river cell. A Voronoi ridge
+/// runs halfway between river nodes, but a wandering river course ([`meander`]) can pass
+/// beside one where nodes are close (at confluences): left fixed, such a cell stands as a
+/// wall on the river's bank, steeper than any talus. Freed, the diffusion fills it from the
+/// river and the ridge around it. O(ridge cells x 49).
+fn free_ridges_beside_rivers(sk: &mut Skeleton) {
+    let n = sk.size as i64;
+    let r = RIDGE_CLEARANCE;
+    let beside_river = |kinds: &[CellKind], i: usize| {
+        let (x, y) = ((i as i64) % n, (i as i64) / n);
+        (-r..=r).any(|dy| {
+            (-r..=r).any(|dx| {
+                let (u, v) = (x + dx, y + dy);
+                (0..n).contains(&u)
+                    && (0..n).contains(&v)
+                    && kinds[(v * n + u) as usize] == CellKind::River
+            })
+        })
+    };
+    let freed: Vec<usize> = (0..sk.kinds.len())
+        .filter(|&i| sk.kinds[i] == CellKind::Ridge && beside_river(&sk.kinds, i))
+        .collect();
+    for i in freed {
+        sk.kinds[i] = CellKind::Free;
+        sk.heights[i] = 0.0;
+    }
 }
 
 /// How a rasterisation splits the grid: bands of `rows` rows, `per_step` of them drawn at once
