@@ -120,6 +120,7 @@ pub fn constraints_image(kinds: &[CellKind], width: usize, height: usize) -> Col
             CellKind::Ridge => Color32::from_rgb(220, 40, 30),
             CellKind::Valley => Color32::from_rgb(30, 200, 210),
             CellKind::Enriched => Color32::from_rgb(255, 150, 20),
+            CellKind::Floor => Color32::from_rgb(120, 170, 255),
         })
         .collect();
     ColorImage::new([width, height], pixels)

@@ -51,6 +51,7 @@ mod coarse;
 mod diffusion;
 mod error;
 mod fill;
+pub mod floodplain;
 mod flow;
 pub mod gpu;
 mod grid;

@@ -264,7 +264,8 @@ pub enum StageError {
     Cancelled(#[from] Cancelled),
 }
 
-/// Base level: river and valley cells and `band` cells around them. The map border is not
+/// Base level: river and valley cells and `band` cells around them, and the valley floors
+/// ([`super::floodplain`]; no band around a floor: its edge meets the hillslope). The map border is not
 /// base level: the land drains to the drawn rivers (which leave the map at their estuaries),
 /// as in a closed catchment, rather than off every edge. A scene with no river or valley at
 /// all (a sketch of peaks and ridges) drains off the map's border instead. O(cells x band).
@@ -277,7 +278,15 @@ pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
         let grown = base.clone();
         widen(&grown, &mut base, n, 0..n);
     }
+    add_floors(&mut base, kinds);
     base
+}
+
+/// Marks the valley-floor cells as base level.
+fn add_floors(base: &mut [bool], kinds: &[CellKind]) {
+    for (b, k) in base.iter_mut().zip(kinds) {
+        *b |= *k == CellKind::Floor;
+    }
 }
 
 /// The cells on the map's edge: the base level of a map without channels.
@@ -309,6 +318,7 @@ async fn base_level_in_bands(
         })
         .await?;
     }
+    add_floors(&mut base, kinds);
     Ok(base)
 }
 
@@ -898,6 +908,13 @@ pub async fn erode_field_within(
         }
         .into());
     }
+    let design = field;
+    ctx.tick(PREPARING.0, "eroding: valley floors").await?;
+    let floors = super::floodplain::valley_floors(design, kinds, cell_m)?;
+    let (field, kinds) = match &floors {
+        Some((floored, floor_kinds)) => (floored, floor_kinds.as_slice()),
+        None => (design, kinds),
+    };
     let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(max_side.max(1));
@@ -918,7 +935,7 @@ pub async fn erode_field_within(
     let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
     in_bands(ctx, (0.97, "eroding: measuring"), n, n, |rows| {
         let cells = rows.start * n..rows.end * n;
-        for (b, a) in field.data()[cells.clone()]
+        for (b, a) in design.data()[cells.clone()]
             .iter()
             .zip(&eroded.data()[cells])
         {

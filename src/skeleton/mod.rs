@@ -28,6 +28,9 @@ pub enum CellKind {
     Enriched = 3,
     /// A sketched valley line (`sketch`): a channel that drains to its mouth.
     Valley = 4,
+    /// A valley floor beside a river, set by the erosion stage on its own copy of the kinds
+    /// (`erosion::floodplain`): base level with the river, not a channel.
+    Floor = 5,
 }
 
 /// Noise of eq. 5 on ridges.

@@ -121,7 +121,7 @@ pub fn rasterise(
         let rank = |k: CellKind| match k {
             CellKind::River => 3,
             CellKind::Valley => 2,
-            CellKind::Ridge | CellKind::Enriched => 1,
+            CellKind::Ridge | CellKind::Enriched | CellKind::Floor => 1,
             CellKind::Free => 0,
         };
         if rank(kind) >= rank(sk.kinds[i]) {
