@@ -277,6 +277,13 @@ fn generate_writes_heightmap_layers_and_report() {
     assert!(report["ridges"]["edges"].as_u64().unwrap() > 10);
     assert!(report["drainage"]["river_fraction"].as_f64().unwrap() >= 0.95);
     assert!(report["drainage"]["outlet_fraction"].as_f64().unwrap() >= 0.99);
+    // The erosion stage's time is in its report (the app's "Eroded in ... ms" read 0).
+    if report["erosion"].is_object() {
+        assert!(
+            report["erosion"]["millis"].as_f64().unwrap() > 0.0,
+            "{report}"
+        );
+    }
 }
 
 #[test]

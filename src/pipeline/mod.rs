@@ -274,7 +274,20 @@ async fn run_stages(
                 })?;
                 computed.push("erosion");
                 let millis = clock.elapsed().as_secs_f64() * 1e3;
-                stages.erosion.put(key, Eroded { millis, ..out })
+                // The report says it too: the Erosion section's "Eroded in ... ms" and
+                // `generate --report` read it there.
+                let report = erosion::ErosionReport {
+                    millis,
+                    ..out.report
+                };
+                stages.erosion.put(
+                    key,
+                    Eroded {
+                        millis,
+                        report,
+                        ..out
+                    },
+                )
             }
         };
         on_gpu = out.gpu.clone();
