@@ -2,7 +2,7 @@
 //! fit the machine.
 //!
 //! Each command's use is its peak resident memory per cell, measured with `/usr/bin/time -v`
-//! on 2048^2 runs of the release build (docs/performance.md has the table), rounded up, plus
+//! on 2048^2 runs of the release build (the figures are on each [`Work`]), rounded up, plus
 //! the program itself. The estimate is compared with what the system says it can still give
 //! (`MemAvailable` and free swap in `/proc/meminfo`); where that is unknown (not Linux) the
 //! estimate is still printed for large runs.

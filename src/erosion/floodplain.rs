@@ -10,8 +10,8 @@
 //! Euclidean distance, so floors have no grid shape, and its height is the channel's plus
 //! [`CROSS_RISE`] of the distance (a floodplain drains to its river), and never below the
 //! highest river cell beside it (so each river cell still drains along its own river). A
-//! floor only lowers the design, never raises it. A river too small for
-//! one cell of floor keeps the V of its valley. Departure from the papers: seed 000 keeps the
+//! floor only lowers the design, never raises it. A river too small for one cell of floor
+//! keeps the V of its valley. Departure from the papers: seed 000 keeps the
 //! design's heights beside the rivers and erosion (Braun & Willett 2013) cuts only by stream
 //! power, which leaves every valley V-shaped, a flat groove one river wide.
 //!
@@ -54,12 +54,7 @@ pub fn valley_floors(
     }
     // Water leaves the map at its edge (the rivers' estuaries): with the channels as sinks
     // instead, a channel cell would only gather the slopes beside it, not its river's basin.
-    let edge: Vec<bool> = (0..n * n)
-        .map(|i| {
-            let (x, y) = (i % n, i / n);
-            x == 0 || y == 0 || x == n - 1 || y == n - 1
-        })
-        .collect();
+    let edge = super::stage::border_cells(n);
     let routing = receivers_and_area(field.data(), n, n, cell_m, &edge)?;
     let half_width: Vec<f32> = routing
         .area

@@ -290,7 +290,7 @@ fn add_floors(base: &mut [bool], kinds: &[CellKind]) {
 }
 
 /// The cells on the map's edge: the base level of a map without channels.
-fn border_cells(n: usize) -> Vec<bool> {
+pub(super) fn border_cells(n: usize) -> Vec<bool> {
     let mut base = vec![false; n * n];
     for i in 0..n {
         for cell in [i, (n - 1) * n + i, i * n, i * n + n - 1] {
