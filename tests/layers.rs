@@ -1,4 +1,4 @@
-//! The layers of the README's architecture section, checked on the source: no module
+//! The layers of docs/architecture.md, checked on the source: no module
 //! imports one of a higher layer (app and command line on top, then the scene and the
 //! pipeline, then the stages, then compute and the GPU at the bottom).
 

@@ -174,7 +174,9 @@ fn the_app_switches_to_3d_and_the_camera_drives_the_level_of_detail() {
     assert_eq!(maps_now(&harness), "cpu");
     let on_gpu = harness.state().compute_path().gpu().is_some();
     // CI's lavapipe computes: the GPU half must run there.
-    assert!(on_gpu || std::env::var_os("STRAHLER_REQUIRE_GPU").is_none());
+    if !on_gpu {
+        strahler::gpu::skip::no_adapter(&harness.state().compute_path());
+    }
     if on_gpu {
         for (choice, expected) in [(MapsChoice::Gpu, "gpu"), (MapsChoice::Cpu, "cpu")] {
             harness

@@ -18,7 +18,7 @@ use super::output::Outputs;
 
 #[derive(Debug, Args)]
 pub struct GenerateArgs {
-    /// A scene file (JSON, see the README); the options below add to or override it.
+    /// A scene file (JSON, see docs/scene-format.md); the options below add to or override it.
     pub scene: Option<PathBuf>,
     /// A river stroke in map units (0..1, y down), estuary first:
     /// X0,Y0,X1,Y1[:phi=P][:depth=D]. Repeat for several rivers. With neither a scene nor a

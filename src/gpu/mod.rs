@@ -12,6 +12,7 @@ mod context;
 mod field;
 mod kernels;
 mod readback;
+pub mod skip;
 mod timing;
 
 pub use caps::Capabilities;

@@ -3,8 +3,8 @@
 //! same terrain for the same scene.
 //!
 //! Coordinates are map units, (0, 0) north-west to (1, 1) south-east, so one scene renders at
-//! any size. Missing fields take the documented defaults (see [`Scene::default`] and the
-//! README); unknown fields and invalid values are errors that name the field.
+//! any size. Missing fields take the documented defaults (see [`Scene::default`] and
+//! `docs/scene-format.md`); unknown fields and invalid values are errors that name the field.
 
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
@@ -71,7 +71,7 @@ fn default_phi() -> u32 {
 
 /// MaxDepth 5: a network of a few hundred nodes, main valleys a few kilometres apart on the
 /// default 10 km map, with room between them for the erosion stage to carve the tributaries
-/// (see the README's defaults).
+/// (see the defaults in `docs/scene-format.md`).
 pub fn default_depth() -> u32 {
     5
 }

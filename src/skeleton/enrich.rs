@@ -20,8 +20,8 @@
 //!   pair), sqrt 2 for an MDI corner from its square's centre. So L >= 3 limits nothing, and
 //!   only the number of passes bounds how far the flanks reach.
 //! - **Skeleton** (the default, our reading): no point is added farther than L cells (passes)
-//!   from the original skeleton, so L bounds the flanks' width whatever the passes. The README
-//!   compares the two.
+//!   from the original skeleton, so L bounds the flanks' width whatever the passes.
+//!   `docs/departures.md` compares the two.
 //!
 //! Updates of a pass are computed from the state before it and then applied, so the result
 //! does not depend on visiting order. O(passes x skeleton cells).

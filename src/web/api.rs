@@ -1,5 +1,5 @@
 //! `window.strahler`: the automation API for browser tests and power users (the egui canvas
-//! is opaque to the DOM). Documented in the README. Every function returns plain JSON-like
+//! is opaque to the DOM). Documented in docs/page-api.md. Every function returns plain JSON-like
 //! objects; long-running ones return promises.
 //!
 //! - `status()`: `{version, ready, compute, computePath, adapter, capabilities, job,

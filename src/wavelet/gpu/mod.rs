@@ -120,7 +120,7 @@ fn upload_source(gpu: &GpuContext, source: &Heightfield) -> wgpu::Buffer {
 /// The statistics of `source` for `params` on the GPU, or on the CPU where a local fit
 /// asks for more levels than the kernels hold, and beside a software rasteriser unless every
 /// stage was asked of it ([`GpuContext::runs_heavy_stages`]): lavapipe takes about 4 times
-/// as long as the CPU for them (the README's wavelet benchmark).
+/// as long as the CPU for them (the wavelet benchmark in `docs/performance.md`).
 async fn statistics(
     gpu: &GpuContext,
     source: &Heightfield,
