@@ -1182,14 +1182,49 @@ fn absurd_scales_and_counts_are_refused_with_the_limit() {
         &["generate", &scene.to_string_lossy()],
         &["sketch.ridges[0].points", "at most 10000"],
     );
-    refused(&["bench", "--sizes", "100000"], &["--sizes", "8192"]);
-    refused(&["bench", "--sizes", "64", "--fixed", "2"], &["--fixed"]);
-    refused(&["bench", "--sizes", "64", "--fixed", "NaN"], &["--fixed"]);
     refused(
-        &["bench", "--pipeline", "--sizes", "64", "--runs", "0"],
+        &["bench", "diffusion", "--sizes", "100000"],
+        &["--sizes", "8192"],
+    );
+    refused(
+        &["bench", "blend", "--sizes", "8"],
+        &["--sizes", "16 to 8192"],
+    );
+    refused(
+        &["bench", "diffusion", "--sizes", "64", "--fixed", "2"],
+        &["--fixed"],
+    );
+    refused(
+        &["bench", "diffusion", "--sizes", "64", "--fixed", "NaN"],
+        &["--fixed"],
+    );
+    refused(
+        &["bench", "pipeline", "--sizes", "64", "--runs", "0"],
         &["--runs"],
     );
-    refused(&["bench", "--sizes", "64", "--repeat", "0"], &["--repeat"]);
+    refused(
+        &["bench", "diffusion", "--sizes", "64", "--repeat", "0"],
+        &["--repeat"],
+    );
+    refused(
+        &["bench", "wavelet", "--repeat", "1001"],
+        &["--repeat", "1000"],
+    );
+    refused(
+        &["bench", "erosion", "--preset", "alps"],
+        &["--preset", "young-mountains"],
+    );
+    refused(
+        &["bench", "diffusion", "--backend", "tpu"],
+        &["--backend", "both"],
+    );
+    refused(
+        &["bench", "pipeline", "--backend", "both"],
+        &["--backend", "gpu"],
+    );
+    // Options belong to their table.
+    refused(&["bench", "blend", "--json"], &["--json"]);
+    refused(&["bench", "--pipeline"], &["--pipeline"]);
 }
 
 /// Issue 18, point 6: `bench --json` prints one JSON object per run; on the GPU the first
@@ -1198,6 +1233,7 @@ fn absurd_scales_and_counts_are_refused_with_the_limit() {
 fn bench_json_prints_one_object_per_run() {
     let out = strahler(&[
         "bench",
+        "diffusion",
         "--sizes",
         "32",
         "--repeat",
@@ -1284,17 +1320,18 @@ fn gpu_rows<'a>(rows: &'a [serde_json::Value], text: &str) -> Option<Vec<&'a ser
 /// by name.
 #[test]
 fn bench_smoothing_is_chosen_and_reported() {
-    let bad = strahler(&["bench", "--sizes", "32", "--smoothing", "fast"]);
+    let bad = strahler(&["bench", "diffusion", "--sizes", "32", "--smoothing", "fast"]);
     let stderr = String::from_utf8_lossy(&bad.stderr);
     assert!(!bad.status.success());
     assert!(
-        stderr.contains("unknown --smoothing \"fast\": use auto, tiles or sweeps"),
+        stderr.contains("'fast' for '--smoothing") && stderr.contains("auto, tiles, sweeps"),
         "{stderr}"
     );
     let mut errors = Vec::new();
     for choice in ["tiles", "sweeps"] {
         let out = strahler(&[
             "bench",
+            "diffusion",
             "--sizes",
             "40",
             "--backend",
@@ -1321,7 +1358,7 @@ fn bench_smoothing_is_chosen_and_reported() {
 /// it, reading back 3 times at the global scope and 5 at the local one.
 #[test]
 fn bench_wavelet_json_counts_the_gpu_paths_work() {
-    let out = strahler(&["bench", "--wavelet", "--sizes", "33", "--json"]);
+    let out = strahler(&["bench", "wavelet", "--sizes", "33", "--json"]);
     let (text, rows) = json_lines(&out);
     // Global with and without a mask, local at five windows.
     assert_eq!(
@@ -1367,7 +1404,7 @@ fn bench_wavelet_json_counts_the_gpu_paths_work() {
 fn bench_pipeline_on_the_gpu_gives_the_stages_gpu_time() {
     let out = strahler(&[
         "bench",
-        "--pipeline",
+        "pipeline",
         "--backend",
         "gpu",
         "--sizes",

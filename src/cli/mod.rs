@@ -3,10 +3,6 @@
 mod amplify;
 mod analyze;
 mod bench;
-mod bench_blend;
-mod bench_erosion;
-mod bench_view3d;
-mod bench_wavelet;
 mod blend;
 mod convert;
 mod features;
@@ -51,8 +47,8 @@ pub enum Command {
     Features(features::FeaturesArgs),
     /// Draw grey hillshades of DEMs side by side in one PNG (compare terrains by eye).
     Hillshade(hillshade::HillshadeArgs),
-    /// Time the diffusion solvers (multigrid, and the paper's Jacobi baseline) on CPU and GPU
-    /// and print a table beside the paper's numbers.
+    /// Benchmarks that print tables: the diffusion solvers, the hydrology pipeline, the
+    /// wavelet detail, blending, erosion and the 3D view, on the CPU and the GPU.
     Bench(bench::BenchArgs),
 }
 

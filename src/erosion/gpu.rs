@@ -220,7 +220,7 @@ pub const PHASES: [&str; 7] = [
 
 /// [`erode`] with every phase of every step submitted on its own and waited for, so the
 /// wall time of each phase (summed over the steps, milliseconds, in [`PHASES`]' order) can
-/// be read (`strahler bench --erosion --phases`). Slower than [`erode`]: for finding where
+/// be read (`strahler bench erosion --phases`). Slower than [`erode`]: for finding where
 /// the time goes, not for use.
 pub async fn profile(
     gpu: &GpuContext,

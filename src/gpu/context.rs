@@ -132,7 +132,7 @@ impl GpuContext {
     }
 
     /// The same device with tiled kernels on or off whatever the adapter (tests, and
-    /// `strahler bench --smoothing`, which compares both).
+    /// `strahler bench diffusion --smoothing`, which compares both).
     pub fn with_tiles(mut self, tiles: bool) -> Self {
         self.tiles = Some(tiles);
         self

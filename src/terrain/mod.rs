@@ -343,7 +343,7 @@ pub async fn generate(
             name,
             ms: clock.elapsed().as_secs_f64() * 1e3,
         });
-        // In a GPU timing scope (`strahler bench --pipeline --backend gpu`) the stage's
+        // In a GPU timing scope (`strahler bench pipeline --backend gpu`) the stage's
         // submissions are its lap; otherwise nothing.
         if let Backend::Gpu(gpu) = backend {
             gpu.timing_lap(name);

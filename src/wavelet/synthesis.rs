@@ -78,7 +78,7 @@ pub fn output_len(n: usize, levels: u32) -> usize {
 pub struct Amplified {
     pub field: Heightfield,
     pub analysis: Analysis,
-    /// Milliseconds per phase (`strahler bench --wavelet`, `amplify --report`).
+    /// Milliseconds per phase (`strahler bench wavelet`, `amplify --report`).
     pub timings: Timings,
     /// `field`, bit for bit, still on the GPU that made it (the GPU path).
     pub gpu: Option<crate::gpu::GpuField>,

@@ -1,4 +1,4 @@
-//! `strahler bench --blend`: Poisson blending timed for square blocks of half the terrain's
+//! `strahler bench blend`: Poisson blending timed for square blocks of half the terrain's
 //! side (diamond-square terrain and reference), per backend, with the direct and AMG solves
 //! the DEM issue quotes beside them.
 
@@ -8,7 +8,29 @@ use crate::diffusion::MultigridParams;
 use crate::jobs::JobCtx;
 use crate::wavelet::fbm;
 
-pub fn run(sizes: &[usize], backends: &[Backend]) -> Result<(), Box<dyn std::error::Error>> {
+/// `strahler bench blend`'s options.
+#[derive(Debug, clap::Args)]
+pub struct BlendArgs {
+    #[command(flatten)]
+    pub sizes: super::Sizes,
+    /// Backends to time.
+    #[arg(long, value_enum, default_value_t = super::Backends::Both)]
+    pub backend: super::Backends,
+}
+
+pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let path = crate::cli::compute_path(crate::compute::BackendChoice::Auto);
+    // The GPU path whole, software rasteriser or not.
+    let backends = super::available(
+        args.backend,
+        &path,
+        |gpu| Backend::Gpu(std::sync::Arc::new(gpu.as_ref().clone().with_all_stages())),
+        |note| println!("{note}"),
+    )?;
+    table(&args.sizes.sizes, &backends)
+}
+
+fn table(sizes: &[usize], backends: &[Backend]) -> Result<(), Box<dyn std::error::Error>> {
     println!("Poisson blending: a block of half the side, centred; times in ms (best of 3)");
     println!(
         "{:>7} {:>7} {:>4} {:>7} {:>6} {:>10} {:>9}",

@@ -1,4 +1,4 @@
-//! `strahler bench --view3d`: the 3D view's cost per terrain size and camera distance:
+//! `strahler bench view3d`: the 3D view's cost per terrain size and camera distance:
 //! preparing the terrain's textures (once per terrain, in a background job: on the CPU, and
 //! on the GPU with `view3d::gpu_maps`, textures and the control points' readback included),
 //! choosing the
@@ -14,7 +14,22 @@ use crate::wavelet::fbm;
 const FRAME: [u32; 2] = [1280, 720];
 const FRAMES: usize = 20;
 
-pub fn run(sizes: &[usize], gpu: &GpuContext) -> Result<(), Box<dyn std::error::Error>> {
+/// `strahler bench view3d`'s options.
+#[derive(Debug, clap::Args)]
+pub struct View3dArgs {
+    #[command(flatten)]
+    pub sizes: super::Sizes,
+}
+
+pub fn run(args: &View3dArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let path = crate::cli::compute_path(crate::compute::BackendChoice::Auto);
+    let gpu = path
+        .gpu()
+        .ok_or_else(|| format!("the 3D view benchmark needs a GPU: {path}"))?;
+    table(&args.sizes.sizes, gpu)
+}
+
+fn table(sizes: &[usize], gpu: &GpuContext) -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "3D view on {} ({}): 1280 x 720 frames, times in ms",
         gpu.adapter.name, gpu.adapter.backend

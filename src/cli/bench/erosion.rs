@@ -1,4 +1,4 @@
-//! `strahler bench --erosion`: a preset's full erosion run (all its steps) on the CPU solver
+//! `strahler bench erosion`: a preset's full erosion run (all its steps) on the CPU solver
 //! and on the WGSL solver, for square maps of each size.
 //!
 //! The terrain: diamond-square noise of 400 m relief over a 10 km map rising away from one
@@ -22,7 +22,45 @@ use crate::wavelet::fbm;
 /// The map's width in metres (the scene's default).
 const MAP_M: f64 = 10_000.0;
 
-pub fn run(
+/// `strahler bench erosion`'s options.
+#[derive(Debug, clap::Args)]
+pub struct ErosionArgs {
+    #[command(flatten)]
+    pub sizes: super::Sizes,
+    /// Backends to time.
+    #[arg(long, value_enum, default_value_t = super::Backends::Both)]
+    pub backend: super::Backends,
+    /// The erosion preset to run.
+    #[arg(long, default_value = "young-mountains",
+          value_parser = clap::builder::PossibleValuesParser::new(crate::erosion::PRESETS))]
+    pub preset: String,
+    /// Runs per size and backend, the best kept.
+    #[arg(long, default_value_t = 1, value_parser = super::count)]
+    pub repeat: usize,
+    /// Also time each phase of the WGSL solver's steps (each phase submitted and waited for
+    /// on its own), to see where the GPU time goes.
+    #[arg(long)]
+    pub phases: bool,
+}
+
+pub fn run(args: &ErosionArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let path = crate::cli::compute_path(crate::compute::BackendChoice::Auto);
+    let backends = super::available(
+        args.backend,
+        &path,
+        |gpu| Backend::Gpu(gpu.clone()),
+        |note| println!("{note}"),
+    )?;
+    table(
+        &args.sizes.sizes,
+        &backends,
+        &args.preset,
+        args.repeat,
+        args.phases,
+    )
+}
+
+fn table(
     sizes: &[usize],
     backends: &[Backend],
     preset: &str,

@@ -1,4 +1,4 @@
-//! `strahler bench --wavelet`: wavelet levels of detail timed on diamond-square sources
+//! `strahler bench wavelet`: wavelet levels of detail timed on diamond-square sources
 //! (H = 0.7): global and local scope (several windows), with and without a mask, per backend;
 //! medians of `--repeat` runs per phase (analysis, coefficient fill, inverse transform), and
 //! the realism report's spectral slope (bands pooled) of the source and of the output. On
@@ -76,7 +76,37 @@ fn time_one(
     Ok((run, amplified))
 }
 
-pub fn run(
+/// `strahler bench wavelet`'s options.
+#[derive(Debug, clap::Args)]
+pub struct WaveletArgs {
+    #[command(flatten)]
+    pub sizes: super::Sizes,
+    /// Backends to time.
+    #[arg(long, value_enum, default_value_t = super::Backends::Both)]
+    pub backend: super::Backends,
+    /// Runs per case; the table prints medians.
+    #[arg(long, default_value_t = 1, value_parser = super::count)]
+    pub repeat: usize,
+    /// Print one JSON object per amplification (method wavelet-global or wavelet-local,
+    /// window, masked, output, the phases' analysis_ms, fill_ms, inverse_ms, and on the GPU
+    /// what the device created, submitted and read back) instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(args: &WaveletArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let path = crate::cli::compute_path(crate::compute::BackendChoice::Auto);
+    // The GPU path whole, software rasteriser or not.
+    let backends = super::available(
+        args.backend,
+        &path,
+        |gpu| Backend::Gpu(std::sync::Arc::new(gpu.as_ref().clone().with_all_stages())),
+        |note| eprintln!("{note}"),
+    )?;
+    table(&args.sizes.sizes, &backends, args.repeat, args.json)
+}
+
+fn table(
     sizes: &[usize],
     backends: &[Backend],
     repeat: usize,
