@@ -6,9 +6,8 @@
 use egui::{ComboBox, DragValue, RichText};
 
 use super::StrahlerApp;
-use crate::dem::GeoRef;
-use crate::dem::format::{self, ExportOptions, Exported, Format, SIZE_PRESETS};
-use crate::heightfield::Heightfield;
+use crate::dem::format::{Format, SIZE_PRESETS};
+use crate::pipeline::{HeightmapExport, encode_heightmap};
 
 /// What the dialog remembers between openings.
 pub struct ExportDialog {
@@ -33,31 +32,6 @@ impl Default for ExportDialog {
             layers: false,
         }
     }
-}
-
-/// Encodes `field` (cell size `cell` metres) as `format`: the bytes `exportHeightmap` returns
-/// and the dialog saves.
-pub fn encode(
-    field: &Heightfield,
-    cell: f64,
-    format: Format,
-    size: Option<usize>,
-    flip_y: bool,
-    z_scale: f32,
-) -> Result<Exported, String> {
-    // The map's georeferencing: a local metric grid with its north-west corner at (0, 0).
-    let georef = GeoRef {
-        pixel_scale: Some(vec![cell, cell, 0.0]),
-        tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, cell * field.height() as f64, 0.0]),
-        ..Default::default()
-    };
-    let options = ExportOptions {
-        size,
-        flip_y,
-        z_scale,
-        cell_size: cell,
-    };
-    format::write(format, field, &georef, &options).map_err(|e| e.to_string())
 }
 
 /// Shows the dialog when open.
@@ -159,15 +133,13 @@ fn export_now(app: &mut StrahlerApp) {
         return;
     };
     let d = &app.export;
-    let result = encode(
-        &output.field,
-        output.cell_m,
-        d.format,
-        d.size,
-        d.flip_y,
-        d.z_scale * app.scene.vertical_scale as f32,
-    )
-    .and_then(|out| {
+    let export = HeightmapExport {
+        format: d.format,
+        size: d.size,
+        flip_y: d.flip_y,
+        z_scale: d.z_scale * app.scene.vertical_scale as f32,
+    };
+    let result = encode_heightmap(&output.field, output.cell_m, &export).and_then(|out| {
         // A heightmap and its sidecar share a stem no file beside them has yet.
         let ext = format!(".{}", d.format.extension());
         let stem = super::files::free_stem("strahler-heightmap", &[&ext, ".json"]);
@@ -177,15 +149,7 @@ fn export_now(app: &mut StrahlerApp) {
             said.push_str(" and its .json");
         }
         if d.layers {
-            let mut pngs = crate::terrain::layer_pngs(&output.hydrology.skeleton)
-                .map_err(|e| e.to_string())?;
-            if let Some(eroded) = &output.erosion {
-                pngs.extend(
-                    crate::erosion::layer_pngs(eroded, &output.hydrology.terrain)
-                        .map_err(|e| e.to_string())?,
-                );
-            }
-            for (name, png) in &pngs {
+            for (name, png) in &output.layer_pngs()? {
                 let stem = name.trim_end_matches(".png");
                 let stem = super::files::free_stem(&format!("strahler-{stem}"), &[".png"]);
                 super::files::save(&format!("{stem}.png"), "image/png", png)?;

@@ -23,7 +23,6 @@ mod view3d;
 use std::sync::Arc;
 
 pub use automation::{Automation, Command, JobStatus, Status};
-pub use export::encode as encode_heightmap;
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use side_panel::SolverSettings;
 pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};

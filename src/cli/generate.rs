@@ -9,10 +9,9 @@ use crate::compute::BackendChoice;
 use crate::dem::GeoRef;
 use crate::erosion::ErosionSettings;
 use crate::jobs::JobCtx;
-use crate::pipeline::{self, Output};
+use crate::pipeline;
 use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene, StyleSettings};
-use crate::terrain;
 
 use super::output::Outputs;
 
@@ -300,7 +299,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     // Every layer is encoded and claimed before the first file is written.
     let layers = match &args.layers {
         Some(dir) => {
-            let layers = layers(&out)?;
+            let layers = out.layer_pngs()?;
             for (name, _) in &layers {
                 outputs.claim(&dir.join(name), "layer")?;
             }
@@ -407,19 +406,6 @@ fn write_heightmap(
         ..Default::default()
     };
     super::io::write_dem(outputs, out, terrain, &georef, Some(cell))
-}
-
-/// A layer image: its file name and PNG bytes.
-type Layer = (&'static str, Vec<u8>);
-
-/// The skeleton's layers, and with erosion `drainage_area.png` (log scale) and
-/// `erosion_depth.png`, as (file name, PNG bytes).
-fn layers(out: &Output) -> Result<Vec<Layer>, Box<dyn std::error::Error>> {
-    let mut layers = terrain::layer_pngs(&out.hydrology.skeleton)?;
-    if let Some(eroded) = &out.erosion {
-        layers.extend(crate::erosion::layer_pngs(eroded, &out.hydrology.terrain)?);
-    }
-    Ok(layers)
 }
 
 fn parse_distance_rule(text: &str) -> Result<crate::skeleton::enrich::DistanceRule, String> {

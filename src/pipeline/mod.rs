@@ -30,6 +30,7 @@
 //! ([`Output::gpu`]). A stage on the CPU (style, erosion on the CPU) ends the chain.
 
 mod cache;
+mod export;
 mod report;
 
 use std::sync::Arc;
@@ -50,6 +51,7 @@ use crate::wavelet::{self, AmplifyFailure, synthesis};
 
 pub use cache::StageKey;
 use cache::Stages;
+pub use export::{HeightmapExport, LayerPng, encode_heightmap};
 pub use report::{BlendReport, DetailReport, Report};
 
 /// Why a run failed; every message names the stage.

@@ -389,19 +389,17 @@ fn export_bytes(
     let (field, cell) = export_source
         .terrain()
         .ok_or_else(|| error("there is no terrain yet"))?;
-    let out = crate::app::encode_heightmap(
-        &field,
-        cell,
-        fmt,
-        o.size,
-        o.flip_y,
+    let export = crate::pipeline::HeightmapExport {
+        format: fmt,
+        size: o.size,
+        flip_y: o.flip_y,
         // The scene's vertical scale applies to every export, the option on top.
-        o.z_scale.unwrap_or(1.0)
+        z_scale: o.z_scale.unwrap_or(1.0)
             * export_source
                 .scene()
                 .map_or(1.0, |s| s.vertical_scale as f32),
-    )
-    .map_err(error)?;
+    };
+    let out = crate::pipeline::encode_heightmap(&field, cell, &export).map_err(error)?;
     Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))
 }
 
