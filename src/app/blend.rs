@@ -24,7 +24,7 @@ use crate::diffusion::{self, DiffusionError, Method, MultigridParams};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobHandle;
 use crate::pipeline::Output;
-use crate::scene::Scene;
+use crate::scene::{Edit, Scene};
 
 /// The uploaded DEM.
 pub struct LoadedDem {
@@ -196,16 +196,15 @@ impl StrahlerApp {
 
     /// The selected window of the DEM becomes a block in the middle of the map, one DEM cell
     /// per terrain cell (shrunk to half the map if larger).
-    pub(super) fn place_selection(&mut self, ctx: &egui::Context) {
+    pub(super) fn place_selection(&mut self) {
         let window = self.blend.selection;
-        self.place_block(ctx, window, None, 0, false, 1.0);
+        self.place_block(window, None, 0, false, 1.0);
     }
 
     /// Adds a block from the DEM window `[row, col, height, width]` at `rect` (map units;
     /// `None` = centred at one DEM cell per terrain cell).
     pub(super) fn place_block(
         &mut self,
-        ctx: &egui::Context,
         window: [usize; 4],
         rect: Option<[f64; 4]>,
         quarter_turns: u8,
@@ -227,9 +226,8 @@ impl StrahlerApp {
         let [row, col, h, w] = window;
         let name = format!("{} [{row},{col} {h}x{w}]", loaded.name);
         let n = self
-            .output
-            .as_ref()
-            .map_or(self.scene.size, |o| o.field.width())
+            .output()
+            .map_or(self.session.scene().size, |o| o.field.width())
             .max(2);
         let rect = rect.unwrap_or_else(|| {
             let (tw, th) = if quarter_turns % 2 == 1 {
@@ -251,21 +249,14 @@ impl StrahlerApp {
                 block.quarter_turns = quarter_turns;
                 block.mirror = mirror;
                 block.z_scale = z_scale;
-                if let Err((field, problem)) = block.validate() {
-                    self.set_error(format!("Block {field}: {problem}"));
+                if let Err(err) = self.session.apply(Edit::AddBlock(block)) {
+                    self.set_error(format!("Block {err}"));
                     return;
                 }
-                self.scene.blend.push(block);
-                self.blend.selected = Some(self.scene.blend.len() - 1);
-                self.blocks_changed(ctx);
+                self.blend.selected = Some(self.session.scene().blend.len() - 1);
             }
             Err(err) => self.set_error(format!("Block: {err}")),
         }
-    }
-
-    /// After any block edit: re-run the pipeline (the cache re-solves only the blocks).
-    pub(super) fn blocks_changed(&mut self, _ctx: &egui::Context) {
-        self.dirty = true;
     }
 
     /// Puts a finished picture on the map.
@@ -283,7 +274,8 @@ impl StrahlerApp {
         };
         let converged = b.solves.iter().all(|s| s.converged);
         let rects = self
-            .scene
+            .session
+            .scene()
             .blend
             .iter()
             .map(|block| {
@@ -399,12 +391,13 @@ impl StrahlerApp {
     }
 
     /// Moves or resizes blocks with the Block tool; a release re-solves.
-    pub(super) fn drag_block(&mut self, ctx: &egui::Context, drag: BlockDrag) {
+    pub(super) fn drag_block(&mut self, drag: BlockDrag) {
         if self.blend.grab.is_none() {
             // Pick the topmost block under the drag's start; its corner handle resizes.
             let handle = 12.0 / 600.0;
             let hit = self
-                .scene
+                .session
+                .scene()
                 .blend
                 .iter()
                 .enumerate()
@@ -426,7 +419,7 @@ impl StrahlerApp {
             }
         }
         if let Some((i, grab)) = self.blend.grab
-            && let Some(block) = self.scene.blend.get_mut(i)
+            && let Some(mut block) = self.session.scene().blend.get(i).cloned()
         {
             let (dx, dy) = (f64::from(drag.delta.x), f64::from(drag.delta.y));
             let [x0, y0, x1, y1] = block.rect;
@@ -437,7 +430,7 @@ impl StrahlerApp {
                     [x0 + dx, y0 + dy, x1 + dx, y1 + dy]
                 }
                 Grab::Resize => {
-                    let min = 4.0 / self.scene.size.max(8) as f64;
+                    let min = 4.0 / self.session.scene().size.max(8) as f64;
                     [
                         x0,
                         y0,
@@ -446,9 +439,11 @@ impl StrahlerApp {
                     ]
                 }
             };
+            // Applied as the pointer moves; the run and the undo step wait for the release.
+            self.edit(Edit::SetBlock { index: i, block });
         }
-        if drag.finished && self.blend.grab.take().is_some() {
-            self.blocks_changed(ctx);
+        if drag.finished {
+            self.blend.grab = None;
         }
     }
 }
@@ -575,9 +570,9 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         app.extract_features(&ctx);
     }
     if place {
-        app.place_selection(&ctx);
+        app.place_selection();
     }
-    blocks_list(ui, app, &ctx);
+    blocks_list(ui, app);
 }
 
 /// The DEM preview with the reference window; drag on it to select a new window.
@@ -647,16 +642,17 @@ fn preview(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 }
 
 /// The placed blocks: select, turn, mirror, scale, remove.
-fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
-    if app.scene.blend.is_empty() {
+fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    if app.session.scene().blend.is_empty() {
         return;
     }
     ui.horizontal_wrapped(|ui| {
         ui.selectable_value(&mut app.tool, Tool::Block, "Move blocks (B)");
     });
-    let mut changed = false;
-    let mut remove = None;
-    for (i, block) in app.scene.blend.iter_mut().enumerate() {
+    let mut edits = Vec::new();
+    for (i, placed) in app.session.scene().blend.iter().enumerate() {
+        let mut block = placed.clone();
+        let mut changed = false;
         let selected = app.blend.selected == Some(i);
         ui.horizontal(|ui| {
             if ui.selectable_label(selected, &block.name).clicked() {
@@ -667,7 +663,7 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
                 .on_hover_text("Remove this block")
                 .clicked()
             {
-                remove = Some(i);
+                edits.push(Edit::RemoveBlock(i));
             }
         });
         if selected {
@@ -688,14 +684,15 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp, ctx: &egui::Context) {
                     .changed();
             });
         }
+        if changed {
+            edits.push(Edit::SetBlock { index: i, block });
+        }
     }
-    if let Some(i) = remove {
-        app.scene.blend.remove(i);
-        app.blend.selected = None;
-        changed = true;
-    }
-    if changed {
-        app.blocks_changed(ctx);
+    for edit in edits {
+        if matches!(edit, Edit::RemoveBlock(_)) {
+            app.blend.selected = None;
+        }
+        app.edit(edit);
     }
     if let Some(text) = &app.blend.summary {
         ui.label(text);

@@ -11,6 +11,7 @@ use super::StrahlerApp;
 use super::automation::DetailStatus;
 use super::map_view::Tool;
 use crate::pipeline::Output;
+use crate::scene::Edit;
 use crate::wavelet::{Mask, synthesis};
 
 /// What a dropped file is for.
@@ -46,7 +47,7 @@ impl StrahlerApp {
     /// Replaces the mask (e.g. imported), resampled to the terrain, and re-runs the detail.
     pub fn set_mask(&mut self, ctx: &egui::Context, mask: Mask) {
         self.mask = mask;
-        self.fit_mask(self.scene.size);
+        self.fit_mask(self.session.scene().size);
         self.mask_changed(ctx);
     }
 
@@ -54,8 +55,7 @@ impl StrahlerApp {
     /// re-runs detail and what follows; the cache keeps the stages before).
     fn mask_changed(&mut self, ctx: &egui::Context) {
         self.map.set_mask(ctx, Some(&self.mask));
-        self.scene.detail.set_mask(Some(&self.mask));
-        self.dirty = true;
+        self.edit(Edit::SetMask(Some(self.mask.clone())));
     }
 
     /// Paints one piece of a brush stroke (map units).
@@ -78,7 +78,7 @@ impl StrahlerApp {
             return;
         };
         let status = DetailStatus {
-            levels: self.scene.detail.levels,
+            levels: self.session.scene().detail.levels,
             width: d.field.width(),
             height: d.field.height(),
             backend: d.backend.to_owned(),
@@ -104,7 +104,7 @@ impl StrahlerApp {
 
     /// The river networks as a starting mask (rivers stay smooth).
     pub(super) fn mask_from_rivers(&mut self, ctx: &egui::Context) {
-        let Some(output) = &self.output else {
+        let Some(output) = self.session.output() else {
             self.set_error("Generate a terrain first: the mask follows its rivers.".into());
             return;
         };
@@ -118,9 +118,10 @@ impl StrahlerApp {
             .zip(&orders)
             .map(|(r, o)| (&r.network, o.as_slice()))
             .collect();
-        let n = self.scene.size;
+        let n = self.session.scene().size;
         let radius = (n as f32 / 256.0).max(1.0);
-        match Mask::from_rivers(n, n, &rivers, radius) {
+        let mask = Mask::from_rivers(n, n, &rivers, radius);
+        match mask {
             Ok(mask) => self.set_mask(ctx, mask),
             Err(err) => self.set_error(err.to_string()),
         }
@@ -188,15 +189,15 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
          fitted line of log2 variance per level. The mask removes that detail where it is white.",
         );
     let ctx = ui.ctx().clone();
-    let before = app.scene.detail.clone();
+    let size = app.session.scene().size;
+    let before = &app.session.scene().detail;
+    let mut detail = before.clone();
     egui::Grid::new("detail settings")
         .num_columns(2)
         .show(ui, |ui| {
             ui.label("New levels");
-            let out = synthesis::output_len(app.scene.size, app.scene.detail.levels);
-            ui.add(
-                Slider::new(&mut app.scene.detail.levels, 0..=3).text(format!("-> {out} x {out}")),
-            );
+            let out = synthesis::output_len(size, detail.levels);
+            ui.add(Slider::new(&mut detail.levels, 0..=3).text(format!("-> {out} x {out}")));
             ui.end_row();
             let label = ui.label("Scope").on_hover_text(
                 "Global (GSA): one line per band for the whole map. Local (LSA): a line per \
@@ -205,12 +206,12 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  (paper): eq. 8 exactly as written, each location's raw fit.",
             );
             ComboBox::from_id_salt("detail scope")
-                .selected_text(app.scene.detail.scope.clone())
+                .selected_text(detail.scope.clone())
                 .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut app.scene.detail.scope, "global".to_owned(), "global");
-                    ui.selectable_value(&mut app.scene.detail.scope, "local".to_owned(), "local");
+                    ui.selectable_value(&mut detail.scope, "global".to_owned(), "global");
+                    ui.selectable_value(&mut detail.scope, "local".to_owned(), "local");
                     ui.selectable_value(
-                        &mut app.scene.detail.scope,
+                        &mut detail.scope,
                         "local-paper".to_owned(),
                         "local (paper)",
                     );
@@ -218,19 +219,19 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 .response
                 .labelled_by(label.id);
             ui.end_row();
-            if app.scene.detail.scope.starts_with("local") {
+            if detail.scope.starts_with("local") {
                 ui.label("Window");
-                let mut half = (app.scene.detail.window / 2) as u32;
+                let mut half = (detail.window / 2) as u32;
                 ui.add(Slider::new(&mut half, 0..=8).custom_formatter(|v, _| {
                     let w = 2 * v as usize + 1;
                     format!("{w} x {w}")
                 }));
-                app.scene.detail.window = 2 * half as usize + 1;
+                detail.window = 2 * half as usize + 1;
                 ui.end_row();
             }
         });
-    if app.scene.detail != before {
-        app.dirty = true;
+    if detail != *before {
+        app.edit(Edit::SetDetail(detail));
     }
 
     ui.horizontal_wrapped(|ui| {
@@ -274,7 +275,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             app.layers.mask = true;
         }
         if ui.button("Clear mask").clicked()
-            && let Ok(mask) = Mask::new(app.scene.size, app.scene.size)
+            && let Ok(mask) = Mask::new(size, size)
         {
             app.set_mask(&ctx, mask);
         }

@@ -6,6 +6,7 @@ use egui::{ComboBox, DragValue, RichText};
 
 use super::StrahlerApp;
 use crate::erosion::{ErosionSettings, PRESETS};
+use crate::scene::Edit;
 
 /// The Erosion section of the side panel. Edits go to the scene; the side panel notices the
 /// change and re-runs the pipeline (the cache keeps the hydrology).
@@ -15,21 +16,24 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
          diffusion (Braun and Willett 2013). The drawn rivers are the base level: they keep \
          their heights and the land around them is carved into valleys and ridges.",
     );
-    let mut on = app.scene.erosion.is_some();
+    let current = app.session.scene().erosion.clone();
+    let mut on = current.is_some();
     ui.horizontal(|ui| {
         ui.checkbox(&mut on, "Erode the terrain");
-        if app.scene.erosion.is_some() {
+        if current.is_some() {
             ui.toggle_value(&mut app.show_before_erosion, "Show before")
                 .on_hover_text("Show the terrain before erosion (the design) on the map");
         }
     });
-    if on != app.scene.erosion.is_some() {
-        app.scene.erosion = on.then(ErosionSettings::default);
+    if on != current.is_some() {
+        app.edit(Edit::SetErosion(on.then(ErosionSettings::default)));
+        return;
     }
-    let Some(e) = app.scene.erosion.as_mut() else {
+    let Some(before) = current else {
         return;
     };
-    let before = e.clone();
+    let mut edited = before.clone();
+    let e = &mut edited;
     egui::Grid::new("erosion settings")
         .num_columns(2)
         .show(ui, |ui| {
@@ -90,7 +94,10 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     {
         e.preset = "custom".into();
     }
-    if let Some(report) = app.output.as_ref().and_then(|o| o.report.erosion.as_ref()) {
+    if edited != before {
+        app.edit(Edit::SetErosion(Some(edited)));
+    }
+    if let Some(report) = app.output().and_then(|o| o.report.erosion.as_ref()) {
         ui.label(format!(
             "Eroded in {:.0} ms: mean {:.1} m, up to {:.0} m lowered; {:.1}% of river cells drain along the river",
             report.millis,
@@ -109,17 +116,16 @@ pub(super) fn realism_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
          spectral slope and bump, the grid-direction index, straight channel runs, flats and \
          the hypsometric integral: compare them with `strahler analyze DEM --compare REAL`.",
     );
-    if ui
-        .checkbox(&mut app.measure_realism, "Measure each terrain")
-        .changed()
-        && app.measure_realism
-    {
-        app.dirty = true;
+    let mut measure = app.session.settings().measure_realism;
+    ui.checkbox(&mut measure, "Measure each terrain");
+    if measure != app.session.settings().measure_realism {
+        // The next run (every stage from the cache) measures, or stops measuring.
+        app.session.settings_mut().measure_realism = measure;
     }
-    if !app.measure_realism {
+    if !measure {
         return;
     }
-    match app.output.as_ref().and_then(|o| o.report.realism.as_ref()) {
+    match app.output().and_then(|o| o.report.realism.as_ref()) {
         Some(report) => {
             for line in report.lines() {
                 ui.label(line);
@@ -142,11 +148,8 @@ pub(super) fn style_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             "Adds detail where the terrain is smoother than a real DEM's wavelet spectrum \
              (seed paper 001's gamma per band), kept off the rivers and the painted mask.",
         );
-    let current = app
-        .scene
-        .style
-        .as_ref()
-        .map_or("none".to_owned(), |s| s.name.clone());
+    let mut style = app.session.scene().style.clone();
+    let current = style.as_ref().map_or("none".to_owned(), |s| s.name.clone());
     let mut chosen: Option<Option<StyleSettings>> = None;
     let label = ui.label("Style");
     ComboBox::from_id_salt("style")
@@ -167,8 +170,9 @@ pub(super) fn style_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         })
         .response
         .labelled_by(label.id);
-    if let Some(style) = chosen {
-        app.scene.style = style;
+    if let Some(chosen) = chosen {
+        app.edit(Edit::SetStyle(chosen));
+        return;
     }
     if let Some(loaded) = &app.blend.dem
         && ui
@@ -180,16 +184,19 @@ pub(super) fn style_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     {
         match crate::wavelet::style::measure(&loaded.dem.field) {
             Ok(gamma) => {
-                app.scene.style = Some(StyleSettings {
+                let measured = StyleSettings {
                     name: format!("from {}", loaded.name),
                     gamma,
                     strength: 1.0,
-                })
+                };
+                app.edit(Edit::SetStyle(Some(measured)));
+                return;
             }
             Err(err) => app.set_error(format!("Style: {err}")),
         }
     }
-    if let Some(style) = app.scene.style.as_mut() {
+    let before = style.clone();
+    if let Some(style) = style.as_mut() {
         let label = ui
             .label("Strength")
             .on_hover_text("Fraction of the missing detail variance added (0 to 2).");
@@ -202,5 +209,8 @@ pub(super) fn style_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ))
             .weak(),
         );
+    }
+    if style != before {
+        app.edit(Edit::SetStyle(style));
     }
 }

@@ -106,7 +106,7 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
                     RichText::new(format!(
                         "The map shows a {native} x {native} preview: generate the full size \
                          first (Diffusion section) to export {0} x {0}.",
-                        app.scene.size
+                        app.session.scene().size
                     ))
                     .weak(),
                 );
@@ -128,7 +128,7 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
 }
 
 fn export_now(app: &mut StrahlerApp) {
-    let Some(output) = &app.output else {
+    let Some(output) = app.session.output() else {
         app.set_error("Nothing to export yet: draw a river first.".into());
         return;
     };
@@ -137,7 +137,7 @@ fn export_now(app: &mut StrahlerApp) {
         format: d.format,
         size: d.size,
         flip_y: d.flip_y,
-        z_scale: d.z_scale * app.scene.vertical_scale as f32,
+        z_scale: d.z_scale * app.session.scene().vertical_scale as f32,
     };
     let result = encode_heightmap(&output.field, output.cell_m, &export).and_then(|out| {
         // A heightmap and its sidecar share a stem no file beside them has yet.

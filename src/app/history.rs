@@ -1,15 +1,11 @@
 //! The document's history: undo and redo of every edit, and autosave to browser storage.
 //!
-//! The scene (`StrahlerApp::scene`) is the document. After an edit (anything that makes the
-//! terrain, detail or blend stage re-run: strokes, sketch items, parameters, mask strokes,
-//! block moves, loaded scenes) the new scene is committed once the pointer is released, so
-//! a slider drag or a brush stroke is one step. Undo and redo swap whole scenes, which keeps
-//! them exact whatever the edit was. O(scene size) per committed edit; at most [`DEPTH`]
-//! steps are kept.
+//! The session commits the scene here after each edit once the gesture that made it is
+//! over (a slider drag or a brush stroke is one step). Undo and redo swap whole scenes,
+//! which keeps them exact whatever the edit was. O(scene size) per committed edit; at most
+//! [`DEPTH`] steps are kept.
 
 use crate::scene::Scene;
-
-use super::StrahlerApp;
 
 /// Undo steps kept.
 pub const DEPTH: usize = 100;
@@ -26,10 +22,6 @@ pub struct History {
     current: Option<Scene>,
     undo: Vec<Scene>,
     redo: Vec<Scene>,
-    /// An edit happened and is not committed yet.
-    pending: bool,
-    /// The next commit is the result of an undo or redo, not a new edit.
-    restoring: bool,
     last_autosave: Option<web_time::Instant>,
     autosaved: Option<String>,
     /// The document changed since the last autosave.
@@ -37,7 +29,7 @@ pub struct History {
 }
 
 impl History {
-    /// Starts the history at `scene` (the app's first document).
+    /// Starts the history at `scene` (the session's first document).
     pub fn start(&mut self, scene: Scene) {
         *self = Self {
             current: Some(scene),
@@ -56,108 +48,67 @@ impl History {
     pub fn depths(&self) -> (usize, usize) {
         (self.undo.len(), self.redo.len())
     }
-}
 
-impl StrahlerApp {
-    /// Called each frame after the commands: notes edits and commits them when the pointer
-    /// is up; autosaves on the web.
-    pub(super) fn track_history(&mut self, ctx: &egui::Context) {
-        if self.dirty {
-            self.history.pending = true;
+    /// Records `scene` as a new step when it differs from the current one (clearing the redo
+    /// steps). Returns the new depths when it did.
+    pub fn commit(&mut self, scene: &Scene) -> Option<(usize, usize)> {
+        if self.current.as_ref() == Some(scene) {
+            return None;
         }
-        let pointer_down = ctx.input(|i| i.pointer.any_down());
-        if self.history.pending && !pointer_down {
-            self.history.pending = false;
-            let scene = self.scene();
-            let h = &mut self.history;
-            if h.restoring {
-                h.restoring = false;
-            } else if let Some(previous) = h.current.take().filter(|c| *c != scene) {
-                h.undo.push(previous);
-                if h.undo.len() > DEPTH {
-                    h.undo.remove(0);
-                }
-                h.redo.clear();
+        if let Some(previous) = self.current.replace(scene.clone()) {
+            self.undo.push(previous);
+            if self.undo.len() > DEPTH {
+                self.undo.remove(0);
             }
-            h.current = Some(scene);
-            h.unsaved = true;
-            let (undo, redo) = h.depths();
-            self.automation.update(|s| {
-                s.undo = undo;
-                s.redo = redo;
-            });
         }
-        self.autosave(ctx);
+        self.redo.clear();
+        self.unsaved = true;
+        Some(self.depths())
     }
 
-    /// Back one step.
-    pub fn undo(&mut self) {
-        self.step_history(true);
-    }
-
-    /// Forward one step.
-    pub fn redo(&mut self) {
-        self.step_history(false);
-    }
-
-    fn step_history(&mut self, back: bool) {
-        let h = &mut self.history;
+    /// Back (`back`) or forward one step: the scene that becomes current, if there is one.
+    pub fn step(&mut self, back: bool) -> Option<Scene> {
         let (from, to) = if back {
-            (&mut h.undo, &mut h.redo)
+            (&mut self.undo, &mut self.redo)
         } else {
-            (&mut h.redo, &mut h.undo)
+            (&mut self.redo, &mut self.undo)
         };
-        let Some(scene) = from.pop() else {
-            return;
-        };
-        if let Some(current) = h.current.replace(scene.clone()) {
+        let scene = from.pop()?;
+        if let Some(current) = self.current.replace(scene.clone()) {
             to.push(current);
         }
-        h.restoring = true;
-        h.unsaved = true;
-        let (undo, redo) = h.depths();
-        self.automation.update(|s| {
-            s.undo = undo;
-            s.redo = redo;
-        });
-        self.load_scene(&scene);
-        self.notice = Some(if back { "Undone" } else { "Redone" }.to_owned());
+        self.unsaved = true;
+        Some(scene)
     }
 
-    /// Writes the scene to browser storage when it changed (web only).
-    /// Saves the document at most every [`AUTOSAVE_SECONDS`], within that time of any change
-    /// however it was made (mouse, keyboard or `window.strahler`): a change that is not yet
-    /// due asks for a frame when it will be, so an idle page still saves it.
-    fn autosave(&mut self, ctx: &egui::Context) {
-        if !self.history.unsaved {
-            return;
+    /// Writes the scene to browser storage when it changed (web only), at most every
+    /// [`AUTOSAVE_SECONDS`] and within that time of any change however it was made (mouse,
+    /// keyboard or `window.strahler`): a change not yet due calls `wake` with the time until
+    /// it is, so an idle page still saves it. `Some` says why saving failed.
+    pub fn autosave(&mut self, wake: impl FnOnce(std::time::Duration)) -> Option<String> {
+        if !self.unsaved {
+            return None;
         }
         let since = self
-            .history
             .last_autosave
             .map_or(f64::INFINITY, |t| t.elapsed().as_secs_f64());
         if since < AUTOSAVE_SECONDS {
             let wait = (AUTOSAVE_SECONDS - since).max(0.05);
-            ctx.request_repaint_after(std::time::Duration::from_secs_f64(wait));
-            return;
+            wake(std::time::Duration::from_secs_f64(wait));
+            return None;
         }
-        self.history.unsaved = false;
-        self.history.last_autosave = Some(web_time::Instant::now());
-        let Some(scene) = &self.history.current else {
-            return;
-        };
-        let json = scene.to_json();
-        if self.history.autosaved.as_ref() == Some(&json) {
-            return;
+        self.unsaved = false;
+        self.last_autosave = Some(web_time::Instant::now());
+        let json = self.current.as_ref()?.to_json();
+        if self.autosaved.as_ref() == Some(&json) {
+            return None;
         }
-        match store(&json) {
-            Ok(()) => self.history.autosaved = Some(json),
-            Err(err) => {
-                // Keep working; say why the scene is not being kept.
-                self.history.autosaved = Some(json);
-                self.notice = Some(format!("Autosave failed: {err}. Use Save scene."));
-            }
-        }
+        let stored = store(&json);
+        // Keep working either way; a failure is said once, not every two seconds.
+        self.autosaved = Some(json);
+        stored
+            .err()
+            .map(|err| format!("Autosave failed: {err}. Use Save scene."))
     }
 }
 

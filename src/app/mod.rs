@@ -3,6 +3,7 @@
 //! The same code runs in a native window and in the browser. Heavy work runs as
 //! [`crate::jobs`] jobs; the frame loop only polls their progress and takes their results.
 
+mod arrived;
 mod automation;
 mod blend;
 mod detail;
@@ -16,6 +17,7 @@ mod networks;
 mod picture;
 mod relief;
 mod select;
+mod session;
 mod side_panel;
 mod status_bar;
 mod view3d;
@@ -24,6 +26,7 @@ use std::sync::Arc;
 
 pub use automation::{Automation, Command, JobStatus, Status};
 pub use map_view::{Hover, MapView, Overlay, Tool};
+pub use session::{PREVIEW_SIZE, RunSettings, Session};
 pub use side_panel::SolverSettings;
 pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};
 
@@ -35,13 +38,9 @@ use crate::diffusion::DiffusionError;
 use crate::diffusion::selftest::{RunSummary, SelfTest};
 use crate::gpu::{GpuContext, device_descriptor};
 use crate::jobs::JobHandle;
-use crate::pipeline::{Output, Pipeline, PipelineError, RunOptions};
+use crate::pipeline::Output;
 use crate::river::Stroke;
-use crate::scene::{RiverStroke, Scene};
-
-/// Side of the preview terrain: with Preview on, edits of a larger map regenerate at this
-/// size and the full size is generated on demand.
-pub const PREVIEW_SIZE: usize = 512;
+use crate::scene::{Edit, LineKind, RiverStroke, Scene};
 
 /// The river the first screen starts with: from the middle of the south edge, northwards.
 pub fn default_stroke() -> Stroke {
@@ -78,20 +77,11 @@ pub struct StrahlerApp {
     path: ComputePath,
     automation: Automation,
     map: MapView,
-    /// The document: everything the terrain is built from. The UI and `window.strahler`
-    /// edit it; the pipeline reads it.
-    scene: Scene,
-    /// How the diffusion stage solves and on what (run options, not part of the document).
-    settings: SolverSettings,
-    /// The pipeline's stage cache (an edit recomputes only the stages it touched).
-    pipeline: Pipeline,
+    /// The document (the scene) and its history, the pipeline, its job and its last output.
+    /// The UI and `window.strahler` change the scene with edits; a run follows each change.
+    session: Session,
     tool: Tool,
     overlay: Overlay,
-    /// Something that shapes the terrain changed: re-run the pipeline at the next frame.
-    dirty: bool,
-    terrain_job: Option<JobHandle<Result<Arrived, PipelineError>>>,
-    /// The last run shown on the map.
-    output: Option<Output>,
     terrain_summary: Option<String>,
     selftest_job: Option<JobHandle<Result<SelfTest, DiffusionError>>>,
     /// Builds the GPU kernels at start (see [`crate::pipeline::warm_kernels`]); `None` once
@@ -108,11 +98,6 @@ pub struct StrahlerApp {
     brush: crate::wavelet::Brush,
     /// Which map layers are drawn.
     layers: layers::Layers,
-    /// Edits of a map larger than [`PREVIEW_SIZE`] regenerate at that size (fast); the full
-    /// size is generated on demand.
-    preview: bool,
-    /// The next generation runs at the full size even with Preview on.
-    full_size_requested: bool,
     /// The vector item the Select tool picked, and whether it is being dragged.
     selected: Option<select::Item>,
     moving: bool,
@@ -120,8 +105,6 @@ pub struct StrahlerApp {
     /// The Erosion section's before/after toggle, and the pictures it switches between
     /// (after erosion, before it).
     show_before_erosion: bool,
-    /// The Realism section asks each run to measure the terrain.
-    measure_realism: bool,
     pictures: Option<(picture::Picture, Option<picture::Picture>)>,
     showing_before: bool,
     /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
@@ -133,8 +116,6 @@ pub struct StrahlerApp {
     /// The DEM panel's network comparison.
     networks: networks::Comparison,
     export: export::ExportDialog,
-    /// Undo, redo and autosave of the scene.
-    history: history::History,
     /// Which view the central area shows, and the 3D view.
     view: ViewKind,
     view3d: view3d::View3d,
@@ -166,14 +147,9 @@ impl StrahlerApp {
             path,
             automation,
             map: MapView::default(),
-            scene: default_scene(),
-            settings: SolverSettings::default(),
-            pipeline: Pipeline::new(),
+            session: Session::new(default_scene()),
             tool: Tool::default(),
             overlay: Overlay::default(),
-            dirty: false,
-            terrain_job: None,
-            output: None,
             terrain_summary: None,
             selftest_job: None,
             kernels_job: None,
@@ -185,13 +161,10 @@ impl StrahlerApp {
             mask: crate::wavelet::Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
             brush: Default::default(),
             layers: Default::default(),
-            preview: true,
-            full_size_requested: false,
             selected: None,
             moving: false,
             detail_summary: None,
             show_before_erosion: false,
-            measure_realism: false,
             pictures: None,
             showing_before: false,
             mask_overlay_stale: false,
@@ -199,14 +172,15 @@ impl StrahlerApp {
             blend: Default::default(),
             networks: Default::default(),
             export: Default::default(),
-            history: Default::default(),
             view: ViewKind::Map,
             view3d: Default::default(),
         };
-        // A scene autosaved by an earlier visit comes back (web only).
+        // A scene autosaved by an earlier visit comes back (web only), as the history's
+        // start.
         match history::restore() {
             Some(Ok(scene)) => {
-                app.load_scene(&scene);
+                app.session = Session::new(scene);
+                app.scene_replaced();
                 app.notice = Some("Restored the scene autosaved in this browser".into());
             }
             Some(Err(err)) => {
@@ -214,11 +188,9 @@ impl StrahlerApp {
             }
             None => {}
         }
-        app.fit_mask(app.scene.size);
+        app.fit_mask(app.session.scene().size);
         app.start_warming_kernels(&cc.egui_ctx);
-        let first = app.scene();
-        app.history.start(first);
-        app.start_generate(&cc.egui_ctx);
+        app.poll_session(&cc.egui_ctx);
         app
     }
 
@@ -251,53 +223,85 @@ impl StrahlerApp {
 
     /// The diffusion solver and backend.
     pub fn settings(&self) -> &SolverSettings {
-        &self.settings
+        &self.session.settings().solver
     }
 
     /// The diffusion solver and backend (tests and automation change them like the user
     /// would); a change re-runs the pipeline.
     pub fn settings_mut(&mut self) -> &mut SolverSettings {
-        self.dirty = true;
-        &mut self.settings
+        &mut self.session.settings_mut().solver
     }
 
     /// The user's river strokes.
     pub fn strokes(&self) -> Vec<Stroke> {
-        self.scene.strokes()
+        self.session.scene().strokes()
     }
 
     /// The document, as saved and autosaved.
     pub fn scene(&self) -> Scene {
-        self.scene.clone()
-    }
-
-    /// The document, to edit it like the user would (a change re-runs the pipeline).
-    pub fn scene_mut(&mut self) -> &mut Scene {
-        self.dirty = true;
-        &mut self.scene
+        self.session.scene().clone()
     }
 
     /// The last finished run on the map (its stages, layers and report).
     pub fn output(&self) -> Option<&Output> {
-        self.output.as_ref()
+        self.session.output()
+    }
+
+    /// Applies an edit to the document (the next frame re-runs what it touched), or shows
+    /// why it was refused. Every change to the scene, from the UI or a script, comes here.
+    pub fn edit(&mut self, edit: Edit) {
+        if let Err(err) = self.session.apply(edit) {
+            self.set_error(format!("Not changed: {err}"));
+        }
     }
 
     /// Replaces the document (a validated scene) and regenerates.
     pub fn load_scene(&mut self, scene: &Scene) {
-        self.scene = scene.clone();
-        match scene.detail.mask() {
+        self.edit(Edit::Replace(Box::new(scene.clone())));
+        self.scene_replaced();
+    }
+
+    /// Back one step.
+    pub fn undo(&mut self) {
+        self.step_history(true);
+    }
+
+    /// Forward one step.
+    pub fn redo(&mut self) {
+        self.step_history(false);
+    }
+
+    fn step_history(&mut self, back: bool) {
+        if !self.session.step_history(back) {
+            return;
+        }
+        let (undo, redo) = self.session.history_depths();
+        self.automation.update(|s| {
+            s.undo = undo;
+            s.redo = redo;
+        });
+        self.scene_replaced();
+        self.notice = Some(if back { "Undone" } else { "Redone" }.to_owned());
+    }
+
+    /// After the whole document changed (opened, restored, undone): the decoded mask and
+    /// the selections follow it.
+    fn scene_replaced(&mut self) {
+        let scene = self.session.scene();
+        let (size, mask) = (scene.size, scene.detail.mask());
+        match mask {
             Ok(Some(mask)) => self.mask = mask,
             Ok(None) => {
-                if let Ok(clear) = crate::wavelet::Mask::new(scene.size, scene.size) {
+                if let Ok(clear) = crate::wavelet::Mask::new(size, size) {
                     self.mask = clear;
                 }
             }
             Err(err) => self.set_error(err.to_string()),
         }
-        self.fit_mask(scene.size);
+        self.fit_mask(size);
         self.mask_overlay_stale = true;
         self.blend.selected = None;
-        self.dirty = true;
+        self.selected = None;
     }
 
     /// Replaces the document by a scene file's contents (refused with the bad field named,
@@ -317,13 +321,12 @@ impl StrahlerApp {
 
     /// The sketched ridges, valleys and peaks.
     pub fn sketch(&self) -> &crate::scene::SketchSettings {
-        &self.scene.sketch
+        &self.session.scene().sketch
     }
 
     /// Adds a river stroke (map units, estuary first) and regenerates.
     pub fn add_stroke(&mut self, stroke: Stroke) {
-        self.scene.rivers.push(RiverStroke::from(stroke));
-        self.dirty = true;
+        self.edit(Edit::AddRiver(RiverStroke::from(stroke)));
     }
 
     /// The mask brush (size, hardness, grey value, eraser).
@@ -361,67 +364,59 @@ impl StrahlerApp {
 
     /// Whether a job is running or a regeneration is pending.
     pub fn busy(&self) -> bool {
-        self.terrain_job.is_some()
+        self.session.busy()
             || self.selftest_job.is_some()
             || self.blend.fill_job.is_some()
             || self.blend.features_job.is_some()
             || self.networks.busy()
-            || self.dirty
     }
 
-    /// Runs the pipeline on the scene, cancelling a running job (a newer edit always wins).
-    /// The job works on a copy of the stage cache (the outputs are shared, not copied) and
-    /// hands the updated cache back with its result.
+    /// Runs the pipeline on the scene again, even if nothing changed (the Generate button).
     pub fn start_generate(&mut self, ctx: &egui::Context) {
-        self.dirty = false;
-        self.automation.set_scene(self.scene());
-        if self.scene.rivers.is_empty() && self.scene.sketch.is_empty() {
-            self.terrain_job = None;
-            self.set_error(
-                "Draw a river to make terrain: choose Draw river and drag on the map.".into(),
-            );
-            return;
-        }
-        let Some(backend) = self.backend() else {
-            return;
-        };
-        let scene = self.scene.clone();
-        let mut options = RunOptions {
-            size: scene.size,
-            solver: self.settings.method(),
-            realism: self.measure_realism,
-        };
-        if self.preview && !std::mem::take(&mut self.full_size_requested) {
-            options.size = options.size.min(PREVIEW_SIZE);
-        }
-        let mut pipeline = self.pipeline.clone();
-        let repaint = ctx.clone();
-        let spawned = crate::jobs::spawn(
-            "terrain",
-            move |job| async move {
-                let output = pipeline.run(&scene, &options, &backend, &job).await?;
-                Arrived::prepare(pipeline, output, &job).await
-            },
-            move || repaint.request_repaint(),
-        );
-        match spawned {
-            // Replacing the handle drops (and so cancels) a stale job.
-            Ok(handle) => self.terrain_job = Some(handle),
-            Err(err) => self.set_error(err.to_string()),
-        }
+        self.session.regenerate();
+        self.poll_session(ctx);
     }
 
     /// Generates the terrain at the full grid size (with Preview on, edits use a smaller one).
     pub fn generate_full_size(&mut self, ctx: &egui::Context) {
-        self.full_size_requested = true;
-        self.start_generate(ctx);
+        self.session.generate_full_size();
+        self.poll_session(ctx);
+    }
+
+    /// Takes the session's finished run and starts the next one when the document changed;
+    /// records the history and autosaves once no gesture is in progress.
+    fn poll_session(&mut self, ctx: &egui::Context) {
+        let gesture = ctx.input(|i| i.pointer.any_down());
+        if let Some((undo, redo)) = self.session.commit(gesture) {
+            self.automation.update(|s| {
+                s.undo = undo;
+                s.redo = redo;
+            });
+        }
+        let repaint = ctx.clone();
+        let events = self
+            .session
+            .poll(&self.path, gesture, move || repaint.request_repaint());
+        for event in events {
+            match event {
+                session::Event::Started => self.automation.set_scene(self.scene()),
+                session::Event::Finished(shown) => self.show_output(ctx, *shown),
+                session::Event::Failed(message) => self.set_error(message),
+            }
+        }
+        let wake = ctx.clone();
+        if let Some(notice) = self
+            .session
+            .autosave(move |after| wake.request_repaint_after(after))
+        {
+            self.notice = Some(notice);
+        }
     }
 
     /// Whether the map shows a preview smaller than the chosen grid size.
     pub fn showing_preview(&self) -> bool {
-        self.output
-            .as_ref()
-            .is_some_and(|o| o.hydrology.terrain.width() < self.scene.size)
+        self.output()
+            .is_some_and(|o| o.hydrology.terrain.width() < self.session.scene().size)
     }
 
     /// Builds the GPU stages' kernels in the background, beside the first terrain, so the
@@ -472,7 +467,7 @@ impl StrahlerApp {
     /// The backend the Diffusion section asks for, or `None` after telling the user why
     /// there is none (the GPU was requested but does not compute).
     fn backend(&mut self) -> Option<crate::compute::Backend> {
-        match self.settings.backend.resolve(&self.path) {
+        match self.settings().backend.resolve(&self.path) {
             Ok(backend) => Some(backend),
             Err(err) => {
                 self.set_error(err.to_string());
@@ -489,17 +484,17 @@ impl StrahlerApp {
     }
 
     /// Puts a finished run on the map with its overlays and publishes its summaries.
-    fn show_output(&mut self, ctx: &egui::Context, arrived: Arrived) {
-        let Arrived {
-            pipeline,
-            output,
+    fn show_output(&mut self, ctx: &egui::Context, shown: arrived::Shown) {
+        let arrived::Shown {
             constraints,
             summary,
             picture,
             before,
             erosion_layers,
-        } = arrived;
-        self.pipeline = pipeline;
+        } = shown;
+        let Some(output) = self.session.output().cloned() else {
+            return;
+        };
         let g = &output.hydrology;
         let size = g.terrain.width();
         let r = &output.report.terrain;
@@ -540,7 +535,7 @@ impl StrahlerApp {
         self.map.set_erosion_layers(ctx, erosion_layers);
         // The mask stays at the full size, whatever size this run had (the detail stage
         // resamples it), so a preview never blurs what the user painted.
-        self.fit_mask(self.scene.size);
+        self.fit_mask(self.session.scene().size);
         self.map.set_mask(ctx, Some(&self.mask));
         self.show_detail_status(&output);
         self.show_blend_status(&output);
@@ -559,7 +554,6 @@ impl StrahlerApp {
         self.automation
             .update(|s| s.last_run = Some(summary.clone()));
         self.last_run = Some((size, summary));
-        self.output = Some(output);
         self.error = None;
     }
 
@@ -586,7 +580,7 @@ impl StrahlerApp {
                     quarter_turns,
                     mirror,
                     z_scale,
-                } => self.place_block(ctx, window, Some(rect), quarter_turns, mirror, z_scale),
+                } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
                 Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
                 Command::FileRefused { name, message } => {
                     self.set_error(format!("{name}: {message}"))
@@ -602,17 +596,15 @@ impl StrahlerApp {
                     self.set_view(ViewKind::ThreeD);
                     self.view3d.request_camera(request);
                 }
-                Command::MoveBlock { index, rect } => match self.scene.blend.get_mut(index) {
-                    Some(block) => {
-                        block.rect = rect;
-                        if let Err((field, problem)) = block.validate() {
-                            self.set_error(format!("Block {field}: {problem}"));
-                        } else {
-                            self.blocks_changed(ctx);
+                Command::MoveBlock { index, rect } => {
+                    match self.session.scene().blend.get(index).cloned() {
+                        Some(mut block) => {
+                            block.rect = rect;
+                            self.edit(Edit::SetBlock { index, block });
                         }
+                        None => self.set_error(format!("There is no block {index}")),
                     }
-                    None => self.set_error(format!("There is no block {index}")),
-                },
+                }
             }
         }
         if scripted {
@@ -620,18 +612,7 @@ impl StrahlerApp {
             self.automation.set_scene(self.scene());
         }
         self.automation.mark_applied(applied);
-        self.track_history(ctx);
-        if self.dirty {
-            self.start_generate(ctx);
-        }
-        if let Some(result) = self.terrain_job.as_ref().and_then(JobHandle::try_take) {
-            self.terrain_job = None;
-            match result {
-                Ok(arrived) => self.show_output(ctx, arrived),
-                Err(err) if err.is_cancelled() => {}
-                Err(err) => self.set_error(format!("Terrain failed: {err}")),
-            }
-        }
+        self.poll_session(ctx);
         if self.mask_overlay_stale {
             self.mask_overlay_stale = false;
             self.map.set_mask(ctx, Some(&self.mask));
@@ -664,10 +645,10 @@ impl StrahlerApp {
             self.selftest = Some(result.map_err(|err| err.to_string()));
         }
         // The first running job, in pipeline order, is the one scripts see.
-        let job = job_status(&self.terrain_job)
-            .or_else(|| job_status(&self.blend.fill_job))
-            .or_else(|| job_status(&self.blend.features_job))
-            .or_else(|| job_status(&self.selftest_job));
+        let job = job_status(&self.session.job())
+            .or_else(|| job_status(&self.blend.fill_job.as_ref()))
+            .or_else(|| job_status(&self.blend.features_job.as_ref()))
+            .or_else(|| job_status(&self.selftest_job.as_ref()));
         self.automation.update(|s| s.job = job);
         if self.busy() {
             // Keep the progress bar moving; results trigger a repaint when they land. In the
@@ -685,8 +666,8 @@ impl StrahlerApp {
 }
 
 /// A running job's name, progress and message.
-fn job_status<T>(job: &Option<JobHandle<T>>) -> Option<JobStatus> {
-    job.as_ref().map(|j| JobStatus {
+fn job_status<T>(job: &Option<&JobHandle<T>>) -> Option<JobStatus> {
+    job.map(|j| JobStatus {
         name: j.name().to_owned(),
         progress: j.progress(),
         message: j.message(),
@@ -696,7 +677,7 @@ fn job_status<T>(job: &Option<JobHandle<T>>) -> Option<JobStatus> {
 impl StrahlerApp {
     /// Shows the terrain before or after erosion, as the Erosion section's toggle asks.
     fn switch_before_after(&mut self, ctx: &egui::Context) {
-        let want = self.show_before_erosion && self.scene.erosion.is_some();
+        let want = self.show_before_erosion && self.session.scene().erosion.is_some();
         if want == self.showing_before {
             return;
         }
@@ -721,66 +702,6 @@ impl StrahlerApp {
                 }
             });
         });
-    }
-}
-
-/// A finished run with what the UI shows of it, prepared in the job (O(cells), so not on
-/// the UI thread), and the updated stage cache.
-struct Arrived {
-    pipeline: Pipeline,
-    output: Output,
-    /// The skeleton's cells as an overlay image.
-    constraints: egui::ColorImage,
-    summary: RunSummary,
-    /// The map's picture of the final terrain.
-    picture: picture::Picture,
-    /// With erosion: the picture of the terrain before it.
-    before: Option<picture::Picture>,
-    /// With erosion: its drainage-area and erosion-depth overlays.
-    erosion_layers: Option<[egui::ColorImage; 2]>,
-}
-
-impl Arrived {
-    async fn prepare(
-        pipeline: Pipeline,
-        output: Output,
-        job: &crate::jobs::JobCtx,
-    ) -> Result<Self, PipelineError> {
-        job.tick(1.0, "preparing the map").await?;
-        let g = &output.hydrology;
-        let (w, h) = (g.terrain.width(), g.terrain.height());
-        let constraints = layers::constraints_image(&g.skeleton.kinds, w, h);
-        job.tick(1.0, "preparing the map").await?;
-        // The diffusion stage's numbers, with the checksum and range of the terrain on the map
-        // (after every stage): the one `strahler generate` reports for the same scene.
-        let mut summary = crate::terrain::run_summary(g);
-        let r = &output.report.terrain;
-        summary.checksum = r.checksum.clone();
-        [summary.min, summary.max] = r.height_range;
-        let picture = picture::draw(output.field.clone(), output.cell_m as f32, job).await?;
-        let before = match &output.erosion {
-            Some(_) => {
-                let cell = output.cell_m * output.field.width() as f64
-                    / output.hydrology.terrain.width() as f64;
-                let field = output.hydrology.terrain.clone();
-                Some(picture::draw(field, cell as f32, job).await?)
-            }
-            None => None,
-        };
-        job.tick(1.0, "preparing the map").await?;
-        let erosion_layers = output
-            .erosion
-            .as_ref()
-            .map(|e| layers::erosion_images(e, &output.hydrology.terrain));
-        Ok(Self {
-            pipeline,
-            output,
-            constraints,
-            summary,
-            picture,
-            before,
-            erosion_layers,
-        })
     }
 }
 
@@ -872,18 +793,18 @@ impl eframe::App for StrahlerApp {
             });
             egui::CentralPanel::no_frame().show(ui, |ui| {
                 let field = self.map.field().map(|f| (f, self.map.version()));
-                let rivers = self.output.as_ref().map(|o| {
+                let rivers = self.session.output().map(|o| {
                     let s = &o.hydrology.skeleton;
                     (s.river_order.as_slice(), s.size)
                 });
-                let cell = self.output.as_ref().map_or(1.0, |o| o.cell_m as f32);
+                let cell = self.session.output().map_or(1.0, |o| o.cell_m as f32);
                 // The 3D view's rasters on the GPU it draws with, where that pays (or where
                 // a script asked).
                 let gpu = self.view3d.maps().pick(self.path.gpu());
                 // The terrain on the GPU too, if the pipeline left it there.
                 let on_gpu = self
-                    .output
-                    .as_ref()
+                    .session
+                    .output()
                     .filter(|o| self.map.field().is_some_and(|f| std::ptr::eq(f, &*o.field)))
                     .and_then(|o| o.gpu.as_ref());
                 self.view3d
@@ -911,7 +832,8 @@ impl eframe::App for StrahlerApp {
             Vec::new()
         };
         self.overlay.blocks = self
-            .scene
+            .session
+            .scene()
             .blend
             .iter()
             .enumerate()
@@ -928,7 +850,8 @@ impl eframe::App for StrahlerApp {
         }
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
         self.overlay.strokes = self
-            .scene
+            .session
+            .scene()
             .rivers
             .iter()
             .map(|s| (p(&s.estuary), p(&s.toward)))
@@ -944,9 +867,10 @@ impl eframe::App for StrahlerApp {
                 })
                 .collect::<Vec<_>>()
         };
-        self.overlay.sketch_ridges = segments(&self.scene.sketch.ridges);
-        self.overlay.sketch_valleys = segments(&self.scene.sketch.valleys);
-        self.overlay.peaks = self.scene.sketch.peaks.iter().map(|k| p(&k.at)).collect();
+        let sketch = &self.session.scene().sketch;
+        self.overlay.sketch_ridges = segments(&sketch.ridges);
+        self.overlay.sketch_valleys = segments(&sketch.valleys);
+        self.overlay.peaks = sketch.peaks.iter().map(|k| p(&k.at)).collect();
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let response = self.map.show(ui, self.tool, &self.overlay);
             self.hover = response.hover;
@@ -960,7 +884,7 @@ impl eframe::App for StrahlerApp {
                 if self.tool == Tool::Select {
                     self.drag_item(drag, response.pick_tolerance);
                 } else {
-                    self.drag_block(&ctx, drag);
+                    self.drag_block(drag);
                 }
             }
             if let Some(at) = response.select_click {
@@ -974,31 +898,37 @@ impl eframe::App for StrahlerApp {
                     height: None,
                     heights: None,
                 };
-                match self.tool {
-                    Tool::Ridge => self.scene.sketch.ridges.push(line),
-                    Tool::Valley => self.scene.sketch.valleys.push(line),
+                let edit = match self.tool {
+                    Tool::Ridge => Edit::AddLine {
+                        kind: LineKind::Ridge,
+                        line,
+                    },
+                    Tool::Valley => Edit::AddLine {
+                        kind: LineKind::Valley,
+                        line,
+                    },
                     _ => {
                         let last = self
-                            .scene
+                            .session
+                            .scene()
                             .rivers
                             .last()
                             .copied()
                             .unwrap_or_else(|| default_stroke().into());
-                        self.scene.rivers.push(RiverStroke {
+                        Edit::AddRiver(RiverStroke {
                             estuary: d(a),
                             toward: d(b),
                             ..last
-                        });
+                        })
                     }
-                }
-                self.dirty = true;
+                };
+                self.edit(edit);
             }
             if let Some(at) = response.clicked {
-                self.scene.sketch.peaks.push(crate::scene::SketchPeak {
+                self.edit(Edit::AddPeak(crate::scene::SketchPeak {
                     at: d(at),
                     height: None,
-                });
-                self.dirty = true;
+                }));
             }
         });
     }

@@ -52,7 +52,7 @@ impl StrahlerApp {
             self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
             return;
         };
-        let Some(output) = &self.output else {
+        let Some(output) = self.session.output() else {
             self.set_error(
                 "Generate a terrain first: its rivers are compared with the DEM's.".into(),
             );
@@ -121,7 +121,7 @@ impl StrahlerApp {
 pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let clicked = ui
         .add_enabled(
-            app.output.is_some() && !app.networks.busy(),
+            app.output().is_some() && !app.networks.busy(),
             egui::Button::new("Compare river networks"),
         )
         .on_hover_text(

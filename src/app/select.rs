@@ -7,6 +7,7 @@ use glam::DVec2;
 
 use super::StrahlerApp;
 use super::map_view::BlockDrag;
+use crate::scene::{Edit, LineKind, Scene};
 
 /// A vector item of the scene.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -54,14 +55,15 @@ impl StrahlerApp {
                 best = Some((d, item));
             }
         };
-        let sketch = &self.scene.sketch;
+        let scene = self.session.scene();
+        let sketch = &scene.sketch;
         let v = |a: &[f64; 2]| DVec2::from(*a);
         let line = |points: &[[f64; 2]]| points.iter().map(v).collect::<Vec<_>>();
         for (i, peak) in sketch.peaks.iter().enumerate() {
             // Peaks are small targets: they win ties with the lines under them.
             consider(p.distance(v(&peak.at)) * 0.5, Item::Peak(i));
         }
-        for (i, s) in self.scene.rivers.iter().enumerate() {
+        for (i, s) in scene.rivers.iter().enumerate() {
             consider(to_segment(p, v(&s.estuary), v(&s.toward)), Item::River(i));
         }
         for (i, l) in sketch.ridges.iter().enumerate() {
@@ -76,10 +78,10 @@ impl StrahlerApp {
     /// The selected item's points (map units), for the highlight.
     pub(super) fn selected_points(&self) -> Vec<Pos2> {
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
-        let sketch = &self.scene.sketch;
+        let scene = self.session.scene();
+        let sketch = &scene.sketch;
         match self.selected {
-            Some(Item::River(i)) => self
-                .scene
+            Some(Item::River(i)) => scene
                 .rivers
                 .get(i)
                 .map(|s| vec![p(&s.estuary), p(&s.toward)])
@@ -115,52 +117,13 @@ impl StrahlerApp {
             self.moving = self.selected.is_some();
         }
         if let Some(item) = self.selected.filter(|_| self.moving) {
-            self.move_item(item, drag.delta);
+            // Applied as the pointer moves; the run and the undo step wait for the release.
+            if let Some(edit) = moved(self.session.scene(), item, drag.delta) {
+                self.edit(edit);
+            }
         }
-        if drag.finished && self.moving {
+        if drag.finished {
             self.moving = false;
-            self.dirty = true;
-        }
-    }
-
-    /// Shifts every point of `item` by `delta`, kept inside the map.
-    fn move_item(&mut self, item: Item, delta: Vec2) {
-        let sketch = &mut self.scene.sketch;
-        let points: Vec<&mut [f64; 2]> = match item {
-            Item::River(i) => self
-                .scene
-                .rivers
-                .get_mut(i)
-                .map(|s| vec![&mut s.estuary, &mut s.toward])
-                .unwrap_or_default(),
-            Item::Ridge(i) => sketch
-                .ridges
-                .get_mut(i)
-                .map(|l| l.points.iter_mut().collect())
-                .unwrap_or_default(),
-            Item::Valley(i) => sketch
-                .valleys
-                .get_mut(i)
-                .map(|l| l.points.iter_mut().collect())
-                .unwrap_or_default(),
-            Item::Peak(i) => sketch
-                .peaks
-                .get_mut(i)
-                .map(|k| vec![&mut k.at])
-                .unwrap_or_default(),
-        };
-        if points.is_empty() {
-            return;
-        }
-        // The largest shift that keeps every point in [0, 1]^2.
-        let (mut dx, mut dy) = (f64::from(delta.x), f64::from(delta.y));
-        for p in &points {
-            dx = dx.clamp(-p[0], 1.0 - p[0]);
-            dy = dy.clamp(-p[1], 1.0 - p[1]);
-        }
-        for p in points {
-            p[0] += dx;
-            p[1] += dy;
         }
     }
 
@@ -169,27 +132,57 @@ impl StrahlerApp {
         let Some(item) = self.selected.take() else {
             return;
         };
-        let removed = match item {
-            Item::River(i) if i < self.scene.rivers.len() => {
-                self.scene.rivers.remove(i);
-                true
-            }
-            Item::Ridge(i) if i < self.scene.sketch.ridges.len() => {
-                self.scene.sketch.ridges.remove(i);
-                true
-            }
-            Item::Valley(i) if i < self.scene.sketch.valleys.len() => {
-                self.scene.sketch.valleys.remove(i);
-                true
-            }
-            Item::Peak(i) if i < self.scene.sketch.peaks.len() => {
-                self.scene.sketch.peaks.remove(i);
-                true
-            }
-            _ => false,
+        let edit = match item {
+            Item::River(i) => Edit::RemoveRiver(i),
+            Item::Ridge(index) => Edit::RemoveLine {
+                kind: LineKind::Ridge,
+                index,
+            },
+            Item::Valley(index) => Edit::RemoveLine {
+                kind: LineKind::Valley,
+                index,
+            },
+            Item::Peak(i) => Edit::RemovePeak(i),
         };
-        if removed {
-            self.dirty = true;
-        }
+        self.edit(edit);
     }
+}
+
+/// The edit that shifts every point of `item` by `delta`, kept inside the map; `None` if
+/// the scene has no such item.
+fn moved(scene: &Scene, item: Item, delta: Vec2) -> Option<Edit> {
+    let sketch = &scene.sketch;
+    let shift = |points: &mut [&mut [f64; 2]]| {
+        // The largest shift that keeps every point in [0, 1]^2.
+        let (mut dx, mut dy) = (f64::from(delta.x), f64::from(delta.y));
+        for p in points.iter() {
+            dx = dx.clamp(-p[0], 1.0 - p[0]);
+            dy = dy.clamp(-p[1], 1.0 - p[1]);
+        }
+        for p in points.iter_mut() {
+            p[0] += dx;
+            p[1] += dy;
+        }
+    };
+    Some(match item {
+        Item::River(index) => {
+            let mut stroke = *scene.rivers.get(index)?;
+            shift(&mut [&mut stroke.estuary, &mut stroke.toward]);
+            Edit::SetRiver { index, stroke }
+        }
+        Item::Ridge(index) | Item::Valley(index) => {
+            let (kind, lines) = match item {
+                Item::Ridge(_) => (LineKind::Ridge, &sketch.ridges),
+                _ => (LineKind::Valley, &sketch.valleys),
+            };
+            let mut line = lines.get(index)?.clone();
+            shift(&mut line.points.iter_mut().collect::<Vec<_>>());
+            Edit::SetLine { kind, index, line }
+        }
+        Item::Peak(index) => {
+            let mut peak = *sketch.peaks.get(index)?;
+            shift(&mut [&mut peak.at]);
+            Edit::SetPeak { index, peak }
+        }
+    })
 }

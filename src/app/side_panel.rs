@@ -5,6 +5,7 @@ use egui::{ComboBox, DragValue, ProgressBar, RichText};
 
 use super::StrahlerApp;
 use super::map_view::Tool;
+use crate::scene::Edit;
 use crate::compute::BackendChoice;
 use crate::diffusion::{Method, MultigridParams};
 
@@ -62,16 +63,6 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 let eroded = app.map.has_erosion_layers();
                 super::layers::section(ui, &mut app.layers, eroded);
                 ui.separator();
-                // What these sections edit (not the mask or the blocks, which are large).
-                let shaping = |app: &StrahlerApp| {
-                    let s = &app.scene;
-                    (
-                        (s.size, s.cell_size, s.seed),
-                        (s.params, s.rivers.clone(), s.sketch.clone()),
-                        (s.erosion.clone(), s.style.clone(), app.settings.clone()),
-                    )
-                };
-                let before = shaping(app);
                 rivers_section(ui, app);
                 ui.separator();
                 terrain_section(ui, app);
@@ -83,9 +74,6 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 super::erosion::style_section(ui, app);
                 ui.separator();
                 super::erosion::realism_section(ui, app);
-                if shaping(app) != before {
-                    app.dirty = true;
-                }
                 ui.separator();
                 super::detail::section(ui, app);
                 ui.separator();
@@ -108,14 +96,14 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
 fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.horizontal_wrapped(|ui| {
         if ui
-            .add_enabled(app.history.can_undo(), egui::Button::new("Undo"))
+            .add_enabled(app.session.can_undo(), egui::Button::new("Undo"))
             .on_hover_text("Ctrl+Z")
             .clicked()
         {
             app.undo();
         }
         if ui
-            .add_enabled(app.history.can_redo(), egui::Button::new("Redo"))
+            .add_enabled(app.session.can_redo(), egui::Button::new("Redo"))
             .on_hover_text("Ctrl+Shift+Z or Ctrl+Y")
             .clicked()
         {
@@ -178,49 +166,41 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         ui.selectable_value(&mut app.tool, Tool::Valley, "Valley (V)");
         ui.selectable_value(&mut app.tool, Tool::Peak, "Peak (K)");
     });
-    let mut remove = None;
-    let mut changed = false;
-    for (i, stroke) in app.scene.rivers.iter_mut().enumerate() {
+    let mut edits = Vec::new();
+    let scene = app.session.scene();
+    for (index, drawn) in scene.rivers.iter().enumerate() {
+        let mut stroke = *drawn;
         ui.horizontal(|ui| {
-            ui.label(format!("#{}", i + 1));
+            ui.label(format!("#{}", index + 1));
             let label = ui.label("φ").on_hover_text(
                 "Generator index phi (1 to 6): higher grows more feather-like networks (Table 1).",
             );
-            changed |= ui
-                .add(DragValue::new(&mut stroke.phi).range(1..=6))
-                .labelled_by(label.id)
-                .changed();
+            ui.add(DragValue::new(&mut stroke.phi).range(1..=6))
+                .labelled_by(label.id);
             let label = ui
                 .label("depth")
                 .on_hover_text("MaxDepth of eq. 3 (1 to 16).");
-            changed |= ui
-                .add(DragValue::new(&mut stroke.depth).range(1..=16))
-                .labelled_by(label.id)
-                .changed();
+            ui.add(DragValue::new(&mut stroke.depth).range(1..=16))
+                .labelled_by(label.id);
             if ui
                 .small_button("x")
                 .on_hover_text("Delete this river")
                 .clicked()
             {
-                remove = Some(i);
+                edits.push(Edit::RemoveRiver(index));
             }
         });
+        if stroke != *drawn {
+            edits.push(Edit::SetRiver { index, stroke });
+        }
     }
-    if let Some(i) = remove {
-        app.scene.rivers.remove(i);
-        changed = true;
-    }
-    if app.scene.rivers.is_empty() {
+    if scene.rivers.is_empty() {
         ui.label(RichText::new("No river yet: choose Draw river and drag on the map.").weak());
     } else if ui.button("Delete all rivers").clicked() {
-        app.scene.rivers.clear();
-        changed = true;
+        edits.push(Edit::ClearRivers);
     }
-    let counts = (
-        app.scene.sketch.ridges.len(),
-        app.scene.sketch.valleys.len(),
-        app.scene.sketch.peaks.len(),
-    );
+    let sketch = &scene.sketch;
+    let counts = (sketch.ridges.len(), sketch.valleys.len(), sketch.peaks.len());
     if counts != (0, 0, 0) {
         ui.horizontal(|ui| {
             ui.label(format!(
@@ -228,20 +208,27 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 counts.0, counts.1, counts.2
             ));
             if ui.button("Delete sketch").clicked() {
-                app.scene.sketch = Default::default();
-                changed = true;
+                edits.push(Edit::ClearSketch);
             }
         });
     }
-    if changed {
-        app.dirty = true;
+    for edit in edits {
+        app.edit(edit);
     }
 }
 
 fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.label(RichText::new("Terrain").strong());
-    let scene = &mut app.scene;
-    let width = scene.map_width();
+    let current = app.session.scene();
+    let width = current.map_width();
+    let mut scene = Grid {
+        size: current.size,
+        cell_size: current.cell_size,
+        seed: current.seed,
+        params: current.params,
+    };
+    let before = scene;
+    let mut preview = app.session.settings().preview;
     egui::Grid::new("terrain settings")
         .num_columns(2)
         .show(ui, |ui| {
@@ -280,7 +267,7 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  size makes the real one.",
                 super::PREVIEW_SIZE
             ));
-            ui.checkbox(&mut app.preview, format!("edit at {}", super::PREVIEW_SIZE));
+            ui.checkbox(&mut preview, format!("edit at {}", super::PREVIEW_SIZE));
             ui.end_row();
             let label = ui.label("Seed");
             ui.horizontal(|ui| {
@@ -376,6 +363,30 @@ fn terrain_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             });
             ui.end_row();
         });
+    if preview != app.session.settings().preview {
+        app.session.settings_mut().preview = preview;
+    }
+    if (scene.size, scene.cell_size) != (before.size, before.cell_size) {
+        app.edit(Edit::SetGrid {
+            size: scene.size,
+            cell_size: scene.cell_size,
+        });
+    }
+    if scene.seed != before.seed {
+        app.edit(Edit::SetSeed(scene.seed));
+    }
+    if scene.params != before.params {
+        app.edit(Edit::SetParams(scene.params));
+    }
+}
+
+/// The Terrain section's part of the scene, edited as a copy.
+#[derive(Clone, Copy)]
+struct Grid {
+    size: usize,
+    cell_size: f64,
+    seed: u64,
+    params: crate::scene::Params,
 }
 
 fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
@@ -384,6 +395,9 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
          of its four neighbours while the skeleton's cells keep their heights.",
     );
     let ctx = ui.ctx().clone();
+    let mut solver = app.settings().clone();
+    let mut post = app.session.scene().params.post;
+    let before = (solver.clone(), post);
     egui::Grid::new("fill settings")
         .num_columns(2)
         .show(ui, |ui| {
@@ -392,18 +406,18 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  fixed number of sweeps (5500), far from converged on large grids.",
             );
             ui.horizontal(|ui| {
-                ui.selectable_value(&mut app.settings.multigrid, true, "multigrid");
-                ui.selectable_value(&mut app.settings.multigrid, false, "Jacobi");
+                ui.selectable_value(&mut solver.multigrid, true, "multigrid");
+                ui.selectable_value(&mut solver.multigrid, false, "Jacobi");
             });
             ui.end_row();
 
-            if app.settings.multigrid {
+            if solver.multigrid {
                 let label = ui.label("Tolerance").on_hover_text(
                     "Stop when one more Jacobi sweep would move no cell by more than this \
                      fraction of the height range (and the estimated error is small too).",
                 );
                 ui.add(
-                    DragValue::new(&mut app.settings.tolerance)
+                    DragValue::new(&mut solver.tolerance)
                         .range(1e-8..=1e-2)
                         .speed(1e-7)
                         .custom_formatter(|v, _| format!("{v:.0e}")),
@@ -414,7 +428,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     .label("Sweeps")
                     .on_hover_text("Jacobi iterations of eq. 7 (the paper runs 5500).");
                 ui.add(
-                    DragValue::new(&mut app.settings.sweeps)
+                    DragValue::new(&mut solver.sweeps)
                         .range(0..=100_000)
                         .speed(20),
                 )
@@ -427,7 +441,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  a margin around them are never touched, so they drain as designed.",
             );
             ui.add(
-                DragValue::new(&mut app.scene.params.post.smooth_sigma)
+                DragValue::new(&mut post.smooth_sigma)
                     .range(0.0..=crate::diffusion::post::MAX_SIGMA)
                     .speed(0.05)
                     .suffix(" cells"),
@@ -439,7 +453,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  faded out near the rivers.",
             );
             ui.add(
-                DragValue::new(&mut app.scene.params.post.fbm_amplitude)
+                DragValue::new(&mut post.fbm_amplitude)
                     .range(0.0..=500.0)
                     .speed(0.2)
                     .suffix(" m"),
@@ -448,10 +462,10 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.end_row();
             let label = ui.label("Compute on");
             ComboBox::from_id_salt("backend")
-                .selected_text(app.settings.backend.label())
+                .selected_text(solver.backend.label())
                 .show_ui(ui, |ui| {
                     for choice in BackendChoice::ALL {
-                        ui.selectable_value(&mut app.settings.backend, choice, choice.label());
+                        ui.selectable_value(&mut solver.backend, choice, choice.label());
                     }
                 })
                 .response
@@ -459,25 +473,34 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.end_row();
         });
 
+    if solver != before.0 {
+        *app.settings_mut() = solver;
+    }
+    if post != before.1 {
+        let mut params = app.session.scene().params;
+        params.post = post;
+        app.edit(Edit::SetParams(params));
+    }
     ui.horizontal(|ui| {
         if ui.button("Generate terrain").clicked() {
             app.start_generate(&ctx);
         }
-        if app.preview
-            && app.scene.size > super::PREVIEW_SIZE
+        let size = app.session.scene().size;
+        if app.session.settings().preview
+            && size > super::PREVIEW_SIZE
             && ui
-                .button(format!("Generate full size ({0} x {0})", app.scene.size))
+                .button(format!("Generate full size ({size} x {size})"))
                 .clicked()
         {
             app.generate_full_size(&ctx);
         }
-        if let Some(job) = &app.terrain_job
+        if let Some(job) = app.session.job()
             && ui.button("Cancel").clicked()
         {
             job.cancel();
         }
     });
-    if let Some(job) = &app.terrain_job {
+    if let Some(job) = app.session.job() {
         ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }
     if let Some((size, run)) = &app.last_run {

@@ -12,8 +12,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
             let label = ui.label(RichText::new(path.to_string()).strong());
             label.on_hover_ui(|ui| compute_details(ui, path));
             if let Some(job) = app
-                .terrain_job
-                .as_ref()
+                .session
+                .job()
                 .map(|j| (j.name(), j.progress()))
                 .or_else(|| app.selftest_job.as_ref().map(|j| (j.name(), j.progress())))
             {

@@ -6,6 +6,10 @@
 //! any size. Missing fields take the documented defaults (see [`Scene::default`] and
 //! `docs/scene-format.md`); unknown fields and invalid values are errors that name the field.
 
+mod edit;
+
+pub use edit::{Edit, EditError, LineKind};
+
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 use thiserror::Error;

@@ -1,0 +1,258 @@
+//! Every change to the document as one type: [`Edit`], applied by [`Scene::apply`].
+//!
+//! The app's panels and map tools return edits, and `window.strahler` sends the same ones, so
+//! a change made with the mouse and one made by a script go through the same code and the
+//! same checks; the session keeps undo, redo and autosave on the edits it applies. An edit
+//! that cannot apply (an index past the end, a block outside the map) is refused with a
+//! specific message and leaves the scene as it was.
+
+use thiserror::Error;
+
+use super::{DetailSettings, Params, RiverStroke, Scene, SketchLine, SketchPeak, StyleSettings};
+use crate::blend::BlendBlock;
+use crate::erosion::ErosionSettings;
+
+/// Which list of sketched lines an edit is about.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LineKind {
+    Ridge,
+    Valley,
+}
+
+impl LineKind {
+    fn field(self) -> &'static str {
+        match self {
+            Self::Ridge => "sketch.ridges",
+            Self::Valley => "sketch.valleys",
+        }
+    }
+}
+
+/// One change to the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Edit {
+    AddRiver(RiverStroke),
+    SetRiver { index: usize, stroke: RiverStroke },
+    RemoveRiver(usize),
+    ClearRivers,
+    AddLine { kind: LineKind, line: SketchLine },
+    SetLine { kind: LineKind, index: usize, line: SketchLine },
+    RemoveLine { kind: LineKind, index: usize },
+    AddPeak(SketchPeak),
+    SetPeak { index: usize, peak: SketchPeak },
+    RemovePeak(usize),
+    ClearSketch,
+    /// Cells per side and the cell size in metres.
+    SetGrid { size: usize, cell_size: f64 },
+    SetSeed(u64),
+    SetParams(Params),
+    SetErosion(Option<ErosionSettings>),
+    SetStyle(Option<StyleSettings>),
+    /// The Detail section's settings; the mask stays as it is.
+    SetDetail(DetailSettings),
+    /// The energy-reduction mask (`None` or a clear mask: none).
+    SetMask(Option<crate::wavelet::Mask>),
+    AddBlock(BlendBlock),
+    SetBlock { index: usize, block: BlendBlock },
+    RemoveBlock(usize),
+    /// A whole new document (a scene opened or extracted, undo and redo).
+    Replace(Box<Scene>),
+}
+
+/// Why an edit was refused.
+#[derive(Debug, Error, PartialEq)]
+pub enum EditError {
+    #[error("there is no {what} {index} (the scene has {len})")]
+    NoSuchItem {
+        what: &'static str,
+        index: usize,
+        len: usize,
+    },
+    #[error("{field}: {problem}")]
+    Invalid { field: String, problem: String },
+}
+
+/// `list[index]`, or the error naming `what` was missing.
+fn item<'a, T>(list: &'a mut [T], index: usize, what: &'static str) -> Result<&'a mut T, EditError> {
+    let len = list.len();
+    list.get_mut(index)
+        .ok_or(EditError::NoSuchItem { what, index, len })
+}
+
+/// Checks a block as a scene file's would be.
+fn check_block(block: &BlendBlock, index: usize) -> Result<(), EditError> {
+    block
+        .validate()
+        .map_err(|(field, problem)| EditError::Invalid {
+            field: format!("blend[{index}].{field}"),
+            problem,
+        })
+}
+
+impl Scene {
+    /// Applies `edit`, or refuses it with the scene unchanged.
+    pub fn apply(&mut self, edit: Edit) -> Result<(), EditError> {
+        match edit {
+            Edit::AddRiver(stroke) => self.rivers.push(stroke),
+            Edit::SetRiver { index, stroke } => *item(&mut self.rivers, index, "river")? = stroke,
+            Edit::RemoveRiver(index) => {
+                item(&mut self.rivers, index, "river")?;
+                self.rivers.remove(index);
+            }
+            Edit::ClearRivers => self.rivers.clear(),
+            Edit::AddLine { kind, line } => self.lines(kind).push(line),
+            Edit::SetLine { kind, index, line } => {
+                *item(self.lines(kind), index, kind.field())? = line;
+            }
+            Edit::RemoveLine { kind, index } => {
+                item(self.lines(kind), index, kind.field())?;
+                self.lines(kind).remove(index);
+            }
+            Edit::AddPeak(peak) => self.sketch.peaks.push(peak),
+            Edit::SetPeak { index, peak } => *item(&mut self.sketch.peaks, index, "peak")? = peak,
+            Edit::RemovePeak(index) => {
+                item(&mut self.sketch.peaks, index, "peak")?;
+                self.sketch.peaks.remove(index);
+            }
+            Edit::ClearSketch => self.sketch = Default::default(),
+            Edit::SetGrid { size, cell_size } => {
+                if !(cell_size.is_finite() && cell_size > 0.0) || size < 2 {
+                    return Err(EditError::Invalid {
+                        field: "size, cell_size".into(),
+                        problem: format!("{size} cells of {cell_size} m is not a map"),
+                    });
+                }
+                (self.size, self.cell_size) = (size, cell_size);
+            }
+            Edit::SetSeed(seed) => self.seed = seed,
+            Edit::SetParams(params) => self.params = params,
+            Edit::SetErosion(erosion) => self.erosion = erosion,
+            Edit::SetStyle(style) => self.style = style,
+            Edit::SetDetail(detail) => {
+                let mask = self.detail.mask_png.take();
+                self.detail = DetailSettings {
+                    mask_png: mask,
+                    ..detail
+                };
+            }
+            Edit::SetMask(mask) => self.detail.set_mask(mask.as_ref()),
+            Edit::AddBlock(block) => {
+                check_block(&block, self.blend.len())?;
+                self.blend.push(block);
+            }
+            Edit::SetBlock { index, block } => {
+                check_block(&block, index)?;
+                *item(&mut self.blend, index, "block")? = block;
+            }
+            Edit::RemoveBlock(index) => {
+                item(&mut self.blend, index, "block")?;
+                self.blend.remove(index);
+            }
+            Edit::Replace(scene) => *self = *scene,
+        }
+        Ok(())
+    }
+
+    fn lines(&mut self, kind: LineKind) -> &mut Vec<SketchLine> {
+        match kind {
+            LineKind::Ridge => &mut self.sketch.ridges,
+            LineKind::Valley => &mut self.sketch.valleys,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stroke(x: f64) -> RiverStroke {
+        RiverStroke {
+            estuary: [x, 1.0],
+            toward: [x, 0.5],
+            phi: 3,
+            depth: 5,
+        }
+    }
+
+    #[test]
+    fn edits_change_what_they_name_and_refuse_missing_items() {
+        let mut scene = Scene::default();
+        scene.apply(Edit::AddRiver(stroke(0.2))).unwrap();
+        scene.apply(Edit::AddRiver(stroke(0.8))).unwrap();
+        scene
+            .apply(Edit::SetRiver {
+                index: 1,
+                stroke: stroke(0.6),
+            })
+            .unwrap();
+        assert_eq!(scene.rivers[1].estuary, [0.6, 1.0]);
+        let before = scene.clone();
+        let err = scene.apply(Edit::RemoveRiver(5)).unwrap_err();
+        assert_eq!(err.to_string(), "there is no river 5 (the scene has 2)");
+        assert_eq!(scene, before, "a refused edit changes nothing");
+        scene.apply(Edit::RemoveRiver(0)).unwrap();
+        assert_eq!(scene.rivers, vec![stroke(0.6)]);
+
+        let line = SketchLine {
+            points: vec![[0.1, 0.1], [0.9, 0.1]],
+            height: None,
+            heights: None,
+        };
+        scene
+            .apply(Edit::AddLine {
+                kind: LineKind::Valley,
+                line: line.clone(),
+            })
+            .unwrap();
+        assert_eq!(scene.sketch.valleys, vec![line]);
+        assert!(scene.sketch.ridges.is_empty());
+        let err = scene
+            .apply(Edit::RemoveLine {
+                kind: LineKind::Ridge,
+                index: 0,
+            })
+            .unwrap_err();
+        assert!(err.to_string().contains("sketch.ridges 0"), "{err}");
+        scene.apply(Edit::ClearSketch).unwrap();
+        assert!(scene.sketch.is_empty());
+    }
+
+    #[test]
+    fn detail_settings_keep_the_mask_and_blocks_are_checked() {
+        let mut scene = Scene::default();
+        let mut mask = crate::wavelet::Mask::new(16, 16).unwrap();
+        mask.paint_segment(
+            glam::DVec2::new(0.5, 0.5),
+            glam::DVec2::new(0.6, 0.5),
+            &Default::default(),
+        );
+        scene.apply(Edit::SetMask(Some(mask))).unwrap();
+        assert!(scene.detail.mask_png.is_some());
+        let detail = DetailSettings {
+            levels: 2,
+            ..Default::default()
+        };
+        scene.apply(Edit::SetDetail(detail)).unwrap();
+        assert_eq!(scene.detail.levels, 2);
+        assert!(scene.detail.mask_png.is_some(), "the mask stays");
+        scene.apply(Edit::SetMask(None)).unwrap();
+        assert!(scene.detail.mask_png.is_none());
+
+        let reference = crate::heightfield::Heightfield::from_vec(4, 4, vec![1.0; 16]).unwrap();
+        let mut block = BlendBlock::new("b", &reference, [0.1, 0.1, 0.4, 0.4]).unwrap();
+        scene.apply(Edit::AddBlock(block.clone())).unwrap();
+        block.rect = [0.5, 0.5, 0.2, 0.9];
+        let err = scene
+            .apply(Edit::SetBlock { index: 0, block })
+            .unwrap_err();
+        assert!(err.to_string().starts_with("blend[0].rect"), "{err}");
+        assert_eq!(scene.blend[0].rect, [0.1, 0.1, 0.4, 0.4]);
+        let err = scene
+            .apply(Edit::SetGrid {
+                size: 512,
+                cell_size: f64::NAN,
+            })
+            .unwrap_err();
+        assert!(err.to_string().contains("cell_size"), "{err}");
+    }
+}
