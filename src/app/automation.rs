@@ -10,7 +10,6 @@ use serde::Serialize;
 use crate::compute::ComputePath;
 use crate::diffusion::selftest::RunSummary;
 use crate::gpu::{AdapterSummary, Capabilities};
-use crate::river::Stroke;
 use crate::scene::Scene;
 
 /// What `window.strahler.status()` returns (serialised as camelCase JSON).
@@ -124,8 +123,8 @@ pub struct JobStatus {
 /// What a script asks the app to do; applied at the start of the next frame.
 #[derive(Clone, Debug)]
 pub enum Command {
-    AddRiver(Stroke),
-    LoadScene(Box<Scene>),
+    /// A change to the scene, as the UI makes it.
+    Edit(crate::scene::Edit),
     /// Replace the detail mask by one derived from the rivers.
     MaskFromRivers,
     /// Paint the detail mask from one map point to another with a brush.
@@ -152,11 +151,6 @@ pub enum Command {
         quarter_turns: u8,
         mirror: bool,
         z_scale: f32,
-    },
-    /// Move or resize block `index` to `rect` (map units) and re-solve.
-    MoveBlock {
-        index: usize,
-        rect: [f64; 4],
     },
     Undo,
     Redo,

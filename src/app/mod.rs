@@ -250,15 +250,17 @@ impl StrahlerApp {
     /// Applies an edit to the document (the next frame re-runs what it touched), or shows
     /// why it was refused. Every change to the scene, from the UI or a script, comes here.
     pub fn edit(&mut self, edit: Edit) {
-        if let Err(err) = self.session.apply(edit) {
-            self.set_error(format!("Not changed: {err}"));
+        let replaces = matches!(edit, Edit::Replace(_));
+        match self.session.apply(edit) {
+            Ok(()) if replaces => self.scene_replaced(),
+            Ok(()) => {}
+            Err(err) => self.set_error(format!("Not changed: {err}")),
         }
     }
 
     /// Replaces the document (a validated scene) and regenerates.
     pub fn load_scene(&mut self, scene: &Scene) {
         self.edit(Edit::Replace(Box::new(scene.clone())));
-        self.scene_replaced();
     }
 
     /// Back one step.
@@ -563,8 +565,7 @@ impl StrahlerApp {
         let scripted = !commands.is_empty();
         for command in commands {
             match command {
-                Command::AddRiver(stroke) => self.add_stroke(stroke),
-                Command::LoadScene(scene) => self.load_scene(&scene),
+                Command::Edit(edit) => self.edit(edit),
                 Command::MaskFromRivers => self.mask_from_rivers(ctx),
                 Command::PaintMask(a, b, brush) => {
                     self.mask.paint_segment(a, b, &brush);
@@ -595,15 +596,6 @@ impl StrahlerApp {
                 Command::SetCamera(request) => {
                     self.set_view(ViewKind::ThreeD);
                     self.view3d.request_camera(request);
-                }
-                Command::MoveBlock { index, rect } => {
-                    match self.session.scene().blend.get(index).cloned() {
-                        Some(mut block) => {
-                            block.rect = rect;
-                            self.edit(Edit::SetBlock { index, block });
-                        }
-                        None => self.set_error(format!("There is no block {index}")),
-                    }
                 }
             }
         }

@@ -197,7 +197,11 @@ impl Session {
     /// Runs the pipeline on the scene, cancelling a running job (a newer edit always wins).
     /// The job works on a copy of the stage cache (the outputs are shared, not copied) and
     /// hands the updated cache back with its result.
-    fn start(&mut self, path: &ComputePath, repaint: impl Fn() + Send + 'static) -> Result<(), String> {
+    fn start(
+        &mut self,
+        path: &ComputePath,
+        repaint: impl Fn() + Send + 'static,
+    ) -> Result<(), String> {
         self.submitted = Some(Submitted {
             revision: self.revision,
             scene: self.scene.clone(),
@@ -206,7 +210,9 @@ impl Session {
         let full_size = std::mem::take(&mut self.full_size);
         if self.scene.rivers.is_empty() && self.scene.sketch.is_empty() {
             self.job = None;
-            return Err("Draw a river to make terrain: choose Draw river and drag on the map.".into());
+            return Err(
+                "Draw a river to make terrain: choose Draw river and drag on the map.".into(),
+            );
         }
         let backend: Backend = self
             .settings

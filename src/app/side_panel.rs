@@ -5,9 +5,9 @@ use egui::{ComboBox, DragValue, ProgressBar, RichText};
 
 use super::StrahlerApp;
 use super::map_view::Tool;
-use crate::scene::Edit;
 use crate::compute::BackendChoice;
 use crate::diffusion::{Method, MultigridParams};
+use crate::scene::Edit;
 
 /// Grid sizes offered (square, cells per side).
 pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
@@ -200,7 +200,11 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         edits.push(Edit::ClearRivers);
     }
     let sketch = &scene.sketch;
-    let counts = (sketch.ridges.len(), sketch.valleys.len(), sketch.peaks.len());
+    let counts = (
+        sketch.ridges.len(),
+        sketch.valleys.len(),
+        sketch.peaks.len(),
+    );
     if counts != (0, 0, 0) {
         ui.horizontal(|ui| {
             ui.label(format!(

@@ -32,18 +32,37 @@ impl LineKind {
 #[derive(Clone, Debug, PartialEq)]
 pub enum Edit {
     AddRiver(RiverStroke),
-    SetRiver { index: usize, stroke: RiverStroke },
+    SetRiver {
+        index: usize,
+        stroke: RiverStroke,
+    },
     RemoveRiver(usize),
     ClearRivers,
-    AddLine { kind: LineKind, line: SketchLine },
-    SetLine { kind: LineKind, index: usize, line: SketchLine },
-    RemoveLine { kind: LineKind, index: usize },
+    AddLine {
+        kind: LineKind,
+        line: SketchLine,
+    },
+    SetLine {
+        kind: LineKind,
+        index: usize,
+        line: SketchLine,
+    },
+    RemoveLine {
+        kind: LineKind,
+        index: usize,
+    },
     AddPeak(SketchPeak),
-    SetPeak { index: usize, peak: SketchPeak },
+    SetPeak {
+        index: usize,
+        peak: SketchPeak,
+    },
     RemovePeak(usize),
     ClearSketch,
     /// Cells per side and the cell size in metres.
-    SetGrid { size: usize, cell_size: f64 },
+    SetGrid {
+        size: usize,
+        cell_size: f64,
+    },
     SetSeed(u64),
     SetParams(Params),
     SetErosion(Option<ErosionSettings>),
@@ -53,7 +72,15 @@ pub enum Edit {
     /// The energy-reduction mask (`None` or a clear mask: none).
     SetMask(Option<crate::wavelet::Mask>),
     AddBlock(BlendBlock),
-    SetBlock { index: usize, block: BlendBlock },
+    SetBlock {
+        index: usize,
+        block: BlendBlock,
+    },
+    /// Moves or resizes a block to `[x0, y0, x1, y1]` in map units.
+    SetBlockRect {
+        index: usize,
+        rect: [f64; 4],
+    },
     RemoveBlock(usize),
     /// A whole new document (a scene opened or extracted, undo and redo).
     Replace(Box<Scene>),
@@ -73,7 +100,11 @@ pub enum EditError {
 }
 
 /// `list[index]`, or the error naming `what` was missing.
-fn item<'a, T>(list: &'a mut [T], index: usize, what: &'static str) -> Result<&'a mut T, EditError> {
+fn item<'a, T>(
+    list: &'a mut [T],
+    index: usize,
+    what: &'static str,
+) -> Result<&'a mut T, EditError> {
     let len = list.len();
     list.get_mut(index)
         .ok_or(EditError::NoSuchItem { what, index, len })
@@ -143,6 +174,15 @@ impl Scene {
             Edit::SetBlock { index, block } => {
                 check_block(&block, index)?;
                 *item(&mut self.blend, index, "block")? = block;
+            }
+            Edit::SetBlockRect { index, rect } => {
+                let block = item(&mut self.blend, index, "block")?;
+                let moved = BlendBlock {
+                    rect,
+                    ..block.clone()
+                };
+                check_block(&moved, index)?;
+                *block = moved;
             }
             Edit::RemoveBlock(index) => {
                 item(&mut self.blend, index, "block")?;
@@ -242,11 +282,19 @@ mod tests {
         let mut block = BlendBlock::new("b", &reference, [0.1, 0.1, 0.4, 0.4]).unwrap();
         scene.apply(Edit::AddBlock(block.clone())).unwrap();
         block.rect = [0.5, 0.5, 0.2, 0.9];
-        let err = scene
-            .apply(Edit::SetBlock { index: 0, block })
-            .unwrap_err();
+        let err = scene.apply(Edit::SetBlock { index: 0, block }).unwrap_err();
         assert!(err.to_string().starts_with("blend[0].rect"), "{err}");
         assert_eq!(scene.blend[0].rect, [0.1, 0.1, 0.4, 0.4]);
+        let rect = [0.5, 0.5, 0.9, 0.9];
+        scene.apply(Edit::SetBlockRect { index: 0, rect }).unwrap();
+        assert_eq!(scene.blend[0].rect, rect);
+        let err = scene
+            .apply(Edit::SetBlockRect {
+                index: 3,
+                rect: [0.0, 0.0, 1.0, 1.0],
+            })
+            .unwrap_err();
+        assert_eq!(err.to_string(), "there is no block 3 (the scene has 1)");
         let err = scene
             .apply(Edit::SetGrid {
                 size: 512,

@@ -31,7 +31,7 @@ use wasm_bindgen::prelude::*;
 use crate::app::{Automation, Command};
 use crate::diffusion::selftest;
 use crate::jobs::JobCtx;
-use crate::scene::{RiverStroke, Scene};
+use crate::scene::{Edit, RiverStroke, Scene};
 
 /// Builds `window.strahler` around the shared automation state.
 pub(super) fn install(automation: &Automation) {
@@ -81,7 +81,10 @@ pub(super) fn install(automation: &Automation) {
     let load_scene = Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(
         move |value: JsValue| {
             let scene = Scene::from_json(&json_text(&value)?).map_err(error)?;
-            Ok(applied(&load_target, Command::LoadScene(Box::new(scene))))
+            Ok(applied(
+                &load_target,
+                Command::Edit(Edit::Replace(Box::new(scene))),
+            ))
         },
     );
     set(&api, "loadScene", load_scene.as_ref());
@@ -100,7 +103,7 @@ pub(super) fn install(automation: &Automation) {
                 );
                 let scene = Scene::from_json(&text).map_err(error)?;
                 let river: RiverStroke = scene.rivers[0];
-                Ok(applied(&river_target, Command::AddRiver(river.into())))
+                Ok(applied(&river_target, Command::Edit(Edit::AddRiver(river))))
             },
         );
     set(&api, "addRiver", add_river.as_ref());
@@ -213,10 +216,10 @@ pub(super) fn install(automation: &Automation) {
         move |index: u32, rect: JsValue| {
             let rect: [f64; 4] = serde_json::from_str(&json_text(&rect)?)
                 .map_err(|_| error("rect is [x0, y0, x1, y1] in map units"))?;
-            let command = Command::MoveBlock {
+            let command = Command::Edit(Edit::SetBlockRect {
                 index: index as usize,
                 rect,
-            };
+            });
             Ok(applied(&move_target, command))
         },
     );
