@@ -57,6 +57,8 @@ pub struct BlendState {
     /// Extracting the DEM's features (seed 003) into a scene.
     pub features_job: Option<JobHandle<Result<Scene, String>>>,
     pub summary: Option<String>,
+    /// The DEM panel's network comparison.
+    pub networks: super::networks::Comparison,
     /// Native builds: the path typed into the Open field.
     #[cfg(not(target_arch = "wasm32"))]
     pub path_input: String,
@@ -74,6 +76,7 @@ impl Default for BlendState {
             fill_job: None,
             features_job: None,
             summary: None,
+            networks: Default::default(),
             #[cfg(not(target_arch = "wasm32"))]
             path_input: String::new(),
         }
@@ -119,7 +122,7 @@ impl StrahlerApp {
                 },
             );
             if read.is_ok() {
-                self.notice = Some(format!(
+                self.messages.notice = Some(format!(
                     "{name} does not say its height range: read as {} to {} m (change it in the \
                      DEM panel)",
                     self.blend.z_range.0, self.blend.z_range.1
@@ -157,7 +160,7 @@ impl StrahlerApp {
             bytes,
             preview,
         });
-        self.error = None;
+        self.messages.error = None;
     }
 
     /// Fills the DEM's voids by harmonic diffusion (the diffusion stage's solver), as a job.
@@ -261,8 +264,10 @@ impl StrahlerApp {
 
     /// Puts a finished picture on the map.
     pub(super) fn show_picture(&mut self, ctx: &egui::Context, picture: super::picture::Picture) {
-        self.overlay.contours = picture.contours;
-        self.map.set_field(ctx, picture.field, picture.relief);
+        self.canvas.overlay.contours = picture.contours;
+        self.canvas
+            .map
+            .set_field(ctx, picture.field, picture.relief);
     }
 
     /// Publishes the blend stage of a finished run (or its absence).
@@ -354,7 +359,7 @@ impl StrahlerApp {
         match result {
             Ok(scene) => {
                 let s = &scene.sketch;
-                self.notice = Some(format!(
+                self.messages.notice = Some(format!(
                     "Extracted {} ridges, {} valleys and {} peaks: edit them and regenerate",
                     s.ridges.len(),
                     s.valleys.len(),
@@ -382,7 +387,7 @@ impl StrahlerApp {
                         georef: loaded.dem.georef,
                     };
                     self.set_dem(ctx, &loaded.name, dem, loaded.bytes);
-                    self.notice = Some(format!("Filled {voids} no-data cells"));
+                    self.messages.notice = Some(format!("Filled {voids} no-data cells"));
                 }
             }
             Err(DiffusionError::Cancelled(_)) => {}
@@ -647,7 +652,7 @@ fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         return;
     }
     ui.horizontal_wrapped(|ui| {
-        ui.selectable_value(&mut app.tool, Tool::Block, "Move blocks (B)");
+        ui.selectable_value(&mut app.canvas.tool, Tool::Block, "Move blocks (B)");
     });
     let mut edits = Vec::new();
     for (i, placed) in app.session.scene().blend.iter().enumerate() {
@@ -717,6 +722,7 @@ pub(super) fn upload(app: &mut StrahlerApp) {
     }
     #[cfg(not(target_arch = "wasm32"))]
     {
-        app.notice = Some("Type the DEM's path below and press Open, or drop the file".into());
+        app.messages.notice =
+            Some("Type the DEM's path below and press Open, or drop the file".into());
     }
 }

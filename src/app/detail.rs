@@ -31,22 +31,22 @@ pub type Dropped = (String, ImportTarget, Result<Vec<u8>, String>);
 impl StrahlerApp {
     /// The mask, resampled to the `size x size` terrain when the size changed.
     pub(super) fn fit_mask(&mut self, size: usize) {
-        if self.mask.width() != size || self.mask.height() != size {
-            let values = self.mask.resampled(size, size);
+        if self.canvas.mask.width() != size || self.canvas.mask.height() != size {
+            let values = self.canvas.mask.resampled(size, size);
             if let Ok(mask) = Mask::from_values(size, size, values) {
-                self.mask = mask;
+                self.canvas.mask = mask;
             }
         }
     }
 
     /// The energy-reduction mask (terrain-sized).
     pub fn mask(&self) -> &Mask {
-        &self.mask
+        &self.canvas.mask
     }
 
     /// Replaces the mask (e.g. imported), resampled to the terrain, and re-runs the detail.
     pub fn set_mask(&mut self, ctx: &egui::Context, mask: Mask) {
-        self.mask = mask;
+        self.canvas.mask = mask;
         self.fit_mask(self.session.scene().size);
         self.mask_changed(ctx);
     }
@@ -54,15 +54,17 @@ impl StrahlerApp {
     /// After any mask edit: refresh the overlay, store the mask in the scene (the pipeline
     /// re-runs detail and what follows; the cache keeps the stages before).
     fn mask_changed(&mut self, ctx: &egui::Context) {
-        self.map.set_mask(ctx, Some(&self.mask));
-        self.edit(Edit::SetMask(Some(self.mask.clone())));
+        self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
+        self.edit(Edit::SetMask(Some(self.canvas.mask.clone())));
     }
 
     /// Paints one piece of a brush stroke (map units).
     pub(super) fn paint_mask(&mut self, ctx: &egui::Context, a: egui::Pos2, b: egui::Pos2) {
         let d = |p: egui::Pos2| glam::DVec2::new(f64::from(p.x), f64::from(p.y));
-        self.mask.paint_segment(d(a), d(b), &self.brush);
-        self.map.set_mask(ctx, Some(&self.mask));
+        self.canvas
+            .mask
+            .paint_segment(d(a), d(b), &self.canvas.brush);
+        self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
     }
 
     /// The brush stroke ended: the new mask takes effect.
@@ -74,7 +76,7 @@ impl StrahlerApp {
     pub(super) fn show_detail_status(&mut self, output: &Output) {
         let Some(d) = &output.detail else {
             self.automation.update(|s| s.detail = None);
-            self.detail_summary = None;
+            self.summaries.detail = None;
             return;
         };
         let status = DetailStatus {
@@ -85,9 +87,15 @@ impl StrahlerApp {
             millis: d.millis,
             rms_unmasked: d.rms.unmasked,
             rms_masked: d.rms.masked,
-            mask_cells: self.mask.values().iter().filter(|&&v| v > 0.0).count(),
+            mask_cells: self
+                .canvas
+                .mask
+                .values()
+                .iter()
+                .filter(|&&v| v > 0.0)
+                .count(),
         };
-        self.detail_summary = Some(format!(
+        self.summaries.detail = Some(format!(
             "Detail: {} x {} on the {} in {:.0} ms; RMS {:.2} m{}",
             status.width,
             status.height,
@@ -135,7 +143,7 @@ impl StrahlerApp {
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_else(|| "the dropped file".to_owned());
         let is_png = name.to_ascii_lowercase().ends_with(".png");
-        let target = if self.tool == Tool::Mask && is_png {
+        let target = if self.canvas.tool == Tool::Mask && is_png {
             ImportTarget::Mask
         } else if name.to_ascii_lowercase().ends_with(".json") {
             ImportTarget::Scene
@@ -162,7 +170,7 @@ impl StrahlerApp {
             move || repaint.request_repaint(),
         );
         match spawned {
-            Ok(handle) => self.import_job = Some(handle),
+            Ok(handle) => self.canvas.import_job = Some(handle),
             Err(err) => self.set_error(err.to_string()),
         }
     }
@@ -172,8 +180,8 @@ impl StrahlerApp {
         match Mask::from_png(bytes, crate::dem::ReadLimits::default()) {
             Ok(mask) => {
                 self.set_mask(ctx, mask);
-                self.layers.mask = true;
-                self.notice = Some(format!("Mask imported from {name}"));
+                self.canvas.layers.mask = true;
+                self.messages.notice = Some(format!("Mask imported from {name}"));
             }
             Err(err) => self.set_error(format!("{name}: {err}")),
         }
@@ -235,33 +243,33 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     }
 
     ui.horizontal_wrapped(|ui| {
-        ui.selectable_value(&mut app.tool, Tool::Mask, "Paint mask (M)");
-        ui.checkbox(&mut app.layers.mask, "show mask");
+        ui.selectable_value(&mut app.canvas.tool, Tool::Mask, "Paint mask (M)");
+        ui.checkbox(&mut app.canvas.layers.mask, "show mask");
     });
-    if app.tool == Tool::Mask {
+    if app.canvas.tool == Tool::Mask {
         egui::Grid::new("brush settings")
             .num_columns(2)
             .show(ui, |ui| {
                 let label = ui.label("Brush size");
                 ui.add(
-                    DragValue::new(&mut app.brush.radius)
+                    DragValue::new(&mut app.canvas.brush.radius)
                         .range(1.0..=256.0)
                         .suffix(" cells"),
                 )
                 .labelled_by(label.id);
                 ui.end_row();
                 let label = ui.label("Hardness");
-                ui.add(Slider::new(&mut app.brush.hardness, 0.0..=1.0))
+                ui.add(Slider::new(&mut app.canvas.brush.hardness, 0.0..=1.0))
                     .labelled_by(label.id);
                 ui.end_row();
                 let label = ui
                     .label("Grey value")
                     .on_hover_text("1 (white) removes all synthetic detail.");
-                ui.add(Slider::new(&mut app.brush.value, 0.0..=1.0))
+                ui.add(Slider::new(&mut app.canvas.brush.value, 0.0..=1.0))
                     .labelled_by(label.id);
                 ui.end_row();
                 ui.label("Eraser");
-                ui.checkbox(&mut app.brush.eraser, "");
+                ui.checkbox(&mut app.canvas.brush.eraser, "");
                 ui.end_row();
             });
     }
@@ -272,7 +280,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             .clicked()
         {
             app.mask_from_rivers(&ctx);
-            app.layers.mask = true;
+            app.canvas.layers.mask = true;
         }
         if ui.button("Clear mask").clicked()
             && let Ok(mask) = Mask::new(size, size)
@@ -280,7 +288,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             app.set_mask(&ctx, mask);
         }
         if ui.button("Export mask PNG").clicked() {
-            match app.mask.to_png() {
+            match app.canvas.mask.to_png() {
                 Ok(png) => match super::files::save(
                     &format!(
                         "{}.png",
@@ -289,7 +297,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     "image/png",
                     &png,
                 ) {
-                    Ok(where_to) => app.notice = Some(format!("Mask {where_to}")),
+                    Ok(where_to) => app.messages.notice = Some(format!("Mask {where_to}")),
                     Err(err) => app.set_error(err),
                 },
                 Err(err) => app.set_error(err.to_string()),
@@ -312,10 +320,10 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         }
         ui.label(RichText::new("or drop a PNG on the map with the mask tool active").weak());
     });
-    if let Some(text) = &app.detail_summary {
+    if let Some(text) = &app.summaries.detail {
         ui.label(text);
     }
-    if let Some(text) = &app.notice {
+    if let Some(text) = &app.messages.notice {
         ui.label(RichText::new(text).weak());
     }
 }

@@ -21,7 +21,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.horizontal(|ui| {
         ui.checkbox(&mut on, "Erode the terrain");
         if current.is_some() {
-            ui.toggle_value(&mut app.show_before_erosion, "Show before")
+            ui.toggle_value(&mut app.canvas.show_before_erosion, "Show before")
                 .on_hover_text("Show the terrain before erosion (the design) on the map");
         }
     });

@@ -50,7 +50,7 @@ pub(super) fn window(ctx: &egui::Context, app: &mut StrahlerApp) {
         .resizable(false)
         .show(ctx, |ui| {
             let d = &mut app.export;
-            let native = app.map.field().map(|f| f.width()).unwrap_or(0);
+            let native = app.canvas.map.field().map(|f| f.width()).unwrap_or(0);
             egui::Grid::new("export settings")
                 .num_columns(2)
                 .show(ui, |ui| {
@@ -159,7 +159,7 @@ fn export_now(app: &mut StrahlerApp) {
         Ok(said)
     });
     match result {
-        Ok(said) => app.notice = Some(format!("Heightmap {said}")),
+        Ok(said) => app.messages.notice = Some(format!("Heightmap {said}")),
         Err(err) => app.set_error(format!("Export failed: {err}")),
     }
 }

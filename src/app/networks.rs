@@ -64,7 +64,7 @@ impl StrahlerApp {
             .iter()
             .map(|r| r.network.clone())
             .collect();
-        self.networks.generated = Some((
+        self.blend.networks.generated = Some((
             stats::analyse(&RiverNetwork::forest(&networks)),
             networks.len(),
         ));
@@ -85,18 +85,24 @@ impl StrahlerApp {
             move || repaint.request_repaint(),
         );
         match spawned {
-            Ok(handle) => self.networks.job = Some(handle),
+            Ok(handle) => self.blend.networks.job = Some(handle),
             Err(err) => self.set_error(err.to_string()),
         }
     }
 
     /// A finished extraction becomes the table.
     pub(super) fn take_networks(&mut self) {
-        let Some(result) = self.networks.job.as_ref().and_then(JobHandle::try_take) else {
+        let Some(result) = self
+            .blend
+            .networks
+            .job
+            .as_ref()
+            .and_then(JobHandle::try_take)
+        else {
             return;
         };
-        self.networks.job = None;
-        match (result, self.networks.generated.take()) {
+        self.blend.networks.job = None;
+        match (result, self.blend.networks.generated.take()) {
             (Ok(dem), Some((generated, count))) => {
                 let name = self
                     .blend
@@ -104,7 +110,7 @@ impl StrahlerApp {
                     .as_ref()
                     .map_or(String::new(), |d| d.name.clone());
                 let rows = crate::realism::network::comparison_rows(&dem, &generated, count);
-                self.networks.table = Some(Table {
+                self.blend.networks.table = Some(Table {
                     dem: name,
                     channel_area_m2: dem.channel_area_m2,
                     rows,
@@ -121,7 +127,7 @@ impl StrahlerApp {
 pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let clicked = ui
         .add_enabled(
-            app.output().is_some() && !app.networks.busy(),
+            app.output().is_some() && !app.blend.networks.busy(),
             egui::Button::new("Compare river networks"),
         )
         .on_hover_text(
@@ -130,10 +136,10 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
              Tokunaga T_k",
         )
         .clicked();
-    if let Some(job) = &app.networks.job {
+    if let Some(job) = &app.blend.networks.job {
         ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }
-    if let Some(table) = &app.networks.table {
+    if let Some(table) = &app.blend.networks.table {
         ui.label(
             RichText::new(format!(
                 "{}: channels from {:.2} km² upstream",

@@ -80,7 +80,7 @@ impl StrahlerApp {
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
         let scene = self.session.scene();
         let sketch = &scene.sketch;
-        match self.selected {
+        match self.canvas.selected {
             Some(Item::River(i)) => scene
                 .rivers
                 .get(i)
@@ -107,29 +107,29 @@ impl StrahlerApp {
 
     /// A click with the Select tool selects the item under it (or nothing).
     pub(super) fn select_at(&mut self, at: Pos2, tolerance: f32) {
-        self.selected = self.pick_item(at, tolerance);
+        self.canvas.selected = self.pick_item(at, tolerance);
     }
 
     /// Moves the item under the drag's start with the pointer; the release regenerates.
     pub(super) fn drag_item(&mut self, drag: BlockDrag, tolerance: f32) {
-        if !self.moving {
-            self.selected = self.pick_item(drag.from, tolerance);
-            self.moving = self.selected.is_some();
+        if !self.canvas.moving {
+            self.canvas.selected = self.pick_item(drag.from, tolerance);
+            self.canvas.moving = self.canvas.selected.is_some();
         }
-        if let Some(item) = self.selected.filter(|_| self.moving) {
+        if let Some(item) = self.canvas.selected.filter(|_| self.canvas.moving) {
             // Applied as the pointer moves; the run and the undo step wait for the release.
             if let Some(edit) = moved(self.session.scene(), item, drag.delta) {
                 self.edit(edit);
             }
         }
         if drag.finished {
-            self.moving = false;
+            self.canvas.moving = false;
         }
     }
 
     /// Removes the selected item.
     pub fn delete_selected(&mut self) {
-        let Some(item) = self.selected.take() else {
+        let Some(item) = self.canvas.selected.take() else {
             return;
         };
         let edit = match item {

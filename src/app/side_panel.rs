@@ -60,8 +60,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
                 document_row(ui, app);
-                let eroded = app.map.has_erosion_layers();
-                super::layers::section(ui, &mut app.layers, eroded);
+                let eroded = app.canvas.map.has_erosion_layers();
+                super::layers::section(ui, &mut app.canvas.layers, eroded);
                 ui.separator();
                 rivers_section(ui, app);
                 ui.separator();
@@ -120,7 +120,7 @@ fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 super::files::free_stem("strahler-scene", &[".json"])
             );
             match super::files::save(&name, "application/json", json.as_bytes()) {
-                Ok(said) => app.notice = Some(format!("Scene {said}")),
+                Ok(said) => app.messages.notice = Some(format!("Scene {said}")),
                 Err(err) => app.set_error(err),
             }
         }
@@ -150,9 +150,9 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
          estuary and drag upstream in the flow direction.",
     );
     ui.horizontal_wrapped(|ui| {
-        ui.selectable_value(&mut app.tool, Tool::Pan, "Pan (P)");
-        ui.selectable_value(&mut app.tool, Tool::River, "Draw river (R)");
-        ui.selectable_value(&mut app.tool, Tool::Select, "Select (S)")
+        ui.selectable_value(&mut app.canvas.tool, Tool::Pan, "Pan (P)");
+        ui.selectable_value(&mut app.canvas.tool, Tool::River, "Draw river (R)");
+        ui.selectable_value(&mut app.canvas.tool, Tool::Select, "Select (S)")
             .on_hover_text(
                 "Click a river, sketch line or peak; drag to move it; Delete removes it",
             );
@@ -162,9 +162,9 @@ fn rivers_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             "Sketched features (seed paper 003) become extra constraints: ridges (drag), \
              valleys (drag from the mouth upwards) and peaks (click). Heights follow eq. 4.",
         );
-        ui.selectable_value(&mut app.tool, Tool::Ridge, "Ridge (D)");
-        ui.selectable_value(&mut app.tool, Tool::Valley, "Valley (V)");
-        ui.selectable_value(&mut app.tool, Tool::Peak, "Peak (K)");
+        ui.selectable_value(&mut app.canvas.tool, Tool::Ridge, "Ridge (D)");
+        ui.selectable_value(&mut app.canvas.tool, Tool::Valley, "Valley (V)");
+        ui.selectable_value(&mut app.canvas.tool, Tool::Peak, "Peak (K)");
     });
     let mut edits = Vec::new();
     let scene = app.session.scene();
@@ -507,7 +507,7 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     if let Some(job) = app.session.job() {
         ui.add(ProgressBar::new(job.progress()).text(job.message()));
     }
-    if let Some((size, run)) = &app.last_run {
+    if let Some((size, run)) = &app.summaries.last_run {
         ui.label(format!(
             "Last terrain: {size} x {size}, {} on the {} in {:.0} ms",
             if run.method == "jacobi" {
@@ -533,10 +533,10 @@ fn diffusion_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             run.relative_residual, run.min, run.max
         ));
     }
-    if let Some(text) = &app.terrain_summary {
+    if let Some(text) = &app.summaries.terrain {
         ui.label(text);
     }
-    if let Some(err) = &app.error {
+    if let Some(err) = &app.messages.error {
         ui.colored_label(ui.visuals().error_fg_color, err);
     }
 }
@@ -547,12 +547,12 @@ fn selftest_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             "Runs the same diffusion problem on the CPU and on the GPU and compares the results.",
         );
     let ctx = ui.ctx().clone();
-    ui.add_enabled_ui(app.selftest_job.is_none(), |ui| {
+    ui.add_enabled_ui(app.check.job.is_none(), |ui| {
         if ui.button("Compare CPU and GPU").clicked() {
             app.start_selftest(&ctx);
         }
     });
-    match &app.selftest {
+    match &app.check.result {
         None => {}
         Some(Err(err)) => {
             ui.colored_label(ui.visuals().error_fg_color, format!("Check failed: {err}"));

@@ -15,7 +15,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 .session
                 .job()
                 .map(|j| (j.name(), j.progress()))
-                .or_else(|| app.selftest_job.as_ref().map(|j| (j.name(), j.progress())))
+                .or_else(|| app.check.job.as_ref().map(|j| (j.name(), j.progress())))
             {
                 ui.separator();
                 // A still bar, not a spinner: a spinner repaints every frame, which on the
@@ -24,7 +24,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 ui.label(format!("{} {:.0}%", job.0, job.1 * 100.0));
             }
             ui.separator();
-            let tool = match app.tool() {
+            let tool = match app.canvas.tool {
                 super::Tool::Pan => "Tool: pan (P)",
                 super::Tool::River => "Tool: draw river (R) - press at the estuary, drag upstream",
                 super::Tool::Ridge => "Tool: sketch ridge (D) - drag along the crest",
@@ -41,7 +41,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
             ui.label(tool);
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
                 ui.label(RichText::new(format!("v{}", crate::VERSION)).weak());
-                if let Some(hover) = app.hover {
+                if let Some(hover) = app.canvas.hover {
                     ui.separator();
                     let height = hover
                         .height

@@ -1,0 +1,84 @@
+//! What the central map keeps between frames: the view and its overlays, the tool, the
+//! selection, the mask being painted and the brush, the pictures before and after erosion,
+//! and a dropped file being read.
+
+use crate::jobs::JobHandle;
+use crate::wavelet::{Brush, Mask};
+
+use super::map_view::{Hover, MapView, Overlay, Tool};
+use super::picture::Picture;
+
+pub struct Canvas {
+    pub map: MapView,
+    pub tool: Tool,
+    pub overlay: Overlay,
+    pub hover: Option<Hover>,
+    /// Which map layers are drawn.
+    pub layers: super::layers::Layers,
+    /// The vector item the Select tool picked, and whether it is being dragged.
+    pub selected: Option<super::select::Item>,
+    pub moving: bool,
+    /// The energy-reduction mask, decoded, at the scene's size (the scene keeps it as PNG);
+    /// a brush stroke paints here and becomes an edit when it ends.
+    pub mask: Mask,
+    pub brush: Brush,
+    /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
+    pub mask_overlay_stale: bool,
+    /// The Erosion section's before/after toggle, and the pictures it switches between
+    /// (after erosion, before it).
+    pub show_before_erosion: bool,
+    pub pictures: Option<(Picture, Option<Picture>)>,
+    pub showing_before: bool,
+    /// A dropped file being read (the browser reads files asynchronously).
+    pub import_job: Option<JobHandle<super::detail::Dropped>>,
+}
+
+impl Default for Canvas {
+    fn default() -> Self {
+        Self {
+            map: MapView::default(),
+            tool: Tool::default(),
+            overlay: Overlay::default(),
+            hover: None,
+            layers: Default::default(),
+            selected: None,
+            moving: false,
+            mask: Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
+            brush: Default::default(),
+            mask_overlay_stale: false,
+            show_before_erosion: false,
+            pictures: None,
+            showing_before: false,
+            import_job: None,
+        }
+    }
+}
+
+/// The messages the side panel shows: the last error, and a passing notice (a file saved, a
+/// mask imported).
+#[derive(Default)]
+pub struct Messages {
+    pub error: Option<String>,
+    pub notice: Option<String>,
+}
+
+/// What the side panel says about the last run.
+#[derive(Default)]
+pub struct RunSummaries {
+    pub terrain: Option<String>,
+    /// The grid side and the diffusion's numbers.
+    pub last_run: Option<(usize, crate::diffusion::selftest::RunSummary)>,
+    pub detail: Option<String>,
+}
+
+/// The Compute check: the CPU/GPU self-test, and the GPU kernels built at start.
+#[derive(Default)]
+pub struct ComputeCheck {
+    pub job: Option<
+        JobHandle<Result<crate::diffusion::selftest::SelfTest, crate::diffusion::DiffusionError>>,
+    >,
+    pub result: Option<Result<crate::diffusion::selftest::SelfTest, String>>,
+    /// Builds the GPU kernels at start (see [`crate::pipeline::warm_kernels`]); `None` once
+    /// done, or on the CPU path.
+    pub kernels: Option<JobHandle<Result<(), crate::pipeline::WarmError>>>,
+}

@@ -1,0 +1,307 @@
+//! The jobs the app runs (the session's terrain runs, the GPU kernels at start, the compute
+//! check) and what it does with their results, once per frame.
+
+use egui::pos2;
+use glam::DVec2;
+
+use super::automation::{Command, JobStatus};
+use super::{StrahlerApp, ViewKind, arrived, session};
+use crate::jobs::JobHandle;
+
+impl StrahlerApp {
+    /// Runs the pipeline on the scene again, even if nothing changed (the Generate button).
+    pub fn start_generate(&mut self, ctx: &egui::Context) {
+        self.session.regenerate();
+        self.poll_session(ctx);
+    }
+
+    /// Generates the terrain at the full grid size (with Preview on, edits use a smaller one).
+    pub fn generate_full_size(&mut self, ctx: &egui::Context) {
+        self.session.generate_full_size();
+        self.poll_session(ctx);
+    }
+
+    /// Takes the session's finished run and starts the next one when the document changed;
+    /// records the history and autosaves once no gesture is in progress.
+    pub(super) fn poll_session(&mut self, ctx: &egui::Context) {
+        let gesture = ctx.input(|i| i.pointer.any_down());
+        if let Some((undo, redo)) = self.session.commit(gesture) {
+            self.automation.update(|s| {
+                s.undo = undo;
+                s.redo = redo;
+            });
+        }
+        let repaint = ctx.clone();
+        let events = self
+            .session
+            .poll(&self.path, gesture, move || repaint.request_repaint());
+        for event in events {
+            match event {
+                session::Event::Started => self.automation.set_scene(self.scene()),
+                session::Event::Finished(shown) => self.show_output(ctx, *shown),
+                session::Event::Failed(message) => self.set_error(message),
+            }
+        }
+        let wake = ctx.clone();
+        if let Some(notice) = self
+            .session
+            .autosave(move |after| wake.request_repaint_after(after))
+        {
+            self.messages.notice = Some(notice);
+        }
+    }
+
+    /// Whether the map shows a preview smaller than the chosen grid size.
+    pub fn showing_preview(&self) -> bool {
+        self.output()
+            .is_some_and(|o| o.hydrology.terrain.width() < self.session.scene().size)
+    }
+
+    /// Builds the GPU stages' kernels in the background, beside the first terrain, so the
+    /// first edit finds them ready (in the browser, pipeline creation would otherwise fall in
+    /// that edit's job).
+    pub(super) fn start_warming_kernels(&mut self, ctx: &egui::Context) {
+        let Some(gpu) = self.path.gpu().cloned() else {
+            return;
+        };
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "GPU kernels",
+            move |job| async move {
+                crate::pipeline::warm_kernels(&gpu, &job).await?;
+                // The 3D view's kernels too, wherever it may make its maps on the GPU: built
+                // (and so checked by the browser's compiler) at start, a few milliseconds.
+                crate::view3d::gpu_maps::warm(&gpu).await?;
+                Ok(())
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.check.kernels = Some(handle),
+            Err(err) => log::warn!("the GPU kernels will be built on first use: {err}"),
+        }
+    }
+
+    /// Whether the GPU kernels are built (or there is no GPU path to build them for).
+    pub fn kernels_ready(&self) -> bool {
+        self.check.kernels.is_none()
+    }
+
+    /// Runs the CPU/GPU self-test in the background.
+    pub fn start_selftest(&mut self, ctx: &egui::Context) {
+        let path = self.path.clone();
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "self-test",
+            move |job| async move { crate::diffusion::selftest::run(&path, &job).await },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(handle) => self.check.job = Some(handle),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// The backend the Diffusion section asks for, or `None` after telling the user why
+    /// there is none (the GPU was requested but does not compute).
+    pub(super) fn backend(&mut self) -> Option<crate::compute::Backend> {
+        match self.settings().backend.resolve(&self.path) {
+            Ok(backend) => Some(backend),
+            Err(err) => {
+                self.set_error(err.to_string());
+                None
+            }
+        }
+    }
+
+    pub(super) fn set_error(&mut self, message: String) {
+        log::warn!("{message}");
+        self.automation
+            .update(|s| s.last_error = Some(message.clone()));
+        self.messages.error = Some(message);
+    }
+
+    /// Puts a finished run on the map with its overlays and publishes its summaries.
+    pub(super) fn show_output(&mut self, ctx: &egui::Context, shown: arrived::Shown) {
+        let arrived::Shown {
+            constraints,
+            summary,
+            picture,
+            before,
+            erosion_layers,
+        } = shown;
+        let Some(output) = self.session.output().cloned() else {
+            return;
+        };
+        let g = &output.hydrology;
+        let size = g.terrain.width();
+        let r = &output.report.terrain;
+        self.summaries.terrain = Some(format!(
+            "{} river nodes, Strahler order {}, {} ridges; {:.1}% of river cells drain along \
+             the river, {} pits",
+            r.rivers.nodes,
+            r.rivers.max_order,
+            r.ridges.edges,
+            r.drainage.river_fraction * 100.0,
+            r.drainage.pit_cells
+        ));
+        let p = |v: DVec2| pos2(v.x as f32, v.y as f32);
+        self.canvas.overlay.rivers = g
+            .rivers
+            .iter()
+            .flat_map(|river| {
+                let order = crate::river::stats::strahler_orders(&river.network);
+                river
+                    .network
+                    .link_pairs()
+                    .map(|(a, b)| {
+                        (
+                            p(river.network.nodes[a]),
+                            p(river.network.nodes[b]),
+                            order[b],
+                        )
+                    })
+                    .collect::<Vec<_>>()
+            })
+            .collect();
+        self.canvas.overlay.ridges = g
+            .ridges
+            .iter()
+            .map(|r| (p(DVec2::from(r.a)), p(DVec2::from(r.b))))
+            .collect();
+        self.canvas.map.set_constraints(ctx, constraints);
+        self.canvas.map.set_erosion_layers(ctx, erosion_layers);
+        // The mask stays at the full size, whatever size this run had (the detail stage
+        // resamples it), so a preview never blurs what the user painted.
+        self.fit_mask(self.session.scene().size);
+        self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
+        self.show_detail_status(&output);
+        self.show_blend_status(&output);
+        self.automation
+            .set_terrain(output.field.clone(), output.cell_m);
+        let realism = output.report.realism.clone();
+        self.automation.update(|s| s.realism = realism);
+        self.canvas.showing_before = self.canvas.show_before_erosion && before.is_some();
+        let shown = if self.canvas.showing_before {
+            before.clone()
+        } else {
+            None
+        };
+        self.show_picture(ctx, shown.unwrap_or_else(|| picture.clone()));
+        self.canvas.pictures = Some((picture, before));
+        self.automation
+            .update(|s| s.last_run = Some(summary.clone()));
+        self.summaries.last_run = Some((size, summary));
+        self.messages.error = None;
+    }
+
+    /// Takes finished results and publishes job progress. Called once per frame.
+    pub(super) fn poll_jobs(&mut self, ctx: &egui::Context) {
+        let (commands, applied) = self.automation.take_commands();
+        let scripted = !commands.is_empty();
+        for command in commands {
+            match command {
+                Command::Edit(edit) => self.edit(edit),
+                Command::MaskFromRivers => self.mask_from_rivers(ctx),
+                Command::PaintMask(a, b, brush) => {
+                    self.canvas.mask.paint_segment(a, b, &brush);
+                    self.set_mask(ctx, self.canvas.mask.clone());
+                }
+                Command::LoadDem { name, bytes } => self.load_dem(ctx, &name, bytes),
+                Command::ImportMask { name, bytes } => self.import_mask(ctx, &name, &bytes),
+                Command::FillVoids => self.fill_dem_voids(ctx),
+                Command::ExtractFeatures => self.extract_features(ctx),
+                Command::PlaceBlock {
+                    window,
+                    rect,
+                    quarter_turns,
+                    mirror,
+                    z_scale,
+                } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
+                Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
+                Command::FileRefused { name, message } => {
+                    self.set_error(format!("{name}: {message}"))
+                }
+                Command::Undo => self.undo(),
+                Command::Redo => self.redo(),
+                Command::SetView(view) => self.set_view(view),
+                Command::View3dMaps(maps) => {
+                    self.set_view(ViewKind::ThreeD);
+                    self.view3d.set_maps(maps);
+                }
+                Command::SetCamera(request) => {
+                    self.set_view(ViewKind::ThreeD);
+                    self.view3d.request_camera(request);
+                }
+            }
+        }
+        if scripted {
+            // Scripts see their edits in `scene()` once their promise resolves.
+            self.automation.set_scene(self.scene());
+        }
+        self.automation.mark_applied(applied);
+        self.poll_session(ctx);
+        if self.canvas.mask_overlay_stale {
+            self.canvas.mask_overlay_stale = false;
+            self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
+        }
+        if let Some((name, target, bytes)) = self
+            .canvas
+            .import_job
+            .as_ref()
+            .and_then(JobHandle::try_take)
+        {
+            self.canvas.import_job = None;
+            match bytes {
+                Ok(bytes) if target == super::detail::ImportTarget::Mask => {
+                    self.import_mask(ctx, &name, &bytes)
+                }
+                Ok(bytes) if target == super::detail::ImportTarget::Scene => {
+                    self.open_scene(&name, &bytes)
+                }
+                Ok(bytes) => self.load_dem(ctx, &name, bytes),
+                Err(err) => self.set_error(format!("{name}: {err}")),
+            }
+        }
+        self.take_filled_dem(ctx);
+        self.take_features();
+        self.take_networks();
+        if let Some(result) = self.check.kernels.as_ref().and_then(JobHandle::try_take) {
+            self.check.kernels = None;
+            if let Err(err) = result {
+                log::warn!("{err}; each stage builds its kernels when it first runs");
+            }
+        }
+        if let Some(result) = self.check.job.as_ref().and_then(JobHandle::try_take) {
+            self.check.job = None;
+            self.check.result = Some(result.map_err(|err| err.to_string()));
+        }
+        // The first running job, in pipeline order, is the one scripts see.
+        let job = job_status(&self.session.job())
+            .or_else(|| job_status(&self.blend.fill_job.as_ref()))
+            .or_else(|| job_status(&self.blend.features_job.as_ref()))
+            .or_else(|| job_status(&self.check.job.as_ref()));
+        self.automation.update(|s| s.job = job);
+        if self.busy() {
+            // Keep the progress bar moving; results trigger a repaint when they land. In the
+            // browser jobs share the main thread with painting, and a frame can cost 250 ms
+            // where the page is composited in software (headless Chromium here), so the bar
+            // moves at 2 Hz there and leaves the job its time; natively jobs have threads.
+            let every = if cfg!(target_arch = "wasm32") {
+                500
+            } else {
+                100
+            };
+            ctx.request_repaint_after(std::time::Duration::from_millis(every));
+        }
+    }
+}
+
+/// A running job's name, progress and message.
+fn job_status<T>(job: &Option<&JobHandle<T>>) -> Option<JobStatus> {
+    job.map(|j| JobStatus {
+        name: j.name().to_owned(),
+        progress: j.progress(),
+        message: j.message(),
+    })
+}
