@@ -24,9 +24,8 @@ pub struct Canvas {
     pub brush: Brush,
     /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
     pub mask_overlay_stale: bool,
-    /// The Erosion section's before/after toggle, and the pictures it switches between
-    /// (after erosion, before it).
-    pub show_before_erosion: bool,
+    /// The pictures the Erosion section's before/after toggle switches between (after
+    /// erosion, before it), and which one is shown.
     pub pictures: Option<(Picture, Option<Picture>)>,
     pub showing_before: bool,
     /// A dropped file being read (the browser reads files asynchronously).
@@ -46,7 +45,6 @@ impl Default for Canvas {
             mask: Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
             brush: Default::default(),
             mask_overlay_stale: false,
-            show_before_erosion: false,
             pictures: None,
             showing_before: false,
             import_job: None,

@@ -5,14 +5,14 @@
 //! The settings and the mask live in the scene; a change of either re-runs the pipeline,
 //! whose stage cache recomputes only detail and what follows, never the hydrology.
 
-use egui::{ComboBox, DragValue, RichText, Slider};
+use egui::{DragValue, RichText, Slider};
 
 use super::StrahlerApp;
 use super::automation::DetailStatus;
 use super::map_view::Tool;
 use crate::pipeline::Output;
 use crate::scene::Edit;
-use crate::wavelet::{Mask, synthesis};
+use crate::wavelet::Mask;
 
 /// What a dropped file is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -188,60 +188,10 @@ impl StrahlerApp {
     }
 }
 
-/// The Detail section of the side panel.
-pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    ui.label(RichText::new("Detail (wavelet LoD)").strong())
-        .on_hover_text(
-            "New levels of detail from the terrain's own wavelet statistics (seed paper 001): \
-         each level doubles the resolution with Gaussian detail whose variance continues the \
-         fitted line of log2 variance per level. The mask removes that detail where it is white.",
-        );
+/// The Detail section's mask tools (its settings are [`super::panels::DetailPanel`]).
+pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let ctx = ui.ctx().clone();
     let size = app.session.scene().size;
-    let before = &app.session.scene().detail;
-    let mut detail = before.clone();
-    egui::Grid::new("detail settings")
-        .num_columns(2)
-        .show(ui, |ui| {
-            ui.label("New levels");
-            let out = synthesis::output_len(size, detail.levels);
-            ui.add(Slider::new(&mut detail.levels, 0..=3).text(format!("-> {out} x {out}")));
-            ui.end_row();
-            let label = ui.label("Scope").on_hover_text(
-                "Global (GSA): one line per band for the whole map. Local (LSA): a line per \
-                 location from a window of coefficients, so rough and smooth areas keep their \
-                 character; calibrated so each level's energy follows the global line. Local \
-                 (paper): eq. 8 exactly as written, each location's raw fit.",
-            );
-            ComboBox::from_id_salt("detail scope")
-                .selected_text(detail.scope.clone())
-                .show_ui(ui, |ui| {
-                    ui.selectable_value(&mut detail.scope, "global".to_owned(), "global");
-                    ui.selectable_value(&mut detail.scope, "local".to_owned(), "local");
-                    ui.selectable_value(
-                        &mut detail.scope,
-                        "local-paper".to_owned(),
-                        "local (paper)",
-                    );
-                })
-                .response
-                .labelled_by(label.id);
-            ui.end_row();
-            if detail.scope.starts_with("local") {
-                ui.label("Window");
-                let mut half = (detail.window / 2) as u32;
-                ui.add(Slider::new(&mut half, 0..=8).custom_formatter(|v, _| {
-                    let w = 2 * v as usize + 1;
-                    format!("{w} x {w}")
-                }));
-                detail.window = 2 * half as usize + 1;
-                ui.end_row();
-            }
-        });
-    if detail != *before {
-        app.edit(Edit::SetDetail(detail));
-    }
-
     ui.horizontal_wrapped(|ui| {
         ui.selectable_value(&mut app.canvas.tool, Tool::Mask, "Paint mask (M)");
         ui.checkbox(&mut app.canvas.layers.mask, "show mask");

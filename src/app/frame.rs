@@ -10,7 +10,7 @@ use crate::scene::{Edit, LineKind, RiverStroke};
 impl StrahlerApp {
     /// Shows the terrain before or after erosion, as the Erosion section's toggle asks.
     fn switch_before_after(&mut self, ctx: &egui::Context) {
-        let want = self.canvas.show_before_erosion && self.session.scene().erosion.is_some();
+        let want = self.panels.erosion.show_before && self.session.scene().erosion.is_some();
         if want == self.canvas.showing_before {
             return;
         }
@@ -44,6 +44,28 @@ impl eframe::App for StrahlerApp {
         self.poll_jobs(&ctx);
         let frame_cpu_ms = frame.info().cpu_usage.map(|s| s * 1e3);
         self.automation.update(|s| s.frame_cpu_ms = frame_cpu_ms);
+        self.keys(&ctx);
+        status_bar::show(ui, self);
+        side_panel::show(ui, self);
+        self.switch_before_after(&ctx);
+        self.view_switch(ui);
+        export::window(&ctx, self);
+        if self.view == ViewKind::ThreeD {
+            self.view3d_area(ui, frame);
+            return;
+        }
+        for file in ctx.input(|i| i.raw.dropped_files.clone()) {
+            self.start_import(&ctx, file);
+        }
+        self.sync_overlay();
+        self.map_area(ui, &ctx);
+    }
+}
+
+impl StrahlerApp {
+    /// The keys: 2 and 3 switch views; on the map, the tools' letters, U (upload), E
+    /// (export), Delete (the selected item); everywhere, undo and redo.
+    fn keys(&mut self, ctx: &egui::Context) {
         if !ctx.egui_wants_keyboard_input() {
             let (map, three_d) = ctx.input(|i| {
                 (
@@ -115,47 +137,47 @@ impl eframe::App for StrahlerApp {
                 self.redo();
             }
         }
-        status_bar::show(ui, self);
-        side_panel::show(ui, self);
-        self.switch_before_after(&ctx);
-        self.view_switch(ui);
-        export::window(&ctx, self);
-        if self.view == ViewKind::ThreeD {
-            egui::Panel::right("view3d settings").show(ui, |ui| {
-                egui::ScrollArea::vertical().show(ui, |ui| self.view3d.settings_ui(ui));
+    }
+
+    /// The 3D view and its settings.
+    fn view3d_area(&mut self, ui: &mut egui::Ui, frame: &mut eframe::Frame) {
+        egui::Panel::right("view3d settings").show(ui, |ui| {
+            egui::ScrollArea::vertical().show(ui, |ui| self.view3d.settings_ui(ui));
+        });
+        egui::CentralPanel::no_frame().show(ui, |ui| {
+            let field = self
+                .canvas
+                .map
+                .field()
+                .map(|f| (f, self.canvas.map.version()));
+            let rivers = self.session.output().map(|o| {
+                let s = &o.hydrology.skeleton;
+                (s.river_order.as_slice(), s.size)
             });
-            egui::CentralPanel::no_frame().show(ui, |ui| {
-                let field = self
-                    .canvas
-                    .map
-                    .field()
-                    .map(|f| (f, self.canvas.map.version()));
-                let rivers = self.session.output().map(|o| {
-                    let s = &o.hydrology.skeleton;
-                    (s.river_order.as_slice(), s.size)
-                });
-                let cell = self.session.output().map_or(1.0, |o| o.cell_m as f32);
-                // The 3D view's rasters on the GPU it draws with, where that pays (or where
-                // a script asked).
-                let gpu = self.view3d.maps().pick(self.path.gpu());
-                // The terrain on the GPU too, if the pipeline left it there.
-                let on_gpu = self
-                    .session
-                    .output()
-                    .filter(|o| {
-                        self.canvas
-                            .map
-                            .field()
-                            .is_some_and(|f| std::ptr::eq(f, &*o.field))
-                    })
-                    .and_then(|o| o.gpu.as_ref());
-                self.view3d
-                    .show(ui, frame, field, on_gpu, rivers, cell, gpu);
-            });
-            let status = self.view3d.status();
-            self.automation.update(|s| s.view3d = status);
-            return;
-        }
+            let cell = self.session.output().map_or(1.0, |o| o.cell_m as f32);
+            // The 3D view's rasters on the GPU it draws with, where that pays (or where
+            // a script asked).
+            let gpu = self.view3d.maps().pick(self.path.gpu());
+            // The terrain on the GPU too, if the pipeline left it there.
+            let on_gpu = self
+                .session
+                .output()
+                .filter(|o| {
+                    self.canvas
+                        .map
+                        .field()
+                        .is_some_and(|f| std::ptr::eq(f, &*o.field))
+                })
+                .and_then(|o| o.gpu.as_ref());
+            self.view3d
+                .show(ui, frame, field, on_gpu, rivers, cell, gpu);
+        });
+        let status = self.view3d.status();
+        self.automation.update(|s| s.view3d = status);
+    }
+
+    /// The overlays as the layers, the tool and the scene ask.
+    fn sync_overlay(&mut self) {
         let l = self.canvas.layers;
         self.canvas.overlay.show_rivers = l.rivers;
         self.canvas.overlay.min_river_order = l.min_river_order;
@@ -188,9 +210,6 @@ impl eframe::App for StrahlerApp {
                 )
             })
             .collect();
-        for file in ctx.input(|i| i.raw.dropped_files.clone()) {
-            self.start_import(&ctx, file);
-        }
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
         self.canvas.overlay.strokes = self
             .session
@@ -214,6 +233,10 @@ impl eframe::App for StrahlerApp {
         self.canvas.overlay.sketch_ridges = segments(&sketch.ridges);
         self.canvas.overlay.sketch_valleys = segments(&sketch.valleys);
         self.canvas.overlay.peaks = sketch.peaks.iter().map(|k| p(&k.at)).collect();
+    }
+
+    /// The map, and what the pointer did on it: strokes, clicks, paint, drags, selections.
+    fn map_area(&mut self, ui: &mut egui::Ui, ctx: &egui::Context) {
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let response = self
                 .canvas
@@ -221,10 +244,10 @@ impl eframe::App for StrahlerApp {
                 .show(ui, self.canvas.tool, &self.canvas.overlay);
             self.canvas.hover = response.hover;
             if let Some((a, b)) = response.paint {
-                self.paint_mask(&ctx, a, b);
+                self.paint_mask(ctx, a, b);
             }
             if response.paint_finished {
-                self.finish_mask_stroke(&ctx);
+                self.finish_mask_stroke(ctx);
             }
             if let Some(drag) = response.block_drag {
                 if self.canvas.tool == Tool::Select {

@@ -181,7 +181,7 @@ impl StrahlerApp {
             .set_terrain(output.field.clone(), output.cell_m);
         let realism = output.report.realism.clone();
         self.automation.update(|s| s.realism = realism);
-        self.canvas.showing_before = self.canvas.show_before_erosion && before.is_some();
+        self.canvas.showing_before = self.panels.erosion.show_before && before.is_some();
         let shown = if self.canvas.showing_before {
             before.clone()
         } else {

@@ -8,7 +8,6 @@ mod automation;
 mod blend;
 mod canvas;
 mod detail;
-mod erosion;
 mod export;
 mod files;
 mod frame;
@@ -17,6 +16,7 @@ mod jobs;
 mod layers;
 mod map_view;
 mod networks;
+pub mod panels;
 mod picture;
 mod relief;
 mod select;
@@ -89,6 +89,8 @@ pub struct StrahlerApp {
     /// The uploaded DEM, the placed blocks, the blend stage and the network comparison.
     blend: blend::BlendState,
     export: export::ExportDialog,
+    /// The side panel's sections, each with its own state.
+    panels: panels::Panels,
     /// Which view the central area shows, and the 3D view.
     view: ViewKind,
     view3d: view3d::View3d,
@@ -126,6 +128,7 @@ impl StrahlerApp {
             check: ComputeCheck::default(),
             blend: Default::default(),
             export: Default::default(),
+            panels: Default::default(),
             view: ViewKind::Map,
             view3d: Default::default(),
         };
@@ -210,6 +213,24 @@ impl StrahlerApp {
             Ok(()) if replaces => self.scene_replaced(),
             Ok(()) => {}
             Err(err) => self.set_error(format!("Not changed: {err}")),
+        }
+    }
+
+    /// Does what a panel asked.
+    fn act(&mut self, ctx: &egui::Context, action: panels::Action) {
+        use panels::Action;
+        match action {
+            Action::Edit(edit) => self.edit(edit),
+            Action::Settings(settings) => *self.session.settings_mut() = settings,
+            Action::Tool(tool) => self.canvas.tool = tool,
+            Action::Generate => self.start_generate(ctx),
+            Action::GenerateFullSize => self.generate_full_size(ctx),
+            Action::Cancel => {
+                if let Some(job) = self.session.job() {
+                    job.cancel();
+                }
+            }
+            Action::Error(message) => self.set_error(message),
         }
     }
 

@@ -1,0 +1,128 @@
+//! The Erosion section: stream-power erosion with uplift and hillslope processes (the
+//! scene's `erosion`), its presets and parameters in physical units, the before/after toggle
+//! and the last run's report.
+
+use egui::{ComboBox, DragValue, RichText};
+
+use super::Action;
+use crate::erosion::{ErosionReport, ErosionSettings, PRESETS};
+use crate::scene::{Edit, Scene};
+
+/// The Erosion section; it owns the before/after toggle.
+#[derive(Default)]
+pub struct ErosionPanel {
+    /// Show the terrain before erosion (the design) on the map.
+    pub show_before: bool,
+}
+
+impl ErosionPanel {
+    pub fn show(
+        &mut self,
+        ui: &mut egui::Ui,
+        scene: &Scene,
+        report: Option<&ErosionReport>,
+    ) -> Vec<Action> {
+        ui.label(RichText::new("Erosion").strong()).on_hover_text(
+            "Fluvial erosion by the stream-power law dh/dt = U - K A^m S^n with hillslope \
+             diffusion (Braun and Willett 2013). The drawn rivers are the base level: they keep \
+             their heights and the land around them is carved into valleys and ridges.",
+        );
+        let current = &scene.erosion;
+        let mut on = current.is_some();
+        ui.horizontal(|ui| {
+            ui.checkbox(&mut on, "Erode the terrain");
+            if current.is_some() {
+                ui.toggle_value(&mut self.show_before, "Show before")
+                    .on_hover_text("Show the terrain before erosion (the design) on the map");
+            }
+        });
+        if on != current.is_some() {
+            return vec![Action::Edit(Edit::SetErosion(
+                on.then(ErosionSettings::default),
+            ))];
+        }
+        let Some(before) = current else {
+            return Vec::new();
+        };
+        let mut edited = before.clone();
+        settings(ui, &mut edited);
+        if edited != *before
+            && edited.preset == before.preset
+            && ErosionSettings::preset(&edited.preset).as_ref() != Some(&edited)
+        {
+            edited.preset = "custom".into();
+        }
+        if let Some(report) = report {
+            ui.label(format!(
+                "Eroded in {:.0} ms: mean {:.1} m, up to {:.0} m lowered; {:.1}% of river cells \
+                 drain along the river",
+                report.millis,
+                report.mean_depth_m,
+                report.max_depth_m,
+                report.drainage.river_fraction * 100.0
+            ));
+        }
+        if edited == *before {
+            return Vec::new();
+        }
+        vec![Action::Edit(Edit::SetErosion(Some(edited)))]
+    }
+}
+
+/// The preset and the parameters, on a copy of the scene's settings.
+fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
+    egui::Grid::new("erosion settings")
+        .num_columns(2)
+        .show(ui, |ui| {
+            let label = ui.label("Preset");
+            ComboBox::from_id_salt("erosion preset")
+                .selected_text(e.preset.clone())
+                .show_ui(ui, |ui| {
+                    for name in PRESETS {
+                        if ui.selectable_label(e.preset == *name, *name).clicked()
+                            && let Some(p) = ErosionSettings::preset(name)
+                        {
+                            *e = p;
+                        }
+                    }
+                })
+                .response
+                .labelled_by(label.id);
+            ui.end_row();
+            let row = |ui: &mut egui::Ui, name: &str, tip: &str, value: &mut f64, range: std::ops::RangeInclusive<f64>, speed: f64| {
+                let label = ui.label(name).on_hover_text(tip);
+                ui.add(DragValue::new(value).range(range).speed(speed))
+                    .labelled_by(label.id);
+                ui.end_row();
+            };
+            row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years where the design stands highest above its rivers; 15% of it beside the rivers, levelling off towards the highest ground.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
+            row(ui, "Erodibility K", "K of the stream-power law, in m^(1-2m) per year: how fast water cuts rock. Larger K carves deeper valleys.", &mut e.erodibility, 0.0..=1.0, 1e-6);
+            row(ui, "m", "Drainage-area exponent m (m/n is the concavity of river profiles, 0.3 to 0.7 in real rivers).", &mut e.m, 0.1..=1.0, 0.01);
+            row(ui, "n", "Slope exponent n (1 for most bedrock rivers).", &mut e.n, 0.5..=2.0, 0.01);
+            row(ui, "Diffusivity (m²/yr)", "Hillslope diffusivity kappa: soil creep that rounds ridges and fills hollows.", &mut e.diffusivity, 0.0..=10.0, 0.01);
+            row(ui, "Years", "Simulated time.", &mut e.years, 0.0..=1.0e8, 1000.0);
+            row(ui, "Rock contrast", "Rock hardness: how many times faster the softest rock erodes than the hardest (1 = uniform rock). Soft rock is dissected finely, hard rock stands in broader massifs.", &mut e.rock_contrast, 1.0..=100.0, 0.1);
+            row(ui, "Rock patches (m)", "The size of the patches of harder and softer rock, in metres.", &mut e.rock_patch_m, 10.0..=1.0e6, 10.0);
+            let label = ui.label("Steps").on_hover_text("Time steps (the implicit scheme is stable at any step; more steps follow the evolution more closely).");
+            ui.add(DragValue::new(&mut e.steps).range(1..=1000)).labelled_by(label.id);
+            ui.end_row();
+            let label = ui.label("River banks").on_hover_text("Cells on each side of a river kept at their designed height with it.");
+            ui.add(DragValue::new(&mut e.river_band).range(0..=16).suffix(" cells")).labelled_by(label.id);
+            ui.end_row();
+            let mut talus = e.talus_deg.is_some();
+            let label = ui
+                .label("Talus angle")
+                .on_hover_text("Thermal erosion: scree slides where slopes exceed this angle, and (on the CPU) what stands steeper after each step fails, as landslides do.");
+            ui.horizontal(|ui| {
+                ui.checkbox(&mut talus, "scree");
+                let mut deg = e.talus_deg.unwrap_or(35.0);
+                ui.add_enabled(
+                    talus,
+                    DragValue::new(&mut deg).range(10.0..=60.0).suffix("°"),
+                )
+                .labelled_by(label.id);
+                e.talus_deg = talus.then_some(deg);
+            });
+            ui.end_row();
+        });
+}

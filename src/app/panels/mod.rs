@@ -1,0 +1,56 @@
+//! The side panel's sections as components, in the style of egui's demo app: each owns its
+//! UI state, reads the scene (and the output it reports on) and returns what it wants changed
+//! as [`Action`]s, which the app applies in one place ([`super::StrahlerApp::act`]). A new
+//! scene field needs the scene, its stage and its panel only. Each panel is tested alone in
+//! `tests/panels.rs`.
+
+mod detail;
+mod erosion;
+mod realism;
+mod rivers;
+mod solver;
+mod style;
+mod terrain;
+
+pub use detail::DetailPanel;
+pub use erosion::ErosionPanel;
+pub use realism::RealismPanel;
+pub use rivers::RiversPanel;
+pub use solver::{Report as SolverReport, SolverPanel};
+pub use style::StylePanel;
+pub use terrain::TerrainPanel;
+
+use super::map_view::Tool;
+use super::session::RunSettings;
+use crate::scene::Edit;
+
+/// What a panel asks for.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// A change to the document.
+    Edit(Edit),
+    /// New run settings (the solver, preview, realism).
+    Settings(RunSettings),
+    /// Pick a map tool.
+    Tool(Tool),
+    /// Run again although nothing changed.
+    Generate,
+    /// Run at the full grid size (with Preview on).
+    GenerateFullSize,
+    /// Cancel the running terrain job.
+    Cancel,
+    /// Say something went wrong.
+    Error(String),
+}
+
+/// Every panel of the side panel, with its own state.
+#[derive(Default)]
+pub struct Panels {
+    pub rivers: RiversPanel,
+    pub terrain: TerrainPanel,
+    pub solver: SolverPanel,
+    pub erosion: ErosionPanel,
+    pub style: StylePanel,
+    pub realism: RealismPanel,
+    pub detail: DetailPanel,
+}
