@@ -28,6 +28,7 @@ mod view3d;
 use std::sync::Arc;
 
 pub use automation::{Automation, Command, JobStatus, Status};
+pub use canvas::RunSummaries;
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use session::{PREVIEW_SIZE, RunSettings, Session};
 pub use side_panel::SolverSettings;
@@ -35,7 +36,7 @@ pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};
 
 use glam::DVec2;
 
-use canvas::{Canvas, ComputeCheck, Messages, RunSummaries};
+use canvas::{Canvas, ComputeCheck, Messages};
 
 use crate::compute::{ComputePath, CpuReason};
 use crate::gpu::{GpuContext, device_descriptor};

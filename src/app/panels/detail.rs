@@ -50,12 +50,13 @@ impl DetailPanel {
                     .labelled_by(label.id);
                 ui.end_row();
                 if detail.scope.starts_with("local") {
-                    ui.label("Window");
+                    let label = ui.label("Window");
                     let mut half = (detail.window / 2) as u32;
                     ui.add(Slider::new(&mut half, 0..=8).custom_formatter(|v, _| {
                         let w = 2 * v as usize + 1;
                         format!("{w} x {w}")
-                    }));
+                    }))
+                    .labelled_by(label.id);
                     detail.window = 2 * half as usize + 1;
                     ui.end_row();
                 }

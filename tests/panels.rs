@@ -1,0 +1,263 @@
+//! Each side-panel section alone in an egui_kittest harness: what it shows for a scene, and
+//! the actions a click returns (the app applies them in one place). One snapshot of a panel
+//! as drawn, on the GPU (lavapipe on CI).
+
+mod common;
+
+use egui_kittest::Harness;
+use egui_kittest::kittest::Queryable;
+use strahler::app::panels::{
+    Action, DetailPanel, ErosionPanel, RealismPanel, RiversPanel, SolverPanel, SolverReport,
+    StylePanel, TerrainPanel,
+};
+use strahler::app::{RunSettings, RunSummaries, Tool};
+use strahler::erosion::ErosionReport;
+use strahler::scene::{Edit, RiverStroke, Scene, StyleSettings};
+
+/// A panel under test, the scene it reads, and every action it returned.
+struct Bench<P> {
+    panel: P,
+    scene: Scene,
+    run: RunSettings,
+    actions: Vec<Action>,
+}
+
+impl<P> Bench<P> {
+    fn new(panel: P, scene: Scene) -> Self {
+        Self {
+            panel,
+            scene,
+            run: RunSettings::default(),
+            actions: Vec::new(),
+        }
+    }
+}
+
+/// `show` drawn each frame in a tall window; its actions are collected.
+fn harness<P: 'static>(
+    bench: Bench<P>,
+    show: impl Fn(&mut P, &mut egui::Ui, &Scene, &RunSettings) -> Vec<Action> + 'static,
+) -> Harness<'static, Bench<P>> {
+    Harness::builder()
+        .with_size(egui::vec2(320.0, 700.0))
+        .build_ui_state(
+            move |ui, b: &mut Bench<P>| {
+                let actions = show(&mut b.panel, ui, &b.scene, &b.run);
+                b.actions.extend(actions);
+            },
+            bench,
+        )
+}
+
+fn two_rivers() -> Scene {
+    let stroke = |x: f64| RiverStroke {
+        estuary: [x, 1.0],
+        toward: [x, 0.5],
+        phi: 3,
+        depth: 5,
+    };
+    Scene {
+        rivers: vec![stroke(0.3), stroke(0.7)],
+        ..Scene::default()
+    }
+}
+
+#[test]
+fn rivers_panel_removes_clears_and_picks_tools() {
+    let mut h = harness(Bench::new(RiversPanel, two_rivers()), |p, ui, scene, _| {
+        p.show(ui, scene, Tool::River)
+    });
+    h.run();
+    assert!(
+        h.state().actions.is_empty(),
+        "drawing alone asks for nothing"
+    );
+    h.get_all_by_label("x").nth(1).expect("two rivers").click();
+    h.run();
+    assert_eq!(h.state().actions, [Action::Edit(Edit::RemoveRiver(1))]);
+    h.state_mut().actions.clear();
+    h.get_by_label("Delete all rivers").click();
+    h.get_by_label("Ridge (D)").click();
+    h.run();
+    assert!(h.state().actions.contains(&Action::Edit(Edit::ClearRivers)));
+    assert!(h.state().actions.contains(&Action::Tool(Tool::Ridge)));
+}
+
+#[test]
+fn terrain_panel_draws_a_new_seed_and_turns_preview_off() {
+    let scene = two_rivers();
+    let seed = scene.seed;
+    let mut h = harness(Bench::new(TerrainPanel, scene), |p, ui, scene, run| {
+        p.show(ui, scene, run)
+    });
+    h.run();
+    assert!(h.state().actions.is_empty());
+    h.get_by_label("New seed").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::Edit(Edit::SetSeed(new))] => assert_ne!(*new, seed),
+        other => panic!("{other:?}"),
+    }
+    h.state_mut().actions.clear();
+    h.get_by_label("edit at 512").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::Settings(run)] => assert!(!run.preview),
+        other => panic!("{other:?}"),
+    }
+}
+
+#[test]
+fn solver_panel_switches_to_jacobi_generates_and_cancels() {
+    let summaries = RunSummaries {
+        terrain: Some("42 river nodes".into()),
+        ..Default::default()
+    };
+    let mut h = harness(
+        Bench::new(SolverPanel, two_rivers()),
+        move |p, ui, scene, run| {
+            let report = SolverReport {
+                job: Some((0.5, "diffusing".into())),
+                summaries: &summaries,
+                error: Some("Terrain failed: out of memory"),
+            };
+            p.show(ui, scene, run, &report)
+        },
+    );
+    h.run();
+    h.get_by_label("42 river nodes");
+    h.get_by_label("Terrain failed: out of memory");
+    h.get_by_label("Jacobi").click();
+    h.get_by_label("Generate terrain").click();
+    h.get_by_label("Cancel").click();
+    h.run();
+    let actions = &h.state().actions;
+    assert!(
+        actions
+            .iter()
+            .any(|a| matches!(a, Action::Settings(run) if !run.solver.multigrid)),
+        "{actions:?}"
+    );
+    assert!(actions.contains(&Action::Generate), "{actions:?}");
+    assert!(actions.contains(&Action::Cancel), "{actions:?}");
+}
+
+fn erosion_report() -> ErosionReport {
+    ErosionReport {
+        preset: "young-mountains".into(),
+        steps: 20,
+        years: 2e6,
+        base_level_cells: 100,
+        mean_depth_m: 12.5,
+        max_depth_m: 180.0,
+        drainage: Default::default(),
+        conditioning: Default::default(),
+        backend: "cpu",
+        millis: 321.0,
+    }
+}
+
+#[test]
+fn erosion_panel_keeps_its_toggle_and_turns_erosion_off() {
+    let report = erosion_report();
+    let mut h = harness(
+        Bench::new(ErosionPanel::default(), Scene::default()),
+        move |p, ui, scene, _| p.show(ui, scene, Some(&report)),
+    );
+    h.run();
+    h.get_by_label_contains("Eroded in 321 ms");
+    h.get_by_label("Show before").click();
+    h.run();
+    assert!(h.state().panel.show_before, "the panel owns the toggle");
+    assert!(h.state().actions.is_empty(), "the toggle is not an edit");
+    h.get_by_label("Erode the terrain").click();
+    h.run();
+    assert_eq!(h.state().actions, [Action::Edit(Edit::SetErosion(None))]);
+}
+
+#[test]
+fn style_panel_picks_a_bundled_style() {
+    let mut h = harness(
+        Bench::new(StylePanel, Scene::default()),
+        |p, ui, scene, _| p.show(ui, scene, None),
+    );
+    h.run();
+    assert!(h.query_by_label("Style from the uploaded DEM").is_none());
+    h.get_by_label("Style").click();
+    h.run();
+    h.get_by_label("lowland").click();
+    h.run();
+    assert_eq!(
+        h.state().actions,
+        [Action::Edit(Edit::SetStyle(StyleSettings::bundled(
+            "lowland"
+        )))]
+    );
+}
+
+#[test]
+fn realism_panel_asks_each_run_to_measure() {
+    let mut h = harness(
+        Bench::new(RealismPanel, Scene::default()),
+        |p, ui, _, run| p.show(ui, run, None),
+    );
+    h.run();
+    assert!(h.query_by_label("Measured with the next terrain").is_none());
+    h.get_by_label("Measure each terrain").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::Settings(run)] => assert!(run.measure_realism),
+        other => panic!("{other:?}"),
+    }
+    h.state_mut().run.measure_realism = true;
+    h.run();
+    h.get_by_label("Measured with the next terrain");
+}
+
+#[test]
+fn detail_panel_sets_the_scope_and_shows_the_window_for_local() {
+    let mut h = harness(
+        Bench::new(DetailPanel, Scene::default()),
+        |p, ui, scene, _| p.show(ui, scene),
+    );
+    h.run();
+    assert!(h.query_by_label("Window").is_none(), "global has no window");
+    h.get_by_label("Scope").click();
+    h.run();
+    h.get_by_label("local").click();
+    h.run();
+    let edited = match h.state().actions.as_slice() {
+        [Action::Edit(Edit::SetDetail(detail))] => detail.clone(),
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(edited.scope, "local");
+    h.state_mut().scene.apply(Edit::SetDetail(edited)).unwrap();
+    h.run();
+    assert!(
+        h.query_all_by_label("Window").count() >= 1,
+        "local shows its window"
+    );
+}
+
+/// The Erosion panel as drawn (the pixels on lavapipe; a few may differ across Mesa versions).
+#[test]
+fn snapshot_of_the_erosion_panel() {
+    if common::gpu().is_none() {
+        return;
+    }
+    let report = erosion_report();
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(320.0, 420.0))
+        .wgpu()
+        .build_ui_state(
+            move |ui, panel: &mut ErosionPanel| {
+                let _ = panel.show(ui, &Scene::default(), Some(&report));
+            },
+            ErosionPanel::default(),
+        );
+    h.run();
+    h.snapshot_options(
+        "panel_erosion",
+        &egui_kittest::SnapshotOptions::new().max_failed_pixels(200),
+    );
+}
