@@ -40,6 +40,17 @@ pub(super) fn install(automation: &Automation) {
     };
     let api = js_sys::Object::new();
 
+    install_reports(&api, automation);
+    install_edits(&api, automation);
+    install_dem(&api, automation);
+    install_outputs(&api, automation);
+    install_views(&api, automation);
+    set(&api, "version", &JsValue::from_str(crate::VERSION));
+    set(&window, "strahler", &api);
+}
+
+/// The reports: `status`, `selfTest` and `scene`.
+fn install_reports(api: &js_sys::Object, automation: &Automation) {
     let status_source = automation.clone();
     let status = Closure::<dyn Fn() -> JsValue>::new(move || {
         let mut status = status_source.status();
@@ -50,7 +61,7 @@ pub(super) fn install(automation: &Automation) {
             .map(|b| f64::from(b.byte_length()));
         to_js(&status)
     });
-    set(&api, "status", status.as_ref());
+    set(api, "status", status.as_ref());
     status.forget();
 
     let test_source = automation.clone();
@@ -66,7 +77,7 @@ pub(super) fn install(automation: &Automation) {
             Ok(to_js(&result))
         })
     });
-    set(&api, "selfTest", self_test.as_ref());
+    set(api, "selfTest", self_test.as_ref());
     self_test.forget();
 
     let scene_source = automation.clone();
@@ -74,9 +85,12 @@ pub(super) fn install(automation: &Automation) {
         Some(scene) => to_js(&scene),
         None => JsValue::NULL,
     });
-    set(&api, "scene", scene.as_ref());
+    set(api, "scene", scene.as_ref());
     scene.forget();
+}
 
+/// The scene's edits: `loadScene`, `addRiver`, `maskFromRivers` and `paintMask`.
+fn install_edits(api: &js_sys::Object, automation: &Automation) {
     let load_target = automation.clone();
     let load_scene = Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(
         move |value: JsValue| {
@@ -87,7 +101,7 @@ pub(super) fn install(automation: &Automation) {
             ))
         },
     );
-    set(&api, "loadScene", load_scene.as_ref());
+    set(api, "loadScene", load_scene.as_ref());
     load_scene.forget();
 
     let river_target = automation.clone();
@@ -106,14 +120,14 @@ pub(super) fn install(automation: &Automation) {
                 Ok(applied(&river_target, Command::Edit(Edit::AddRiver(river))))
             },
         );
-    set(&api, "addRiver", add_river.as_ref());
+    set(api, "addRiver", add_river.as_ref());
     add_river.forget();
 
     let mask_target = automation.clone();
     let mask_from_rivers = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
         applied(&mask_target, Command::MaskFromRivers)
     });
-    set(&api, "maskFromRivers", mask_from_rivers.as_ref());
+    set(api, "maskFromRivers", mask_from_rivers.as_ref());
     mask_from_rivers.forget();
 
     let paint_target = automation.clone();
@@ -159,9 +173,12 @@ pub(super) fn install(automation: &Automation) {
                 Ok(applied(&paint_target, command))
             },
         );
-    set(&api, "paintMask", paint_mask.as_ref());
+    set(api, "paintMask", paint_mask.as_ref());
     paint_mask.forget();
+}
 
+/// The DEM panel: `loadDem`, `extractFeatures`, `fillVoids`, `placeBlock` and `moveBlock`.
+fn install_dem(api: &js_sys::Object, automation: &Automation) {
     let dem_target = automation.clone();
     let load_dem = Closure::<dyn Fn(String, js_sys::Uint8Array) -> js_sys::Promise>::new(
         move |name: String, bytes: js_sys::Uint8Array| {
@@ -172,7 +189,7 @@ pub(super) fn install(automation: &Automation) {
             applied(&dem_target, command)
         },
     );
-    set(&api, "loadDem", load_dem.as_ref());
+    set(api, "loadDem", load_dem.as_ref());
     load_dem.forget();
 
     let fill_target = automation.clone();
@@ -180,13 +197,13 @@ pub(super) fn install(automation: &Automation) {
     let extract_features = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
         applied(&features_target, Command::ExtractFeatures)
     });
-    set(&api, "extractFeatures", extract_features.as_ref());
+    set(api, "extractFeatures", extract_features.as_ref());
     extract_features.forget();
 
     let fill_voids = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
         applied(&fill_target, Command::FillVoids)
     });
-    set(&api, "fillVoids", fill_voids.as_ref());
+    set(api, "fillVoids", fill_voids.as_ref());
     fill_voids.forget();
 
     let place_target = automation.clone();
@@ -208,7 +225,7 @@ pub(super) fn install(automation: &Automation) {
             Ok(applied(&place_target, command))
         },
     );
-    set(&api, "placeBlock", place_block.as_ref());
+    set(api, "placeBlock", place_block.as_ref());
     place_block.forget();
 
     let move_target = automation.clone();
@@ -223,9 +240,12 @@ pub(super) fn install(automation: &Automation) {
             Ok(applied(&move_target, command))
         },
     );
-    set(&api, "moveBlock", move_block.as_ref());
+    set(api, "moveBlock", move_block.as_ref());
     move_block.forget();
+}
 
+/// The outputs and the history: `exportHeightmap`, `undo`, `redo` and `generate`.
+fn install_outputs(api: &js_sys::Object, automation: &Automation) {
     let export_source = automation.clone();
     let export = Closure::<dyn Fn(String, JsValue) -> js_sys::Promise>::new(
         move |format: String, options: JsValue| {
@@ -236,18 +256,18 @@ pub(super) fn install(automation: &Automation) {
             })
         },
     );
-    set(&api, "exportHeightmap", export.as_ref());
+    set(api, "exportHeightmap", export.as_ref());
     export.forget();
 
     let undo_target = automation.clone();
     let undo =
         Closure::<dyn Fn() -> js_sys::Promise>::new(move || applied(&undo_target, Command::Undo));
-    set(&api, "undo", undo.as_ref());
+    set(api, "undo", undo.as_ref());
     undo.forget();
     let redo_target = automation.clone();
     let redo =
         Closure::<dyn Fn() -> js_sys::Promise>::new(move || applied(&redo_target, Command::Redo));
-    set(&api, "redo", redo.as_ref());
+    set(api, "redo", redo.as_ref());
     redo.forget();
 
     let generate_source = automation.clone();
@@ -297,9 +317,12 @@ pub(super) fn install(automation: &Automation) {
             Ok(to_js(&output.report))
         })
     });
-    set(&api, "generate", generate.as_ref());
+    set(api, "generate", generate.as_ref());
     generate.forget();
+}
 
+/// The views: `setView` and `setCamera`.
+fn install_views(api: &js_sys::Object, automation: &Automation) {
     let view_target = automation.clone();
     let set_view = Closure::<dyn Fn(String, JsValue) -> Result<js_sys::Promise, JsValue>>::new(
         move |view: String, options: JsValue| {
@@ -343,7 +366,7 @@ pub(super) fn install(automation: &Automation) {
             Ok(applied(&view_target, Command::View3dMaps(maps)))
         },
     );
-    set(&api, "setView", set_view.as_ref());
+    set(api, "setView", set_view.as_ref());
     set_view.forget();
 
     let camera_target = automation.clone();
@@ -362,11 +385,8 @@ pub(super) fn install(automation: &Automation) {
             Ok(applied(&camera_target, command))
         },
     );
-    set(&api, "setCamera", set_camera.as_ref());
+    set(api, "setCamera", set_camera.as_ref());
     set_camera.forget();
-
-    set(&api, "version", &JsValue::from_str(crate::VERSION));
-    set(&window, "strahler", &api);
 }
 
 /// `exportHeightmap`'s work: the terrain on the map encoded as `format`.

@@ -169,7 +169,7 @@ async function measure(url, mode) {
 }
 
 if (!existsSync(join(dist, 'index.html'))) {
-  console.error(`no ${join(dist, 'index.html')}: run \`trunk build --release\` first`);
+  console.error(`no ${join(dist, 'index.html')}: run \`.ci/build-web\` first`);
   process.exit(2);
 }
 const server = await serve(dist);

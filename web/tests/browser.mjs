@@ -1,4 +1,4 @@
-// Browser tests of the Trunk build (dist/) in headless Chromium, driven by playwright-core.
+// Browser tests of the page build (dist/, `.ci/build-web`) in headless Chromium, driven by playwright-core.
 //
 // Runs the page twice:
 //   - "webgpu": with the WebGPU flags (SwiftShader Vulkan). status() must report WebGPU and the
@@ -439,7 +439,7 @@ async function check3d(page, mode) {
 }
 
 if (!existsSync(join(dist, 'index.html'))) {
-  console.error(`no ${join(dist, 'index.html')}: run \`trunk build --release\` first`);
+  console.error(`no ${join(dist, 'index.html')}: run \`.ci/build-web\` first`);
   process.exit(2);
 }
 const server = await serve(dist);
