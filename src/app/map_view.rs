@@ -231,11 +231,29 @@ impl MapView {
             self.zoom = 1.0;
         }
         let fit = fit_scale(rect.size());
-        let center = *self.center.get_or_insert(pos2(0.5, 0.5));
-        let scale = fit * self.zoom;
-        let to_screen = |m: Pos2| rect.center() + (m - center) * scale;
-        let to_map = |s: Pos2| center + (s - rect.center()) / scale;
+        let at = Placement {
+            rect,
+            center: *self.center.get_or_insert(pos2(0.5, 0.5)),
+            scale: fit * self.zoom,
+        };
+        let out = self.interact(ui, &response, tool, at, fit);
+        let painter = ui.painter_at(rect);
+        self.draw_terrain(ui, &painter, at, overlay);
+        draw_vectors(&painter, at, overlay);
+        self.draw_pointer(&painter, &response, at, tool, overlay);
+        out
+    }
 
+    /// What the pointer did this frame (strokes, clicks, paint, drags), and the pan and zoom
+    /// it asked for (drawn from the next frame).
+    fn interact(
+        &mut self,
+        ui: &egui::Ui,
+        response: &egui::Response,
+        tool: Tool,
+        at: Placement,
+        fit: f32,
+    ) -> MapResponse {
         let lines = tool.draws_lines();
         let painting = tool == Tool::Mask;
         let blocks = matches!(tool, Tool::Block | Tool::Select);
@@ -246,13 +264,15 @@ impl MapView {
             if response.drag_started_by(egui::PointerButton::Primary) {
                 // Where the button went down, not where the drag was recognised.
                 let origin = ui.input(|i| i.pointer.press_origin());
-                self.block_from = origin.or(response.interact_pointer_pos()).map(to_map);
+                self.block_from = origin
+                    .or(response.interact_pointer_pos())
+                    .map(|p| at.to_map(p));
             }
             if let Some(from) = self.block_from {
                 let finished = response.drag_stopped();
                 block_drag = Some(BlockDrag {
                     from,
-                    delta: response.drag_delta() / scale,
+                    delta: response.drag_delta() / at.scale,
                     finished,
                 });
                 if finished {
@@ -265,7 +285,7 @@ impl MapView {
         if painting {
             let primary_down = ui.input(|i| i.pointer.primary_down());
             if primary_down && (response.is_pointer_button_down_on() || self.last_paint.is_some()) {
-                if let Some(p) = response.interact_pointer_pos().map(to_map) {
+                if let Some(p) = response.interact_pointer_pos().map(|p| at.to_map(p)) {
                     paint = Some((self.last_paint.unwrap_or(p), p));
                     self.last_paint = Some(p);
                 }
@@ -280,17 +300,17 @@ impl MapView {
             self.press_at = Some(p);
         }
         let select_click = (tool == Tool::Select && response.clicked())
-            .then(|| self.press_at.map(to_map))
+            .then(|| self.press_at.map(|p| at.to_map(p)))
             .flatten();
         let clicked = (tool == Tool::Peak && response.clicked())
-            .then(|| self.press_at.map(to_map))
+            .then(|| self.press_at.map(|p| at.to_map(p)))
             .flatten()
             .filter(|p| (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y));
         if lines && response.drag_started_by(egui::PointerButton::Primary) {
-            self.stroke_start = response.interact_pointer_pos().map(to_map);
+            self.stroke_start = response.interact_pointer_pos().map(|p| at.to_map(p));
         }
         if lines && response.drag_stopped_by(egui::PointerButton::Primary) {
-            let end = response.interact_pointer_pos().map(to_map);
+            let end = response.interact_pointer_pos().map(|p| at.to_map(p));
             if let (Some(a), Some(b)) = (self.stroke_start.take(), end) {
                 let clamp = |p: Pos2| pos2(p.x.clamp(0.0, 1.0), p.y.clamp(0.0, 1.0));
                 if a.distance(b) > 0.02 {
@@ -299,7 +319,7 @@ impl MapView {
             }
         }
         if response.dragged() && !drawing && self.stroke_start.is_none() {
-            self.center = Some(center - response.drag_delta() / scale);
+            self.center = Some(at.center - response.drag_delta() / at.scale);
         }
         if response.double_clicked() {
             self.reset();
@@ -308,17 +328,44 @@ impl MapView {
             let (scroll, pinch) = ui.input(|i| (i.smooth_scroll_delta().y, i.zoom_delta()));
             let factor = pinch * (scroll / 200.0).exp();
             if factor != 1.0 {
-                let before = to_map(pointer);
+                let before = at.to_map(pointer);
                 self.zoom = (self.zoom * factor).clamp(MIN_ZOOM, MAX_ZOOM);
                 let new_scale = fit * self.zoom;
                 // Keep the map point under the pointer fixed.
-                self.center = Some(before - (pointer - rect.center()) / new_scale);
+                self.center = Some(before - (pointer - at.rect.center()) / new_scale);
             }
         }
 
-        let painter = ui.painter_at(rect);
-        painter.rect_filled(rect, 0.0, ui.visuals().extreme_bg_color);
-        let map_rect = Rect::from_min_max(to_screen(pos2(0.0, 0.0)), to_screen(pos2(1.0, 1.0)));
+        MapResponse {
+            hover: response.hover_pos().map(|pointer| {
+                let map = at.to_map(pointer);
+                Hover {
+                    map,
+                    height: self.height_at(map),
+                }
+            }),
+            new_stroke,
+            clicked,
+            paint,
+            paint_finished,
+            block_drag,
+            select_click,
+            pick_tolerance: 10.0 / at.scale,
+        }
+    }
+
+    /// The terrain's picture and its raster overlays (constraints, erosion layers, contours,
+    /// mask), and the map's frame.
+    fn draw_terrain(
+        &self,
+        ui: &egui::Ui,
+        painter: &egui::Painter,
+        at: Placement,
+        overlay: &Overlay,
+    ) {
+        painter.rect_filled(at.rect, 0.0, ui.visuals().extreme_bg_color);
+        let map_rect =
+            Rect::from_min_max(at.to_screen(pos2(0.0, 0.0)), at.to_screen(pos2(1.0, 1.0)));
         match &self.texture {
             Some(texture) => {
                 let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
@@ -342,7 +389,7 @@ impl MapView {
                 if overlay.show_contours {
                     let line = Stroke::new(0.8, Color32::from_rgba_unmultiplied(60, 40, 20, 170));
                     for (a, b) in &overlay.contours {
-                        painter.line_segment([to_screen(*a), to_screen(*b)], line);
+                        painter.line_segment([at.to_screen(*a), at.to_screen(*b)], line);
                     }
                 }
                 if let (true, Some(mask)) = (overlay.show_mask, &self.mask_texture) {
@@ -351,7 +398,7 @@ impl MapView {
             }
             None => {
                 painter.text(
-                    rect.center(),
+                    at.rect.center(),
                     egui::Align2::CENTER_CENTER,
                     "No terrain yet",
                     egui::FontId::proportional(16.0),
@@ -365,101 +412,28 @@ impl MapView {
             Stroke::new(1.0, ui.visuals().widgets.noninteractive.bg_stroke.color),
             StrokeKind::Outside,
         );
-        if overlay.show_ridges {
-            let ridge = Stroke::new(1.0, Color32::from_rgb(200, 60, 50));
-            for (a, b) in &overlay.ridges {
-                painter.line_segment([to_screen(*a), to_screen(*b)], ridge);
-            }
-        }
-        if overlay.show_rivers {
-            // Thin lines that widen with the order, so the relief leads.
-            for (a, b, order) in overlay
-                .rivers
-                .iter()
-                .filter(|r| r.2 >= overlay.min_river_order)
-            {
-                let width = 0.5 + 0.35 * (*order + 1 - overlay.min_river_order) as f32;
-                let stroke = Stroke::new(width, Color32::from_rgb(40, 110, 220));
-                painter.line_segment([to_screen(*a), to_screen(*b)], stroke);
-            }
-        }
-        let sketch_ridge = Stroke::new(2.5, Color32::from_rgb(150, 70, 30));
-        for (a, b) in &overlay.sketch_ridges {
-            painter.line_segment([to_screen(*a), to_screen(*b)], sketch_ridge);
-        }
-        let sketch_valley = Stroke::new(2.5, Color32::from_rgb(30, 190, 200));
-        for (a, b) in &overlay.sketch_valleys {
-            painter.line_segment([to_screen(*a), to_screen(*b)], sketch_valley);
-        }
-        for p in &overlay.peaks {
-            let c = to_screen(*p);
-            let tri = vec![
-                c + egui::vec2(0.0, -7.0),
-                c + egui::vec2(6.0, 5.0),
-                c + egui::vec2(-6.0, 5.0),
-            ];
-            painter.add(egui::Shape::convex_polygon(
-                tri,
-                Color32::from_rgb(120, 60, 20),
-                Stroke::new(1.0, Color32::WHITE),
-            ));
-        }
-        let blocks: &[(Rect, bool)] = if overlay.show_blocks {
-            &overlay.blocks
-        } else {
-            &[]
-        };
-        for (block, selected) in blocks {
-            let r = Rect::from_min_max(to_screen(block.min), to_screen(block.max));
-            let color = if *selected {
-                Color32::from_rgb(255, 235, 60)
-            } else {
-                Color32::from_rgb(190, 170, 60)
-            };
-            painter.rect_stroke(r, 0.0, Stroke::new(2.0, color), StrokeKind::Middle);
-            if *selected {
-                // The resize handle at the south-east corner.
-                painter.rect_filled(Rect::from_center_size(r.max, Vec2::splat(10.0)), 1.0, color);
-            }
-        }
-        if !overlay.selected.is_empty() {
-            let halo = Stroke::new(5.0, Color32::from_rgba_unmultiplied(255, 255, 255, 200));
-            let screen: Vec<Pos2> = overlay.selected.iter().map(|p| to_screen(*p)).collect();
-            if let [only] = screen.as_slice() {
-                painter.circle_stroke(*only, 9.0, halo);
-            } else {
-                painter.add(egui::Shape::line(screen, halo));
-            }
-        }
-        let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
-        for (a, b) in &overlay.strokes {
-            arrow(&painter, to_screen(*a), to_screen(*b), stroke_style);
-        }
-        if let (Some(a), Some(pointer)) = (self.stroke_start, response.interact_pointer_pos()) {
-            arrow(&painter, to_screen(a), pointer, stroke_style);
-        }
-        if let (true, Some(radius), Some(pointer)) =
-            (painting, overlay.brush_radius, response.hover_pos())
-        {
-            let ring = Stroke::new(1.5, Color32::from_rgb(230, 40, 200));
-            painter.circle_stroke(pointer, radius * scale, ring);
-        }
+    }
 
-        MapResponse {
-            hover: response.hover_pos().map(|pointer| {
-                let map = to_map(pointer);
-                Hover {
-                    map,
-                    height: self.height_at(map),
-                }
-            }),
-            new_stroke,
-            clicked,
-            paint,
-            paint_finished,
-            block_drag,
-            select_click,
-            pick_tolerance: 10.0 / scale,
+    /// The stroke being drawn and the brush under the pointer.
+    fn draw_pointer(
+        &self,
+        painter: &egui::Painter,
+        response: &egui::Response,
+        at: Placement,
+        tool: Tool,
+        overlay: &Overlay,
+    ) {
+        let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
+        if let (Some(a), Some(pointer)) = (self.stroke_start, response.interact_pointer_pos()) {
+            arrow(painter, at.to_screen(a), pointer, stroke_style);
+        }
+        if let (true, Some(radius), Some(pointer)) = (
+            tool == Tool::Mask,
+            overlay.brush_radius,
+            response.hover_pos(),
+        ) {
+            let ring = Stroke::new(1.5, Color32::from_rgb(230, 40, 200));
+            painter.circle_stroke(pointer, radius * at.scale, ring);
         }
     }
 
@@ -502,5 +476,99 @@ mod tests {
     #[test]
     fn fit_uses_the_shorter_side() {
         assert_eq!(fit_scale(vec2(800.0, 400.0)), 380.0);
+    }
+}
+
+/// Where the map sits on the screen this frame: its rectangle, the map point at its centre
+/// and screen points per map unit.
+#[derive(Clone, Copy)]
+struct Placement {
+    rect: Rect,
+    center: Pos2,
+    scale: f32,
+}
+
+impl Placement {
+    fn to_screen(self, map: Pos2) -> Pos2 {
+        self.rect.center() + (map - self.center) * self.scale
+    }
+
+    fn to_map(self, screen: Pos2) -> Pos2 {
+        self.center + (screen - self.rect.center()) / self.scale
+    }
+}
+
+/// The vector overlays: ridges, rivers by order, the sketch, blocks, the selection and the
+/// drawn strokes.
+fn draw_vectors(painter: &egui::Painter, at: Placement, overlay: &Overlay) {
+    if overlay.show_ridges {
+        let ridge = Stroke::new(1.0, Color32::from_rgb(200, 60, 50));
+        for (a, b) in &overlay.ridges {
+            painter.line_segment([at.to_screen(*a), at.to_screen(*b)], ridge);
+        }
+    }
+    if overlay.show_rivers {
+        // Thin lines that widen with the order, so the relief leads.
+        for (a, b, order) in overlay
+            .rivers
+            .iter()
+            .filter(|r| r.2 >= overlay.min_river_order)
+        {
+            let width = 0.5 + 0.35 * (*order + 1 - overlay.min_river_order) as f32;
+            let stroke = Stroke::new(width, Color32::from_rgb(40, 110, 220));
+            painter.line_segment([at.to_screen(*a), at.to_screen(*b)], stroke);
+        }
+    }
+    let sketch_ridge = Stroke::new(2.5, Color32::from_rgb(150, 70, 30));
+    for (a, b) in &overlay.sketch_ridges {
+        painter.line_segment([at.to_screen(*a), at.to_screen(*b)], sketch_ridge);
+    }
+    let sketch_valley = Stroke::new(2.5, Color32::from_rgb(30, 190, 200));
+    for (a, b) in &overlay.sketch_valleys {
+        painter.line_segment([at.to_screen(*a), at.to_screen(*b)], sketch_valley);
+    }
+    for p in &overlay.peaks {
+        let c = at.to_screen(*p);
+        let tri = vec![
+            c + egui::vec2(0.0, -7.0),
+            c + egui::vec2(6.0, 5.0),
+            c + egui::vec2(-6.0, 5.0),
+        ];
+        painter.add(egui::Shape::convex_polygon(
+            tri,
+            Color32::from_rgb(120, 60, 20),
+            Stroke::new(1.0, Color32::WHITE),
+        ));
+    }
+    let blocks: &[(Rect, bool)] = if overlay.show_blocks {
+        &overlay.blocks
+    } else {
+        &[]
+    };
+    for (block, selected) in blocks {
+        let r = Rect::from_min_max(at.to_screen(block.min), at.to_screen(block.max));
+        let color = if *selected {
+            Color32::from_rgb(255, 235, 60)
+        } else {
+            Color32::from_rgb(190, 170, 60)
+        };
+        painter.rect_stroke(r, 0.0, Stroke::new(2.0, color), StrokeKind::Middle);
+        if *selected {
+            // The resize handle at the south-east corner.
+            painter.rect_filled(Rect::from_center_size(r.max, Vec2::splat(10.0)), 1.0, color);
+        }
+    }
+    if !overlay.selected.is_empty() {
+        let halo = Stroke::new(5.0, Color32::from_rgba_unmultiplied(255, 255, 255, 200));
+        let screen: Vec<Pos2> = overlay.selected.iter().map(|p| at.to_screen(*p)).collect();
+        if let [only] = screen.as_slice() {
+            painter.circle_stroke(*only, 9.0, halo);
+        } else {
+            painter.add(egui::Shape::line(screen, halo));
+        }
+    }
+    let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
+    for (a, b) in &overlay.strokes {
+        arrow(painter, at.to_screen(*a), at.to_screen(*b), stroke_style);
     }
 }
