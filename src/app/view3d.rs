@@ -299,7 +299,23 @@ impl View3d {
             &camera_now,
             &self.settings,
         );
-        if let Some(view) = renderer.color_view() {
+        self.paint_frame(ui, state, rect, &camera_now, recreated);
+        if moving {
+            ui.ctx().request_repaint();
+        }
+    }
+
+    /// Shows the rendered frame (registering its texture with egui once, again when the
+    /// target was recreated) and the frame's numbers with the controls.
+    fn paint_frame(
+        &mut self,
+        ui: &Ui,
+        state: &egui_wgpu::RenderState,
+        rect: egui::Rect,
+        camera: &Camera,
+        recreated: bool,
+    ) {
+        if let Some(view) = self.renderer.as_ref().and_then(Renderer::color_view) {
             let mut egui_renderer = state.renderer.write();
             match self.texture {
                 Some(id) if recreated => egui_renderer.update_egui_texture_from_wgpu_texture(
@@ -328,7 +344,7 @@ impl View3d {
                 stats.triangles,
                 stats.chunks,
                 stats.finest_level,
-                match camera_now.mode {
+                match camera.mode {
                     CameraMode::Orbit =>
                         "drag: turn, right-drag: pan, scroll: zoom, F: fly, Home: reset",
                     CameraMode::Fly => "drag: look, WASD/QE: move, Shift: fast, F: orbit",
@@ -341,9 +357,6 @@ impl View3d {
                 egui::FontId::proportional(12.0),
                 Color32::from_gray(20),
             );
-        }
-        if moving {
-            ui.ctx().request_repaint();
         }
     }
 
