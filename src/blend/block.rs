@@ -2,7 +2,7 @@
 //! self-contained and re-solves after a reload), its transform and where it sits on the map.
 
 use base64::Engine as _;
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 
 use crate::dem::{ReadLimits, png16};
 use crate::heightfield::Heightfield;
@@ -10,8 +10,9 @@ use crate::heightfield::Heightfield;
 use super::{BlendError, BlockRect, Transform, guide};
 
 /// One blended block of real terrain.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+/// Serialised only into the pipeline's stage keys; the scene file has its own schema
+/// (`crate::scene`'s `file` module).
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BlendBlock {
     /// Where the reference came from (file name and pixel window), for the user.
     pub name: String,
@@ -21,18 +22,11 @@ pub struct BlendBlock {
     /// The block on the map, `[x0, y0, x1, y1]` in map units (0..1, y down).
     pub rect: [f64; 4],
     /// Clockwise quarter turns of the reference, 0 to 3.
-    #[serde(default)]
     pub quarter_turns: u8,
     /// Mirror the reference left-right before turning it.
-    #[serde(default)]
     pub mirror: bool,
     /// Multiplies the reference's heights (and so its gradients).
-    #[serde(default = "one")]
     pub z_scale: f32,
-}
-
-fn one() -> f32 {
-    1.0
 }
 
 impl BlendBlock {

@@ -17,14 +17,11 @@
 //!
 //! Cost: O(cells x sigma) for the blur, O(cells x octaves) for the noise.
 
-use serde::{Deserialize, Serialize};
-
 use crate::heightfield::Heightfield;
 use crate::noise::Perlin;
 
 /// The post-filter settings (the scene's `params.post`).
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PostFilter {
     /// Gaussian smoothing, standard deviation in cells (0 = off).
     pub smooth_sigma: f32,

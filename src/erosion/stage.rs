@@ -5,7 +5,7 @@
 use std::ops::Range;
 use std::sync::Arc;
 
-use serde::{Deserialize, Serialize};
+use serde::Serialize;
 use thiserror::Error;
 
 use super::coarse::{self, MAX_SOLVER_SIDE};
@@ -21,8 +21,8 @@ use crate::terrain::{Generated, drainage};
 
 /// The scene's `erosion` section: the stream-power law with uplift and hillslope processes
 /// (see [`super`]). Absent from a scene = no erosion.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields, default)]
+/// Serialised only into the pipeline's stage keys; the scene file has its own schema.
+#[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ErosionSettings {
     /// The preset these values came from ("custom" once edited); for the user only.
     pub preset: String,

@@ -7,6 +7,7 @@
 //! `docs/scene-format.md`); unknown fields and invalid values are errors that name the field.
 
 mod edit;
+mod file;
 mod validate;
 
 pub use edit::{Edit, EditError, LineKind};
@@ -136,6 +137,7 @@ pub struct EnrichSettings {
     /// What L limits: "skeleton" (no point farther than L cells from the skeleton; the
     /// default) or "points" (the paper as written: no interpolation between points more than
     /// L cells apart).
+    #[serde(with = "file::distance_rule")]
     pub distance_rule: crate::skeleton::enrich::DistanceRule,
 }
 
@@ -163,6 +165,7 @@ pub struct Params {
     pub noise: NoiseSettings,
     pub enrich: EnrichSettings,
     /// Gaussian smoothing and added fBm on the filled terrain, kept off the rivers.
+    #[serde(with = "file::post")]
     pub post: crate::diffusion::PostFilter,
 }
 
@@ -335,13 +338,14 @@ pub struct Scene {
     pub detail: DetailSettings,
     /// Stream-power erosion of the designed terrain, the rivers as base level; `null` = off,
     /// absent = the default preset.
+    #[serde(with = "file::erosion")]
     pub erosion: Option<crate::erosion::ErosionSettings>,
     /// Detail from a real terrain's spectrum added into the existing levels (after erosion,
     /// before the new detail levels); absent or `null` = off.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub style: Option<StyleSettings>,
     /// Blocks of real terrain blended in by the Poisson equation, solved in order.
-    #[serde(skip_serializing_if = "Vec::is_empty")]
+    #[serde(skip_serializing_if = "Vec::is_empty", with = "file::blocks")]
     pub blend: Vec<crate::blend::BlendBlock>,
 }
 
@@ -494,20 +498,31 @@ impl Scene {
         }
         // The path of the value serde refused (`params.noise.octaves: invalid type...`), so a
         // wrong type names its field as a wrong value does.
-        let mut de = serde_json::Deserializer::from_str(text);
-        let scene: Scene = serde_path_to_error::deserialize(&mut de).map_err(|e| {
+        let named = |e: serde_path_to_error::Error<serde_json::Error>| {
             let path = e.path().to_string();
             parse(if path == "." {
                 e.inner().to_string()
             } else {
                 format!("{path}: {}", e.inner())
             })
-        })?;
-        de.end().map_err(|e| parse(e.to_string()))?;
+        };
+        let scene: Scene = if declared_version(text).is_some_and(|v| v != u64::from(VERSION)) {
+            // Another format: brought up to this one as JSON (or refused), then read.
+            let mut value: serde_json::Value =
+                serde_json::from_str(text).map_err(|e| parse(e.to_string()))?;
+            file::migrate(&mut value)?;
+            serde_path_to_error::deserialize(value).map_err(named)?
+        } else {
+            let mut de = serde_json::Deserializer::from_str(text);
+            let scene = serde_path_to_error::deserialize(&mut de).map_err(named)?;
+            de.end().map_err(|e| parse(e.to_string()))?;
+            scene
+        };
         scene.validate()?;
         Ok(scene)
     }
 
+    /// Serialised in this build's format.
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
@@ -726,4 +741,17 @@ mod tests {
             Scene::from_json(r#"{"version": 1, "cell_size": 1e308, "size": 8192}"#).unwrap_err();
         assert!(err.to_string().contains("cell_size"), "{err}");
     }
+}
+
+/// The format `text` declares (its `version`, when a number), read without building the
+/// document.
+fn declared_version(text: &str) -> Option<u64> {
+    #[derive(Deserialize)]
+    struct Version {
+        version: Option<serde_json::Value>,
+    }
+    serde_json::from_str::<Version>(text)
+        .ok()
+        .and_then(|v| v.version)
+        .and_then(|v| v.as_u64())
 }

@@ -59,8 +59,7 @@ impl Default for EnrichParams {
 }
 
 /// What the distance limit L limits (see the module's documentation).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum DistanceRule {
     /// No point farther than L cells from the original skeleton.
     #[default]
