@@ -597,6 +597,19 @@ impl Scene {
     }
 }
 
+/// The format `text` declares (its `version`, when a number), read without building the
+/// document.
+fn declared_version(text: &str) -> Option<u64> {
+    #[derive(Deserialize)]
+    struct Version {
+        version: Option<serde_json::Value>,
+    }
+    serde_json::from_str::<Version>(text)
+        .ok()
+        .and_then(|v| v.version)
+        .and_then(|v| v.as_u64())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -741,17 +754,4 @@ mod tests {
             Scene::from_json(r#"{"version": 1, "cell_size": 1e308, "size": 8192}"#).unwrap_err();
         assert!(err.to_string().contains("cell_size"), "{err}");
     }
-}
-
-/// The format `text` declares (its `version`, when a number), read without building the
-/// document.
-fn declared_version(text: &str) -> Option<u64> {
-    #[derive(Deserialize)]
-    struct Version {
-        version: Option<serde_json::Value>,
-    }
-    serde_json::from_str::<Version>(text)
-        .ok()
-        .and_then(|v| v.version)
-        .and_then(|v| v.as_u64())
 }
