@@ -296,9 +296,13 @@ fn a_scene_block_round_trips_and_applies_its_transform() {
     block.quarter_turns = 1;
     block.mirror = true;
     block.z_scale = 2.0;
-    let json = serde_json::to_string(&block).unwrap();
-    let back: BlendBlock = serde_json::from_str(&json).unwrap();
-    assert_eq!(back, block);
+    // Through the scene file, whose schema the scene owns.
+    let scene = strahler::scene::Scene {
+        blend: vec![block.clone()],
+        ..Default::default()
+    };
+    let back = strahler::scene::Scene::from_json(&scene.to_json()).unwrap();
+    assert_eq!(back.blend, [block.clone()]);
     assert!(block.validate().is_ok());
     // The stored reference is within one 16-bit step of the original.
     let decoded = block.reference().unwrap();
