@@ -668,3 +668,38 @@ fn the_realism_section_measures_the_grid_mark() {
     harness.get_by_label_contains("grid-direction index");
     harness.get_by_label_contains("hypsometric integral");
 }
+
+/// Issue 35: a mask stroke on a terrain without detail changes nothing on the map, so the app
+/// says what the mask is for, in the messages under the document's buttons; the message can
+/// be dismissed.
+#[test]
+fn a_mask_stroke_without_detail_says_what_the_mask_is_for() {
+    let mut harness = cpu_harness();
+    wait_idle(&mut harness);
+    let mut scene = harness.state().scene();
+    scene.size = 256;
+    scene.detail.levels = 0;
+    scene.style = None;
+    harness.state_mut().load_scene(&scene);
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    harness.key_press(egui::Key::M);
+    harness.run_steps(2);
+    harness.state_mut().brush_mut().radius = 16.0;
+    drag(
+        &mut harness,
+        egui::pos2(450.0, 400.0),
+        egui::pos2(900.0, 420.0),
+    );
+    wait_idle(&mut harness);
+    assert!(!harness.state().mask().is_clear(), "the stroke is kept");
+    harness.get_by_label_contains("add new levels in Detail");
+    // The only message: the error and the notice each have their own button.
+    harness.get_by_label("Dismiss").click();
+    harness.run_steps(2);
+    assert!(
+        harness
+            .query_by_label_contains("add new levels in Detail")
+            .is_none()
+    );
+}

@@ -70,6 +70,15 @@ impl StrahlerApp {
     /// The brush stroke ended: the new mask takes effect.
     pub(super) fn finish_mask_stroke(&mut self, ctx: &egui::Context) {
         self.mask_changed(ctx);
+        let scene = self.session.scene();
+        if scene.detail.levels == 0 && scene.style.is_none() {
+            // Nothing on the map changes yet: say what the mask is for.
+            self.messages.notice = Some(
+                "The mask calms the synthetic detail where it is white: add new levels in \
+                 Detail (or a Style) to see it"
+                    .into(),
+            );
+        }
     }
 
     /// Publishes the detail stage of a finished run (or its absence).
@@ -272,9 +281,6 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     });
     if let Some(text) = &app.summaries.detail {
         ui.label(text);
-    }
-    if let Some(text) = &app.messages.notice {
-        ui.label(RichText::new(text).weak());
     }
 }
 

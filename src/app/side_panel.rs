@@ -55,6 +55,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
                 document_row(ui, app);
+                messages(ui, app);
                 let eroded = app.canvas.map.has_erosion_layers();
                 super::layers::section(ui, &mut app.canvas.layers, eroded);
                 ui.separator();
@@ -90,7 +91,6 @@ fn sections(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let report = super::panels::SolverReport {
         job: app.session.job().map(|j| (j.progress(), j.message())),
         summaries: &app.summaries,
-        error: app.messages.error.as_deref(),
     };
     actions.extend(panels.solver.show(ui, scene, run, &report));
     ui.separator();
@@ -111,6 +111,27 @@ fn sections(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let ctx = ui.ctx().clone();
     for action in actions {
         app.act(&ctx, action);
+    }
+}
+
+/// The last error and the passing notice, in one place under the document's buttons, each
+/// with a button to dismiss it.
+fn messages(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    if let Some(err) = app.messages.error.clone() {
+        ui.horizontal_wrapped(|ui| {
+            ui.colored_label(ui.visuals().error_fg_color, err);
+            if ui.small_button("Dismiss").clicked() {
+                app.messages.error = None;
+            }
+        });
+    }
+    if let Some(text) = app.messages.notice.clone() {
+        ui.horizontal_wrapped(|ui| {
+            ui.label(RichText::new(text).weak());
+            if ui.small_button("Dismiss").clicked() {
+                app.messages.notice = None;
+            }
+        });
     }
 }
 

@@ -13,12 +13,11 @@ use crate::scene::{Edit, Scene};
 #[derive(Default)]
 pub struct SolverPanel;
 
-/// What the section reports: the running job's progress and message, the last run's
-/// summaries and the last error.
+/// What the section reports: the running job's progress and message, and the last run's
+/// summaries.
 pub struct Report<'a> {
     pub job: Option<(f32, String)>,
     pub summaries: &'a RunSummaries,
-    pub error: Option<&'a str>,
 }
 
 impl SolverPanel {
@@ -68,7 +67,7 @@ impl SolverPanel {
         if let Some((progress, message)) = &report.job {
             ui.add(ProgressBar::new(*progress).text(message));
         }
-        last_run(ui, report.summaries, report.error);
+        last_run(ui, report.summaries);
         actions
     }
 }
@@ -155,8 +154,8 @@ fn settings(
         });
 }
 
-/// The last run's numbers and the last error.
-fn last_run(ui: &mut egui::Ui, summaries: &RunSummaries, error: Option<&str>) {
+/// The last run's numbers.
+fn last_run(ui: &mut egui::Ui, summaries: &RunSummaries) {
     if let Some((size, run)) = &summaries.last_run {
         ui.label(format!(
             "Last terrain: {size} x {size}, {} on the {} in {:.0} ms",
@@ -185,8 +184,5 @@ fn last_run(ui: &mut egui::Ui, summaries: &RunSummaries, error: Option<&str>) {
     }
     if let Some(text) = &summaries.terrain {
         ui.label(text);
-    }
-    if let Some(err) = error {
-        ui.colored_label(ui.visuals().error_fg_color, err);
     }
 }
