@@ -148,6 +148,29 @@ fn drawing_a_river_with_the_mouse_adds_a_network_and_regenerates() {
         "the terrain was regenerated with the new river"
     );
     harness.get_by_label_contains("#2");
+
+    // Issue 35: the estuary lands where the button went down, however far the pointer moved
+    // before the drag was recognised: a second stroke from the same press, in two long
+    // moves instead of ten short ones, starts at the same point.
+    harness.hover_at(from);
+    harness.step();
+    harness.drag_at(from);
+    harness.step();
+    harness.hover_at(from + (to - from) * 0.5);
+    harness.step();
+    harness.hover_at(to);
+    harness.step();
+    harness.drop_at(to);
+    harness.run_steps(2);
+    let strokes = harness.state().strokes();
+    assert_eq!(strokes.len(), 3, "the second drag made a stroke");
+    let gap = strokes[2].estuary.distance(strokes[1].estuary);
+    assert!(
+        gap < 1e-4,
+        "estuaries {:?} and {:?}",
+        strokes[1],
+        strokes[2]
+    );
 }
 
 /// Drags with the primary button from `from` to `to` over a few frames.

@@ -307,7 +307,12 @@ impl MapView {
             .flatten()
             .filter(|p| (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y));
         if lines && response.drag_started_by(egui::PointerButton::Primary) {
-            self.stroke_start = response.interact_pointer_pos().map(|p| at.to_map(p));
+            // Where the button went down, not where the drag was recognised (a few pixels
+            // on): the estuary lands under the press.
+            let origin = ui.input(|i| i.pointer.press_origin());
+            self.stroke_start = origin
+                .or(response.interact_pointer_pos())
+                .map(|p| at.to_map(p));
         }
         if lines && response.drag_stopped_by(egui::PointerButton::Primary) {
             let end = response.interact_pointer_pos().map(|p| at.to_map(p));
