@@ -14,6 +14,15 @@ pub const DEPTH: usize = 100;
 #[cfg(target_arch = "wasm32")]
 pub const AUTOSAVE_KEY: &str = "strahler.autosave.v1";
 
+/// Browser storage key of the autosaved undo steps (a JSON array of scene files, oldest
+/// first).
+#[cfg(target_arch = "wasm32")]
+pub const UNDO_KEY: &str = "strahler.undo.v1";
+
+/// The most bytes of undo steps autosaved: the newest steps that fit (browsers give a page
+/// about 5 MB of storage, and the scene needs its share).
+const UNDO_BUDGET: usize = 2 << 20;
+
 /// Seconds between autosaves (when something changed).
 const AUTOSAVE_SECONDS: f64 = 2.0;
 
@@ -29,10 +38,15 @@ pub struct History {
 }
 
 impl History {
-    /// Starts the history at `scene` (the session's first document).
-    pub fn start(&mut self, scene: Scene) {
+    /// Starts the history at `scene` (the session's first document), with `undo` steps
+    /// before it (oldest first; restored from an earlier visit).
+    pub fn start(&mut self, scene: Scene, mut undo: Vec<Scene>) {
+        if undo.len() > DEPTH {
+            undo.drain(..undo.len() - DEPTH);
+        }
         *self = Self {
             current: Some(scene),
+            undo,
             ..Default::default()
         };
     }
@@ -104,6 +118,9 @@ impl History {
             return None;
         }
         let stored = store(&json);
+        // The undo steps beside it, as many of the newest as fit; a browser that refuses
+        // them still keeps the scene.
+        store_undo(&self.undo);
         // Keep working either way; a failure is said once, not every two seconds.
         self.autosaved = Some(json);
         stored
@@ -112,16 +129,86 @@ impl History {
     }
 }
 
-/// The autosaved scene, if the browser has one (always `None` natively).
-pub fn restore() -> Option<Result<Scene, String>> {
+/// The autosaved scene and its undo steps (oldest first), if the browser has them (always
+/// `None` natively).
+pub fn restore() -> Option<Result<(Scene, Vec<Scene>), String>> {
     #[cfg(target_arch = "wasm32")]
     {
         let storage = web_sys::window()?.local_storage().ok()??;
         let text = storage.get_item(AUTOSAVE_KEY).ok()??;
-        Some(Scene::from_json(&text).map_err(|e| e.to_string()))
+        let undo = storage
+            .get_item(UNDO_KEY)
+            .ok()
+            .flatten()
+            .map(|text| undo_steps(&text))
+            .unwrap_or_default();
+        Some(
+            Scene::from_json(&text)
+                .map(|scene| (scene, undo))
+                .map_err(|e| e.to_string()),
+        )
     }
     #[cfg(not(target_arch = "wasm32"))]
     None
+}
+
+/// The newest of `undo` (oldest first) whose scene files fit `budget` bytes together, as a
+/// JSON array of those files, oldest first.
+#[cfg_attr(not(target_arch = "wasm32"), allow(dead_code))]
+fn undo_json(undo: &[Scene], budget: usize) -> String {
+    let mut kept = Vec::new();
+    let mut bytes = 2;
+    for scene in undo.iter().rev() {
+        let json = serde_json::to_string(scene).unwrap_or_default();
+        if bytes + json.len() + 1 > budget {
+            break;
+        }
+        bytes += json.len() + 1;
+        kept.push(json);
+    }
+    kept.reverse();
+    format!("[{}]", kept.join(","))
+}
+
+/// The undo steps of [`undo_json`]'s text; steps that do not read as scenes (a file from an
+/// older build) are dropped, with the ones before them, so undo never jumps.
+#[cfg_attr(not(target_arch = "wasm32"), allow(dead_code))]
+fn undo_steps(text: &str) -> Vec<Scene> {
+    let Ok(values) = serde_json::from_str::<Vec<serde_json::Value>>(text) else {
+        return Vec::new();
+    };
+    let mut steps = Vec::new();
+    for value in values {
+        match Scene::from_json(&value.to_string()) {
+            Ok(scene) => steps.push(scene),
+            Err(_) => steps.clear(),
+        }
+    }
+    steps
+}
+
+/// Writes the undo steps to browser storage (web only): the newest that fit, halving the
+/// budget while the browser refuses them, none at last.
+fn store_undo(undo: &[Scene]) {
+    #[cfg(target_arch = "wasm32")]
+    {
+        let Some(storage) = web_sys::window().and_then(|w| w.local_storage().ok().flatten()) else {
+            return;
+        };
+        let mut budget = UNDO_BUDGET;
+        while storage
+            .set_item(UNDO_KEY, &undo_json(undo, budget))
+            .is_err()
+        {
+            if budget < 1024 {
+                let _ = storage.remove_item(UNDO_KEY);
+                return;
+            }
+            budget /= 2;
+        }
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    let _ = (undo, UNDO_BUDGET);
 }
 
 fn store(json: &str) -> Result<(), String> {
@@ -141,5 +228,46 @@ fn store(json: &str) -> Result<(), String> {
     {
         let _ = json;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scene(seed: u64) -> Scene {
+        Scene {
+            seed,
+            ..Scene::default()
+        }
+    }
+
+    /// The autosaved undo steps read back as they were, the newest kept when they do not all
+    /// fit, and a step that no longer reads drops the older ones.
+    #[test]
+    fn undo_steps_round_trip_within_their_budget() {
+        let undo: Vec<Scene> = (1..=5).map(scene).collect();
+        assert_eq!(undo_steps(&undo_json(&undo, UNDO_BUDGET)), undo);
+        let one = serde_json::to_string(&undo[0]).unwrap().len();
+        let two_fit = undo_steps(&undo_json(&undo, 2 * one + 8));
+        assert_eq!(two_fit, undo[3..].to_vec(), "the two newest");
+        assert!(undo_steps(&undo_json(&undo, 10)).is_empty());
+        let text = undo_json(&undo, UNDO_BUDGET).replacen("\"version\":1", "\"version\":99", 2);
+        assert_eq!(
+            undo_steps(&text),
+            undo[2..].to_vec(),
+            "the steps after the unreadable"
+        );
+        assert!(undo_steps("not json").is_empty());
+    }
+
+    #[test]
+    fn a_restored_history_undoes_to_its_steps() {
+        let mut history = History::default();
+        history.start(scene(9), vec![scene(7), scene(8)]);
+        assert_eq!(history.depths(), (2, 0));
+        assert_eq!(history.step(true), Some(scene(8)));
+        assert_eq!(history.step(true), Some(scene(7)));
+        assert_eq!(history.step(true), None);
     }
 }

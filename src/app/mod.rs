@@ -136,8 +136,8 @@ impl StrahlerApp {
         // A scene autosaved by an earlier visit comes back (web only), as the history's
         // start.
         match history::restore() {
-            Some(Ok(scene)) => {
-                app.session = Session::new(scene);
+            Some(Ok((scene, undo))) => {
+                app.session = Session::restored(scene, undo);
                 app.scene_replaced();
                 app.messages.notice = Some("Restored the scene autosaved in this browser".into());
             }
@@ -146,6 +146,11 @@ impl StrahlerApp {
             }
             None => {}
         }
+        let (undo, redo) = app.session.history_depths();
+        app.automation.update(|s| {
+            s.undo = undo;
+            s.redo = redo;
+        });
         app.fit_mask(app.session.scene().size);
         app.start_warming_kernels(&cc.egui_ctx);
         app.poll_session(&cc.egui_ctx);

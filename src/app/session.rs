@@ -81,8 +81,14 @@ pub struct Session {
 impl Session {
     /// A session on `scene`, its history starting there; the first poll runs it.
     pub fn new(scene: Scene) -> Self {
+        Self::restored(scene, Vec::new())
+    }
+
+    /// A session on `scene` with `undo` steps before it (oldest first), as an earlier visit
+    /// left them.
+    pub fn restored(scene: Scene, undo: Vec<Scene>) -> Self {
         let mut history = History::default();
-        history.start(scene.clone());
+        history.start(scene.clone(), undo);
         Self {
             scene,
             revision: 0,

@@ -300,6 +300,9 @@ async function runMode(url, mode, expectedChecksum) {
     await page.waitForFunction(() => window.strahler.scene() !== null, null, { timeout: 30_000 });
     const sceneAfter = await page.evaluate(() => JSON.stringify(window.strahler.scene().rivers));
     check('a reload restores the autosaved scene', sceneAfter === sceneBefore, `${sceneBefore} vs ${sceneAfter}`);
+    // Issue 35: the undo history survives the reload too (the newest steps that fit).
+    const undoAfter = await page.evaluate(() => window.strahler.status().undo);
+    check('a reload keeps the undo history', undoAfter >= 1, `undo steps after the reload: ${undoAfter}`);
     // A scripted edit is autosaved too (the autosave follows changes, not frames): wait for
     // the terrain, leave the page idle a little over 2 s, reload.
     await page.evaluate(() => window.strahler.addRiver([0.0, 0.8], [0.3, 0.75], { phi: 2, depth: 4 }));
