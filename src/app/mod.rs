@@ -30,8 +30,7 @@ use std::sync::Arc;
 pub use automation::{Automation, Command, JobStatus, Status};
 pub use canvas::RunSummaries;
 pub use map_view::{Hover, MapView, Overlay, Tool};
-pub use session::{PREVIEW_SIZE, RunSettings, Session};
-pub use side_panel::SolverSettings;
+pub use session::{PREVIEW_SIZE, RunSettings, Session, SolverSettings};
 pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};
 
 use glam::DVec2;

@@ -8,14 +8,14 @@
 //! While a pointer gesture is in progress (a drag, a slider, a brush stroke) the run waits
 //! for its end, so a drag is one run and one undo step.
 
-use crate::compute::{Backend, ComputePath};
+use crate::compute::{Backend, BackendChoice, ComputePath};
+use crate::diffusion::{Method, MultigridParams};
 use crate::jobs::JobHandle;
 use crate::pipeline::{Output, Pipeline, PipelineError, RunOptions};
 use crate::scene::{Edit, EditError, Scene};
 
 use super::arrived::{Arrived, Shown};
 use super::history::History;
-use super::side_panel::SolverSettings;
 
 /// Side of the preview terrain: with Preview on, edits of a larger map regenerate at this
 /// size and the full size is generated on demand.
@@ -49,6 +49,44 @@ struct Submitted {
     revision: u64,
     scene: Scene,
     settings: RunSettings,
+}
+
+/// How the diffusion stage solves and on what: run options, not part of the scene.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SolverSettings {
+    /// Multigrid (converged) or the paper's fixed count of Jacobi sweeps.
+    pub multigrid: bool,
+    /// Residual tolerance of multigrid, as a fraction of the height range.
+    pub tolerance: f32,
+    /// Sweeps of the Jacobi method.
+    pub sweeps: u32,
+    pub backend: BackendChoice,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        Self {
+            multigrid: true,
+            tolerance: MultigridParams::default().tolerance,
+            sweeps: 5500,
+            backend: BackendChoice::Auto,
+        }
+    }
+}
+
+impl SolverSettings {
+    pub fn method(&self) -> Method {
+        if self.multigrid {
+            Method::Multigrid(MultigridParams {
+                tolerance: self.tolerance,
+                ..Default::default()
+            })
+        } else {
+            Method::Jacobi {
+                sweeps: self.sweeps,
+            }
+        }
+    }
 }
 
 /// What happened to the session's runs since the last poll.

@@ -4,46 +4,6 @@
 use egui::RichText;
 
 use super::StrahlerApp;
-use crate::compute::BackendChoice;
-use crate::diffusion::{Method, MultigridParams};
-
-/// How the diffusion stage solves and on what: run options, not part of the scene.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SolverSettings {
-    /// Multigrid (converged) or the paper's fixed count of Jacobi sweeps.
-    pub multigrid: bool,
-    /// Residual tolerance of multigrid, as a fraction of the height range.
-    pub tolerance: f32,
-    /// Sweeps of the Jacobi method.
-    pub sweeps: u32,
-    pub backend: BackendChoice,
-}
-
-impl Default for SolverSettings {
-    fn default() -> Self {
-        Self {
-            multigrid: true,
-            tolerance: MultigridParams::default().tolerance,
-            sweeps: 5500,
-            backend: BackendChoice::Auto,
-        }
-    }
-}
-
-impl SolverSettings {
-    pub fn method(&self) -> Method {
-        if self.multigrid {
-            Method::Multigrid(MultigridParams {
-                tolerance: self.tolerance,
-                ..Default::default()
-            })
-        } else {
-            Method::Jacobi {
-                sweeps: self.sweeps,
-            }
-        }
-    }
-}
 
 pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     egui::Panel::left("pipeline")
