@@ -149,7 +149,12 @@ pub mod post {
 
     impl Default for Post {
         fn default() -> Self {
-            let p = PostFilter::default();
+            Self::from(&PostFilter::default())
+        }
+    }
+
+    impl From<&PostFilter> for Post {
+        fn from(p: &PostFilter) -> Self {
             Self {
                 smooth_sigma: p.smooth_sigma,
                 fbm_amplitude: p.fbm_amplitude,
@@ -162,15 +167,7 @@ pub mod post {
     }
 
     pub fn serialize<S: Serializer>(p: &PostFilter, s: S) -> Result<S::Ok, S::Error> {
-        Post {
-            smooth_sigma: p.smooth_sigma,
-            fbm_amplitude: p.fbm_amplitude,
-            fbm_frequency: p.fbm_frequency,
-            fbm_octaves: p.fbm_octaves,
-            fbm_roughness: p.fbm_roughness,
-            protect: p.protect,
-        }
-        .serialize(s)
+        Post::from(p).serialize(s)
     }
 
     pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<PostFilter, D::Error> {
