@@ -26,6 +26,7 @@ pub mod compute;
 pub mod dem;
 pub mod diffusion;
 pub mod erosion;
+pub mod export;
 pub mod features;
 pub mod gpu;
 pub mod heightfield;

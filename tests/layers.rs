@@ -29,6 +29,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("features", 2),
     ("realism", 2),
     ("view3d", 2),
+    ("export", 2),
     ("diffusion", 3),
     ("dem", 3),
     ("noise", 3),
@@ -44,7 +45,7 @@ const LAYERS: &[(&str, u8)] = &[
 /// before it only, so no two stages lean on each other.
 const STAGE_ORDER: &[&str] = &[
     "river", "ridge", "skeleton", "terrain", "wavelet", "realism", "erosion", "blend", "features",
-    "view3d",
+    "view3d", "export",
 ];
 
 /// Inside `app`, the components: they get what they read as arguments and return what they

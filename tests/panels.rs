@@ -7,8 +7,8 @@ mod common;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::panels::{
-    Action, DetailPanel, ErosionPanel, RealismPanel, RiversPanel, SolverPanel, SolverReport,
-    StylePanel, TerrainPanel,
+    Action, DetailPanel, ErosionPanel, ExportDialog, ExportInfo, RealismPanel, RiversPanel,
+    SolverPanel, SolverReport, StylePanel, TerrainPanel,
 };
 use strahler::app::{RunSettings, RunSummaries, Tool};
 use strahler::erosion::ErosionReport;
@@ -258,4 +258,59 @@ fn snapshot_of_the_erosion_panel() {
         "panel_erosion",
         &egui_kittest::SnapshotOptions::new().max_failed_pixels(200),
     );
+}
+
+/// The export dialog: an engine preset shows the numbers to type in and the files before
+/// anything is written, refuses tiles that do not share edges, and asks for the export.
+#[test]
+fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
+    use strahler::export::{Engine, MapKind};
+    let info = ExportInfo {
+        native: 512,
+        cell_m: 10_000.0 / 511.0,
+        range: (0.0, 800.0),
+        preview_of: None,
+        vertical_scale: 1.0,
+        textures: Default::default(),
+    };
+    let mut dialog = ExportDialog {
+        open: true,
+        ..Default::default()
+    };
+    dialog.choose(Some(Engine::Unreal));
+    dialog.maps = vec![MapKind::Splat];
+    let mut h = harness(Bench::new(dialog, Scene::default()), move |p, ui, _, _| {
+        p.show(ui.ctx(), &info)
+    });
+    h.run();
+    assert!(h.state().actions.is_empty(), "opening asks for nothing");
+    h.get_by_label("Scale Z");
+    h.get_by_label("Rock above");
+    assert!(
+        h.query_by_label_contains("strahler-heightmap.png")
+            .is_some(),
+        "the files are listed"
+    );
+    h.get_by_label("Download (Enter)").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::Export { request, layers }] => {
+            assert_eq!(request.engine, Some(Engine::Unreal));
+            assert_eq!(request.size, Some(505));
+            assert_eq!(request.maps, vec![MapKind::Splat]);
+            assert!(!layers);
+        }
+        other => panic!("{other:?}"),
+    }
+    h.state_mut().actions.clear();
+    h.state_mut().panel.tiles = (5, 5);
+    h.run();
+    assert!(
+        h.query_by_label_contains("does not split into 5 x 5")
+            .is_some(),
+        "tiles that do not share edges are refused before writing"
+    );
+    h.get_by_label("Download (Enter)").click();
+    h.run();
+    assert!(h.state().actions.is_empty(), "nothing is asked for");
 }

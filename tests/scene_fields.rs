@@ -57,6 +57,10 @@ const FIELDS: &[&str] = &[
     "blend.0.rect.2",
     "blend.0.quarter_turns",
     "blend.0.z_scale",
+    "textures.rock_slope_deg",
+    "textures.snow_above",
+    "textures.sediment_area_m2",
+    "textures.softness",
 ];
 
 /// The scene with every field set (shipped with the tests), made small enough to run often.

@@ -160,6 +160,10 @@ pub enum Command {
     SetCamera(super::CameraRequest),
     /// Where the 3D view's rasters are made (and show the 3D view).
     View3dMaps(super::MapsChoice),
+    /// An engine export of the terrain on the map (`exportHeightmap` with a preset, tiles,
+    /// maps or rivers): its one file, or its files as a zip, kept for the script
+    /// ([`Automation::take_export`]).
+    Export(Box<crate::export::Request>),
     /// A scene file's bytes (open button or drop).
     OpenScene {
         name: String,
@@ -188,6 +192,8 @@ struct Shared {
     /// The terrain on the map and its cell size in metres, for `exportHeightmap`.
     terrain: Option<(Arc<crate::heightfield::Heightfield>, f64)>,
     commands: Vec<Command>,
+    /// Finished exports by the number of their command.
+    exports: Vec<(u64, Result<Vec<u8>, String>)>,
     /// Commands queued so far, and how many of them the app has applied (and published the
     /// scene after): a script's mutation resolves once `applied` reaches its number.
     queued: u64,
@@ -272,6 +278,19 @@ impl Automation {
     pub(crate) fn take_commands(&self) -> (Vec<Command>, u64) {
         let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
         (std::mem::take(&mut shared.commands), shared.queued)
+    }
+
+    /// The export made for command `number`.
+    pub(crate) fn set_export(&self, number: u64, result: Result<Vec<u8>, String>) {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        shared.exports.push((number, result));
+    }
+
+    /// Takes the export made for command `number`, once it is.
+    pub fn take_export(&self, number: u64) -> Option<Result<Vec<u8>, String>> {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        let at = shared.exports.iter().position(|(n, _)| *n == number)?;
+        Some(shared.exports.remove(at).1)
     }
 
     /// The app applied every command up to `number` and published the scene.

@@ -4,7 +4,7 @@
 use egui::pos2;
 
 use super::map_view::Tool;
-use super::{StrahlerApp, ViewKind, blend, export, side_panel, status_bar};
+use super::{StrahlerApp, ViewKind, blend, side_panel, status_bar};
 use crate::scene::{Edit, LineKind, RiverStroke};
 
 impl StrahlerApp {
@@ -49,7 +49,7 @@ impl eframe::App for StrahlerApp {
         side_panel::show(ui, self);
         self.switch_before_after(&ctx);
         self.view_switch(ui);
-        export::window(&ctx, self);
+        self.export_window(&ctx);
         if self.view == ViewKind::ThreeD {
             self.view3d_area(ui, frame);
             return;

@@ -199,7 +199,8 @@ impl StrahlerApp {
     pub(super) fn poll_jobs(&mut self, ctx: &egui::Context) {
         let (commands, applied) = self.automation.take_commands();
         let scripted = !commands.is_empty();
-        for command in commands {
+        let first = applied + 1 - commands.len() as u64;
+        for (number, command) in (first..).zip(commands) {
             match command {
                 Command::Edit(edit) => self.edit(edit),
                 Command::MaskFromRivers => self.mask_from_rivers(ctx),
@@ -219,6 +220,10 @@ impl StrahlerApp {
                     z_scale,
                 } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
                 Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
+                Command::Export(request) => {
+                    let result = self.export_bytes(&request);
+                    self.automation.set_export(number, result);
+                }
                 Command::FileRefused { name, message } => {
                     self.set_error(format!("{name}: {message}"))
                 }

@@ -88,7 +88,7 @@ pub struct StrahlerApp {
     check: ComputeCheck,
     /// The uploaded DEM, the placed blocks, the blend stage and the network comparison.
     blend: blend::BlendState,
-    export: export::ExportDialog,
+    export: panels::ExportDialog,
     /// The side panel's sections, each with its own state.
     panels: panels::Panels,
     /// Which view the central area shows, and the 3D view.
@@ -236,6 +236,7 @@ impl StrahlerApp {
                 }
             }
             Action::Error(message) => self.set_error(message),
+            Action::Export { request, layers } => self.download(request, layers),
         }
     }
 

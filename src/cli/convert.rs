@@ -42,12 +42,17 @@ pub struct ConvertArgs {
     /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
+    /// Engine presets, tiles and texture maps, written beside OUTPUT.
+    #[command(flatten)]
+    pub package: super::package::PackageArgs,
 }
 
 pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
     let mut outputs = Outputs::new(args.force);
     outputs.input(&args.input, "input");
-    outputs.claim_dem(&args.output, "output")?;
+    if !args.package.wanted() {
+        outputs.claim_dem(&args.output, "output")?;
+    }
     let mut dem = super::io::read_dem_with(
         &args.input,
         &ImportOptions {
@@ -85,7 +90,11 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
             .georef
             .cell_size_m(dem.field.height())
             .map_or(1.0, |c| c.0),
+        z_range: None,
     };
+    if args.package.wanted() {
+        return package(args, outputs, &dem, options.cell_size);
+    }
     super::io::write_dem_with(&outputs, &args.output, &dem.field, &dem.georef, &options)?;
     outputs.commit()?;
     println!(
@@ -95,5 +104,49 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
         dem.field.height(),
         args.output.display()
     );
+    Ok(())
+}
+
+/// `--preset`, `--tiles` or `--maps`: the DEM as an engine export beside OUTPUT (a DEM has no
+/// river network: the water map is empty and there is no erosion map).
+fn package(
+    args: &ConvertArgs,
+    mut outputs: Outputs,
+    dem: &crate::dem::Dem,
+    cell_m: f64,
+) -> Result<(), Box<dyn std::error::Error>> {
+    let field = &dem.field;
+    let (w, h) = (field.width(), field.height());
+    if w != h {
+        return Err(format!(
+            "{}: a {w} x {h} DEM; --preset, --tiles and --maps take square heightmaps (crop or \
+             resize it first)",
+            args.input.display()
+        )
+        .into());
+    }
+    let request = args
+        .package
+        .request(&args.output, args.size, args.flip_y, args.z_scale, w)?;
+    super::package::claim(&mut outputs, &args.output, &request)?;
+    let area: Vec<f32> = crate::realism::drainage_area_m2(field.data(), w, h, cell_m)
+        .map(|a| a.into_iter().map(|v| v as f32).collect())
+        .unwrap_or_else(|| vec![0.0; w * h]);
+    let order = vec![0u8; w * h];
+    let inputs = crate::export::Inputs {
+        field,
+        cell_m,
+        networks: &[],
+        ridges: &[],
+        skeleton_cells: w,
+        river_order: &order,
+        area_m2: &area,
+        lowered: None,
+        splat: crate::export::SplatRules::default(),
+        georef: Some(&dem.georef),
+    };
+    let files = crate::export::files(&inputs, &request)?;
+    super::package::write(&outputs, &args.output, &files)?;
+    outputs.commit()?;
     Ok(())
 }

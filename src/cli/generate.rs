@@ -74,6 +74,17 @@ pub struct GenerateArgs {
     /// Output heightmap: .tif (float32 GeoTIFF) or .png (16-bit, range in a sidecar .json).
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Engine presets, tiles and texture maps, written beside --out.
+    #[command(flatten)]
+    pub package: super::package::PackageArgs,
+    /// Vertices a side of the exported heightmap with --preset, --tiles or --maps (resampled
+    /// by a tent filter) [default: the preset's largest size not above the terrain's].
+    #[arg(allow_hyphen_values = true, long, value_name = "N")]
+    pub export_size: Option<usize>,
+    /// The river network (Strahler order, width, drainage area) and the ridges as GeoJSON
+    /// beside --out (STEM-rivers.geojson).
+    #[arg(long)]
+    pub geojson: bool,
     /// Write rivers.png (Strahler order), ridges.png and constraints.png here.
     #[arg(long)]
     pub layers: Option<PathBuf>,
@@ -279,7 +290,8 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     if let Some(path) = &args.compare {
         outputs.input(path, "comparison DEM");
     }
-    if let Some(path) = &args.out {
+    let package = package_request(args, &scene, &mut outputs)?;
+    if let (Some(path), None) = (&args.out, &package) {
         outputs.claim_dem(path, "output")?;
     }
     if let Some(path) = &args.report {
@@ -307,7 +319,10 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         }
         None => None,
     };
-    if let Some(path) = &args.out {
+    if let (Some(request), Some(path)) = (&package, &args.out) {
+        let files = out.export_files(request, scene.textures.splat())?;
+        super::package::write(&outputs, path, &files)?;
+    } else if let Some(path) = &args.out {
         write_heightmap(
             &outputs,
             path,
@@ -364,6 +379,36 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("note: {note}");
     }
     Ok(())
+}
+
+/// The engine export `--preset`, `--tiles`, `--maps` or `--geojson` ask for, its files claimed
+/// beside `--out`; `None` for a plain heightmap.
+fn package_request(
+    args: &GenerateArgs,
+    scene: &Scene,
+    outputs: &mut Outputs,
+) -> Result<Option<crate::export::Request>, Box<dyn std::error::Error>> {
+    if !(args.package.wanted() || args.geojson || args.export_size.is_some()) {
+        return Ok(None);
+    }
+    let out = args.out.as_ref().ok_or(
+        "--preset, --tiles, --maps, --export-size and --geojson write beside the heightmap: \
+         give --out FILE",
+    )?;
+    let native = match scene.detail.levels {
+        0 => scene.size,
+        levels => crate::wavelet::synthesis::output_len(scene.size, levels),
+    };
+    let mut request = args.package.request(
+        out,
+        args.export_size,
+        false,
+        scene.vertical_scale as f32,
+        native,
+    )?;
+    request.rivers = args.geojson;
+    super::package::claim(outputs, out, &request)?;
+    Ok(Some(request))
 }
 
 /// The memory [`pipeline::generate`] holds at its peak for `scene`: the stages over the

@@ -37,10 +37,18 @@ pub fn read_dem_with(path: &Path, options: &ImportOptions) -> Result<Dem> {
     let bytes = format::read_file(path, options.limits).map_err(at)?;
     let mut options = *options;
     let sidecar = match format {
-        Some(Format::Png | Format::R16) => read_sidecar(&super::output::sidecar_of(path))?,
+        Some(Format::Png | Format::R16 | Format::R32) => {
+            read_sidecar(&super::output::sidecar_of(path))?
+        }
         _ => Sidecar::default(),
     };
     options.z_range = options.z_range.or(sidecar.z_range);
+    if format == Some(Format::R32) {
+        let flip_y = options.flip_y || sidecar.flip_y == Some(true);
+        return Ok(
+            crate::dem::raw32::read(&bytes, flip_y, options.limits, sidecar.size).map_err(at)?,
+        );
+    }
     if format == Some(Format::R16) {
         options.flip_y |= sidecar.flip_y == Some(true);
         return Ok(raw::read_sized(
@@ -122,7 +130,7 @@ pub fn write_dem_with(
     let name = path.to_string_lossy();
     let format = Format::from_name(&name).ok_or_else(|| {
         format!(
-            "{}: unknown output format; use .tif, .png, .r16, .asc, .hgt or .obj",
+            "{}: unknown output format; use .tif, .png, .r16, .r32, .exr, .asc, .hgt or .obj",
             path.display()
         )
     })?;

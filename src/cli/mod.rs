@@ -13,6 +13,7 @@ mod info;
 mod io;
 mod memory;
 mod output;
+mod package;
 
 use std::process::ExitCode;
 
@@ -31,7 +32,7 @@ pub enum Command {
     /// Print the version, the GPU adapter found and the limits that matter.
     Info(info::InfoArgs),
     /// Generate a terrain from river strokes (rivers, ridges, skeleton, diffusion).
-    Generate(generate::GenerateArgs),
+    Generate(Box<generate::GenerateArgs>),
     /// Fill the no-data cells of a DEM by harmonic (Laplace) diffusion.
     Fill(fill::FillArgs),
     /// Print the wavelet statistics of a DEM: detail variance per level and band, fitted lines.

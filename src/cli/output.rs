@@ -149,11 +149,11 @@ pub struct Outputs {
     staged: RefCell<Vec<Staged>>,
 }
 
-/// Whether a file name is a heightmap that carries a sidecar (PNG, RAW R16).
+/// Whether a file name is a heightmap that carries a sidecar (PNG, RAW R16 and R32).
 fn has_sidecar(path: &Path) -> bool {
     matches!(
         Format::from_name(&path.to_string_lossy()),
-        Some(Format::Png | Format::R16)
+        Some(Format::Png | Format::R16 | Format::R32)
     )
 }
 

@@ -1,7 +1,9 @@
 //! Every elevation format by name: which reader or writer a file name selects, and the
 //! options the export dialog and `strahler convert` share (size preset, Y flip, z scale).
 
-use super::{Dem, DemError, GeoRef, ReadLimits, asc, geotiff, hgt, obj, png16, raw, resize};
+use super::{
+    Dem, DemError, GeoRef, ReadLimits, asc, exr, geotiff, hgt, obj, png16, raw, raw32, resize,
+};
 use crate::heightfield::Heightfield;
 
 /// A file format.
@@ -19,14 +21,20 @@ pub enum Format {
     Hgt,
     /// Wavefront OBJ mesh (export only).
     Obj,
+    /// OpenEXR, one 32-bit float channel of metres.
+    Exr,
+    /// RAW R32: little-endian 32-bit floats in metres, size in a sidecar JSON.
+    R32,
 }
 
 impl Format {
     /// Formats the export dialog offers, in its order.
-    pub const EXPORTS: [Format; 6] = [
+    pub const EXPORTS: [Format; 8] = [
         Format::Png,
         Format::GeoTiff,
         Format::R16,
+        Format::Exr,
+        Format::R32,
         Format::Asc,
         Format::Obj,
         Format::Hgt,
@@ -39,7 +47,7 @@ impl Format {
     }
 
     /// From a short key or extension: `png`, `tif`/`tiff`/`geotiff`, `r16`/`raw`, `asc`,
-    /// `hgt`, `obj`.
+    /// `hgt`, `obj`, `exr`, `r32`.
     pub fn from_key(key: &str) -> Option<Format> {
         Some(match key.to_ascii_lowercase().as_str() {
             "tif" | "tiff" | "geotiff" => Format::GeoTiff,
@@ -48,6 +56,8 @@ impl Format {
             "asc" => Format::Asc,
             "hgt" => Format::Hgt,
             "obj" => Format::Obj,
+            "exr" => Format::Exr,
+            "r32" => Format::R32,
             _ => return None,
         })
     }
@@ -61,6 +71,8 @@ impl Format {
             Format::Asc => "asc",
             Format::Hgt => "hgt",
             Format::Obj => "obj",
+            Format::Exr => "exr",
+            Format::R32 => "r32",
         }
     }
 
@@ -73,6 +85,8 @@ impl Format {
             Format::Asc => "ESRI ASCII grid (GIS)",
             Format::Hgt => "SRTM .hgt (whole metres)",
             Format::Obj => "OBJ mesh (Blender, 3D tools)",
+            Format::Exr => "OpenEXR float32 (Godot, Gaea, Houdini)",
+            Format::R32 => "RAW R32 float (Gaea, World Machine)",
         }
     }
 
@@ -81,7 +95,8 @@ impl Format {
             Format::GeoTiff => "image/tiff",
             Format::Png => "image/png",
             Format::Asc | Format::Obj => "text/plain",
-            Format::R16 | Format::Hgt => "application/octet-stream",
+            Format::Exr => "image/x-exr",
+            Format::R16 | Format::Hgt | Format::R32 => "application/octet-stream",
         }
     }
 
@@ -112,6 +127,8 @@ pub fn read(name: &str, bytes: &[u8], options: &ImportOptions) -> Result<Dem, De
         Some(Format::R16) => raw::read(bytes, options.z_range, options.flip_y, options.limits),
         Some(Format::Asc) => asc::read(bytes, options.limits),
         Some(Format::Hgt) => hgt::read(name, bytes, options.limits),
+        Some(Format::Exr) => exr::read(bytes, options.limits),
+        Some(Format::R32) => raw32::read(bytes, options.flip_y, options.limits, None),
         Some(Format::Obj) | None => Err(DemError::UnknownFormat(name.to_owned())),
     }
 }
@@ -126,6 +143,8 @@ impl Format {
             Format::Asc => "ESRI ASCII grid",
             Format::Hgt => "SRTM .hgt tile",
             Format::Obj => "OBJ mesh",
+            Format::Exr => "OpenEXR file",
+            Format::R32 => "RAW R32 file",
         }
     }
 
@@ -138,6 +157,9 @@ impl Format {
             Format::Png => 8,
             Format::R16 | Format::Hgt => 2,
             Format::Asc => 40,
+            Format::R32 => 4,
+            // ZIP blocks that did not shrink are stored: 4 bytes a cell plus offsets.
+            Format::Exr => 8,
             Format::Obj => 0,
         }
     }
@@ -271,6 +293,9 @@ pub struct ExportOptions {
     /// Horizontal cell size in metres at the terrain's own size, for formats without
     /// georeferencing (OBJ, ASCII, the sidecar).
     pub cell_size: f64,
+    /// The height range 16-bit samples span (PNG, RAW R16), after the z scale; `None`: the
+    /// field's own. Tiles of one map share one, so a height is the same sample in each.
+    pub z_range: Option<(f32, f32)>,
 }
 
 impl Default for ExportOptions {
@@ -280,6 +305,7 @@ impl Default for ExportOptions {
             flip_y: false,
             z_scale: 1.0,
             cell_size: 1.0,
+            z_range: None,
         }
     }
 }
@@ -320,7 +346,7 @@ pub fn write(
             let fx = (n - 1) as f64 / (field.width().max(2) - 1) as f64;
             let fy = (n - 1) as f64 / (field.height().max(2) - 1) as f64;
             (
-                resize::resample_corners(field, n, n),
+                resize::resample_filtered(field, n, n),
                 georef.resampled(fx, fy),
                 options.cell_size / fx,
             )
@@ -361,8 +387,9 @@ pub fn write(
             "the cell size must be a positive number, got {cell}"
         )));
     }
+    let range = options.z_range.or(out.finite_range());
     if matches!(format, Format::Png | Format::R16)
-        && let Some((lo, hi)) = out.finite_range()
+        && let Some((lo, hi)) = range
     {
         // 16-bit samples are spread over the range: a range wider than an f32 holds would
         // make every sample 0 and the sidecar unreadable.
@@ -373,10 +400,10 @@ pub fn write(
     if options.flip_y && matches!(format, Format::Png) {
         out = resize::flipped_y(&out);
     }
-    let sidecar = |range: (f32, f32)| {
+    let sidecar = |range: (f32, f32), decode: &str| {
         format!(
             "{{\n  \"zmin\": {},\n  \"zmax\": {},\n  \"width\": {},\n  \"height\": {},\n  \
-             \"cell_size_m\": {},\n  \"flip_y\": {},\n  \"decode\": \"z = zmin + v / 65535 * (zmax - zmin)\"\n}}\n",
+             \"cell_size_m\": {},\n  \"flip_y\": {},\n  \"decode\": \"{decode}\"\n}}\n",
             range.0,
             range.1,
             out.width(),
@@ -385,23 +412,24 @@ pub fn write(
             options.flip_y
         )
     };
+    const STEPS: &str = "z = zmin + v / 65535 * (zmax - zmin)";
     Ok(match format {
         Format::GeoTiff => Exported {
             bytes: geotiff::write(&out, &georef)?,
             sidecar: None,
         },
         Format::Png => {
-            let (bytes, range) = png16::write_heightmap(&out)?;
+            let (bytes, range) = png16::write_heightmap_in(&out, range.unwrap_or((0.0, 0.0)))?;
             Exported {
                 bytes,
-                sidecar: Some(sidecar(range)),
+                sidecar: Some(sidecar(range, STEPS)),
             }
         }
         Format::R16 => {
-            let (bytes, range) = raw::write(&out, options.flip_y);
+            let (bytes, range) = raw::write_in(&out, options.flip_y, range.unwrap_or((0.0, 0.0)));
             Exported {
                 bytes,
-                sidecar: Some(sidecar(range)),
+                sidecar: Some(sidecar(range, STEPS)),
             }
         }
         Format::Asc => Exported {
@@ -415,6 +443,17 @@ pub fn write(
         Format::Obj => Exported {
             bytes: obj::write(&out, cell)?,
             sidecar: None,
+        },
+        Format::Exr => Exported {
+            bytes: exr::write(&out)?,
+            sidecar: None,
+        },
+        Format::R32 => Exported {
+            bytes: raw32::write(&out, options.flip_y),
+            sidecar: Some(sidecar(
+                out.finite_range().unwrap_or((0.0, 0.0)),
+                "z = little-endian float32 in metres, NaN = no data",
+            )),
         },
     })
 }

@@ -16,6 +16,7 @@
 //!   ([`clip`]).
 
 pub mod asc;
+pub mod exr;
 pub mod format;
 pub mod geotiff;
 pub mod hgt;
@@ -23,6 +24,7 @@ pub mod hillshade;
 pub mod obj;
 pub mod png16;
 pub mod raw;
+pub mod raw32;
 pub mod resize;
 pub mod sidecar;
 
@@ -58,7 +60,8 @@ pub enum DemError {
     },
     #[error(
         "{0}: unknown elevation format; use .tif/.tiff (GeoTIFF), .hgt (SRTM), .asc (ESRI \
-         ASCII grid), .png (greyscale heightmap) or .r16/.raw (RAW 16-bit)"
+         ASCII grid), .png (greyscale heightmap), .r16/.raw (RAW 16-bit), .r32 (RAW float) or .exr \
+         (OpenEXR)"
     )]
     UnknownFormat(String),
     #[error("the file is {bytes} bytes, more than the {limit} bytes {why}; not read")]

@@ -10,7 +10,15 @@ use crate::heightfield::Heightfield;
 /// here (a NaN would be written as 0, the minimum). Returns the bytes and the `(min, max)`
 /// range used.
 pub fn write_heightmap(field: &Heightfield) -> Result<(Vec<u8>, (f32, f32)), DemError> {
-    let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
+    write_heightmap_in(field, field.finite_range().unwrap_or((0.0, 0.0)))
+}
+
+/// [`write_heightmap`] spread over the range `(lo, hi)` instead of the field's own (tiles of
+/// one map share one range); heights outside it are clamped.
+pub fn write_heightmap_in(
+    field: &Heightfield,
+    (lo, hi): (f32, f32),
+) -> Result<(Vec<u8>, (f32, f32)), DemError> {
     let span = f64::from(hi - lo);
     let mut samples = Vec::with_capacity(field.data().len() * 2);
     for &z in field.data() {
@@ -39,9 +47,36 @@ pub fn write_grey8(width: usize, height: usize, values: &[u8]) -> Result<Vec<u8>
     encode(width, height, png::BitDepth::Eight, values, None)
 }
 
+/// Encodes an 8-bit colour image with `channels` 3 (RGB) or 4 (RGBA) interleaved samples a
+/// pixel (normal and splat maps).
+pub fn write_colour8(
+    width: usize,
+    height: usize,
+    channels: usize,
+    values: &[u8],
+) -> Result<Vec<u8>, DemError> {
+    let colour = match channels {
+        3 => png::ColorType::Rgb,
+        4 => png::ColorType::Rgba,
+        _ => return Err(DemError::Write(format!("{channels} channels a pixel"))),
+    };
+    encode_as(width, height, colour, png::BitDepth::Eight, values, None)
+}
+
 fn encode(
     width: usize,
     height: usize,
+    depth: png::BitDepth,
+    data: &[u8],
+    text: Option<(String, String)>,
+) -> Result<Vec<u8>, DemError> {
+    encode_as(width, height, png::ColorType::Grayscale, depth, data, text)
+}
+
+fn encode_as(
+    width: usize,
+    height: usize,
+    colour: png::ColorType,
     depth: png::BitDepth,
     data: &[u8],
     text: Option<(String, String)>,
@@ -50,7 +85,7 @@ fn encode(
     let mut out = Vec::new();
     {
         let mut encoder = png::Encoder::new(&mut out, width as u32, height as u32);
-        encoder.set_color(png::ColorType::Grayscale);
+        encoder.set_color(colour);
         encoder.set_depth(depth);
         if let Some((key, value)) = text {
             encoder.add_text_chunk(key, value).map_err(err)?;

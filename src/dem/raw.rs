@@ -10,7 +10,12 @@ use crate::heightfield::Heightfield;
 /// value: [`super::format::write`] refuses fields with no-data cells before they get here
 /// (a NaN would be written as 0, the minimum).
 pub fn write(field: &Heightfield, flip_y: bool) -> (Vec<u8>, (f32, f32)) {
-    let (lo, hi) = field.finite_range().unwrap_or((0.0, 0.0));
+    write_in(field, flip_y, field.finite_range().unwrap_or((0.0, 0.0)))
+}
+
+/// [`write`] spread over the range `(lo, hi)` instead of the field's own (tiles of one map
+/// share one range); heights outside it are clamped.
+pub fn write_in(field: &Heightfield, flip_y: bool, (lo, hi): (f32, f32)) -> (Vec<u8>, (f32, f32)) {
     let span = f64::from(hi - lo);
     let mut out = Vec::with_capacity(field.data().len() * 2);
     let w = field.width();

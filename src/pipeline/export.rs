@@ -1,6 +1,6 @@
 //! What leaves the pipeline as files, shared by the app's export dialog, the page's
-//! `exportHeightmap` and `strahler generate`: the heightmap in a chosen format, and the layer
-//! pictures.
+//! `exportHeightmap` and `strahler generate`: the heightmap in a chosen format, the layer
+//! pictures, and engine exports (`crate::export`: presets, tiles, texture maps, GeoJSON).
 
 use crate::dem::GeoRef;
 use crate::dem::format::{self, ExportOptions, Exported, Format};
@@ -39,11 +39,52 @@ pub fn encode_heightmap(
         flip_y: export.flip_y,
         z_scale: export.z_scale,
         cell_size: cell,
+        z_range: None,
     };
     format::write(export.format, field, &georef, &options).map_err(|e| e.to_string())
 }
 
 impl Output {
+    /// Every file of an engine or multi-file export (`crate::export::files`) of this terrain;
+    /// `splat`: the scene's splat-map rules.
+    pub fn export_files(
+        &self,
+        request: &crate::export::Request,
+        splat: crate::export::SplatRules,
+    ) -> Result<Vec<crate::export::File>, String> {
+        let skeleton = &self.hydrology.skeleton;
+        let n = skeleton.size;
+        let base = &self.hydrology.terrain;
+        let skeleton_cell =
+            self.cell_m * (self.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
+        // Drainage area on the skeleton's grid by D8 over the terrain before detail (the
+        // erosion's own area treats the rivers as base level: they gather nothing).
+        let area: Vec<f32> =
+            crate::realism::drainage_area_m2(self.base().data(), n, n, skeleton_cell)
+                .map(|a| a.into_iter().map(|v| v as f32).collect())
+                .unwrap_or_else(|| vec![0.0; n * n]);
+        let lowered = self.erosion.as_ref().map(|e| e.depth(base));
+        let networks: Vec<_> = self
+            .hydrology
+            .rivers
+            .iter()
+            .map(|r| r.network.clone())
+            .collect();
+        let inputs = crate::export::Inputs {
+            field: &self.field,
+            cell_m: self.cell_m,
+            networks: &networks,
+            ridges: &self.hydrology.ridges,
+            skeleton_cells: n,
+            river_order: &skeleton.river_order,
+            area_m2: &area,
+            lowered: lowered.as_deref(),
+            splat,
+            georef: None,
+        };
+        crate::export::files(&inputs, request)
+    }
+
     /// The skeleton's layers (`rivers.png`, `ridges.png`, `constraints.png`) and, with
     /// erosion, `drainage_area.png` (log scale) and `erosion_depth.png`.
     pub fn layer_pngs(&self) -> Result<Vec<LayerPng>, String> {

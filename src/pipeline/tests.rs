@@ -254,6 +254,12 @@ fn every_field_scene() -> Scene {
     scene.params.post.smooth_sigma = 0.5;
     scene.params.post.fbm_amplitude = 2.0;
     scene.params.post.fbm_octaves = 3;
+    scene.textures = crate::scene::TextureRules {
+        rock_slope_deg: 40.0,
+        snow_above: 0.7,
+        sediment_area_m2: 500000.0,
+        softness: 0.2,
+    };
     scene.detail = DetailSettings {
         levels: 1,
         window: 5,

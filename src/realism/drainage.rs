@@ -155,6 +155,49 @@ pub(super) fn flow_accumulation(g: &Grid, rcv: &[Option<(usize, f64)>]) -> Vec<f
     area
 }
 
+/// Upstream area (m²) of every cell of `heights` (`w` x `h`, cells `cell_m` wide) by D8 on
+/// the Priority-Flood+epsilon surface (the measures' own routing), `None` when the shape or
+/// cell size is not valid; no-data cells drain nothing (0).
+pub fn drainage_area_m2(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Option<Vec<f64>> {
+    let g = Grid::new(heights, w, h, cell_m, cell_m)?;
+    let (z, outlet) = priority_flood_epsilon(&g);
+    let rcv = d8_receivers(&g, &z, &outlet);
+    Some(flow_accumulation(&g, &rcv))
+}
+
+/// The outlet (a cell index) every cell of `heights` drains to by the same D8 routing as
+/// [`drainage_area_m2`], and every cell's upstream area (m²); `u32::MAX` for no-data.
+/// `None` when the shape or cell size is not valid. O(cells): each chain is walked once.
+pub fn outlets(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Option<(Vec<u32>, Vec<f64>)> {
+    let g = Grid::new(heights, w, h, cell_m, cell_m)?;
+    let (z, outlet) = priority_flood_epsilon(&g);
+    let rcv = d8_receivers(&g, &z, &outlet);
+    let area = flow_accumulation(&g, &rcv);
+    let mut out = vec![u32::MAX; rcv.len()];
+    let mut path = Vec::new();
+    for start in 0..rcv.len() {
+        if out[start] != u32::MAX || !g.z[start].is_finite() {
+            continue;
+        }
+        let mut at = start;
+        // Walk down until a cell whose outlet is known, or one with no receiver.
+        let end = loop {
+            if out[at] != u32::MAX {
+                break out[at];
+            }
+            path.push(at);
+            match rcv[at] {
+                Some((next, _)) => at = next,
+                None => break at as u32,
+            }
+        };
+        for cell in path.drain(..) {
+            out[cell] = end;
+        }
+    }
+    Some((out, area))
+}
+
 /// Drainage density (km/km²) for channels of upstream area ≥ `threshold_m2`.
 pub(super) fn drainage(g: &Grid, threshold_m2: f64) -> Drainage {
     let (z, outlet) = priority_flood_epsilon(g);

@@ -8,7 +8,9 @@
 
 use thiserror::Error;
 
-use super::{DetailSettings, Params, RiverStroke, Scene, SketchLine, SketchPeak, StyleSettings};
+use super::{
+    DetailSettings, Params, RiverStroke, Scene, SketchLine, SketchPeak, StyleSettings, TextureRules,
+};
 use crate::blend::BlendBlock;
 use crate::erosion::ErosionSettings;
 
@@ -82,6 +84,8 @@ pub enum Edit {
         rect: [f64; 4],
     },
     RemoveBlock(usize),
+    /// The exported splat map's rules.
+    SetTextures(TextureRules),
     /// A whole new document (a scene opened or extracted, undo and redo).
     Replace(Box<Scene>),
 }
@@ -187,6 +191,18 @@ impl Scene {
             Edit::RemoveBlock(index) => {
                 item(&mut self.blend, index, "block")?;
                 self.blend.remove(index);
+            }
+            Edit::SetTextures(rules) => {
+                rules.check().map_err(|e| match e {
+                    super::SceneError::Invalid { field, problem } => {
+                        EditError::Invalid { field, problem }
+                    }
+                    other => EditError::Invalid {
+                        field: "textures".into(),
+                        problem: other.to_string(),
+                    },
+                })?;
+                self.textures = rules;
             }
             Edit::Replace(scene) => *self = *scene,
         }

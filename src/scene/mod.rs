@@ -347,6 +347,50 @@ pub struct Scene {
     /// Blocks of real terrain blended in by the Poisson equation, solved in order.
     #[serde(skip_serializing_if = "Vec::is_empty", with = "file::blocks")]
     pub blend: Vec<crate::blend::BlendBlock>,
+    /// Where the exported splat map puts rock, snow and sediment; absent = the defaults.
+    #[serde(default, skip_serializing_if = "TextureRules::is_default")]
+    pub textures: TextureRules,
+}
+
+/// The rules of the exported splat map (`crate::export::maps::splat_weights`): ground steeper
+/// than `rock_slope_deg` is rock, ground above `snow_above` of the height range is snow,
+/// ground draining more than `sediment_area_m2` is sediment, the rest grass; each transition
+/// `softness` of its threshold wide.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TextureRules {
+    pub rock_slope_deg: f64,
+    pub snow_above: f64,
+    pub sediment_area_m2: f64,
+    pub softness: f64,
+}
+
+impl Default for TextureRules {
+    fn default() -> Self {
+        let d = crate::export::SplatRules::default();
+        Self {
+            rock_slope_deg: d.rock_slope_deg,
+            snow_above: d.snow_above,
+            sediment_area_m2: d.sediment_area_m2,
+            softness: d.softness,
+        }
+    }
+}
+
+impl TextureRules {
+    pub fn is_default(&self) -> bool {
+        *self == Self::default()
+    }
+
+    /// The export stage's rules.
+    pub fn splat(&self) -> crate::export::SplatRules {
+        crate::export::SplatRules {
+            rock_slope_deg: self.rock_slope_deg,
+            snow_above: self.snow_above,
+            sediment_area_m2: self.sediment_area_m2,
+            softness: self.softness,
+        }
+    }
 }
 
 /// Style from real terrain (`crate::wavelet::style`).
@@ -468,6 +512,7 @@ impl Default for Scene {
             erosion: Some(crate::erosion::ErosionSettings::default()),
             style: None,
             blend: Vec::new(),
+            textures: TextureRules::default(),
         }
     }
 }

@@ -23,6 +23,7 @@ impl Scene {
         self.check_enrichment_and_filters()?;
         self.check_erosion()?;
         self.check_style()?;
+        self.check_textures()?;
         self.check_extent()?;
         Ok(())
     }
@@ -363,6 +364,10 @@ impl Scene {
         Ok(())
     }
 
+    fn check_textures(&self) -> Result<(), SceneError> {
+        self.textures.check()
+    }
+
     /// The map's width, from the size and the cell size.
     fn check_extent(&self) -> Result<(), SceneError> {
         if !(self.map_width().is_finite() && self.map_width() <= MAX_MAP_WIDTH_M) {
@@ -373,6 +378,25 @@ impl Scene {
                     self.map_width()
                 ),
             );
+        }
+        Ok(())
+    }
+}
+
+impl super::TextureRules {
+    /// The splat map's rules, each within its range.
+    pub fn check(&self) -> Result<(), SceneError> {
+        let t = self;
+        let within = |v: f64, lo: f64, hi: f64| v.is_finite() && (lo..=hi).contains(&v);
+        for (field, value, lo, hi) in [
+            ("textures.rock_slope_deg", t.rock_slope_deg, 1.0, 89.0),
+            ("textures.snow_above", t.snow_above, 0.0, 1.0),
+            ("textures.sediment_area_m2", t.sediment_area_m2, 1.0, 1e12),
+            ("textures.softness", t.softness, 0.0, 1.0),
+        ] {
+            if !within(value, lo, hi) {
+                return bad(field, format!("must be {lo} to {hi}, got {value}"));
+            }
         }
         Ok(())
     }

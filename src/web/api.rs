@@ -14,8 +14,11 @@
 //! - `fillVoids()`: harmonic fill of the uploaded DEM's no-data cells.
 //! - `placeBlock({window: [row, col, height, width], rect: [x0, y0, x1, y1], quarterTurns,
 //!   mirror, zScale})`: blends a window of the DEM into the map; `moveBlock(index, rect)`.
-//! - `exportHeightmap(format, {size, flipY, zScale})`: a promise of the terrain on the map
-//!   as a file's bytes (`Uint8Array`); `format` is png, tif, r16, asc, hgt or obj.
+//! - `exportHeightmap(format, {size, flipY, zScale, preset, tiles, maps, rivers, normals})`:
+//!   a promise of the terrain on the map as a file's bytes (`Uint8Array`); `format` is png,
+//!   tif, r16, r32, exr, asc, hgt or obj. With `preset` ('unreal', 'unity', 'godot', 'gis',
+//!   'gaea-wm'), `tiles` (`[columns, rows]`), `maps` (['normal', 'splat', ...]) or `rivers`
+//!   (GeoJSON) it is an engine export (`crate::export`): one file as itself, several as a zip.
 //! - `undo()`, `redo()`: one step of the document's history.
 //! - `generate({size})`: a promise of the report `strahler generate --report` writes, for the
 //!   current scene at `size` (the map is not changed).
@@ -252,7 +255,13 @@ fn install_outputs(api: &js_sys::Object, automation: &Automation) {
             let automation = export_source.clone();
             wasm_bindgen_futures::future_to_promise(async move {
                 settled(&automation).await;
-                export_bytes(&automation, &format, &options).map(JsValue::from)
+                let o = export_options(&options)?;
+                if o.wants_package() {
+                    return package_bytes(&automation, &format, o)
+                        .await
+                        .map(JsValue::from);
+                }
+                export_bytes(&automation, &format, &o).map(JsValue::from)
             })
         },
     );
@@ -389,26 +398,91 @@ fn install_views(api: &js_sys::Object, automation: &Automation) {
     set_camera.forget();
 }
 
+/// `exportHeightmap`'s options, read strictly (an unknown key is named).
+fn export_options(options: &JsValue) -> Result<ExportOptions, JsValue> {
+    if options.is_undefined() || options.is_null() {
+        return Ok(ExportOptions::default());
+    }
+    serde_json::from_str(&json_text(options)?).map_err(|e| {
+        error(format!(
+            "exportHeightmap options {{size, flipY, zScale, preset, tiles, maps, rivers, \
+             normals}}: {e}"
+        ))
+    })
+}
+
+fn export_format(format: &str) -> Result<crate::dem::format::Format, JsValue> {
+    crate::dem::format::Format::from_key(format).ok_or_else(|| {
+        error(format!(
+            "unknown format {format:?}: use png, tif, r16, r32, exr, asc, hgt or obj"
+        ))
+    })
+}
+
+/// `exportHeightmap` with a preset, tiles, maps or rivers: the app makes the files of the
+/// terrain on the map (`crate::export::files`); one file comes back as itself, several as
+/// one zip.
+async fn package_bytes(
+    automation: &Automation,
+    format: &str,
+    o: ExportOptions,
+) -> Result<js_sys::Uint8Array, JsValue> {
+    use crate::export::{Engine, MapKind, NormalConvention, Request};
+    let fmt = export_format(format)?;
+    let native = automation
+        .terrain()
+        .map(|(field, _)| field.width())
+        .ok_or_else(|| error("there is no terrain yet"))?;
+    let mut request = match &o.preset {
+        Some(key) => Request::for_engine(
+            Engine::from_key(key).ok_or_else(|| {
+                error(format!(
+                    "unknown preset {key:?}: use unreal, unity, godot, gis or gaea-wm"
+                ))
+            })?,
+            native,
+        ),
+        None => Request::heightmap(fmt),
+    };
+    request.format = fmt;
+    if o.size.is_some() {
+        request.size = o.size;
+    }
+    request.flip_y |= o.flip_y;
+    request.z_scale =
+        o.z_scale.unwrap_or(1.0) * automation.scene().map_or(1.0, |s| s.vertical_scale as f32);
+    request.tiles = o.tiles;
+    request.rivers = o.rivers;
+    for key in &o.maps {
+        request.maps.push(MapKind::from_key(key).ok_or_else(|| {
+            error(format!(
+                "unknown map {key:?}: use normal, slope, curvature, flow, erosion, water, splat or basins"
+            ))
+        })?);
+    }
+    match o.normals.as_deref() {
+        None => {}
+        Some("gl") => request.normals = NormalConvention::OpenGl,
+        Some("dx") => request.normals = NormalConvention::DirectX,
+        Some(other) => return Err(error(format!("normals are 'gl' or 'dx', got {other:?}"))),
+    }
+    let number = automation.push(Command::Export(Box::new(request)));
+    loop {
+        if let Some(result) = automation.take_export(number) {
+            let bytes = result.map_err(error)?;
+            return Ok(js_sys::Uint8Array::from(bytes.as_slice()));
+        }
+        sleep(10).await;
+    }
+}
+
 /// `exportHeightmap`'s work: the terrain on the map encoded as `format`.
 fn export_bytes(
     export_source: &Automation,
     format: &str,
-    options: &JsValue,
+    o: &ExportOptions,
 ) -> Result<js_sys::Uint8Array, JsValue> {
-    let fmt = crate::dem::format::Format::from_key(format).ok_or_else(|| {
-        error(format!(
-            "unknown format {format:?}: use png, tif, r16, asc, hgt or obj"
-        ))
-    })?;
-    let o: ExportOptions = if options.is_undefined() || options.is_null() {
-        ExportOptions::default()
-    } else {
-        serde_json::from_str(&json_text(options)?).map_err(|e| {
-            error(format!(
-                "exportHeightmap options {{size, flipY, zScale}}: {e}"
-            ))
-        })?
-    };
+    let fmt = export_format(format)?;
     let (field, cell) = export_source
         .terrain()
         .ok_or_else(|| error("there is no terrain yet"))?;
@@ -550,4 +624,20 @@ struct ExportOptions {
     #[serde(default)]
     flip_y: bool,
     z_scale: Option<f32>,
+    /// unreal, unity, godot, gis or gaea-wm.
+    preset: Option<String>,
+    /// `[columns, rows]`.
+    tiles: Option<(usize, usize)>,
+    #[serde(default)]
+    maps: Vec<String>,
+    #[serde(default)]
+    rivers: bool,
+    /// 'gl' or 'dx'.
+    normals: Option<String>,
+}
+
+impl ExportOptions {
+    fn wants_package(&self) -> bool {
+        self.preset.is_some() || self.tiles.is_some() || !self.maps.is_empty() || self.rivers
+    }
 }

@@ -231,6 +231,26 @@ async function runMode(url, mode, expectedChecksum) {
       || Buffer.from(exported.tif).subarray(0, 4).toString('hex') === '4d4d002a');
     check('exportHeightmap(obj, {size: 65}) has 65 x 65 vertices', exported.objVertices === 65 * 65);
     check('exportHeightmap() names an unknown format', exported.bad !== null && exported.bad.includes('unknown format'));
+    // Engine exports: a Unity preset with maps and the rivers is one zip of every file; EXR
+    // and R32 hold float heights; an unknown preset is named.
+    const engine = await page.evaluate(async () => {
+      const zip = await window.strahler.exportHeightmap('r16',
+        { preset: 'unity', maps: ['normal', 'splat'], rivers: true });
+      const exr = await window.strahler.exportHeightmap('exr');
+      const r32 = await window.strahler.exportHeightmap('r32', { size: 129 });
+      let bad = null;
+      try { await window.strahler.exportHeightmap('png', { preset: 'cryengine' }); } catch (e) { bad = String(e); }
+      return { zip: Array.from(zip), exr: Array.from(exr.slice(0, 4)), r32: r32.length, bad };
+    });
+    const zip = Buffer.from(engine.zip);
+    const names = ['strahler-heightmap.r16', 'strahler-heightmap.json', 'strahler-heightmap-unity.txt',
+      'strahler-heightmap-normal.png', 'strahler-heightmap-splat.png', 'strahler-heightmap-rivers.geojson'];
+    check('exportHeightmap(r16, {preset: unity, maps, rivers}) is one zip of every file',
+      zip.subarray(0, 4).toString('hex') === '504b0304' && names.every((n) => zip.includes(n)),
+      names.filter((n) => !zip.includes(n)).join(', '));
+    check('exportHeightmap(exr) is an OpenEXR file', Buffer.from(engine.exr).toString('hex') === '762f3101');
+    check('exportHeightmap(r32, {size: 129}) has 129 x 129 float samples', engine.r32 === 129 * 129 * 4);
+    check('exportHeightmap() names an unknown preset', engine.bad !== null && engine.bad.includes('unknown preset'));
     // The editor with the mouse: draw a river on the canvas, undo and redo it, download a
     // 16-bit PNG through the export dialog, and find the scene again after a reload.
     const rivers = () => page.evaluate(() => window.strahler.scene().rivers.length);

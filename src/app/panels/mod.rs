@@ -6,6 +6,7 @@
 
 mod detail;
 mod erosion;
+mod export;
 mod realism;
 mod rivers;
 mod solver;
@@ -14,6 +15,7 @@ mod terrain;
 
 pub use detail::DetailPanel;
 pub use erosion::ErosionPanel;
+pub use export::{ExportDialog, ExportInfo};
 pub use realism::RealismPanel;
 pub use rivers::RiversPanel;
 pub use solver::{Report as SolverReport, SolverPanel};
@@ -41,6 +43,11 @@ pub enum Action {
     Cancel,
     /// Say something went wrong.
     Error(String),
+    /// Write an export (and the skeleton's layers with `layers`).
+    Export {
+        request: crate::export::Request,
+        layers: bool,
+    },
 }
 
 /// Every panel of the side panel, with its own state.

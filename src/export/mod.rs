@@ -1,0 +1,527 @@
+//! Exports for game engines and GIS: a heightmap at an engine's size in a format it reads with
+//! the numbers to type into it ([`preset`]), tiles that share their edges ([`tiles`]), texture
+//! maps ([`maps`]), the river network and ridges as GeoJSON ([`network`]), and several files
+//! as one zip ([`bundle`]).
+//!
+//! [`files`] makes every file of a [`Request`] from plain inputs ([`Inputs`]); the pipeline
+//! gathers those from its output (`crate::pipeline::Output::export_inputs`), and the app,
+//! the page and `strahler generate` all call it. [`plan`] lists what a request writes without
+//! encoding anything (the export dialog shows it before writing).
+
+pub mod bundle;
+pub mod maps;
+pub mod network;
+pub mod preset;
+pub mod tiles;
+
+use crate::dem::format::{self, ExportOptions, Format};
+use crate::dem::{GeoRef, resize};
+use crate::heightfield::Heightfield;
+use crate::ridge::RidgeSegment;
+use crate::river::RiverNetwork;
+
+pub use maps::{NormalConvention, SplatRules};
+pub use preset::{Engine, EngineNumbers};
+pub use tiles::TileGrid;
+
+/// A texture map.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MapKind {
+    Normal,
+    Slope,
+    Curvature,
+    Flow,
+    Erosion,
+    Water,
+    Splat,
+    Basins,
+}
+
+impl MapKind {
+    pub const ALL: [MapKind; 8] = [
+        MapKind::Normal,
+        MapKind::Slope,
+        MapKind::Curvature,
+        MapKind::Flow,
+        MapKind::Erosion,
+        MapKind::Water,
+        MapKind::Splat,
+        MapKind::Basins,
+    ];
+
+    pub fn key(self) -> &'static str {
+        match self {
+            MapKind::Normal => "normal",
+            MapKind::Slope => "slope",
+            MapKind::Curvature => "curvature",
+            MapKind::Flow => "flow",
+            MapKind::Erosion => "erosion",
+            MapKind::Water => "water",
+            MapKind::Splat => "splat",
+            MapKind::Basins => "basins",
+        }
+    }
+
+    pub fn from_key(key: &str) -> Option<MapKind> {
+        MapKind::ALL
+            .into_iter()
+            .find(|m| m.key().eq_ignore_ascii_case(key.trim()))
+    }
+
+    /// What the map holds, for the dialog and the docs.
+    pub fn describe(self) -> &'static str {
+        match self {
+            MapKind::Normal => "tangent-space normals, RGB",
+            MapKind::Slope => "slope, 0-255 = 0-90 degrees",
+            MapKind::Curvature => "Laplacian, 128 = planar, above = concave",
+            MapKind::Flow => "drainage area, log scale",
+            MapKind::Erosion => "lowered (above 128) or raised by erosion",
+            MapKind::Water => "rivers at their width",
+            MapKind::Splat => "rock, grass, sediment, snow weights, RGBA",
+            MapKind::Basins => {
+                "watersheds: 1, 2, ... the drawn rivers' basins, then the largest others"
+            }
+        }
+    }
+}
+
+/// What to export.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Request {
+    /// An engine preset, or `None` for a plain file.
+    pub engine: Option<Engine>,
+    pub format: Format,
+    /// Vertices a side; `None`: the terrain's own (or the engine's default).
+    pub size: Option<usize>,
+    pub flip_y: bool,
+    /// Multiplies every height.
+    pub z_scale: f32,
+    /// `(columns, rows)` of tiles sharing their edges.
+    pub tiles: Option<(usize, usize)>,
+    pub maps: Vec<MapKind>,
+    pub normals: NormalConvention,
+    /// The river network and ridges as GeoJSON.
+    pub rivers: bool,
+    /// The first part of every file name.
+    pub stem: String,
+}
+
+impl Request {
+    /// The names of the files written, in order: the heightmap (or its tiles and their
+    /// index) and sidecars, the engine's numbers, the maps, the GeoJSON.
+    pub fn names(&self) -> Vec<String> {
+        let stem = &self.stem;
+        let ext = self.format.extension();
+        let sidecar = matches!(self.format, Format::Png | Format::R16 | Format::R32);
+        let mut names = Vec::new();
+        let mut heightmap = |name: String| {
+            names.push(format!("{name}.{ext}"));
+            if sidecar {
+                names.push(format!("{name}.json"));
+            }
+        };
+        match self.tiles {
+            Some((c, r)) if (c, r) != (1, 1) => {
+                for row in 0..r {
+                    for column in 0..c {
+                        heightmap(format!("{stem}{}", TileGrid::suffix(column, row)));
+                    }
+                }
+                names.push(format!("{stem}-tiles.json"));
+            }
+            _ => heightmap(stem.clone()),
+        }
+        if let Some(engine) = self.engine {
+            names.push(format!("{stem}-{}.json", engine.key()));
+            names.push(format!("{stem}-{}.txt", engine.key()));
+        }
+        for map in &self.maps {
+            names.push(format!("{stem}-{}.png", map.key()));
+        }
+        if self.rivers {
+            names.push(format!("{stem}-rivers.geojson"));
+        }
+        names
+    }
+
+    /// A plain heightmap in `format`.
+    pub fn heightmap(format: Format) -> Self {
+        Request {
+            engine: None,
+            format,
+            size: None,
+            flip_y: false,
+            z_scale: 1.0,
+            tiles: None,
+            maps: Vec::new(),
+            normals: NormalConvention::OpenGl,
+            rivers: false,
+            stem: "strahler-heightmap".into(),
+        }
+    }
+
+    /// The preset for `engine`: its usual format, its default size for a terrain of
+    /// `native` cells, its row order and normal-map convention.
+    pub fn for_engine(engine: Engine, native: usize) -> Self {
+        Request {
+            engine: Some(engine),
+            format: engine.formats()[0],
+            size: Some(engine.default_size(native)),
+            flip_y: engine.flip_y(),
+            normals: if engine == Engine::Unreal {
+                NormalConvention::DirectX
+            } else {
+                NormalConvention::OpenGl
+            },
+            ..Request::heightmap(Format::Png)
+        }
+    }
+}
+
+/// What a terrain gives an export.
+pub struct Inputs<'a> {
+    /// The final terrain.
+    pub field: &'a Heightfield,
+    /// Metres between its vertices.
+    pub cell_m: f64,
+    pub networks: &'a [RiverNetwork],
+    pub ridges: &'a [RidgeSegment],
+    /// The skeleton's size and every cell's Strahler order (0 off the rivers).
+    pub skeleton_cells: usize,
+    pub river_order: &'a [u8],
+    /// Drainage area (m^2) on the skeleton's grid: the erosion's, else the terrain's own.
+    pub area_m2: &'a [f32],
+    /// How much erosion lowered each skeleton cell (metres), when it ran.
+    pub lowered: Option<&'a [f32]>,
+    pub splat: SplatRules,
+    /// Where the terrain lies, for a GeoTIFF or ASCII grid written whole at its own size
+    /// (a converted DEM keeps its CRS); otherwise a local metric grid.
+    pub georef: Option<&'a GeoRef>,
+}
+
+/// One file to write.
+#[derive(Clone, Debug, PartialEq)]
+pub struct File {
+    pub name: String,
+    pub mime: &'static str,
+    pub bytes: Vec<u8>,
+}
+
+/// What a request writes, before anything is encoded.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Plan {
+    pub size: usize,
+    pub extent_m: f64,
+    pub grid: Option<TileGrid>,
+    /// File names, in the order written.
+    pub names: Vec<String>,
+    /// The numbers to type into the engine, when a preset is chosen.
+    pub numbers: Option<EngineNumbers>,
+}
+
+/// Checks `request` against a terrain of `native` vertices a side and lists its files.
+/// `range`: the terrain's height range (metres, before the z scale).
+pub fn plan(
+    request: &Request,
+    native: usize,
+    cell_m: f64,
+    range: (f32, f32),
+) -> Result<Plan, String> {
+    let size = request
+        .size
+        .or(request.engine.map(|e| e.default_size(native)))
+        .unwrap_or(native);
+    if let Some(engine) = request.engine {
+        engine.check(size, native, request.format)?;
+    }
+    if !(2..=8193).contains(&size) {
+        return Err(format!(
+            "the export size must be 2 to 8193 cells, got {size}"
+        ));
+    }
+    if request.format == Format::Obj && request.tiles.is_some() {
+        return Err("OBJ meshes are not tiled: pick a heightmap format".into());
+    }
+    let extent_m = cell_m * (native.max(2) - 1) as f64;
+    let grid = match request.tiles {
+        Some((c, r)) if (c, r) != (1, 1) => Some(TileGrid::plan(size, size, c, r)?),
+        _ => None,
+    };
+    let z = f64::from(request.z_scale);
+    let (lo, hi) = (f64::from(range.0) * z, f64::from(range.1) * z);
+    let numbers = request
+        .engine
+        .map(|e| EngineNumbers::new(e, request.format, size, extent_m, (lo.min(hi), lo.max(hi))));
+    let names = request.names();
+    Ok(Plan {
+        size,
+        extent_m,
+        grid,
+        names,
+        numbers,
+    })
+}
+
+/// Every file of `request`, encoded (nothing is written: the caller saves them).
+pub fn files(inputs: &Inputs, request: &Request) -> Result<Vec<File>, String> {
+    let native = inputs.field.width();
+    let range = inputs.field.finite_range().unwrap_or((0.0, 0.0));
+    let mut plan = plan(request, native, inputs.cell_m, range)?;
+    let sized = if plan.size == native {
+        inputs.field.clone()
+    } else {
+        resize::resample_filtered(inputs.field, plan.size, plan.size)
+    };
+    // The numbers follow the heights written: resampling narrows the range a little.
+    if let (Some(engine), Some((lo, hi))) = (request.engine, sized.finite_range()) {
+        let z = f64::from(request.z_scale);
+        let (lo, hi) = (f64::from(lo) * z, f64::from(hi) * z);
+        plan.numbers = Some(EngineNumbers::new(
+            engine,
+            request.format,
+            plan.size,
+            plan.extent_m,
+            (lo.min(hi), lo.max(hi)),
+        ));
+    }
+    let spacing = plan.extent_m / (plan.size.max(2) - 1) as f64;
+    let stem = &request.stem;
+    let mut out = Vec::new();
+    let own = (plan.size == native && plan.grid.is_none())
+        .then_some(inputs.georef)
+        .flatten();
+    heightmaps(&sized, spacing, own, request, &plan, &mut out)?;
+    if let Some(numbers) = &plan.numbers {
+        let json = serde_json::to_string_pretty(numbers).map_err(|e| e.to_string())?;
+        out.push(File {
+            name: format!("{stem}-{}.json", numbers.engine),
+            mime: "application/json",
+            bytes: json.into_bytes(),
+        });
+        out.push(File {
+            name: format!("{stem}-{}.txt", numbers.engine),
+            mime: "text/plain",
+            bytes: numbers.text().into_bytes(),
+        });
+    }
+    for map in &request.maps {
+        let png = texture(*map, &sized, spacing, inputs, request.normals)?;
+        out.push(File {
+            name: format!("{stem}-{}.png", map.key()),
+            mime: "image/png",
+            bytes: png,
+        });
+    }
+    if request.rivers {
+        let frame = network::MapFrame {
+            cells: native,
+            cell_m: inputs.cell_m,
+        };
+        let area = network::AreaRaster {
+            area_m2: inputs.area_m2,
+            size: inputs.skeleton_cells,
+        };
+        let json = network::geojson(
+            inputs.networks,
+            inputs.ridges,
+            inputs.skeleton_cells,
+            frame,
+            &area,
+        );
+        out.push(File {
+            name: format!("{stem}-rivers.geojson"),
+            mime: "application/geo+json",
+            bytes: serde_json::to_vec(&json).map_err(|e| e.to_string())?,
+        });
+    }
+    debug_assert_eq!(
+        out.iter().map(|f| f.name.clone()).collect::<Vec<_>>(),
+        plan.names
+    );
+    Ok(out)
+}
+
+/// The heightmap, or its tiles and their index, with their sidecars.
+fn heightmaps(
+    sized: &Heightfield,
+    spacing: f64,
+    own: Option<&GeoRef>,
+    request: &Request,
+    plan: &Plan,
+    out: &mut Vec<File>,
+) -> Result<(), String> {
+    let z = request.z_scale;
+    let range = sized
+        .finite_range()
+        .map(|(a, b)| ((a * z).min(b * z), (a * z).max(b * z)));
+    let options = ExportOptions {
+        size: None,
+        flip_y: request.flip_y,
+        z_scale: z,
+        cell_size: spacing,
+        z_range: range,
+    };
+    let local = |x0: usize, y0: usize| GeoRef {
+        pixel_scale: Some(vec![spacing, spacing, 0.0]),
+        tiepoint: Some(vec![
+            0.0,
+            0.0,
+            0.0,
+            x0 as f64 * spacing,
+            (plan.size - y0) as f64 * spacing,
+            0.0,
+        ]),
+        ..Default::default()
+    };
+    let ext = request.format.extension();
+    let stem = &request.stem;
+    let mut push =
+        |name: String, field: &Heightfield, x0: usize, y0: usize| -> Result<(), String> {
+            let written = format::write(
+                request.format,
+                field,
+                &own.cloned().unwrap_or_else(|| local(x0, y0)),
+                &options,
+            )
+            .map_err(|e| e.to_string())?;
+            out.push(File {
+                name: format!("{name}.{ext}"),
+                mime: request.format.mime(),
+                bytes: written.bytes,
+            });
+            if let Some(json) = written.sidecar {
+                out.push(File {
+                    name: format!("{name}.json"),
+                    mime: "application/json",
+                    bytes: json.into_bytes(),
+                });
+            }
+            Ok(())
+        };
+    let Some(grid) = plan.grid else {
+        return push(stem.clone(), sized, 0, 0);
+    };
+    let mut index = Vec::new();
+    for (column, row, tile) in grid.split(sized) {
+        let name = format!("{stem}{}", TileGrid::suffix(column, row));
+        let (x0, y0) = grid.origin(column, row);
+        index.push(serde_json::json!({
+            "file": format!("{name}.{ext}"),
+            "x": column,
+            "y": row,
+            "first_column": x0,
+            "first_row": y0,
+            "width": tile.width(),
+            "height": tile.height(),
+        }));
+        push(name, &tile, x0, y0)?;
+    }
+    let (zmin, zmax) = range.unwrap_or((0.0, 0.0));
+    let json = serde_json::json!({
+        "columns": grid.columns,
+        "rows": grid.rows,
+        "tile_width": grid.side_x,
+        "tile_height": grid.side_y,
+        "map_width": plan.size,
+        "map_height": plan.size,
+        "shared_edges": "each tile's last column and row are its east and south neighbours' first",
+        "zmin": zmin,
+        "zmax": zmax,
+        "spacing_m": spacing,
+        "tiles": index,
+    });
+    out.push(File {
+        name: format!("{stem}-tiles.json"),
+        mime: "application/json",
+        bytes: serde_json::to_vec_pretty(&json).map_err(|e| e.to_string())?,
+    });
+    Ok(())
+}
+
+/// One texture map of `sized` as PNG bytes.
+fn texture(
+    map: MapKind,
+    sized: &Heightfield,
+    spacing: f64,
+    inputs: &Inputs,
+    normals: NormalConvention,
+) -> Result<Vec<u8>, String> {
+    use crate::dem::png16::{write_colour8, write_grey8};
+    let (w, h) = (sized.width(), sized.height());
+    let encoded = match map {
+        MapKind::Normal => write_colour8(w, h, 3, &maps::normal_map(sized, spacing, normals)),
+        MapKind::Slope => write_grey8(w, h, &maps::slope_map(&maps::slope_degrees(sized, spacing))),
+        MapKind::Curvature => write_grey8(w, h, &maps::curvature_map(sized, spacing).0),
+        MapKind::Flow => write_grey8(w, h, &maps::log_map(&area_of(sized, spacing)?)),
+        MapKind::Erosion => {
+            let lowered = inputs
+                .lowered
+                .ok_or("the erosion map needs an eroded terrain (a scene with erosion on)")?;
+            let n = inputs.skeleton_cells;
+            let field = Heightfield::from_vec(n, n, lowered.to_vec()).map_err(|e| e.to_string())?;
+            let sized = resize::resample_filtered(&field, w, h);
+            write_grey8(w, h, &maps::erosion_map(sized.data()).0)
+        }
+        MapKind::Water => {
+            let n = inputs.skeleton_cells;
+            let skeleton_cell =
+                inputs.cell_m * (inputs.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
+            let mask = crate::view3d::maps::water_mask(inputs.river_order, n, skeleton_cell as f32);
+            write_grey8(w, h, &nearest(&mask, n, w, h))
+        }
+        MapKind::Splat => {
+            let slopes = maps::slope_degrees(sized, spacing);
+            let area = area_of(sized, spacing)?;
+            write_colour8(
+                w,
+                h,
+                4,
+                &maps::splat_map(sized, &slopes, &area, &inputs.splat),
+            )
+        }
+        MapKind::Basins => {
+            let (outlet, area) =
+                crate::realism::outlets(sized.data(), w, h, spacing).ok_or(NO_CELLS)?;
+            let cell = |p: glam::DVec2| {
+                let x = (p.x * (w - 1) as f64).round().clamp(0.0, (w - 1) as f64) as usize;
+                let y = (p.y * (h - 1) as f64).round().clamp(0.0, (h - 1) as f64) as usize;
+                y * w + x
+            };
+            let estuaries: Vec<u32> = inputs
+                .networks
+                .iter()
+                .filter_map(|n| n.nodes.first())
+                .map(|p| outlet[cell(*p)])
+                .collect();
+            let min_area = 0.005 * (w * h) as f64 * spacing * spacing;
+            write_grey8(
+                w,
+                h,
+                &maps::basin_labels(&outlet, &area, &estuaries, min_area),
+            )
+        }
+    };
+    encoded.map_err(|e| e.to_string())
+}
+
+/// Drainage area (m^2) of the exported terrain itself, so flow lines up with its slopes.
+fn area_of(sized: &Heightfield, spacing: f64) -> Result<Vec<f64>, String> {
+    crate::realism::drainage_area_m2(sized.data(), sized.width(), sized.height(), spacing)
+        .ok_or_else(|| NO_CELLS.to_owned())
+}
+
+const NO_CELLS: &str = "the terrain has no valid cells to route water over";
+
+/// A square `n`-cell mask at `w` x `h` by nearest cell (vertex-registered).
+fn nearest(mask: &[u8], n: usize, w: usize, h: usize) -> Vec<u8> {
+    let pick = |i: usize, len: usize| {
+        if len <= 1 {
+            0
+        } else {
+            ((i as f64 * (n - 1) as f64 / (len - 1) as f64).round() as usize).min(n - 1)
+        }
+    };
+    (0..w * h)
+        .map(|k| mask[pick(k / w, h) * n + pick(k % w, w)])
+        .collect()
+}

@@ -1,0 +1,351 @@
+//! Engine exports as a user makes them on the command line: presets with the numbers to
+//! type in, float formats, tiles that share their edges, texture maps, and the river network
+//! as GeoJSON read back with a GeoJSON library.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use strahler::dem::{Dem, ReadLimits};
+
+fn strahler(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_strahler"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn run(args: &[&str]) -> String {
+    let out = strahler(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn refused(args: &[&str]) -> String {
+    let out = strahler(args);
+    assert!(!out.status.success(), "{args:?} was not refused");
+    String::from_utf8_lossy(&out.stderr).into_owned()
+}
+
+fn dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("strahler-export-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn s(path: &Path) -> String {
+    path.to_string_lossy().into_owned()
+}
+
+fn olinda() -> String {
+    format!("{}/tests/data/olinda.tif", env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Reads a heightmap with its sidecar, as `strahler convert` does.
+fn read(path: &Path) -> Dem {
+    let name = s(path);
+    let bytes = std::fs::read(path).unwrap();
+    let sidecar = path.with_extension("json");
+    let side = if sidecar.exists() {
+        strahler::dem::sidecar::parse(&std::fs::read(&sidecar).unwrap()).unwrap()
+    } else {
+        Default::default()
+    };
+    if name.ends_with(".r32") {
+        return strahler::dem::raw32::read(
+            &bytes,
+            side.flip_y == Some(true),
+            ReadLimits::default(),
+            side.size,
+        )
+        .unwrap();
+    }
+    let options = strahler::dem::format::ImportOptions {
+        limits: ReadLimits::default(),
+        z_range: side.z_range,
+        flip_y: side.flip_y == Some(true),
+    };
+    strahler::dem::format::read(&name, &bytes, &options).unwrap()
+}
+
+/// The first channel of an 8-bit PNG.
+fn read_grey8(path: &Path) -> Vec<u8> {
+    let bytes = std::fs::read(path).unwrap();
+    let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+    decoder.set_transformations(png::Transformations::EXPAND);
+    let mut reader = decoder.read_info().unwrap();
+    let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+    let info = reader.next_frame(&mut buf).unwrap();
+    let cells = (info.width * info.height) as usize;
+    let channels = buf.len() / cells;
+    (0..cells).map(|i| buf[i * channels]).collect()
+}
+
+#[test]
+fn float_formats_round_trip_bit_for_bit() {
+    let d = dir("float");
+    let original = read(Path::new(&olinda()));
+    for name in ["o.r32", "o.exr"] {
+        run(&["convert", &olinda(), &s(&d.join(name))]);
+        let back_tif = d.join(format!("{name}.tif"));
+        run(&["convert", &s(&d.join(name)), &s(&back_tif)]);
+        let back = read(&back_tif);
+        assert_eq!(back.field.data().len(), original.field.data().len());
+        for (a, b) in original.field.data().iter().zip(back.field.data()) {
+            assert_eq!(a.to_bits(), b.to_bits(), "{name}");
+        }
+    }
+}
+
+#[test]
+fn tiles_share_their_edges_and_reassemble_the_map() {
+    let d = dir("tiles");
+    for ext in ["r32", "png"] {
+        let whole = d.join(format!("whole.{ext}"));
+        let tiled = d.join(format!("tile.{ext}"));
+        run(&[
+            "convert",
+            &olinda(),
+            &s(&whole),
+            "--size",
+            "101",
+            "--maps",
+            "slope",
+        ]);
+        run(&[
+            "convert",
+            &olinda(),
+            &s(&tiled),
+            "--size",
+            "101",
+            "--tiles",
+            "4x2",
+        ]);
+        let whole = read(&whole).field;
+        let index: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(d.join("tile-tiles.json")).unwrap()).unwrap();
+        assert_eq!(index["tiles"].as_array().unwrap().len(), 8);
+        for tile in index["tiles"].as_array().unwrap() {
+            let field = read(&d.join(tile["file"].as_str().unwrap())).field;
+            let (x0, y0) = (
+                tile["first_column"].as_u64().unwrap() as usize,
+                tile["first_row"].as_u64().unwrap() as usize,
+            );
+            assert_eq!((field.width(), field.height()), (26, 51));
+            for y in 0..field.height() {
+                for x in 0..field.width() {
+                    // One height range for every tile: the same height is the same sample.
+                    let (a, b) = (field.get(x, y).unwrap(), whole.get(x0 + x, y0 + y).unwrap());
+                    assert_eq!(a.to_bits(), b.to_bits(), "{ext} tile at {x0},{y0}: {x},{y}");
+                }
+            }
+        }
+    }
+    let err = refused(&[
+        "convert",
+        &olinda(),
+        &s(&d.join("bad.png")),
+        "--tiles",
+        "3x3",
+    ]);
+    assert!(err.contains("does not split into 3 x 3"), "{err}");
+}
+
+#[test]
+fn engine_presets_write_what_the_engine_takes_with_the_numbers_to_type() {
+    let d = dir("presets");
+    // Unreal: 16-bit PNG at a Landscape size, the Z scale from the height range.
+    let out = d.join("u.png");
+    run(&[
+        "generate",
+        "--backend",
+        "cpu",
+        "--size",
+        "128",
+        "--out",
+        &s(&out),
+        "--preset",
+        "unreal",
+    ]);
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(d.join("u-unreal.json")).unwrap()).unwrap();
+    assert_eq!(json["size"], 127);
+    let field = read(&out).field;
+    assert_eq!(field.width(), 127);
+    let (lo, hi) = field.finite_range().unwrap();
+    let settings = json["settings"].as_array().unwrap();
+    let get = |key: &str| -> f64 {
+        let row = settings.iter().find(|r| r[0] == key).unwrap();
+        row[1].as_str().unwrap().parse().unwrap()
+    };
+    // Unreal: height (cm) = (v - 32768) / 128 * ZScale: 65535 steps span the range.
+    let span_cm = 65535.0 / 128.0 * get("Scale Z");
+    assert!(
+        (span_cm - f64::from(hi - lo) * 100.0).abs() < 1.0,
+        "{span_cm}"
+    );
+    assert!(
+        std::fs::read_to_string(d.join("u-unreal.txt"))
+            .unwrap()
+            .contains("Scale Z")
+    );
+
+    // Unity: RAW R16 rows bottom-up, 2^n + 1; read back upright through its sidecar.
+    let out = d.join("y.r16");
+    run(&[
+        "generate",
+        "--backend",
+        "cpu",
+        "--size",
+        "128",
+        "--out",
+        &s(&out),
+        "--preset",
+        "unity",
+    ]);
+    let unity = read(&out).field;
+    assert_eq!(unity.width(), 65);
+    let plain = d.join("plain.tif");
+    run(&[
+        "generate",
+        "--backend",
+        "cpu",
+        "--size",
+        "128",
+        "--out",
+        &s(&plain),
+    ]);
+    let plain = read(&plain).field;
+    // The north-west corner of the map is the first sample once read back.
+    let step = (hi - lo) / 65535.0 * 4.0;
+    assert!((unity.get(0, 0).unwrap() - plain.get(0, 0).unwrap()).abs() <= step);
+
+    // Wrong size or format for the engine: refused by name, nothing written.
+    let err = refused(&[
+        "generate",
+        "--size",
+        "128",
+        "--out",
+        &s(&d.join("v.png")),
+        "--preset",
+        "unity",
+    ]);
+    assert!(err.contains("Unity reads .r16"), "{err}");
+    let err = refused(&[
+        "generate",
+        "--size",
+        "128",
+        "--out",
+        &s(&d.join("w.png")),
+        "--preset",
+        "unreal",
+        "--export-size",
+        "1024",
+    ]);
+    assert!(err.contains("1009, 2017"), "{err}");
+    assert!(!d.join("w.png").exists());
+    let err = refused(&["generate", "--size", "128", "--preset", "unreal"]);
+    assert!(err.contains("give --out"), "{err}");
+}
+
+/// Every river vertex of the GeoJSON lies on a river cell of the skeleton (rivers.png), and
+/// orders, widths and drainage areas are there.
+#[test]
+fn the_river_network_as_geojson_lies_on_the_rivers() {
+    let d = dir("geojson");
+    let out = d.join("g.tif");
+    run(&[
+        "generate",
+        "--backend",
+        "cpu",
+        "--size",
+        "160",
+        "--map-width",
+        "8000",
+        "--out",
+        &s(&out),
+        "--geojson",
+        "--maps",
+        "normal,splat,water,flow,erosion,curvature,basins",
+        "--layers",
+        &s(&d),
+    ]);
+    let text = std::fs::read_to_string(d.join("g-rivers.geojson")).unwrap();
+    let collection = match text.parse::<geojson::GeoJson>().unwrap() {
+        geojson::GeoJson::FeatureCollection(c) => c,
+        other => panic!("not a FeatureCollection: {other:?}"),
+    };
+    let rivers = {
+        let bytes = std::fs::read(d.join("rivers.png")).unwrap();
+        let mut decoder = png::Decoder::new(std::io::Cursor::new(bytes));
+        decoder.set_transformations(png::Transformations::EXPAND);
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size().unwrap()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        assert_eq!(info.width, 160);
+        let channels = buf.len() / (160 * 160);
+        (0..160 * 160)
+            .map(|i| buf[i * channels])
+            .collect::<Vec<u8>>()
+    };
+    let cell = 8000.0 / 160.0;
+    let (mut river_links, mut vertices, mut downhill) = (0, 0, 0);
+    for feature in &collection.features {
+        let props = feature.properties.as_ref().unwrap();
+        if props["kind"] != "river" {
+            continue;
+        }
+        river_links += 1;
+        assert!(props["strahler_order"].as_u64().unwrap() >= 1);
+        assert!(props["width_m"].as_f64().unwrap() >= 2.5);
+        let geometry = feature.geometry.as_ref().unwrap();
+        let geojson::Value::LineString(line) = &geometry.value else {
+            panic!("a river is a LineString");
+        };
+        let areas = props["drainage_area_m2"].as_array().unwrap();
+        assert_eq!(areas.len(), line.len());
+        // Water gathers downstream: the last vertex drains at least what the first does
+        // (D8 on the raster may pass a confluence one cell off the drawn course).
+        let (first, last) = (
+            areas[0].as_f64().unwrap(),
+            areas[areas.len() - 1].as_f64().unwrap(),
+        );
+        downhill += usize::from(last >= first && last > 0.0);
+        for p in line {
+            let col = (p[0] / cell).floor() as usize;
+            let row = 160 - 1 - (p[1] / cell).floor() as usize;
+            assert!(
+                rivers[row * 160 + col] > 0,
+                "vertex {p:?} is off the rivers"
+            );
+            vertices += 1;
+        }
+    }
+    assert!(
+        river_links > 20 && vertices > river_links * 2,
+        "{river_links} {vertices}"
+    );
+    assert!(
+        downhill * 100 >= river_links * 95,
+        "{downhill} of {river_links}"
+    );
+    for map in [
+        "normal",
+        "splat",
+        "water",
+        "flow",
+        "erosion",
+        "curvature",
+        "basins",
+    ] {
+        assert!(d.join(format!("g-{map}.png")).exists(), "{map}");
+    }
+    // The drawn river's basin is label 1 and covers most of the map it drains.
+    let basins = read_grey8(&d.join("g-basins.png"));
+    let first = basins.iter().filter(|l| **l == 1).count();
+    assert!(first * 2 > basins.len(), "{first} of {}", basins.len());
+}
