@@ -1,20 +1,43 @@
-//! The app's side of the export dialog (`panels::ExportDialog`): what it is told of the
-//! terrain, and writing what it asks for. In the browser one file downloads as itself and
-//! several as one zip; natively each is saved in the working directory under a stem no file
-//! there has yet.
+//! The app's side of exports: what the export dialog (`panels::ExportDialog`) is told of
+//! the terrain, and the export jobs it and scripts start (`crate::export` through
+//! `pipeline::ExportSource`). A job reports its progress by file in the status bar and keeps
+//! the page answering between files. In the browser one file downloads as itself and several
+//! as one zip; natively each is saved in the working directory under a stem no file there
+//! has yet.
 
 use super::StrahlerApp;
-use super::panels::ExportInfo;
+use super::panels::{ExportDialog, ExportInfo};
 use crate::export::{File, Request};
+use crate::jobs::JobHandle;
+use crate::pipeline::LayerPng;
+
+/// The export dialog and the exports being made.
+#[derive(Default)]
+pub(super) struct Exports {
+    pub dialog: ExportDialog,
+    pub running: Vec<Exporting>,
+}
+
+/// An export job and where its files go.
+pub(super) struct Exporting {
+    pub job: JobHandle<Result<Vec<File>, String>>,
+    to: Destination,
+}
+
+enum Destination {
+    /// Saved (natively) or downloaded (in the browser), with the layers asked for.
+    Save { stem: String, layers: Vec<LayerPng> },
+    /// Kept for the script whose command had this number.
+    Script(u64),
+}
 
 impl StrahlerApp {
     /// What the export dialog shows of the terrain on the map, once there is one.
     pub(super) fn export_info(&self) -> Option<ExportInfo> {
         let output = self.session.output()?;
         let scene = self.session.scene();
-        let native = output.field.width();
         Some(ExportInfo {
-            native,
+            native: output.field.width(),
             cell_m: output.cell_m,
             range: output.field.finite_range().unwrap_or((0.0, 0.0)),
             preview_of: self.showing_preview().then_some(scene.size),
@@ -25,26 +48,21 @@ impl StrahlerApp {
 
     /// Shows the export dialog when open (with nothing to export, says so instead).
     pub(super) fn export_window(&mut self, ctx: &egui::Context) {
-        if !self.export.open {
+        if !self.export.dialog.open {
             return;
         }
         let Some(info) = self.export_info() else {
-            self.export.open = false;
+            self.export.dialog.open = false;
             self.set_error("Nothing to export yet: draw a river first.".into());
             return;
         };
-        for action in self.export.show(ctx, &info) {
+        for action in self.export.dialog.show(ctx, &info) {
             self.act(ctx, action);
         }
     }
 
-    /// Writes `request`'s files (and the skeleton's layers with `layers`).
-    pub(super) fn download(&mut self, mut request: Request, layers: bool) {
-        let Some(output) = self.session.output() else {
-            self.set_error("Nothing to export yet: draw a river first.".into());
-            return;
-        };
-        let splat = self.session.scene().textures.splat();
+    /// Starts exporting `request` for the dialog (and the skeleton's layers with `layers`).
+    pub(super) fn download(&mut self, ctx: &egui::Context, mut request: Request, layers: bool) {
         let suffixes: Vec<String> = request
             .names()
             .iter()
@@ -53,58 +71,111 @@ impl StrahlerApp {
             .collect();
         let suffixes: Vec<&str> = suffixes.iter().map(String::as_str).collect();
         request.stem = super::files::free_stem(&request.stem, &suffixes);
-        let result = output.export_files(&request, splat).and_then(|files| {
-            let mut said = save_all(&files, &request.stem)?;
-            if layers {
-                for (name, png) in &output.layer_pngs()? {
-                    let stem = name.trim_end_matches(".png");
-                    let stem = super::files::free_stem(&format!("strahler-{stem}"), &[".png"]);
-                    super::files::save(&format!("{stem}.png"), "image/png", png)?;
+        let layers = match (layers, self.session.output()) {
+            (true, Some(output)) => match output.layer_pngs() {
+                Ok(layers) => layers,
+                Err(err) => return self.set_error(format!("Export failed: {err}")),
+            },
+            _ => Vec::new(),
+        };
+        let stem = request.stem.clone();
+        self.start_export(ctx, request, Destination::Save { stem, layers });
+    }
+
+    /// Starts exporting `request` for the script command `number` (`exportHeightmap`).
+    pub(super) fn export_for_script(&mut self, ctx: &egui::Context, request: Request, number: u64) {
+        self.start_export(ctx, request, Destination::Script(number));
+    }
+
+    fn start_export(&mut self, ctx: &egui::Context, request: Request, to: Destination) {
+        let Some(output) = self.session.output() else {
+            let message = "there is no terrain yet".to_owned();
+            match to {
+                Destination::Script(number) => self.automation.set_export(number, Err(message)),
+                Destination::Save { .. } => {
+                    self.set_error("Nothing to export yet: draw a river first.".into())
                 }
-                said.push_str(" with the layers");
             }
-            Ok(said)
-        });
-        match result {
-            Ok(said) => self.messages.notice = Some(format!("Heightmap {said}")),
-            Err(err) => self.set_error(format!("Export failed: {err}")),
+            return;
+        };
+        let source = output.export_source(self.session.scene().textures.splat());
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "export",
+            move |job| async move { source.files(&request, &job).await },
+            move || repaint.request_repaint(),
+        );
+        match (spawned, to) {
+            (Ok(job), to) => self.export.running.push(Exporting { job, to }),
+            (Err(err), Destination::Script(number)) => {
+                self.automation.set_export(number, Err(err.to_string()))
+            }
+            (Err(err), Destination::Save { .. }) => self.set_error(err.to_string()),
+        }
+    }
+
+    /// Takes finished exports: saves them, or hands them to their script.
+    pub(super) fn take_exports(&mut self) {
+        let mut k = 0;
+        while k < self.export.running.len() {
+            let Some(result) = self.export.running[k].job.try_take() else {
+                k += 1;
+                continue;
+            };
+            let done = self.export.running.remove(k);
+            match done.to {
+                Destination::Script(number) => {
+                    let bytes = result.and_then(|files| match files.as_slice() {
+                        [file] => Ok(file.bytes.clone()),
+                        _ => crate::export::bundle::zip(&files),
+                    });
+                    self.automation.set_export(number, bytes);
+                }
+                Destination::Save { stem, layers } => {
+                    match result.and_then(|files| save_all(&files, &stem, &layers)) {
+                        Ok(said) => self.messages.notice = Some(format!("Heightmap {said}")),
+                        Err(err) if err == "cancelled" => {}
+                        Err(err) => self.set_error(format!("Export failed: {err}")),
+                    }
+                }
+            }
         }
     }
 }
 
-impl StrahlerApp {
-    /// `request`'s one file, or its files as one zip (a script's export).
-    pub(super) fn export_bytes(&self, request: &Request) -> Result<Vec<u8>, String> {
-        let output = self.session.output().ok_or("there is no terrain yet")?;
-        let files = output.export_files(request, self.session.scene().textures.splat())?;
-        match files.as_slice() {
-            [file] => Ok(file.bytes.clone()),
-            _ => crate::export::bundle::zip(&files),
-        }
+/// Saves `files` and `layers`: one file as itself; several as `stem.zip` in the browser,
+/// one by one natively.
+fn save_all(files: &[File], stem: &str, layers: &[LayerPng]) -> Result<String, String> {
+    let mut said = match files {
+        [file] => super::files::save(&file.name, file.mime, &file.bytes)?,
+        _ => save_several(files, stem)?,
+    };
+    for (name, png) in layers {
+        let stem = name.trim_end_matches(".png");
+        let stem = super::files::free_stem(&format!("strahler-{stem}"), &[".png"]);
+        super::files::save(&format!("{stem}.png"), "image/png", png)?;
     }
+    if !layers.is_empty() {
+        said.push_str(" with the layers");
+    }
+    Ok(said)
 }
 
-/// Saves `files`: one as itself; several as `stem.zip` in the browser, one by one natively.
-fn save_all(files: &[File], stem: &str) -> Result<String, String> {
-    if let [file] = files {
-        return super::files::save(&file.name, file.mime, &file.bytes);
+#[cfg(target_arch = "wasm32")]
+fn save_several(files: &[File], stem: &str) -> Result<String, String> {
+    let zip = crate::export::bundle::zip(files)?;
+    let said = super::files::save(&format!("{stem}.zip"), "application/zip", &zip)?;
+    Ok(format!("{said} ({} files)", files.len()))
+}
+
+#[cfg(not(target_arch = "wasm32"))]
+fn save_several(files: &[File], _stem: &str) -> Result<String, String> {
+    for file in files {
+        super::files::save(&file.name, file.mime, &file.bytes)?;
     }
-    #[cfg(target_arch = "wasm32")]
-    {
-        let zip = crate::export::bundle::zip(files)?;
-        let said = super::files::save(&format!("{stem}.zip"), "application/zip", &zip)?;
-        Ok(format!("{said} ({} files)", files.len()))
-    }
-    #[cfg(not(target_arch = "wasm32"))]
-    {
-        let _ = stem;
-        for file in files {
-            super::files::save(&file.name, file.mime, &file.bytes)?;
-        }
-        Ok(format!(
-            "saved {} and {} more files",
-            files[0].name,
-            files.len() - 1
-        ))
-    }
+    Ok(format!(
+        "saved {} and {} more files",
+        files[0].name,
+        files.len() - 1
+    ))
 }

@@ -112,7 +112,7 @@ impl StrahlerApp {
                 blend::upload(self);
             }
             if ctx.input(|i| i.key_pressed(egui::Key::E)) {
-                self.export.open = true;
+                self.export.dialog.open = true;
             }
         }
         if !ctx.egui_wants_keyboard_input() {

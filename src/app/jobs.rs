@@ -220,10 +220,7 @@ impl StrahlerApp {
                     z_scale,
                 } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
                 Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
-                Command::Export(request) => {
-                    let result = self.export_bytes(&request);
-                    self.automation.set_export(number, result);
-                }
+                Command::Export(request) => self.export_for_script(ctx, *request, number),
                 Command::FileRefused { name, message } => {
                     self.set_error(format!("{name}: {message}"))
                 }
@@ -270,6 +267,7 @@ impl StrahlerApp {
         }
         self.take_filled_dem(ctx);
         self.take_features();
+        self.take_exports();
         self.take_networks();
         if let Some(result) = self.check.kernels.as_ref().and_then(JobHandle::try_take) {
             self.check.kernels = None;
@@ -285,7 +283,8 @@ impl StrahlerApp {
         let job = job_status(&self.session.job())
             .or_else(|| job_status(&self.blend.fill_job.as_ref()))
             .or_else(|| job_status(&self.blend.features_job.as_ref()))
-            .or_else(|| job_status(&self.check.job.as_ref()));
+            .or_else(|| job_status(&self.check.job.as_ref()))
+            .or_else(|| job_status(&self.export.running.first().map(|e| &e.job)));
         self.automation.update(|s| s.job = job);
         if self.busy() {
             // Keep the progress bar moving; results trigger a repaint when they land. In the

@@ -88,7 +88,8 @@ pub struct StrahlerApp {
     check: ComputeCheck,
     /// The uploaded DEM, the placed blocks, the blend stage and the network comparison.
     blend: blend::BlendState,
-    export: panels::ExportDialog,
+    /// The export dialog and the exports being made.
+    export: export::Exports,
     /// The side panel's sections, each with its own state.
     panels: panels::Panels,
     /// Which view the central area shows, and the 3D view.
@@ -236,7 +237,7 @@ impl StrahlerApp {
                 }
             }
             Action::Error(message) => self.set_error(message),
-            Action::Export { request, layers } => self.download(request, layers),
+            Action::Export { request, layers } => self.download(ctx, request, layers),
         }
     }
 
@@ -353,5 +354,6 @@ impl StrahlerApp {
             || self.blend.fill_job.is_some()
             || self.blend.features_job.is_some()
             || self.blend.networks.busy()
+            || !self.export.running.is_empty()
     }
 }

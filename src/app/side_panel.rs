@@ -29,7 +29,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     .on_hover_text("PNG 16-bit, GeoTIFF, RAW R16, ESRI ASCII, SRTM .hgt or OBJ")
                     .clicked()
                 {
-                    app.export.open = true;
+                    app.export.dialog.open = true;
                 }
                 ui.separator();
                 selftest_section(ui, app);

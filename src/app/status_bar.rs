@@ -16,6 +16,10 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
                 .job()
                 .map(|j| (j.name(), j.progress()))
                 .or_else(|| app.check.job.as_ref().map(|j| (j.name(), j.progress())))
+                .or_else(|| {
+                    let export = app.export.running.first()?;
+                    Some((export.job.name(), export.job.progress()))
+                })
             {
                 ui.separator();
                 // A still bar, not a spinner: a spinner repaints every frame, which on the

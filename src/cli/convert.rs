@@ -145,7 +145,7 @@ fn package(
         splat: crate::export::SplatRules::default(),
         georef: Some(&dem.georef),
     };
-    let files = crate::export::files(&inputs, &request)?;
+    let files = pollster::block_on(crate::export::files(&inputs, &request, &JobCtx::detached()))?;
     super::package::write(&outputs, &args.output, &files)?;
     outputs.commit()?;
     Ok(())

@@ -320,7 +320,8 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     if let (Some(request), Some(path)) = (&package, &args.out) {
-        let files = out.export_files(request, scene.textures.splat())?;
+        let source = out.export_source(scene.textures.splat());
+        let files = pollster::block_on(source.files(request, &JobCtx::detached()))?;
         super::package::write(&outputs, path, &files)?;
     } else if let Some(path) = &args.out {
         write_heightmap(

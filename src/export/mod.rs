@@ -17,6 +17,7 @@ pub mod tiles;
 use crate::dem::format::{self, ExportOptions, Format};
 use crate::dem::{GeoRef, resize};
 use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
 
@@ -262,8 +263,14 @@ pub fn plan(
     })
 }
 
-/// Every file of `request`, encoded (nothing is written: the caller saves them).
-pub fn files(inputs: &Inputs, request: &Request) -> Result<Vec<File>, String> {
+/// Every file of `request`, encoded (nothing is written: the caller saves them). Between
+/// files `ctx` reports the progress by file and may cancel; on the web it lets the page
+/// paint there.
+pub async fn files(
+    inputs: &Inputs<'_>,
+    request: &Request,
+    ctx: &JobCtx,
+) -> Result<Vec<File>, String> {
     let native = inputs.field.width();
     let range = inputs.field.finite_range().unwrap_or((0.0, 0.0));
     let mut plan = plan(request, native, inputs.cell_m, range)?;
@@ -286,7 +293,22 @@ pub fn files(inputs: &Inputs, request: &Request) -> Result<Vec<File>, String> {
     }
     let spacing = plan.extent_m / (plan.size.max(2) - 1) as f64;
     let stem = &request.stem;
+    let total = plan.names.len().max(1) as f32;
+    let step = |out: &Vec<File>, what: &str| {
+        let done = out.len() as f32 / total;
+        let message = format!(
+            "exporting {what} ({} of {} files)",
+            out.len(),
+            plan.names.len()
+        );
+        async move {
+            ctx.checkpoint(done, &message)
+                .await
+                .map_err(|_| "cancelled".to_owned())
+        }
+    };
     let mut out = Vec::new();
+    step(&out, "the heightmap").await?;
     let own = (plan.size == native && plan.grid.is_none())
         .then_some(inputs.georef)
         .flatten();
@@ -305,6 +327,7 @@ pub fn files(inputs: &Inputs, request: &Request) -> Result<Vec<File>, String> {
         });
     }
     for map in &request.maps {
+        step(&out, &format!("the {} map", map.key())).await?;
         let png = texture(*map, &sized, spacing, inputs, request.normals)?;
         out.push(File {
             name: format!("{stem}-{}.png", map.key()),
@@ -313,6 +336,7 @@ pub fn files(inputs: &Inputs, request: &Request) -> Result<Vec<File>, String> {
         });
     }
     if request.rivers {
+        step(&out, "the rivers").await?;
         let frame = network::MapFrame {
             cells: native,
             cell_m: inputs.cell_m,

@@ -2,9 +2,12 @@
 //! `exportHeightmap` and `strahler generate`: the heightmap in a chosen format, the layer
 //! pictures, and engine exports (`crate::export`: presets, tiles, texture maps, GeoJSON).
 
+use std::sync::Arc;
+
 use crate::dem::GeoRef;
 use crate::dem::format::{self, ExportOptions, Exported, Format};
 use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
 
 use super::Output;
 
@@ -45,44 +48,28 @@ pub fn encode_heightmap(
 }
 
 impl Output {
-    /// Every file of an engine or multi-file export (`crate::export::files`) of this terrain;
-    /// `splat`: the scene's splat-map rules.
-    pub fn export_files(
-        &self,
-        request: &crate::export::Request,
-        splat: crate::export::SplatRules,
-    ) -> Result<Vec<crate::export::File>, String> {
-        let skeleton = &self.hydrology.skeleton;
-        let n = skeleton.size;
-        let base = &self.hydrology.terrain;
-        let skeleton_cell =
-            self.cell_m * (self.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
-        // Drainage area on the skeleton's grid by D8 over the terrain before detail (the
-        // erosion's own area treats the rivers as base level: they gather nothing).
-        let area: Vec<f32> =
-            crate::realism::drainage_area_m2(self.base().data(), n, n, skeleton_cell)
-                .map(|a| a.into_iter().map(|v| v as f32).collect())
-                .unwrap_or_else(|| vec![0.0; n * n]);
-        let lowered = self.erosion.as_ref().map(|e| e.depth(base));
-        let networks: Vec<_> = self
-            .hydrology
-            .rivers
-            .iter()
-            .map(|r| r.network.clone())
-            .collect();
-        let inputs = crate::export::Inputs {
-            field: &self.field,
+    /// What an engine export of this terrain reads, owned so a job can take it
+    /// ([`ExportSource::files`]); `splat`: the scene's splat-map rules.
+    pub fn export_source(&self, splat: crate::export::SplatRules) -> ExportSource {
+        ExportSource {
+            field: self.field.clone(),
             cell_m: self.cell_m,
-            networks: &networks,
-            ridges: &self.hydrology.ridges,
-            skeleton_cells: n,
-            river_order: &skeleton.river_order,
-            area_m2: &area,
-            lowered: lowered.as_deref(),
+            networks: self
+                .hydrology
+                .rivers
+                .iter()
+                .map(|r| r.network.clone())
+                .collect(),
+            ridges: self.hydrology.ridges.clone(),
+            skeleton_cells: self.hydrology.skeleton.size,
+            river_order: self.hydrology.skeleton.river_order.clone(),
+            base: Arc::new(self.base().clone()),
+            lowered: self
+                .erosion
+                .as_ref()
+                .map(|e| e.depth(&self.hydrology.terrain)),
             splat,
-            georef: None,
-        };
-        crate::export::files(&inputs, request)
+        }
     }
 
     /// The skeleton's layers (`rivers.png`, `ridges.png`, `constraints.png`) and, with
@@ -97,5 +84,56 @@ impl Output {
             );
         }
         Ok(layers)
+    }
+}
+
+/// An engine export's inputs (see [`Output::export_source`]).
+#[derive(Clone, Debug)]
+pub struct ExportSource {
+    field: Arc<Heightfield>,
+    cell_m: f64,
+    networks: Vec<crate::river::RiverNetwork>,
+    ridges: Vec<crate::ridge::RidgeSegment>,
+    skeleton_cells: usize,
+    river_order: Vec<u8>,
+    /// The terrain before detail and blocks, on the skeleton's grid.
+    base: Arc<Heightfield>,
+    lowered: Option<Vec<f32>>,
+    splat: crate::export::SplatRules,
+}
+
+impl ExportSource {
+    /// Every file of `request` (`crate::export::files`), with progress and cancellation
+    /// through `ctx`.
+    pub async fn files(
+        &self,
+        request: &crate::export::Request,
+        ctx: &JobCtx,
+    ) -> Result<Vec<crate::export::File>, String> {
+        let n = self.skeleton_cells;
+        let skeleton_cell =
+            self.cell_m * (self.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
+        ctx.checkpoint(0.0, "exporting: routing water")
+            .await
+            .map_err(|_| "cancelled".to_owned())?;
+        // Drainage area on the skeleton's grid by D8 over the terrain before detail (the
+        // erosion's own area treats the rivers as base level: they gather nothing).
+        let area: Vec<f32> =
+            crate::realism::drainage_area_m2(self.base.data(), n, n, skeleton_cell)
+                .map(|a| a.into_iter().map(|v| v as f32).collect())
+                .unwrap_or_else(|| vec![0.0; n * n]);
+        let inputs = crate::export::Inputs {
+            field: &self.field,
+            cell_m: self.cell_m,
+            networks: &self.networks,
+            ridges: &self.ridges,
+            skeleton_cells: n,
+            river_order: &self.river_order,
+            area_m2: &area,
+            lowered: self.lowered.as_deref(),
+            splat: self.splat,
+            georef: None,
+        };
+        crate::export::files(&inputs, request, ctx).await
     }
 }
