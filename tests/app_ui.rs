@@ -727,3 +727,39 @@ fn a_mask_stroke_without_detail_says_what_the_mask_is_for() {
             .is_none()
     );
 }
+
+/// Issue 35: Extract features replaces the whole scene, so over a scene with work in it the
+/// button asks first; keeping the scene changes nothing, replacing it runs the extraction.
+#[test]
+fn extract_features_asks_before_replacing_the_scene() {
+    let mut harness = tall_cpu_harness();
+    wait_idle(&mut harness);
+    let automation = harness.state().automation().clone();
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/volcano_maungawhau.tif");
+    automation.push(strahler::app::Command::LoadDem {
+        name: "volcano_maungawhau.tif".into(),
+        bytes: std::fs::read(path).unwrap(),
+    });
+    harness.run_steps(3);
+    let before = harness.state().scene();
+    assert_eq!(before.rivers.len(), 1);
+    harness.get_by_label("Extract features").click();
+    harness.run_steps(2);
+    assert!(
+        harness
+            .query_by_label_contains("This replaces the scene's 1 river")
+            .is_some()
+    );
+    harness.get_by_label("Keep the scene").click();
+    harness.run_steps(3);
+    assert_eq!(harness.state().scene(), before, "nothing replaced");
+    assert!(harness.query_by_label("Keep the scene").is_none());
+    harness.get_by_label("Extract features").click();
+    harness.run_steps(2);
+    harness.get_by_label("Replace the scene").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let after = harness.state().scene();
+    assert!(after.rivers.is_empty() && !after.sketch.ridges.is_empty());
+}

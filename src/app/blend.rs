@@ -56,6 +56,8 @@ pub struct BlendState {
     pub fill_job: Option<JobHandle<Result<Heightfield, DiffusionError>>>,
     /// Extracting the DEM's features (seed 003) into a scene.
     pub features_job: Option<JobHandle<Result<Scene, String>>>,
+    /// Extract features was pressed over a scene with work in it: asking before replacing.
+    pub confirm_extract: bool,
     pub summary: Option<String>,
     /// The DEM panel's network comparison.
     pub networks: super::networks::Comparison,
@@ -74,6 +76,7 @@ impl Default for BlendState {
             selected: None,
             grab: None,
             fill_job: None,
+            confirm_extract: false,
             features_job: None,
             summary: None,
             networks: Default::default(),
@@ -386,7 +389,10 @@ impl StrahlerApp {
                         field,
                         georef: loaded.dem.georef,
                     };
+                    // The same DEM with its voids filled: the chosen window stays.
+                    let window = self.blend.selection;
                     self.set_dem(ctx, &loaded.name, dem, loaded.bytes);
+                    self.blend.selection = window;
                     self.messages.notice = Some(format!("Filled {voids} no-data cells"));
                 }
             }
@@ -546,7 +552,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         if let Some(job) = &app.blend.fill_job {
             ui.add(ProgressBar::new(job.progress()).text(job.message()));
         }
-        extract = ui
+        let pressed = ui
             .add_enabled(voids == 0, egui::Button::new("Extract features"))
             .on_hover_text(
                 "Ridge lines, valley lines and peaks of the DEM (seed paper 003) become the \
@@ -554,6 +560,28 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                  voids first.",
             )
             .clicked();
+        // The extraction replaces the whole scene: ask first when there is work in it.
+        let work = scene_work(app.session.scene());
+        if pressed && work.is_empty() {
+            extract = true;
+        } else if pressed {
+            app.blend.confirm_extract = true;
+        }
+        if app.blend.confirm_extract {
+            ui.label(format!(
+                "This replaces the scene's {work} with the DEM's features (Undo brings them \
+                 back)."
+            ));
+            ui.horizontal(|ui| {
+                if ui.button("Replace the scene").clicked() {
+                    extract = true;
+                    app.blend.confirm_extract = false;
+                }
+                if ui.button("Keep the scene").clicked() {
+                    app.blend.confirm_extract = false;
+                }
+            });
+        }
         if let Some(job) = &app.blend.features_job {
             ui.add(ProgressBar::new(job.progress()).text(job.message()));
         }
@@ -578,6 +606,27 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         app.place_selection();
     }
     blocks_list(ui, app);
+}
+
+/// What an extraction would replace, in words ("2 rivers, 3 sketch items and 1 block"), or
+/// nothing.
+fn scene_work(scene: &Scene) -> String {
+    let sketch = &scene.sketch;
+    let items = sketch.ridges.len() + sketch.valleys.len() + sketch.peaks.len();
+    let parts: Vec<String> = [
+        (scene.rivers.len(), "river"),
+        (items, "sketch item"),
+        (scene.blend.len(), "block"),
+    ]
+    .into_iter()
+    .filter(|(n, _)| *n > 0)
+    .map(|(n, what)| format!("{n} {what}{}", if n == 1 { "" } else { "s" }))
+    .collect();
+    match parts.as_slice() {
+        [] => String::new(),
+        [one] => one.clone(),
+        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
+    }
 }
 
 /// The DEM preview with the reference window; drag on it to select a new window.
