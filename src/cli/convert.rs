@@ -129,9 +129,7 @@ fn package(
         .package
         .request(&args.output, args.size, args.flip_y, args.z_scale, w)?;
     super::package::claim(&mut outputs, &args.output, &request)?;
-    let area: Vec<f32> = crate::realism::drainage_area_m2(field.data(), w, h, cell_m)
-        .map(|a| a.into_iter().map(|v| v as f32).collect())
-        .unwrap_or_else(|| vec![0.0; w * h]);
+    // No rivers to describe: the maps route their own water.
     let order = vec![0u8; w * h];
     let inputs = crate::export::Inputs {
         field,
@@ -140,7 +138,7 @@ fn package(
         ridges: &[],
         skeleton_cells: w,
         river_order: &order,
-        area_m2: &area,
+        area_m2: &[],
         lowered: None,
         splat: crate::export::SplatRules::default(),
         georef: Some(&dem.georef),

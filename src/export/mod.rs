@@ -190,7 +190,8 @@ pub struct Inputs<'a> {
     /// The skeleton's size and every cell's Strahler order (0 off the rivers).
     pub skeleton_cells: usize,
     pub river_order: &'a [u8],
-    /// Drainage area (m^2) on the skeleton's grid: the erosion's, else the terrain's own.
+    /// Drainage area (m^2) on the skeleton's grid, for the rivers' GeoJSON (may be empty
+    /// when the request has no rivers).
     pub area_m2: &'a [f32],
     /// How much erosion lowered each skeleton cell (metres), when it ran.
     pub lowered: Option<&'a [f32]>,
@@ -337,6 +338,13 @@ pub async fn files(
     }
     if request.rivers {
         step(&out, "the rivers").await?;
+        let cells = inputs.skeleton_cells * inputs.skeleton_cells;
+        if inputs.area_m2.len() != cells {
+            return Err(format!(
+                "the rivers' drainage area has {} cells, not {cells}",
+                inputs.area_m2.len()
+            ));
+        }
         let frame = network::MapFrame {
             cells: native,
             cell_m: inputs.cell_m,

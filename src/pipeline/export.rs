@@ -113,15 +113,19 @@ impl ExportSource {
         let n = self.skeleton_cells;
         let skeleton_cell =
             self.cell_m * (self.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
-        ctx.checkpoint(0.0, "exporting: routing water")
-            .await
-            .map_err(|_| "cancelled".to_owned())?;
-        // Drainage area on the skeleton's grid by D8 over the terrain before detail (the
-        // erosion's own area treats the rivers as base level: they gather nothing).
-        let area: Vec<f32> =
+        // Drainage area on the skeleton's grid by D8 over the terrain before detail, for the
+        // rivers' GeoJSON (the erosion's own area treats the rivers as base level: they
+        // gather nothing).
+        let area: Vec<f32> = if request.rivers {
+            ctx.checkpoint(0.0, "exporting: routing water")
+                .await
+                .map_err(|_| "cancelled".to_owned())?;
             crate::realism::drainage_area_m2(self.base.data(), n, n, skeleton_cell)
                 .map(|a| a.into_iter().map(|v| v as f32).collect())
-                .unwrap_or_else(|| vec![0.0; n * n]);
+                .unwrap_or_else(|| vec![0.0; n * n])
+        } else {
+            Vec::new()
+        };
         let inputs = crate::export::Inputs {
             field: &self.field,
             cell_m: self.cell_m,
