@@ -1,8 +1,8 @@
 //! The app's side of exports: what the export dialog (`panels::ExportDialog`) is told of
 //! the terrain, and the export jobs it and scripts start (`crate::export` through
 //! `pipeline::ExportSource`). A job reports its progress by file in the status bar and keeps
-//! the page answering between files. In the browser one file downloads as itself and several
-//! as one zip; natively each is saved in the working directory under a stem no file there
+//! the page answering between files. In the browser a heightmap and its sidecar download as
+//! they are and more files as one zip; natively each is saved in the working directory under a stem no file there
 //! has yet.
 
 use super::StrahlerApp;
@@ -143,11 +143,16 @@ impl StrahlerApp {
     }
 }
 
-/// Saves `files` and `layers`: one file as itself; several as `stem.zip` in the browser,
-/// one by one natively.
+/// Saves `files` and `layers`: a heightmap (and its sidecar) as they are; more files as
+/// `stem.zip` in the browser, one by one natively.
 fn save_all(files: &[File], stem: &str, layers: &[LayerPng]) -> Result<String, String> {
     let mut said = match files {
         [file] => super::files::save(&file.name, file.mime, &file.bytes)?,
+        [map, sidecar] if sidecar.name.ends_with(".json") => {
+            let said = super::files::save(&map.name, map.mime, &map.bytes)?;
+            super::files::save(&sidecar.name, sidecar.mime, &sidecar.bytes)?;
+            format!("{said} and its .json")
+        }
         _ => save_several(files, stem)?,
     };
     for (name, png) in layers {

@@ -1,8 +1,8 @@
 //! The export dialog: the terrain for a game engine or a GIS. Pick an engine (or a plain
 //! file), its size and format, tiles, texture maps and the river network; the dialog shows
 //! the files it will write and the numbers to type into the engine before anything is
-//! written. In the browser several files download as one zip; natively they are saved in the
-//! working directory.
+//! written. In the browser a heightmap and its sidecar download as they are, more files as
+//! one zip; natively they are saved in the working directory.
 
 use egui::{ComboBox, DragValue, RichText};
 
