@@ -5,9 +5,12 @@
 //! they are and more files as one zip; natively each is saved in the working directory under a stem no file there
 //! has yet.
 
+use std::sync::{Arc, Weak};
+
 use super::StrahlerApp;
 use super::panels::{ExportDialog, ExportInfo};
 use crate::export::{File, Request};
+use crate::heightfield::Heightfield;
 use crate::jobs::JobHandle;
 use crate::pipeline::LayerPng;
 
@@ -16,6 +19,9 @@ use crate::pipeline::LayerPng;
 pub(super) struct Exports {
     pub dialog: ExportDialog,
     pub running: Vec<Exporting>,
+    /// The height range of the terrain the dialog last showed (held weakly, so an old
+    /// terrain is not kept alive), so an open dialog does not scan every cell each frame.
+    range: Option<(Weak<Heightfield>, (f32, f32))>,
 }
 
 /// An export job and where its files go.
@@ -33,13 +39,22 @@ enum Destination {
 
 impl StrahlerApp {
     /// What the export dialog shows of the terrain on the map, once there is one.
-    pub(super) fn export_info(&self) -> Option<ExportInfo> {
+    pub(super) fn export_info(&mut self) -> Option<ExportInfo> {
+        let output = self.session.output()?;
+        let range = match &self.export.range {
+            Some((field, range)) if Weak::ptr_eq(field, &Arc::downgrade(&output.field)) => *range,
+            _ => {
+                let range = output.field.finite_range().unwrap_or((0.0, 0.0));
+                self.export.range = Some((Arc::downgrade(&output.field), range));
+                range
+            }
+        };
         let output = self.session.output()?;
         let scene = self.session.scene();
         Some(ExportInfo {
             native: output.field.width(),
             cell_m: output.cell_m,
-            range: output.field.finite_range().unwrap_or((0.0, 0.0)),
+            range,
             preview_of: self.showing_preview().then_some(scene.size),
             vertical_scale: scene.vertical_scale as f32,
             textures: scene.textures,
