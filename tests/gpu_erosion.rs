@@ -279,6 +279,7 @@ fn gpu_refines_maps_larger_than_the_solver_grid() {
     let eroded = pollster::block_on(strahler::erosion::erode_field_within(
         design,
         kinds,
+        &out.hydrology.skeleton.held,
         &ErosionSettings::default(),
         scene.cell_size,
         5,

@@ -152,6 +152,7 @@ fn erosion_report() -> ErosionReport {
         conditioning: Default::default(),
         backend: "cpu",
         millis: 321.0,
+        held: None,
     }
 }
 

@@ -122,6 +122,7 @@ async fn expand(
 pub(super) async fn erode_coarse_to_fine(
     field: &Heightfield,
     kinds: &[CellKind],
+    held: &[u32],
     base: Vec<bool>,
     settings: &ErosionSettings,
     cell_m: f64,
@@ -134,9 +135,11 @@ pub(super) async fn erode_coarse_to_fine(
     let (coarse, coarse_kinds) = reduce(field, kinds, factor, ctx).await?;
     let m = coarse.width();
     let coarse_cell_m = cell_m * factor as f64;
+    let coarse_held = super::hold::coarsen(held, n, factor, m);
     let eroded = solve(
         &coarse,
         &coarse_kinds,
+        &coarse_held,
         settings,
         coarse_cell_m,
         seed,
@@ -154,7 +157,9 @@ pub(super) async fn erode_coarse_to_fine(
         let (channel, steps_away) =
             nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
         ctx.tick(FINISHING.0, FINISHING.1).await?;
-        floor_near_rivers(&channel, &steps_away, floor_cells)
+        let mut floor = floor_near_rivers(&channel, &steps_away, floor_cells);
+        super::hold::pin(&mut floor, field.data(), held);
+        floor
     };
     let mut heights = field.data().to_vec();
     in_row_bands(ctx, FINISHING, &mut heights, n, |rows, part| {

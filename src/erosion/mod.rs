@@ -36,6 +36,9 @@
 //! runs of the stack in its fixed order, lakes one by one), so a browser job can yield
 //! between them; the order of the work, and so every bit of the result, is the same.
 //!
+//! The stage around the solver (`stage.rs`) pins the sketch's peaks and ridges with the
+//! floor and raises their flanks after the last step (`hold.rs`).
+//!
 //! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
 //! them, the map border) keep their heights exactly and are the roots of the stack.
 //!
@@ -55,6 +58,7 @@ pub mod floodplain;
 mod flow;
 pub mod gpu;
 mod grid;
+mod hold;
 mod layers;
 mod params;
 mod rock;
@@ -68,6 +72,7 @@ mod tests;
 
 pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
+pub use self::hold::Held;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::rock::{Rock, erodibility_factors};

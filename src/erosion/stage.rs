@@ -226,6 +226,10 @@ pub struct ErosionReport {
     /// it holds the solver's fields, see [`super::gpu`]).
     pub backend: &'static str,
     pub millis: f64,
+    /// How close the sketch's peaks and ridges came to their drawn heights (`hold.rs`); absent
+    /// when the scene has none.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub held: Option<super::hold::Held>,
 }
 
 /// The erosion stage's output.
@@ -262,6 +266,9 @@ pub enum StageError {
     Field(#[from] crate::heightfield::HeightfieldError),
     #[error("cancelled")]
     Cancelled(#[from] Cancelled),
+    /// The correction that holds the drawn heights could not be solved (`hold.rs`).
+    #[error("holding the drawn peaks and ridges: {0}")]
+    Hold(String),
 }
 
 /// Base level: river and valley cells and `band` cells around them, and the valley floors
@@ -740,16 +747,19 @@ pub(super) async fn rock_in_bands(
 /// Runs the solver on `field` (square, cells `cell_m` wide) with the rivers of `kinds` as
 /// base level ([`Prepared::prepare`], then [`run_solver`]); returns the eroded heights, the
 /// last drainage area and the backend that ran. O(cells) per step.
+#[allow(clippy::too_many_arguments)]
 pub(super) async fn solve(
     field: &Heightfield,
     kinds: &[CellKind],
+    held: &[u32],
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Solved, StageError> {
-    let prepared = Prepared::prepare(field, kinds, settings, cell_m, seed, ctx).await?;
+    let mut prepared = Prepared::prepare(field, kinds, settings, cell_m, seed, ctx).await?;
+    super::hold::pin(&mut prepared.floor, field.data(), held);
     run_solver(
         prepared,
         field.width(),
@@ -849,6 +859,7 @@ pub async fn erode_terrain(
     erode_field(
         &hydrology.terrain,
         kinds,
+        &hydrology.skeleton.held,
         settings,
         cell_m,
         seed,
@@ -863,9 +874,11 @@ pub async fn erode_terrain(
 /// [`MAX_SOLVER_SIDE`] are eroded on a grid of blocks, brought back to full resolution and
 /// refined there by one more step of the law (`coarse.rs`). O(cells) per step, every O(cells) pass in pieces of about
 /// [`CHUNK_CELLS`] cells with the job's ticks between them.
+#[allow(clippy::too_many_arguments)]
 pub async fn erode_field(
     field: &Heightfield,
     kinds: &[CellKind],
+    held: &[u32],
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -875,6 +888,7 @@ pub async fn erode_field(
     erode_field_within(
         field,
         kinds,
+        held,
         settings,
         cell_m,
         seed,
@@ -892,6 +906,7 @@ pub async fn erode_field(
 pub async fn erode_field_within(
     field: &Heightfield,
     kinds: &[CellKind],
+    held: &[u32],
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -919,18 +934,41 @@ pub async fn erode_field_within(
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(max_side.max(1));
     let solved = if factor <= 1 {
-        solve(field, kinds, settings, cell_m, seed, backend, ctx).await?
+        solve(field, kinds, held, settings, cell_m, seed, backend, ctx).await?
     } else {
         coarse::erode_coarse_to_fine(
-            field, kinds, base, settings, cell_m, seed, factor, backend, ctx,
+            field,
+            kinds,
+            held,
+            base.clone(),
+            settings,
+            cell_m,
+            seed,
+            factor,
+            backend,
+            ctx,
         )
         .await?
     };
     let area = Heightfield::from_vec(n, n, solved.area)?;
-    let mut eroded = Heightfield::from_vec(n, n, solved.heights)?;
+    let mut heights = solved.heights;
+    let held = super::hold::hold_design(
+        &mut heights,
+        design.data(),
+        held,
+        &base,
+        n,
+        cell_m,
+        settings.talus_deg,
+        ctx,
+    )
+    .await?;
+    let mut eroded = Heightfield::from_vec(n, n, heights)?;
     let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
     // The GPU's copy is the terrain as long as the CPU raised no cell after reading it.
-    let gpu = solved.gpu.filter(|_| conditioning.raised_cells == 0);
+    let gpu = solved
+        .gpu
+        .filter(|_| conditioning.raised_cells == 0 && held.is_none());
     let conditioning = drainage::merge(solved.conditioning, conditioning);
     let (mut sum, mut max) = (0.0f64, f64::NEG_INFINITY);
     in_bands(ctx, (0.97, "eroding: measuring"), n, n, |rows| {
@@ -959,6 +997,7 @@ pub async fn erode_field_within(
             conditioning,
             backend: solved.ran_on,
             millis: 0.0,
+            held,
         },
         millis: 0.0,
         gpu,

@@ -223,7 +223,7 @@ mod tests {
                 max_depth: 7,
             },
         ];
-        let rivers: Vec<_> = grow_all(&strokes, &RiverParams::default(), 3)
+        let rivers: Vec<_> = grow_all(&strokes, &RiverParams::default(), &Default::default(), 3)
             .into_iter()
             .map(|r| r.network)
             .collect();

@@ -5,9 +5,11 @@
 //! - [`generator`]: generators, `P` and `R` (eq. 1), link lengths (eq. 2), rule set Omega.
 //! - [`lsystem`]: rewriting with a seeded generator choice and a link budget.
 //! - [`network`]: turtle interpretation, clipping to the map, no crossings, heights.
+//! - [`keepout`]: the sketch's peaks and ridges, which grown tributaries keep clear of.
 //! - [`stats`]: Strahler orders, Horton bifurcation ratio, Tokunaga side-branch counts.
 
 pub mod generator;
+pub mod keepout;
 pub mod lsystem;
 pub mod network;
 pub mod stats;
@@ -17,6 +19,7 @@ use rand::SeedableRng;
 use rand::rngs::ChaCha12Rng;
 use serde::Serialize;
 
+pub use keepout::Keepout;
 pub use network::RiverNetwork;
 pub use stats::NetworkStats;
 
@@ -91,8 +94,14 @@ pub fn depth_for(stroke: &Stroke) -> u32 {
 }
 
 /// Grows one network per stroke, in order; later networks never cross earlier ones, and
-/// none leaves the map. Deterministic in `seed` (each stroke gets its own stream).
-pub fn grow_all(strokes: &[Stroke], params: &RiverParams, seed: u64) -> Vec<GrownRiver> {
+/// none leaves the map, and grown tributaries keep off `keepout`. Deterministic in `seed`
+/// (each stroke gets its own stream).
+pub fn grow_all(
+    strokes: &[Stroke],
+    params: &RiverParams,
+    keepout: &Keepout,
+    seed: u64,
+) -> Vec<GrownRiver> {
     let grown: Vec<(u32, lsystem::Grown)> = strokes
         .iter()
         .enumerate()
@@ -118,7 +127,7 @@ pub fn grow_all(strokes: &[Stroke], params: &RiverParams, seed: u64) -> Vec<Grow
             )
         })
         .collect();
-    let networks = network::admit(&drawings, params.slope, params.map_width_m);
+    let networks = network::admit(&drawings, params.slope, params.map_width_m, keepout);
     networks
         .into_iter()
         .zip(grown)
@@ -179,7 +188,7 @@ mod tests {
             stroke((0.0, 0.3), (0.45, 0.2), 3, 8),
             stroke((1.0, 0.6), (0.65, 0.4), 4, 7),
         ];
-        let rivers = grow_all(&strokes, &RiverParams::default(), 11);
+        let rivers = grow_all(&strokes, &RiverParams::default(), &Keepout::default(), 11);
         for (r, s) in rivers.iter().zip(&strokes) {
             assert!(
                 r.stats.max_order >= 3,
@@ -216,6 +225,7 @@ mod tests {
         let rivers = grow_all(
             &[stroke((0.5, 1.0), (0.5, 0.4), 3, 8)],
             &RiverParams::default(),
+            &Keepout::default(),
             5,
         );
         let net = &rivers[0].network;
@@ -231,10 +241,10 @@ mod tests {
     #[test]
     fn same_seed_same_network() {
         let s = [stroke((0.2, 1.0), (0.3, 0.3), 3, 8)];
-        let a = grow_all(&s, &RiverParams::default(), 9);
-        let b = grow_all(&s, &RiverParams::default(), 9);
+        let a = grow_all(&s, &RiverParams::default(), &Keepout::default(), 9);
+        let b = grow_all(&s, &RiverParams::default(), &Keepout::default(), 9);
         assert_eq!(a[0].network.nodes, b[0].network.nodes);
-        let c = grow_all(&s, &RiverParams::default(), 10);
+        let c = grow_all(&s, &RiverParams::default(), &Keepout::default(), 10);
         assert_ne!(a[0].network.nodes, c[0].network.nodes);
     }
 
@@ -243,6 +253,7 @@ mod tests {
         let rivers = grow_all(
             &[stroke((0.5, 1.0), (0.5, 0.0), 6, 12)],
             &RiverParams::default(),
+            &Keepout::default(),
             1,
         );
         assert!(rivers[0].network.links() <= RiverParams::default().link_budget);

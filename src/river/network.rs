@@ -164,9 +164,15 @@ pub fn segments_intersect(a: DVec2, b: DVec2, p: DVec2, q: DVec2) -> bool {
 /// Links are admitted from the estuaries upstream, the trunks (the strokes themselves) first,
 /// then higher Strahler orders first across all networks: one that would leave the map or cross a link already admitted is dropped with
 /// everything upstream of it, so main streams win over tributaries and networks never cross.
+/// A grown link (not a stroke's trunk) that `keepout` blocks is dropped the same way.
 /// Heights: `slope * geodesic distance`, in metres for a map `map_width_m` wide (Sec. IV-C;
 /// each estuary is at 0 m). O(L log L) for L links in all.
-pub fn admit(drawings: &[RiverNetwork], slope: f64, map_width_m: f64) -> Vec<RiverNetwork> {
+pub fn admit(
+    drawings: &[RiverNetwork],
+    slope: f64,
+    map_width_m: f64,
+    keepout: &super::Keepout,
+) -> Vec<RiverNetwork> {
     use std::cmp::Reverse;
     use std::collections::BinaryHeap;
 
@@ -221,7 +227,8 @@ pub fn admit(drawings: &[RiverNetwork], slope: f64, map_width_m: f64) -> Vec<Riv
         let parent = d.parent[node].map_or(0, |p| p as usize);
         let (from, to) = (d.nodes[parent], d.nodes[node]);
         let inside = (0.0..=1.0).contains(&to.x) && (0.0..=1.0).contains(&to.y);
-        if !inside || index.crosses(from, to) {
+        let trunk = d.trunk.get(node).copied().unwrap_or(false);
+        if !inside || index.crosses(from, to) || (!trunk && keepout.blocks(from, to)) {
             continue; // dropped, and with it everything upstream
         }
         index.insert(from, to);

@@ -65,6 +65,9 @@ pub struct Skeleton {
     pub kinds: Vec<CellKind>,
     /// Strahler order of river cells (0 elsewhere), for the layers.
     pub river_order: Vec<u8>,
+    /// The cells of the sketch's ridges and peaks (ascending, each once): the heights the
+    /// user asked for, which the erosion holds (`erosion::hold`).
+    pub held: Vec<u32>,
 }
 
 impl Skeleton {
@@ -144,6 +147,7 @@ impl Skeleton {
             heights: vec![0.0; n * n],
             kinds: vec![CellKind::Free; n * n],
             river_order: vec![0; n * n],
+            held: Vec::new(),
         }
     }
 }
@@ -363,6 +367,7 @@ mod tests {
             heights,
             kinds,
             river_order: vec![0; n * n],
+            held: Vec::new(),
         };
         let err = skeleton.constraints().unwrap_err();
         assert!(err.to_string().contains("(5, 0)"), "{err}");

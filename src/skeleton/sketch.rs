@@ -25,7 +25,7 @@ pub struct SketchLine {
 
 impl SketchLine {
     /// The given height of vertex `k`, if any.
-    fn given(&self, k: usize) -> Option<f64> {
+    pub fn given(&self, k: usize) -> Option<f64> {
         self.heights
             .as_ref()
             .and_then(|h| h.get(k).copied())
@@ -93,7 +93,8 @@ impl Heights<'_> {
 }
 
 /// Rasterises `sketch` into `sk` (after rivers and ridges). Rivers keep their cells; valleys
-/// take precedence over ridges and peaks. O(sketch length in cells + vertices x river nodes).
+/// take precedence over ridges and peaks. The ridge and peak cells are listed in
+/// [`Skeleton::held`]. O(sketch length in cells + vertices x river nodes).
 #[allow(clippy::too_many_arguments)]
 pub fn rasterise(
     sk: &mut Skeleton,
@@ -127,6 +128,9 @@ pub fn rasterise(
         if rank(kind) >= rank(sk.kinds[i]) {
             sk.kinds[i] = kind;
             sk.heights[i] = h as f32;
+            if kind == CellKind::Ridge {
+                sk.held.push(i as u32);
+            }
         }
     };
 
@@ -196,6 +200,11 @@ pub fn rasterise(
             }
         }
     }
+    // A valley drawn later over a ridge cell takes it: only the ridges and peaks left hold.
+    let kinds = &sk.kinds;
+    sk.held.retain(|&i| kinds[i as usize] == CellKind::Ridge);
+    sk.held.sort_unstable();
+    sk.held.dedup();
 }
 
 /// Bresenham along each segment with values (height and relief) linear between the vertices

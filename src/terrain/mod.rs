@@ -320,7 +320,53 @@ fn check_strokes(strokes: &[Stroke], sketch: &Sketch) -> Result<(), TerrainError
 pub fn grow_rivers(strokes: &[Stroke], params: &TerrainParams) -> Vec<GrownRiver> {
     let mut river_params = params.rivers;
     river_params.map_width_m = params.ridges.map_width_m;
-    river::grow_all(strokes, &river_params, stage_seed(params.seed, "rivers"))
+    let keepout = keepout(&params.sketch, params.ridges.map_width_m);
+    river::grow_all(
+        strokes,
+        &river_params,
+        &keepout,
+        stage_seed(params.seed, "rivers"),
+    )
+}
+
+/// The mean slope of a mountain's flank from its summit down to the river at its foot (31
+/// degrees, under the threshold angle of rock, 35; Burbank et al. 1996), which sets how far
+/// grown tributaries keep from a sketched peak or ridge of given height.
+const FLANK_SLOPE: f64 = 0.6;
+
+/// The farthest (in map widths) a tributary keeps from a sketched feature, however high: a
+/// peak far higher than the map is wide keeps the rivers from a fifth of the map around it,
+/// not from the whole map.
+const MAX_CLEARANCE: f64 = 0.2;
+
+/// What grown tributaries keep off ([`river::Keepout`]): every sketched ridge (no link
+/// crosses it), and around each peak and ridge vertex of given height the distance over
+/// which its relief falls at [`FLANK_SLOPE`]. The relief is the height above the lowest given
+/// valley height (the rivers' level in a scene rebuilt from a DEM), or above 0 (the
+/// estuaries). Derived heights (eq. 4) already follow the rivers and ask no clearance.
+fn keepout(sketch: &Sketch, map_width_m: f64) -> river::Keepout {
+    let base = sketch
+        .valleys
+        .iter()
+        .flat_map(|v| v.heights.iter().flatten().copied().chain(v.height))
+        .fold(f64::INFINITY, f64::min);
+    let base = if base.is_finite() { base } else { 0.0 };
+    let clearance = |h: Option<f64>| {
+        h.map_or(0.0, |h| {
+            ((h - base).max(0.0) / (FLANK_SLOPE * map_width_m)).min(MAX_CLEARANCE)
+        })
+    };
+    let mut keep = river::Keepout::default();
+    for peak in &sketch.peaks {
+        keep.add_point(peak.at, clearance(peak.height));
+    }
+    for line in &sketch.ridges {
+        for k in 1..line.points.len() {
+            let c = clearance(line.given(k - 1)).max(clearance(line.given(k)));
+            keep.add_segment(line.points[k - 1], line.points[k], c);
+        }
+    }
+    keep
 }
 
 /// Runs the pipeline. Cost: rivers O(L), ridges O(L log L) for L river links, skeleton

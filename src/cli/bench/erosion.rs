@@ -180,6 +180,7 @@ fn stage_run(
     pollster::block_on(erode_field(
         field,
         kinds,
+        &[],
         settings,
         cell,
         1,
