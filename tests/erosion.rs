@@ -295,3 +295,18 @@ fn drawn_peaks_and_ridges_stand_at_their_heights_after_erosion() {
         }
     }
 }
+
+/// A river whose mouth lies inside the map drains its whole catchment into one depression:
+/// the conditioning after the erosion floods it whole (it took over ten minutes at 128^2,
+/// round after round of local floods) and every cell then reaches an outlet.
+#[test]
+fn a_river_mouth_inside_the_map_is_conditioned_in_one_flood() {
+    let scene = Scene {
+        size: 128,
+        rivers: vec![river([0.5, 0.9], [0.5, 0.3], 3, 5)],
+        ..Scene::default()
+    };
+    let out = run(&scene);
+    let drainage = &out.erosion.as_ref().expect("eroded").report.drainage;
+    assert_eq!((drainage.pit_cells, drainage.outlet_fraction), (0, 1.0));
+}

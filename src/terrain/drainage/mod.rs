@@ -180,6 +180,20 @@ impl Counts {
         }
     }
 
+    /// The drainage of a map of `n` cells these counts found no pit in: every cell drains to
+    /// the border (descent paths strictly descend, so they end, and only there).
+    fn drainage(&self, n: usize) -> Drainage {
+        Drainage {
+            river_cells: self.river_cells,
+            river_cells_draining: self.river_cells_draining,
+            river_fraction: self.river_cells_draining as f64 / self.river_cells.max(1) as f64,
+            cells_to_outlet: n,
+            outlet_fraction: 1.0,
+            pit_cells: 0,
+            pit_fraction: 0.0,
+        }
+    }
+
     fn add(&mut self, other: Counts) {
         self.river_cells += other.river_cells;
         self.river_cells_draining += other.river_cells_draining;
@@ -596,11 +610,18 @@ async fn count_in_steps(
 /// `z*`. Each round raises its pits, so the rounds end. O(r log r) per round for its r
 /// cells; an eroded 4096^2 map takes about 170 rounds of a few hundred cells after a first
 /// one of 60 000.
+///
+/// A depression that holds most of the map (a river whose mouth lies inside the map drains
+/// its whole catchment into it) takes a round per rim level, each over the whole region:
+/// over ten minutes at 128^2. Once the rounds have taken `budget` cells in all, the field is
+/// put back as it was and `None` returned; the caller floods the whole map instead
+/// ([`Flood::new`], the same `z*`).
 async fn flood_depressions(
     field: &mut Heightfield,
     mut pits: Vec<u32>,
+    budget: usize,
     ctx: &JobCtx,
-) -> Result<Flooded, Cancelled> {
+) -> Result<Option<Flooded>, Cancelled> {
     let dims = (field.width(), field.height());
     let n = dims.0 * dims.1;
     let (mut in_round, mut queued) = (vec![false; n], vec![false; n]);
@@ -608,6 +629,7 @@ async fn flood_depressions(
     let mut flooded = vec![false; n];
     let (mut cells, mut original) = (Vec::new(), Vec::new());
     let mut round = Vec::new();
+    let mut taken = 0usize;
     pits.retain(|&p| !field.data()[p as usize].is_nan());
     while !pits.is_empty() {
         grow_regions(
@@ -625,6 +647,14 @@ async fn flood_depressions(
                 cells.push(i);
                 original.push(field.data()[i as usize]);
             }
+        }
+        taken += round.len();
+        if taken > budget {
+            let z = field.data_mut();
+            for (&i, &before) in cells.iter().zip(&original) {
+                z[i as usize] = before;
+            }
+            return Ok(None);
         }
         ctx.tick(0.95, "filling depressions").await?;
         let mut flood = Flood::around(field, &round, closed);
@@ -653,13 +683,17 @@ async fn flood_depressions(
             result.max_raise = result.max_raise.max(after - before);
         }
     }
-    Ok(Flooded {
+    Ok(Some(Flooded {
         cells,
         original,
         flooded,
         result,
-    })
+    }))
 }
+
+/// How many times the map's cells the rounds of `flood_depressions` may take before the
+/// whole map is flooded instead.
+const ROUND_BUDGET: usize = 4;
 
 /// What [`flood_depressions`] changed.
 struct Flooded {
@@ -741,12 +775,31 @@ pub async fn condition_and_measure(
     let mut counts = count_in_steps(field, kinds, ctx).await?;
     let mut conditioning = Conditioning::default();
     if counts.pit_cells > 0 {
-        let Flooded {
+        let Some(Flooded {
             cells: region,
             original,
             flooded,
             result,
-        } = flood_depressions(field, std::mem::take(&mut counts.pits), ctx).await?;
+        }) = flood_depressions(
+            field,
+            std::mem::take(&mut counts.pits),
+            ROUND_BUDGET * n,
+            ctx,
+        )
+        .await?
+        else {
+            // One depression holds most of the map: flood it whole and count again.
+            let mut flood = Flood::new(field);
+            while !flood.run(field, STEP_CELLS) {
+                ctx.tick(0.95, "filling depressions").await?;
+            }
+            let conditioning = flood.result();
+            let counts = count_in_steps(field, kinds, ctx).await?;
+            if counts.pit_cells > 0 {
+                return Ok((conditioning, measure(field, kinds)));
+            }
+            return Ok((conditioning, counts.drainage(n)));
+        };
         conditioning = result;
         // The cells whose receivers the flood can change (the regions and their neighbours)
         // are counted out on the heights before the flood and back in on those after it (in
@@ -768,16 +821,7 @@ pub async fn condition_and_measure(
         // Only NaN heights leave pits after the flood: measure them the long way.
         return Ok((conditioning, measure(field, kinds)));
     }
-    let drainage = Drainage {
-        river_cells: counts.river_cells,
-        river_cells_draining: counts.river_cells_draining,
-        river_fraction: counts.river_cells_draining as f64 / counts.river_cells.max(1) as f64,
-        cells_to_outlet: n,
-        outlet_fraction: 1.0,
-        pit_cells: 0,
-        pit_fraction: 0.0,
-    };
-    Ok((conditioning, drainage))
+    Ok((conditioning, counts.drainage(n)))
 }
 
 /// [`condition_and_measure`] with the flood on `backend`'s GPU when it runs the heavy stages
@@ -905,6 +949,49 @@ mod tests {
             }
         }
         fields
+    }
+
+    /// A rough cone falling to the middle of the map: the whole map is one depression with
+    /// pits nested in it (a river mouth inside the map). Rounds that run out of budget give
+    /// up with the field put back as it was, and the whole-map flood gives the reference's
+    /// bits.
+    #[test]
+    fn a_depression_holding_the_map_is_flooded_whole() {
+        let n = 96;
+        let mut seed = 7u64;
+        let cone: Vec<f32> = (0..n * n)
+            .map(|i| {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let (x, y) = ((i % n) as f32 - 48.0, (i / n) as f32 - 48.0);
+                x.hypot(y) * 0.5 + (seed >> 40) as f32 / (1u64 << 24) as f32 * 4.0
+            })
+            .collect();
+        let field = Heightfield::from_vec(n, n, cone).unwrap();
+        let kinds = vec![CellKind::Free; n * n];
+        let mut rounds = field.clone();
+        let pits = pollster::block_on(count_in_steps(&rounds, &kinds, &JobCtx::detached()))
+            .unwrap()
+            .pits;
+        let gave_up =
+            pollster::block_on(flood_depressions(&mut rounds, pits, n, &JobCtx::detached()))
+                .unwrap()
+                .is_none();
+        assert!(gave_up, "the rounds finished within a budget of one map");
+        assert_eq!(rounds.data(), field.data(), "put back as it was");
+        let mut reference = field.clone();
+        let c1 = fill_depressions(&mut reference);
+        let mut fast = field;
+        let (c2, d2) = pollster::block_on(condition_and_measure(
+            &mut fast,
+            &kinds,
+            &JobCtx::detached(),
+        ))
+        .unwrap();
+        assert_eq!(reference.data(), fast.data());
+        assert_eq!(c1.raised_cells, c2.raised_cells);
+        assert_eq!((d2.pit_cells, d2.outlet_fraction), (0, 1.0));
     }
 
     /// The fast path (receivers, basins, a flood of the basins only, counts) gives the
