@@ -188,6 +188,7 @@ fn gpu_reaches_the_analytic_steady_state() {
             params,
             seed: Some(2),
             erodibility: &[],
+            fill_pits: true,
         },
     );
     let z = &out.heights;
@@ -261,6 +262,61 @@ fn gpu_stage_keeps_rivers_and_drainage() {
     assert_eq!(out.report.erosion.expect("a report").backend, "cpu");
 }
 
+/// A river that ends inside the map, all stages on the GPU: the GPU's floods start from the
+/// map's border, so they leave such a map to the CPU's conditioning, which lets the water out
+/// at the mouth. The mouth keeps its height, the river drains along itself, nothing is
+/// flooded into a lake (as on the CPU: `tests/erosion.rs`), on the solver's grid and on the
+/// coarse-to-fine path.
+#[test]
+fn gpu_lets_a_river_out_at_a_mouth_inside_the_map() {
+    let Some(gpu) = common::gpu() else { return };
+    let backend = Backend::Gpu(Arc::new(gpu.with_all_stages()));
+    let scene = Scene {
+        size: 128,
+        rivers: vec![river([0.5, 0.85], [0.5, 0.3], 3, 5)],
+        ..Scene::default()
+    };
+    let out = run(&scene, &backend);
+    let skeleton = &out.hydrology.skeleton;
+    assert_eq!(skeleton.mouths.len(), 1);
+    let mouth = skeleton.mouths[0] as usize;
+    let hydrology = &out.hydrology.report.drainage;
+    assert!(hydrology.river_fraction >= 0.99, "{hydrology:?}");
+    let raised = out.hydrology.report.conditioning.raised_cells;
+    assert!(
+        raised < 128 * 128 / 100,
+        "{raised} cells flooded before erosion"
+    );
+    for max_side in [128, 64] {
+        let eroded = pollster::block_on(strahler::erosion::erode_field_within(
+            &out.hydrology.terrain,
+            &skeleton.kinds,
+            skeleton.into(),
+            &ErosionSettings::default(),
+            scene.cell_size,
+            5,
+            &backend,
+            &JobCtx::detached(),
+            max_side,
+        ))
+        .expect("erodes");
+        assert_eq!(eroded.report.backend, "gpu");
+        let d = &eroded.report.drainage;
+        assert!(d.river_fraction >= 0.99, "{max_side}: {d:?}");
+        assert_eq!(
+            (d.pit_cells, d.outlet_fraction),
+            (0, 1.0),
+            "{max_side}: {d:?}"
+        );
+        assert_eq!(eroded.field.data()[mouth], skeleton.heights[mouth]);
+        let raised = eroded.report.conditioning.raised_cells;
+        assert!(
+            raised < 128 * 128 / 100,
+            "{max_side}: {raised} cells flooded"
+        );
+    }
+}
+
 /// A map larger than the solver's grid on the GPU: eroded on a 64^2 grid and refined at its
 /// full 256^2 on the GPU (the coarse-to-fine path of `erode_field`, which the pipeline takes
 /// above 1024^2): the refinement ran there, the rivers keep their heights to the bit, the
@@ -279,7 +335,7 @@ fn gpu_refines_maps_larger_than_the_solver_grid() {
     let eroded = pollster::block_on(strahler::erosion::erode_field_within(
         design,
         kinds,
-        &out.hydrology.skeleton.held,
+        (&out.hydrology.skeleton).into(),
         &ErosionSettings::default(),
         scene.cell_size,
         5,

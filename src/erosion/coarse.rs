@@ -6,8 +6,9 @@ use std::ops::Range;
 
 use super::ErosionSettings;
 use super::stage::{
-    FINISHING, FLOOR_CELLS, PREPARING, Prepared, Solved, StageError, floor_near_rivers, in_bands,
-    in_row_bands, nearest_channel_in_steps, rock_in_bands, roughen_from, run_solver, solve,
+    Anchors, FINISHING, FLOOR_CELLS, PREPARING, Prepared, Solved, StageError, floor_near_rivers,
+    in_bands, in_row_bands, nearest_channel_in_steps, rock_in_bands, roughen_from, run_solver,
+    solve,
 };
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
@@ -122,7 +123,7 @@ async fn expand(
 pub(super) async fn erode_coarse_to_fine(
     field: &Heightfield,
     kinds: &[CellKind],
-    held: &[u32],
+    anchors: Anchors<'_>,
     base: Vec<bool>,
     settings: &ErosionSettings,
     cell_m: f64,
@@ -135,11 +136,16 @@ pub(super) async fn erode_coarse_to_fine(
     let (coarse, coarse_kinds) = reduce(field, kinds, factor, ctx).await?;
     let m = coarse.width();
     let coarse_cell_m = cell_m * factor as f64;
-    let coarse_held = super::hold::coarsen(held, n, factor, m);
+    let coarse_held = super::hold::coarsen(anchors.held, n, factor, m);
+    let coarse_mouths = super::hold::coarsen(anchors.mouths, n, factor, m);
+    let coarse_anchors = Anchors {
+        held: &coarse_held,
+        mouths: &coarse_mouths,
+    };
     let eroded = solve(
         &coarse,
         &coarse_kinds,
-        &coarse_held,
+        coarse_anchors,
         settings,
         coarse_cell_m,
         seed,
@@ -158,7 +164,7 @@ pub(super) async fn erode_coarse_to_fine(
             nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
         ctx.tick(FINISHING.0, FINISHING.1).await?;
         let mut floor = floor_near_rivers(&channel, &steps_away, floor_cells);
-        super::hold::pin(&mut floor, field.data(), held);
+        super::hold::pin(&mut floor, field.data(), anchors.held);
         floor
     };
     let mut heights = field.data().to_vec();
@@ -176,6 +182,7 @@ pub(super) async fn erode_coarse_to_fine(
         heights,
         base,
         floor,
+        fill_on_gpu: anchors.mouths.is_empty(),
         // The coarse run's rock, at full resolution (positions in metres: the same patches).
         erodibility: rock_in_bands(settings, n, cell_m, seed, ctx).await?,
     };
@@ -199,6 +206,8 @@ struct Refinement {
     base: Vec<bool>,
     floor: Vec<f32>,
     erodibility: Vec<f32>,
+    /// Whether the GPU may fill the step's pits from the border (no river mouth inside).
+    fill_on_gpu: bool,
 }
 
 /// The refinement at full resolution of a map eroded on a coarser grid: one more step of
@@ -225,6 +234,7 @@ async fn refine(
         base,
         floor,
         erodibility,
+        fill_on_gpu,
     } = fine;
     let roughness_m = settings.roughness_m * cell_m / coarse_cell_m;
     in_row_bands(ctx, FINISHING, &mut heights, n, |rows, h| {
@@ -243,7 +253,7 @@ async fn refine(
         seed,
         erodibility,
     };
-    run_solver(prepared, n, cell_m, params, backend, ctx).await
+    run_solver(prepared, n, cell_m, params, fill_on_gpu, backend, ctx).await
 }
 
 #[cfg(test)]

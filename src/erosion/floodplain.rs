@@ -15,9 +15,9 @@
 //! design's heights beside the rivers and erosion (Braun & Willett 2013) cuts only by stream
 //! power, which leaves every valley V-shaped, a flat groove one river wide.
 //!
-//! The area is the design's D8 drainage area towards the map's edge (Priority-Flood routing,
-//! as the solver's), gathered along the rivers to their estuaries, so the floor is set before
-//! the solver runs and both backends start from it.
+//! The area is the design's D8 drainage area towards the map's edge and the river mouths
+//! inside it (Priority-Flood routing, as the solver's), gathered along the rivers to their
+//! estuaries, so the floor is set before the solver runs and both backends start from it.
 
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
@@ -37,11 +37,13 @@ const MAX_HALF_WIDTH_CELLS: f64 = 32.0;
 
 /// The design with its valley floors cut in, and the floor cells marked
 /// [`CellKind::Floor`] in a copy of `kinds` (`None` where no river is large enough for a
-/// floor). `field` is square, cells `cell_m` wide. O(cells log cells) for the routing, plus
+/// floor). `field` is square, cells `cell_m` wide; `mouths` are the river mouths inside the
+/// map ([`crate::skeleton::Skeleton::mouths`]). O(cells log cells) for the routing, plus
 /// O(floor cells log floor cells).
 pub fn valley_floors(
     field: &Heightfield,
     kinds: &[CellKind],
+    mouths: &[u32],
     cell_m: f64,
 ) -> Result<Option<(Heightfield, Vec<CellKind>)>, ErosionError> {
     let n = field.width();
@@ -52,9 +54,13 @@ pub fn valley_floors(
     if !channel.contains(&true) {
         return Ok(None);
     }
-    // Water leaves the map at its edge (the rivers' estuaries): with the channels as sinks
-    // instead, a channel cell would only gather the slopes beside it, not its river's basin.
-    let edge = super::stage::border_cells(n);
+    // Water leaves the map at its edge and at the mouths inside it (the rivers' estuaries):
+    // with the channels as sinks instead, a channel cell would only gather the slopes beside
+    // it, not its river's basin.
+    let mut edge = super::stage::border_cells(n);
+    for &i in mouths {
+        edge[i as usize] = true;
+    }
     let routing = receivers_and_area(field.data(), n, n, cell_m, &edge)?;
     let half_width: Vec<f32> = routing
         .area
@@ -176,7 +182,7 @@ mod tests {
         for y in 0..n {
             kinds[y * n + mid] = CellKind::River;
         }
-        let (floored, marked) = valley_floors(&field, &kinds, cell)
+        let (floored, marked) = valley_floors(&field, &kinds, &[], cell)
             .unwrap()
             .expect("a floor");
         let width = |y: usize| {

@@ -145,6 +145,10 @@ pub struct GpuInput<'a> {
     /// Each cell's factor on the erodibility
     /// ([`Eroder::with_erodibility`](super::Eroder::with_erodibility)); empty: uniform rock.
     pub erodibility: &'a [f32],
+    /// Whether the last step's pits are filled on the GPU, from the map's border. False where
+    /// water also leaves the map inside it (a river mouth): the border-seeded flood would
+    /// fill that catchment, so the caller's conditioning fills the pits instead.
+    pub fill_pits: bool,
 }
 
 /// The GPU solver's result: the heights after the last step with the pits it left (lakes
@@ -286,6 +290,7 @@ async fn erode_with(
         params: p,
         seed,
         erodibility,
+        fill_pits,
     } = input;
     let grid = check_grid(w, h, cell_m)?;
     let n = grid.len();
@@ -606,7 +611,9 @@ async fn erode_with(
     // The last step's pits (lakes the bounded passes left, hillslopes that closed a
     // basin) are filled here, on the GPU, as the stage's conditioning would fill them on
     // the CPU (the same bits), so the surface comes back drained.
-    let conditioning =
+    let conditioning = if !fill_pits {
+        None
+    } else {
         match crate::terrain::drainage::gpu::fill_buffer(gpu, &heights_buf, w, h, ctx).await {
             Ok(result) => Some(result),
             Err(crate::terrain::drainage::gpu::GpuFloodError::Cancelled(c)) => {
@@ -616,7 +623,8 @@ async fn erode_with(
                 log::info!("the eroded surface is conditioned on the CPU: {err}");
                 None
             }
-        };
+        }
+    };
     let heights = read_f32_buffer(gpu, &heights_buf, n).await?;
     let counts = read_bytes(gpu, &cells[area_last], n as u64 * 4).await?;
     let cell_area = (cell_m * cell_m) as f32;

@@ -58,6 +58,9 @@ pub struct Held {
     pub max_below_m: f64,
 }
 
+/// The job's message while the design is held.
+const HOLDING: &str = "eroding: holding the drawn peaks and ridges";
+
 /// Adds to `eroded` (`n` x `n`, cells `cell_m` wide) the correction that brings the `held`
 /// cells back to their `design` heights (module docs); `base` cells keep their heights and the
 /// result's slopes stay within `talus_deg` where it is set. Returns how close the held cells
@@ -81,11 +84,14 @@ pub(super) async fn hold_design(
     if held.is_empty() {
         return Ok(None);
     }
-    ctx.tick(0.92, "eroding: holding the drawn peaks and ridges")
-        .await?;
+    ctx.tick(0.92, HOLDING).await?;
     let is_held = mask_of(&held, eroded.len());
     let spread = spread_residual(eroded, design, &held, &is_held, base, n, ctx).await?;
+    // Each whole-map pass below is one slice of the page's main thread: the job ticks
+    // between them (the same result).
+    ctx.tick(0.93, HOLDING).await?;
     let to_held = distances(&is_held, n);
+    ctx.tick(0.93, HOLDING).await?;
     // The correction fades to nothing at the map's edge too: land beyond a drawn ridge drains
     // along the edge to the rivers, and a lift that stayed whole out there would dam it.
     let mut ends = base.to_vec();
@@ -95,6 +101,7 @@ pub(super) async fn hold_design(
         }
     }
     let to_base = distances(&ends, n);
+    ctx.tick(0.94, HOLDING).await?;
     let mut lift = vec![0.0f32; eroded.len()];
     for i in 0..eroded.len() {
         lift[i] = if base[i] {
@@ -112,13 +119,16 @@ pub(super) async fn hold_design(
             spread[i] * share
         };
     }
+    ctx.tick(0.94, HOLDING).await?;
     carry_upstream(&mut lift, eroded, base, n);
+    ctx.tick(0.95, HOLDING).await?;
     for (h, c) in eroded.iter_mut().zip(&lift) {
         *h += c;
     }
     if let Some(talus) = talus_deg {
         let mask = Mask::new(n, n, cell_m, talus);
         for _ in 0..LIMIT_PASSES {
+            ctx.tick(0.95, HOLDING).await?;
             let forward = mask.scan(eroded, base, 0..n, true);
             let backward = mask.scan(eroded, base, 0..n, false);
             if !(forward || backward) {

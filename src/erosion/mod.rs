@@ -77,7 +77,7 @@ pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::params::{ErosionParams, PRESETS, preset};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::stage::{
-    Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
+    Anchors, Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
     erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
 };
 

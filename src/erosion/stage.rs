@@ -636,6 +636,7 @@ impl Prepared {
             params,
             seed: Some(self.seed),
             erodibility: &self.erodibility,
+            fill_pits: true,
         }
     }
 
@@ -744,6 +745,25 @@ pub(super) async fn rock_in_bands(
     Ok(factors)
 }
 
+/// What the design fixes beyond the cell kinds, from the skeleton
+/// ([`crate::skeleton::Skeleton`]): the cells the erosion holds and the outlets inside the map.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Anchors<'a> {
+    /// The sketch's peak and ridge cells, held at their drawn heights (`hold.rs`); ascending.
+    pub held: &'a [u32],
+    /// River mouths inside the map, where water leaves it besides the border; ascending.
+    pub mouths: &'a [u32],
+}
+
+impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
+    fn from(skeleton: &'a crate::skeleton::Skeleton) -> Self {
+        Self {
+            held: &skeleton.held,
+            mouths: &skeleton.mouths,
+        }
+    }
+}
+
 /// Runs the solver on `field` (square, cells `cell_m` wide) with the rivers of `kinds` as
 /// base level ([`Prepared::prepare`], then [`run_solver`]); returns the eroded heights, the
 /// last drainage area and the backend that ran. O(cells) per step.
@@ -751,7 +771,7 @@ pub(super) async fn rock_in_bands(
 pub(super) async fn solve(
     field: &Heightfield,
     kinds: &[CellKind],
-    held: &[u32],
+    anchors: Anchors<'_>,
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -759,12 +779,14 @@ pub(super) async fn solve(
     ctx: &JobCtx,
 ) -> Result<Solved, StageError> {
     let mut prepared = Prepared::prepare(field, kinds, settings, cell_m, seed, ctx).await?;
-    super::hold::pin(&mut prepared.floor, field.data(), held);
+    super::hold::pin(&mut prepared.floor, field.data(), anchors.held);
+    let fill_on_gpu = anchors.mouths.is_empty();
     run_solver(
         prepared,
         field.width(),
         cell_m,
         settings.params(),
+        fill_on_gpu,
         backend,
         ctx,
     )
@@ -787,12 +809,15 @@ pub(super) struct Solved {
 
 /// Runs `params` on the `n` x `n` fields of `prepared` (cells `cell_m` wide) on the GPU
 /// when `backend` is one that holds the fields (else, or if the GPU fails, on the CPU, in
-/// pieces with the job's ticks between them). O(cells) per step.
+/// pieces with the job's ticks between them). The GPU fills the last step's pits from the
+/// map's border when `fill_on_gpu` (false where water also leaves the map inside it: the
+/// stage's conditioning then fills them on the CPU). O(cells) per step.
 pub(super) async fn run_solver(
     prepared: Prepared,
     n: usize,
     cell_m: f64,
     params: ErosionParams,
+    fill_on_gpu: bool,
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Solved, StageError> {
@@ -800,7 +825,10 @@ pub(super) async fn run_solver(
         && context.runs_heavy_stages()
     {
         if gpu::fits(context, n, n) {
-            let input = prepared.gpu_input(n, cell_m, params);
+            let input = GpuInput {
+                fill_pits: fill_on_gpu,
+                ..prepared.gpu_input(n, cell_m, params)
+            };
             match gpu::erode(context, input, ctx).await {
                 Ok(out) => {
                     return Ok(Solved {
@@ -859,7 +887,7 @@ pub async fn erode_terrain(
     erode_field(
         &hydrology.terrain,
         kinds,
-        &hydrology.skeleton.held,
+        (&hydrology.skeleton).into(),
         settings,
         cell_m,
         seed,
@@ -878,7 +906,7 @@ pub async fn erode_terrain(
 pub async fn erode_field(
     field: &Heightfield,
     kinds: &[CellKind],
-    held: &[u32],
+    anchors: Anchors<'_>,
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -888,7 +916,7 @@ pub async fn erode_field(
     erode_field_within(
         field,
         kinds,
-        held,
+        anchors,
         settings,
         cell_m,
         seed,
@@ -906,7 +934,7 @@ pub async fn erode_field(
 pub async fn erode_field_within(
     field: &Heightfield,
     kinds: &[CellKind],
-    held: &[u32],
+    anchors: Anchors<'_>,
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -925,7 +953,7 @@ pub async fn erode_field_within(
     }
     let design = field;
     ctx.tick(PREPARING.0, "eroding: valley floors").await?;
-    let floors = super::floodplain::valley_floors(design, kinds, cell_m)?;
+    let floors = super::floodplain::valley_floors(design, kinds, anchors.mouths, cell_m)?;
     let (field, kinds) = match &floors {
         Some((floored, floor_kinds)) => (floored, floor_kinds.as_slice()),
         None => (design, kinds),
@@ -934,12 +962,12 @@ pub async fn erode_field_within(
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(max_side.max(1));
     let solved = if factor <= 1 {
-        solve(field, kinds, held, settings, cell_m, seed, backend, ctx).await?
+        solve(field, kinds, anchors, settings, cell_m, seed, backend, ctx).await?
     } else {
         coarse::erode_coarse_to_fine(
             field,
             kinds,
-            held,
+            anchors,
             base.clone(),
             settings,
             cell_m,
@@ -955,7 +983,7 @@ pub async fn erode_field_within(
     let held = super::hold::hold_design(
         &mut heights,
         design.data(),
-        held,
+        anchors.held,
         &base,
         n,
         cell_m,
@@ -964,7 +992,8 @@ pub async fn erode_field_within(
     )
     .await?;
     let mut eroded = Heightfield::from_vec(n, n, heights)?;
-    let (conditioning, drainage) = drainage::condition_and_measure(&mut eroded, kinds, ctx).await?;
+    let (conditioning, drainage) =
+        drainage::condition_and_measure(&mut eroded, kinds, anchors.mouths, ctx).await?;
     // The GPU's copy is the terrain as long as the CPU raised no cell after reading it.
     let gpu = solved
         .gpu

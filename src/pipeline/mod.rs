@@ -364,7 +364,10 @@ async fn run_stages(
     let mut report = Report::new(&hydrology.report, later, &field, times, ctx).await?;
     if options.realism {
         ctx.tick(0.995, "measuring realism").await?;
-        report.realism = Some(crate::realism::RealismReport::of(&field, cell_m, cell_m));
+        let mouths = &hydrology.skeleton.mouths;
+        report.realism = Some(crate::realism::RealismReport::of_terrain(
+            &field, cell_m, cell_m, mouths,
+        ));
     }
     Ok(Output {
         hydrology,
@@ -448,8 +451,13 @@ async fn style(
             *v = original;
         }
     }
-    let (_, drainage) =
-        crate::terrain::drainage::condition_and_measure(&mut out, kinds, ctx).await?;
+    let (_, drainage) = crate::terrain::drainage::condition_and_measure(
+        &mut out,
+        kinds,
+        &hydrology.skeleton.mouths,
+        ctx,
+    )
+    .await?;
     Ok(Styled {
         field: Arc::new(out),
         stats,

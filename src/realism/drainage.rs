@@ -33,9 +33,13 @@ pub const STRAIGHT_TOP_SHARE: f64 = 0.05;
 /// Cells of one direction that make a run straight.
 pub const STRAIGHT_RUN_CELLS: u32 = 8;
 
-/// Is cell `(r, c)` an outlet: on the border, or next to a non-finite cell?
+/// Is cell `(r, c)` an outlet: on the border, one of the grid's sinks, or next to a
+/// non-finite cell?
 fn is_outlet(g: &Grid, r: usize, c: usize) -> bool {
     if r == 0 || c == 0 || r + 1 == g.h || c + 1 == g.w {
+        return true;
+    }
+    if !g.sinks.is_empty() && g.sinks.binary_search(&((r * g.w + c) as u32)).is_ok() {
         return true;
     }
     DIRS8.iter().any(|&(dr, dc)| {

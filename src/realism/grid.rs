@@ -12,6 +12,9 @@ pub(super) struct Grid {
     pub(super) cx: f64,
     /// Cell size along a column (y, north-south), metres, > 0.
     pub(super) cy: f64,
+    /// Interior cells where water leaves the map besides its border and its voids (a
+    /// designed terrain's river mouths), ascending; empty for a DEM.
+    pub(super) sinks: Vec<u32>,
 }
 
 /// The 8 neighbour offsets `(d_row, d_col)`, clockwise from north.
@@ -46,7 +49,26 @@ impl Grid {
                 }
             })
             .collect();
-        Some(Self { z, w, h, cx, cy })
+        Some(Self {
+            z,
+            w,
+            h,
+            cx,
+            cy,
+            sinks: Vec::new(),
+        })
+    }
+
+    /// The grid with water leaving it at `sinks` too (cell indices, any order).
+    pub(super) fn with_sinks(mut self, sinks: &[u32]) -> Self {
+        self.sinks = sinks
+            .iter()
+            .copied()
+            .filter(|&i| (i as usize) < self.z.len())
+            .collect();
+        self.sinks.sort_unstable();
+        self.sinks.dedup();
+        self
     }
 
     /// Horizontal distance (m) of one step in direction `(dr, dc)`.

@@ -123,6 +123,21 @@ pub fn measure(
     cell_y_m: f64,
     params: &RealismParams,
 ) -> Realism {
+    measure_with_sinks(heights, width, height, cell_x_m, cell_y_m, params, &[])
+}
+
+/// [`measure`] of a designed terrain whose water also leaves the map at the interior cells
+/// `sinks` (its river mouths, [`crate::skeleton::Skeleton::mouths`]): the drainage measures
+/// route to them as to the border instead of filling their catchments.
+pub fn measure_with_sinks(
+    heights: &[f32],
+    width: usize,
+    height: usize,
+    cell_x_m: f64,
+    cell_y_m: f64,
+    params: &RealismParams,
+    sinks: &[u32],
+) -> Realism {
     let threshold = params
         .channel_area_m2
         .filter(|a| a.is_finite() && *a > 0.0)
@@ -134,6 +149,7 @@ pub fn measure(
     let Some(g) = Grid::new(heights, width, height, cell_x_m, cell_y_m) else {
         return report;
     };
+    let g = g.with_sinks(sinks);
     report.relief_m = g.finite_range().map_or(0.0, |(lo, hi)| hi - lo);
     let interior = g.interior_mask();
     report.cells = interior.iter().filter(|m| **m).count();

@@ -5,7 +5,7 @@
 
 use serde::Serialize;
 
-use super::{Realism, RealismParams, measure};
+use super::{Realism, RealismParams, measure_with_sinks};
 use crate::heightfield::Heightfield;
 use crate::wavelet::{self, AnalysisParams, Band};
 
@@ -37,17 +37,24 @@ pub struct BandFit {
 impl RealismReport {
     /// Measures `field` (cells `cell_x` by `cell_y` metres). O(cells x geomorphon radius).
     pub fn of(field: &Heightfield, cell_x: f64, cell_y: f64) -> Self {
+        Self::of_terrain(field, cell_x, cell_y, &[])
+    }
+
+    /// [`Self::of`] a designed terrain whose water also leaves the map at the interior
+    /// cells `sinks` (its river mouths; see [`super::measure_with_sinks`]).
+    pub fn of_terrain(field: &Heightfield, cell_x: f64, cell_y: f64, sinks: &[u32]) -> Self {
         // The wavelet analysis needs a void-free field; a DEM with voids gets the rest. The
         // two run at once natively.
         let (measures, analysis) = crate::parallel::join(
             || {
-                measure(
+                measure_with_sinks(
                     field.data(),
                     field.width(),
                     field.height(),
                     cell_x,
                     cell_y,
                     &RealismParams::default(),
+                    sinks,
                 )
             },
             || wavelet::analyze(field, &AnalysisParams::default()).ok(),

@@ -68,6 +68,11 @@ pub struct Skeleton {
     /// The cells of the sketch's ridges and peaks (ascending, each once): the heights the
     /// user asked for, which the erosion holds (`erosion::hold`).
     pub held: Vec<u32>,
+    /// The estuary cells of rivers that end inside the map, not on its border (ascending,
+    /// each once): water leaves the map there as at the border (`terrain::drainage`), so a
+    /// river drawn to a point inside the map flows out at its mouth rather than filling its
+    /// catchment into a lake.
+    pub mouths: Vec<u32>,
 }
 
 impl Skeleton {
@@ -148,6 +153,7 @@ impl Skeleton {
             kinds: vec![CellKind::Free; n * n],
             river_order: vec![0; n * n],
             held: Vec::new(),
+            mouths: Vec::new(),
         }
     }
 }
@@ -180,7 +186,27 @@ pub async fn rasterise_rivers(
             })
         })
         .collect();
-    in_bands(sk, &lines, bands, ctx, |band, line| band.river(line)).await
+    in_bands(sk, &lines, bands, ctx, |band, line| band.river(line)).await?;
+    sk.mouths = interior_mouths(rivers, n);
+    Ok(())
+}
+
+/// The cells of the estuaries (the nodes with no parent) that lie inside the map, not on its
+/// border: [`Skeleton::mouths`]. O(nodes).
+fn interior_mouths(rivers: &[RiverNetwork], n: usize) -> Vec<u32> {
+    let inside = 1..(n as i64 - 1);
+    let mut mouths: Vec<u32> = rivers
+        .iter()
+        .flat_map(|net| {
+            let roots = net.parent.iter().enumerate().filter(|(_, p)| p.is_none());
+            roots.map(|(k, _)| to_cell(net.nodes[k], n))
+        })
+        .filter(|(x, y)| inside.contains(x) && inside.contains(y))
+        .map(|(x, y)| (y * n as i64 + x) as u32)
+        .collect();
+    mouths.sort_unstable();
+    mouths.dedup();
+    mouths
 }
 
 /// The straight pieces of a link's wandering course ([`meander::course`]), with eq. 5's
@@ -368,6 +394,7 @@ mod tests {
             kinds,
             river_order: vec![0; n * n],
             held: Vec::new(),
+            mouths: Vec::new(),
         };
         let err = skeleton.constraints().unwrap_err();
         assert!(err.to_string().contains("(5, 0)"), "{err}");

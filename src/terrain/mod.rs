@@ -463,8 +463,11 @@ pub async fn generate(
     }
     // `Some(what the GPU flood raised, if it finished)` once the flood was tried there.
     let mut flooded_on_gpu = None;
+    // The GPU's flood starts from the map's border only: a map with river mouths inside it
+    // is flooded on the CPU.
     if let (diffusion::FieldOut::Gpu(on_gpu), Backend::Gpu(gpu)) = (&field, backend)
         && gpu.runs_heavy_stages()
+        && skeleton.mouths.is_empty()
     {
         flooded_on_gpu = Some(flood_on_gpu(gpu, on_gpu, ctx).await?);
     }
@@ -479,14 +482,24 @@ pub async fn generate(
     // The CPU measures, and floods what is left (everything, unless the GPU flooded it).
     let (conditioning, drainage, left) = match flooded_on_gpu {
         Some(flooded) => {
-            let (left, drainage) =
-                drainage::condition_and_measure(&mut terrain, &skeleton.kinds, ctx).await?;
+            let (left, drainage) = drainage::condition_and_measure(
+                &mut terrain,
+                &skeleton.kinds,
+                &skeleton.mouths,
+                ctx,
+            )
+            .await?;
             (drainage::merge(flooded, left), drainage, left)
         }
         None => {
-            let (conditioning, drainage) =
-                drainage::condition_and_measure_on(backend, &mut terrain, &skeleton.kinds, ctx)
-                    .await?;
+            let (conditioning, drainage) = drainage::condition_and_measure_on(
+                backend,
+                &mut terrain,
+                &skeleton.kinds,
+                &skeleton.mouths,
+                ctx,
+            )
+            .await?;
             (conditioning, drainage, conditioning)
         }
     };

@@ -180,7 +180,7 @@ fn stage_run(
     pollster::block_on(erode_field(
         field,
         kinds,
-        &[],
+        Default::default(),
         settings,
         cell,
         1,

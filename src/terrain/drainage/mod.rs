@@ -204,18 +204,22 @@ impl Counts {
 
 /// Counts of `rows`: pits from whether each cell has a lower neighbour, computed row by row;
 /// the D8 receiver only of river cells (whether they drain along the river).
-fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Counts {
+fn count_rows(
+    field: &Heightfield,
+    kinds: &[CellKind],
+    outlets: Outlets<'_>,
+    rows: Range<usize>,
+) -> Counts {
     let (w, h) = (field.width(), field.height());
     let z = field.data();
     let mut lower = vec![false; w];
     let mut c = Counts::default();
     for y in rows {
         lower_neighbours_of_row(z, w, h, y, &mut lower);
-        let border_row = y == 0 || y + 1 == h;
         let row = &kinds[y * w..(y + 1) * w];
         for (x, (&has_lower, &kind)) in lower.iter().zip(row).enumerate() {
-            let border = border_row || x == 0 || x + 1 == w;
-            if !has_lower && !border {
+            let outlet = !has_lower && outlets.contains(y * w + x);
+            if !has_lower && !outlet {
                 c.pit_cells += 1;
                 c.pits.push((y * w + x) as u32);
             }
@@ -224,7 +228,7 @@ fn count_rows(field: &Heightfield, kinds: &[CellKind], rows: Range<usize>) -> Co
                 let ok = if has_lower {
                     kinds[receiver_at(z, w, h, y * w + x) as usize] == CellKind::River
                 } else {
-                    border
+                    outlet
                 };
                 c.river_cells_draining += usize::from(ok);
             }
@@ -246,7 +250,7 @@ const STEP_CELLS: usize = 1 << 14;
 /// ticks between pits every [`STEP_CELLS`] cells taken.
 async fn grow_regions(
     z: &[f32],
-    (w, h): (usize, usize),
+    outlets: Outlets<'_>,
     pits: &[u32],
     in_region: &mut [bool],
     queued: &mut [bool],
@@ -254,6 +258,7 @@ async fn grow_regions(
     ctx: &JobCtx,
 ) -> Result<(), Cancelled> {
     use std::cmp::Reverse;
+    let w = outlets.w;
     let mut rim = std::collections::BinaryHeap::new();
     let mut seen = Vec::new();
     let mut since_tick = region.len();
@@ -270,10 +275,10 @@ async fn grow_regions(
         seen.push(pit);
         while let Some(Reverse((_, i))) = rim.pop() {
             let i = i as usize;
-            if is_border(i, w, h) {
+            if outlets.contains(i) {
                 break;
             }
-            // Interior: all eight neighbours exist.
+            // Interior (mouths are outlets too): all eight neighbours exist.
             let neighbour = |dx: i64, dy: i64| (i as i64 + dy * w as i64 + dx) as usize;
             let spills = NEIGHBOURS.iter().any(|&(dx, dy, _)| {
                 let j = neighbour(dx, dy);
@@ -305,7 +310,8 @@ async fn grow_regions(
 /// strictly lower neighbour: pits a flood of the round made, e.g. an earlier region's cell
 /// whose lower neighbour was raised. A pit may be listed more than once (the next round
 /// grows from it once). O(round).
-fn rim_pits(z: &[f32], (w, h): (usize, usize), round: &[u32]) -> Vec<u32> {
+fn rim_pits(z: &[f32], outlets: Outlets<'_>, round: &[u32]) -> Vec<u32> {
+    let (w, h) = (outlets.w, outlets.h);
     round
         .iter()
         .flat_map(|&i| {
@@ -314,7 +320,7 @@ fn rim_pits(z: &[f32], (w, h): (usize, usize), round: &[u32]) -> Vec<u32> {
                 .map(move |&(dx, dy, _)| (i64::from(i) + dy * w as i64 + dx) as usize)
                 .chain(std::iter::once(i as usize))
         })
-        .filter(|&j| !is_border(j, w, h) && receiver_at(z, w, h, j) == NO_RECEIVER)
+        .filter(|&j| !outlets.contains(j) && receiver_at(z, w, h, j) == NO_RECEIVER)
         .map(|j| j as u32)
         .collect()
 }
@@ -349,8 +355,9 @@ pub struct Flood {
 }
 
 impl Flood {
-    /// Seeds the flood with the border cells of `field`.
-    pub fn new(field: &Heightfield) -> Self {
+    /// Seeds the flood with the border cells of `field` and the river `mouths` inside it
+    /// (ascending; see `Outlets`).
+    pub fn new(field: &Heightfield, mouths: &[u32]) -> Self {
         let (w, h) = (field.width(), field.height());
         let z = field.data();
         let mut closed = vec![false; z.len()];
@@ -362,6 +369,11 @@ impl Flood {
             if x == 0 || y == 0 || x == w - 1 || y == h - 1 {
                 closed[i] = true;
                 heap.push(ordered_key(z[i]), i as u32);
+            }
+        }
+        for &i in mouths {
+            if !std::mem::replace(&mut closed[i as usize], true) {
+                heap.push(ordered_key(z[i as usize]), i);
             }
         }
         Self {
@@ -453,9 +465,9 @@ impl Flood {
     }
 }
 
-/// [`Flood`] in one go.
+/// [`Flood`] in one go, from the map's border (the reference the GPU's flood matches).
 pub fn fill_depressions(field: &mut Heightfield) -> Conditioning {
-    let mut flood = Flood::new(field);
+    let mut flood = Flood::new(field, &[]);
     flood.run(field, usize::MAX);
     flood.result()
 }
@@ -466,12 +478,37 @@ fn is_border(i: usize, w: usize, h: usize) -> bool {
     x == 0 || y == 0 || x + 1 == w || y + 1 == h
 }
 
+/// Where water leaves a `w` x `h` map: its border, and the mouths of rivers that end inside
+/// it ([`crate::skeleton::Skeleton::mouths`]: a river drawn to a point inside the map flows
+/// out there, into a sea or a lake the map does not show, rather than filling its whole
+/// catchment up to the lowest pass on the map's edge).
+#[derive(Clone, Copy)]
+struct Outlets<'a> {
+    w: usize,
+    h: usize,
+    /// Interior cells, ascending.
+    mouths: &'a [u32],
+}
+
+impl<'a> Outlets<'a> {
+    fn new(w: usize, h: usize, mouths: &'a [u32]) -> Self {
+        debug_assert!(mouths.is_sorted());
+        Self { w, h, mouths }
+    }
+
+    /// Whether water leaves the map at cell `i`.
+    #[inline]
+    fn contains(&self, i: usize) -> bool {
+        is_border(i, self.w, self.h)
+            || (!self.mouths.is_empty() && self.mouths.binary_search(&(i as u32)).is_ok())
+    }
+}
+
 /// Drainage measured in passes over ranges of cells (receivers by rows, then each cell's
 /// fate, then the counts), so a caller can yield between ranges. O(cells): each cell's
 /// outlet is resolved once along its descent path.
-struct Measuring {
-    w: usize,
-    h: usize,
+struct Measuring<'a> {
+    outlets: Outlets<'a>,
     recv: Vec<Option<u32>>,
     /// 0 = unknown, 1 = reaches an outlet, 2 = ends in a pit.
     fate: Vec<u8>,
@@ -479,12 +516,11 @@ struct Measuring {
     drainage: Drainage,
 }
 
-impl Measuring {
-    fn new(field: &Heightfield) -> Self {
+impl<'a> Measuring<'a> {
+    fn new(field: &Heightfield, mouths: &'a [u32]) -> Self {
         let (w, h) = (field.width(), field.height());
         Self {
-            w,
-            h,
+            outlets: Outlets::new(w, h, mouths),
             recv: Vec::with_capacity(w * h),
             fate: vec![0; w * h],
             path: Vec::new(),
@@ -494,7 +530,7 @@ impl Measuring {
 
     /// Follows the descent from every cell of `starts` (all receivers known).
     fn resolve(&mut self, starts: Range<usize>) {
-        let border = |i: usize| is_border(i, self.w, self.h);
+        let border = |i: usize| self.outlets.contains(i);
         let (recv, fate, path) = (&self.recv, &mut self.fate, &mut self.path);
         let n = fate.len();
         for start in starts {
@@ -522,7 +558,8 @@ impl Measuring {
 
     /// Counts the cells of `cells` (all fates known).
     fn tally(&mut self, kinds: &[CellKind], cells: Range<usize>) {
-        let border = |i: usize| is_border(i, self.w, self.h);
+        let outlets = self.outlets;
+        let border = |i: usize| outlets.contains(i);
         let d = &mut self.drainage;
         for i in cells {
             if self.fate[i] == 1 {
@@ -554,9 +591,10 @@ impl Measuring {
     }
 }
 
-/// Measures drainage. O(cells).
-pub fn measure(field: &Heightfield, kinds: &[CellKind]) -> Drainage {
-    let mut m = Measuring::new(field);
+/// Measures drainage, with water leaving the map at its border and the river `mouths`
+/// inside it (ascending). O(cells).
+pub fn measure(field: &Heightfield, kinds: &[CellKind], mouths: &[u32]) -> Drainage {
+    let mut m = Measuring::new(field, mouths);
     let n = field.width() * field.height();
     receivers_of_rows(field, 0..field.height(), &mut m.recv);
     m.resolve(0..n);
@@ -568,6 +606,7 @@ pub fn measure(field: &Heightfield, kinds: &[CellKind]) -> Drainage {
 async fn count_in_steps(
     field: &Heightfield,
     kinds: &[CellKind],
+    outlets: Outlets<'_>,
     ctx: &JobCtx,
 ) -> Result<Counts, Cancelled> {
     let (w, h) = (field.width(), field.height());
@@ -581,7 +620,7 @@ async fn count_in_steps(
             .map(|s| (s..(s + band).min(rows.end), Counts::default()))
             .collect();
         parallel::for_each_item(parts.iter_mut().collect(), |(rows, c)| {
-            *c = count_rows(field, kinds, rows.clone());
+            *c = count_rows(field, kinds, outlets, rows.clone());
         });
         for (_, c) in parts {
             total.add(c);
@@ -618,12 +657,12 @@ async fn count_in_steps(
 /// ([`Flood::new`], the same `z*`).
 async fn flood_depressions(
     field: &mut Heightfield,
+    outlets: Outlets<'_>,
     mut pits: Vec<u32>,
     budget: usize,
     ctx: &JobCtx,
 ) -> Result<Option<Flooded>, Cancelled> {
-    let dims = (field.width(), field.height());
-    let n = dims.0 * dims.1;
+    let n = outlets.w * outlets.h;
     let (mut in_round, mut queued) = (vec![false; n], vec![false; n]);
     let mut closed = vec![true; n];
     let mut flooded = vec![false; n];
@@ -634,7 +673,7 @@ async fn flood_depressions(
     while !pits.is_empty() {
         grow_regions(
             field.data(),
-            dims,
+            outlets,
             &pits,
             &mut in_round,
             &mut queued,
@@ -663,7 +702,7 @@ async fn flood_depressions(
         }
         let raised = flood.result().raised_cells;
         closed = flood.into_closed();
-        pits = rim_pits(field.data(), dims, &round);
+        pits = rim_pits(field.data(), outlets, &round);
         pits.retain(|&p| !field.data()[p as usize].is_nan());
         for i in round.drain(..) {
             in_round[i as usize] = false;
@@ -736,6 +775,7 @@ async fn recount(
     counts: &mut Counts,
     field: &Heightfield,
     kinds: &[CellKind],
+    outlets: Outlets<'_>,
     touched: &[u32],
     sign: bool,
     ctx: &JobCtx,
@@ -745,7 +785,7 @@ async fn recount(
         ctx.tick(0.95, "filling depressions").await?;
         for &i in part {
             let r = receiver_at(field.data(), w, h, i as usize);
-            counts.cell(kinds, i as usize, is_border(i as usize, w, h), r, sign);
+            counts.cell(kinds, i as usize, outlets.contains(i as usize), r, sign);
         }
     }
     Ok(())
@@ -768,11 +808,13 @@ async fn recount(
 pub async fn condition_and_measure(
     field: &mut Heightfield,
     kinds: &[CellKind],
+    mouths: &[u32],
     ctx: &JobCtx,
 ) -> Result<(Conditioning, Drainage), Cancelled> {
     let (w, h) = (field.width(), field.height());
     let n = w * h;
-    let mut counts = count_in_steps(field, kinds, ctx).await?;
+    let outlets = Outlets::new(w, h, mouths);
+    let mut counts = count_in_steps(field, kinds, outlets, ctx).await?;
     let mut conditioning = Conditioning::default();
     if counts.pit_cells > 0 {
         let Some(Flooded {
@@ -782,6 +824,7 @@ pub async fn condition_and_measure(
             result,
         }) = flood_depressions(
             field,
+            outlets,
             std::mem::take(&mut counts.pits),
             ROUND_BUDGET * n,
             ctx,
@@ -789,14 +832,14 @@ pub async fn condition_and_measure(
         .await?
         else {
             // One depression holds most of the map: flood it whole and count again.
-            let mut flood = Flood::new(field);
+            let mut flood = Flood::new(field, mouths);
             while !flood.run(field, STEP_CELLS) {
                 ctx.tick(0.95, "filling depressions").await?;
             }
             let conditioning = flood.result();
-            let counts = count_in_steps(field, kinds, ctx).await?;
+            let counts = count_in_steps(field, kinds, outlets, ctx).await?;
             if counts.pit_cells > 0 {
-                return Ok((conditioning, measure(field, kinds)));
+                return Ok((conditioning, measure(field, kinds, mouths)));
             }
             return Ok((conditioning, counts.drainage(n)));
         };
@@ -813,13 +856,13 @@ pub async fn condition_and_measure(
         };
         let mut values = original;
         swap(field, &mut values);
-        recount(&mut counts, field, kinds, &touched, false, ctx).await?;
+        recount(&mut counts, field, kinds, outlets, &touched, false, ctx).await?;
         swap(field, &mut values);
-        recount(&mut counts, field, kinds, &touched, true, ctx).await?;
+        recount(&mut counts, field, kinds, outlets, &touched, true, ctx).await?;
     }
     if counts.pit_cells > 0 {
         // Only NaN heights leave pits after the flood: measure them the long way.
-        return Ok((conditioning, measure(field, kinds)));
+        return Ok((conditioning, measure(field, kinds, mouths)));
     }
     Ok((conditioning, counts.drainage(n)))
 }
@@ -827,16 +870,19 @@ pub async fn condition_and_measure(
 /// [`condition_and_measure`] with the flood on `backend`'s GPU when it runs the heavy stages
 /// there and holds the field ([`gpu::fill_depressions`], the same bits); the D8 measure then
 /// finds nothing left to flood. On a CPU backend, a software GPU, a field with no-data
-/// cells or a GPU failure the CPU floods it.
+/// cells, a map with river `mouths` inside it (the GPU's flood starts from the border only)
+/// or a GPU failure the CPU floods it.
 pub async fn condition_and_measure_on(
     backend: &crate::compute::Backend,
     field: &mut Heightfield,
     kinds: &[CellKind],
+    mouths: &[u32],
     ctx: &JobCtx,
 ) -> Result<(Conditioning, Drainage), Cancelled> {
     let mut on_gpu = None;
     if let crate::compute::Backend::Gpu(context) = backend
         && context.runs_heavy_stages()
+        && mouths.is_empty()
         && gpu::fits(context, field.width(), field.height())
     {
         match gpu::fill_depressions(context, field, ctx).await {
@@ -845,7 +891,7 @@ pub async fn condition_and_measure_on(
             Err(err) => log::info!("depression filling on the CPU: {err}"),
         }
     }
-    let (conditioning, drainage) = condition_and_measure(field, kinds, ctx).await?;
+    let (conditioning, drainage) = condition_and_measure(field, kinds, mouths, ctx).await?;
     Ok((merge(on_gpu, conditioning), drainage))
 }
 
@@ -880,7 +926,7 @@ mod tests {
         let n = 9;
         let plane: Vec<f32> = (0..n * n).map(|i| (i % n) as f32).collect();
         let kinds = vec![CellKind::Free; n * n];
-        let d = measure(&Heightfield::from_vec(n, n, plane).unwrap(), &kinds);
+        let d = measure(&Heightfield::from_vec(n, n, plane).unwrap(), &kinds, &[]);
         assert_eq!(d.outlet_fraction, 1.0);
         assert_eq!(d.pit_cells, 0);
         let bowl: Vec<f32> = (0..n * n)
@@ -890,16 +936,62 @@ mod tests {
             })
             .collect();
         let mut bowl = Heightfield::from_vec(n, n, bowl).unwrap();
-        let d = measure(&bowl, &kinds);
+        let d = measure(&bowl, &kinds, &[]);
         assert!(has_pits(&bowl));
         assert_eq!(d.pit_cells, 1);
         assert_eq!(d.cells_to_outlet, 0);
         // Flooding the bowl leaves no pit and every cell draining out.
         let c = fill_depressions(&mut bowl);
         assert!(c.raised_cells > 0);
-        let d = measure(&bowl, &kinds);
+        let d = measure(&bowl, &kinds, &[]);
         assert_eq!((d.pit_cells, d.outlet_fraction), (0, 1.0));
         assert!(!has_pits(&bowl));
+    }
+
+    /// A river mouth inside the map is an outlet: a bowl around it drains there as it is (no
+    /// cell raised, every cell reaching an outlet, the mouth not a pit), where without it
+    /// the whole bowl is flooded to the rim. A pit elsewhere is still flooded, to the mouth.
+    #[test]
+    fn a_river_mouth_inside_the_map_drains_its_bowl() {
+        let n = 33;
+        let centre = (16 * n + 16) as u32;
+        let mut kinds = vec![CellKind::Free; n * n];
+        kinds[centre as usize] = CellKind::River;
+        let mut bowl: Vec<f32> = (0..n * n)
+            .map(|i| {
+                let (x, y) = ((i % n) as f32 - 16.0, (i / n) as f32 - 16.0);
+                x.hypot(y)
+            })
+            .collect();
+        // A dimple on the bowl's flank: a pit that must still be flooded, down to the mouth.
+        let dimple = 16 * n + 24;
+        bowl[dimple] -= 1.5;
+        let bowl = Heightfield::from_vec(n, n, bowl).unwrap();
+        let ctx = JobCtx::detached();
+        let mouths = [centre];
+        for stepped in [false, true] {
+            let mut field = bowl.clone();
+            let (c, d) = if stepped {
+                pollster::block_on(condition_and_measure(&mut field, &kinds, &mouths, &ctx))
+                    .unwrap()
+            } else {
+                let mut flood = Flood::new(&field, &mouths);
+                flood.run(&mut field, usize::MAX);
+                (flood.result(), measure(&field, &kinds, &mouths))
+            };
+            assert_eq!(c.raised_cells, 1, "only the dimple is raised");
+            assert!(field.data()[dimple] > field.data()[dimple - 1]);
+            assert_eq!((d.pit_cells, d.outlet_fraction), (0, 1.0), "{d:?}");
+            assert_eq!((d.river_cells, d.river_cells_draining), (1, 1));
+            assert_eq!(field.data()[centre as usize], 0.0, "the mouth stays");
+        }
+        let mut field = bowl;
+        let (c, _) =
+            pollster::block_on(condition_and_measure(&mut field, &kinds, &[], &ctx)).unwrap();
+        assert!(
+            c.raised_cells > 500,
+            "without the mouth the bowl fills: {c:?}"
+        );
     }
 
     /// Terrains with pits, flats and ties: pseudo-random heights on a few levels, plateaus,
@@ -971,13 +1063,14 @@ mod tests {
         let field = Heightfield::from_vec(n, n, cone).unwrap();
         let kinds = vec![CellKind::Free; n * n];
         let mut rounds = field.clone();
-        let pits = pollster::block_on(count_in_steps(&rounds, &kinds, &JobCtx::detached()))
+        let outlets = Outlets::new(n, n, &[]);
+        let ctx = JobCtx::detached();
+        let pits = pollster::block_on(count_in_steps(&rounds, &kinds, outlets, &ctx))
             .unwrap()
             .pits;
-        let gave_up =
-            pollster::block_on(flood_depressions(&mut rounds, pits, n, &JobCtx::detached()))
-                .unwrap()
-                .is_none();
+        let gave_up = pollster::block_on(flood_depressions(&mut rounds, outlets, pits, n, &ctx))
+            .unwrap()
+            .is_none();
         assert!(gave_up, "the rounds finished within a budget of one map");
         assert_eq!(rounds.data(), field.data(), "put back as it was");
         let mut reference = field.clone();
@@ -986,6 +1079,7 @@ mod tests {
         let (c2, d2) = pollster::block_on(condition_and_measure(
             &mut fast,
             &kinds,
+            &[],
             &JobCtx::detached(),
         ))
         .unwrap();
@@ -1013,10 +1107,11 @@ mod tests {
             let mut reference = reference;
             let mut fast = reference.clone();
             let c1 = fill_depressions(&mut reference);
-            let d1 = measure(&reference, &kinds);
+            let d1 = measure(&reference, &kinds, &[]);
             let (c2, d2) = pollster::block_on(condition_and_measure(
                 &mut fast,
                 &kinds,
+                &[],
                 &JobCtx::detached(),
             ))
             .unwrap();
@@ -1046,6 +1141,7 @@ mod tests {
         pollster::block_on(condition_and_measure(
             &mut fast,
             &kinds,
+            &[],
             &JobCtx::detached(),
         ))
         .unwrap();
@@ -1069,6 +1165,7 @@ mod tests {
         let (_, drainage) = pollster::block_on(condition_and_measure(
             &mut field,
             &kinds,
+            &[],
             &JobCtx::detached(),
         ))
         .unwrap();
@@ -1167,10 +1264,11 @@ mod tests {
         let mut stepped = one_shot.clone();
         assert!(has_pits(&one_shot));
         let c1 = fill_depressions(&mut one_shot);
-        let d1 = measure(&one_shot, &kinds);
+        let d1 = measure(&one_shot, &kinds, &[]);
         let (c2, d2) = pollster::block_on(condition_and_measure(
             &mut stepped,
             &kinds,
+            &[],
             &JobCtx::detached(),
         ))
         .unwrap();
