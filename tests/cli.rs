@@ -1862,3 +1862,68 @@ fn ranges_flips_sidecars_and_tiny_tiles() {
         );
     }
 }
+
+/// `--progress always` shows the run's one bar on standard error (a line per stage and tenth
+/// without a terminal): it only moves forward, names the stages and ends with the export's
+/// own bar; without a terminal the default prints nothing there.
+#[test]
+fn generate_shows_one_bar_that_only_moves_forward() {
+    let dir = out_dir().join("progress");
+    std::fs::create_dir_all(&dir).unwrap();
+    let out_path = dir.join("bar.r16");
+    let out_arg = out_path.to_str().unwrap();
+    let args = [
+        "generate",
+        "--size",
+        "256",
+        "--backend",
+        "cpu",
+        "--preset",
+        "unity",
+        "--out",
+        out_arg,
+    ];
+    let quiet = strahler(&[&args[..], &["--force"]].concat());
+    assert!(
+        quiet.status.success(),
+        "{}",
+        String::from_utf8_lossy(&quiet.stderr)
+    );
+    assert!(
+        quiet.stderr.is_empty(),
+        "{}",
+        String::from_utf8_lossy(&quiet.stderr)
+    );
+    let shown = strahler(&[&args[..], &["--force", "--progress", "always"]].concat());
+    assert!(
+        shown.status.success(),
+        "{}",
+        String::from_utf8_lossy(&shown.stderr)
+    );
+    let text = String::from_utf8_lossy(&shown.stderr);
+    let bars: Vec<(u32, &str)> = text
+        .lines()
+        .filter_map(|line| {
+            let rest = line.strip_prefix('[')?.split_once("] ")?.1.trim_start();
+            let (percent, message) = rest.split_once("%  ")?;
+            Some((percent.parse().ok()?, message))
+        })
+        .collect();
+    assert!(bars.len() >= 2, "{text}");
+    let erosion: Vec<u32> = bars
+        .iter()
+        .filter(|(_, m)| m.starts_with("eroding"))
+        .map(|(p, _)| *p)
+        .collect();
+    assert!(!erosion.is_empty(), "the erosion shows: {text}");
+    assert!(erosion.windows(2).all(|w| w[1] >= w[0]), "{text}");
+    // The terrain stage's bar lines come before the erosion's, lower.
+    let first_erosion = bars
+        .iter()
+        .position(|(_, m)| m.starts_with("eroding"))
+        .unwrap();
+    assert!(
+        bars[..first_erosion].iter().all(|(p, _)| *p <= erosion[0]),
+        "{text}"
+    );
+}

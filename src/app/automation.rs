@@ -114,10 +114,14 @@ pub struct DetailStatus {
 
 /// A running job, as scripts see it.
 #[derive(Clone, Debug, Default, Serialize)]
+#[serde(rename_all = "camelCase")]
 pub struct JobStatus {
     pub name: String,
+    /// The job's one bar, 0..1; it only moves forward.
     pub progress: f32,
     pub message: String,
+    /// About how long the job still needs, at its rate so far (null until it can tell).
+    pub seconds_left: Option<f64>,
 }
 
 /// What a script asks the app to do; applied at the start of the next frame.

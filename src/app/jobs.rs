@@ -307,5 +307,6 @@ fn job_status<T>(job: &Option<&JobHandle<T>>) -> Option<JobStatus> {
         name: j.name().to_owned(),
         progress: j.progress(),
         message: j.message(),
+        seconds_left: j.time_left().map(|d| d.as_secs_f64()),
     })
 }

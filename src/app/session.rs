@@ -277,8 +277,10 @@ impl Session {
         let spawned = crate::jobs::spawn(
             "terrain",
             move |job| async move {
-                let output = pipeline.run(&scene, &options, &backend, &job).await?;
-                Arrived::prepare(pipeline, output, &job).await
+                // One bar: the stages, then the map's picture (a few per cent of a run).
+                let stages = job.part(0.0, 0.95);
+                let output = pipeline.run(&scene, &options, &backend, &stages).await?;
+                Arrived::prepare(pipeline, output, &job.part(0.95, 1.0)).await
             },
             repaint,
         );

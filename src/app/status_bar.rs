@@ -14,18 +14,26 @@ pub(super) fn show(ui: &mut egui::Ui, app: &StrahlerApp) {
             if let Some(job) = app
                 .session
                 .job()
-                .map(|j| (j.name(), j.progress()))
-                .or_else(|| app.check.job.as_ref().map(|j| (j.name(), j.progress())))
+                .map(|j| (j.name(), j.progress(), j.message(), j.time_left()))
                 .or_else(|| {
-                    let export = app.export.running.first()?;
-                    Some((export.job.name(), export.job.progress()))
+                    let j = app.check.job.as_ref()?;
+                    Some((j.name(), j.progress(), j.message(), j.time_left()))
+                })
+                .or_else(|| {
+                    let j = &app.export.running.first()?.job;
+                    Some((j.name(), j.progress(), j.message(), j.time_left()))
                 })
             {
+                let (name, progress, message, left) = job;
                 ui.separator();
                 // A still bar, not a spinner: a spinner repaints every frame, which on the
-                // CPU path takes time from the job itself.
-                ui.add(egui::ProgressBar::new(job.1).desired_width(60.0));
-                ui.label(format!("{} {:.0}%", job.0, job.1 * 100.0));
+                // CPU path takes time from the job itself. The bar only moves forward
+                // (`jobs`), with the stage and about how long is left.
+                ui.add(egui::ProgressBar::new(progress).desired_width(60.0));
+                let left = left.map_or(String::new(), |d| {
+                    format!(", about {} left", crate::jobs::time_words(d))
+                });
+                ui.label(format!("{name} {:.0}%: {message}{left}", progress * 100.0));
             }
             ui.separator();
             let tool = match app.canvas.tool {

@@ -10,7 +10,6 @@ use crate::compute::BackendChoice;
 use crate::dem::ReadLimits;
 use crate::dem::format::{ExportOptions, ImportOptions};
 use crate::diffusion::{self, Method, MultigridParams};
-use crate::jobs::JobCtx;
 
 use super::output::Outputs;
 
@@ -42,6 +41,9 @@ pub struct ConvertArgs {
     /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
+    /// A progress bar on standard error: auto (on a terminal), always, never.
+    #[arg(long, value_enum, default_value_t = super::progress::When::Auto)]
+    pub progress: super::progress::When,
     /// Engine presets, tiles and texture maps, written beside OUTPUT.
     #[command(flatten)]
     pub package: super::package::PackageArgs,
@@ -71,12 +73,15 @@ pub fn run(args: &ConvertArgs) -> Result<(), Box<dyn std::error::Error>> {
     let voids = dem.void_cells();
     if args.fill_voids && voids > 0 {
         let problem = diffusion::void_problem(&dem.field);
-        let filled = pollster::block_on(diffusion::fill(
-            &BackendChoice::Cpu.resolve(&super::compute_path(BackendChoice::Cpu))?,
-            &problem,
-            Method::Multigrid(MultigridParams::default()),
-            &JobCtx::detached(),
-        ))?;
+        let backend = BackendChoice::Cpu.resolve(&super::compute_path(BackendChoice::Cpu))?;
+        let filled = super::progress::with_bar(args.progress, |ctx| {
+            pollster::block_on(diffusion::fill(
+                &backend,
+                &problem,
+                Method::Multigrid(MultigridParams::default()),
+                ctx,
+            ))
+        })?;
         dem.field = filled.field;
         println!("filled {voids} no-data cells by harmonic diffusion");
     } else if voids > 0 {
@@ -143,7 +148,9 @@ fn package(
         splat: crate::export::SplatRules::default(),
         georef: Some(&dem.georef),
     };
-    let files = pollster::block_on(crate::export::files(&inputs, &request, &JobCtx::detached()))?;
+    let files = super::progress::with_bar(args.progress, |ctx| {
+        pollster::block_on(crate::export::files(&inputs, &request, ctx))
+    })?;
     super::package::write(&outputs, &args.output, &files)?;
     outputs.commit()?;
     Ok(())

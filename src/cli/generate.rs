@@ -8,7 +8,6 @@ use glam::DVec2;
 use crate::compute::BackendChoice;
 use crate::dem::GeoRef;
 use crate::erosion::ErosionSettings;
-use crate::jobs::JobCtx;
 use crate::pipeline;
 use crate::river::Stroke;
 use crate::scene::{RiverStroke, Scene, StyleSettings};
@@ -93,6 +92,9 @@ pub struct GenerateArgs {
     pub report: Option<PathBuf>,
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
+    /// A progress bar on standard error: auto (on a terminal), always, never.
+    #[arg(long, value_enum, default_value_t = super::progress::When::Auto)]
+    pub progress: super::progress::When,
     /// Let outputs replace files this run may not replace on its own: a sidecar `.json` it
     /// did not write, a read-only file, another user's file.
     #[arg(long)]
@@ -305,7 +307,9 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         .transpose()?;
     let path = super::compute_path(args.backend);
     let backend = args.backend.resolve(&path)?;
-    let out = pollster::block_on(pipeline::generate(&scene, &backend, &JobCtx::detached()))?;
+    let out = super::progress::with_bar(args.progress, |ctx| {
+        pollster::block_on(pipeline::generate(&scene, &backend, ctx))
+    })?;
     let report = &out.report;
 
     // Every layer is encoded and claimed before the first file is written.
@@ -321,7 +325,9 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     };
     if let (Some(request), Some(path)) = (&package, &args.out) {
         let source = out.export_source(scene.textures.splat());
-        let files = pollster::block_on(source.files(request, &JobCtx::detached()))?;
+        let files = super::progress::with_bar(args.progress, |ctx| {
+            pollster::block_on(source.files(request, ctx))
+        })?;
         super::package::write(&outputs, path, &files)?;
     } else if let Some(path) = &args.out {
         write_heightmap(

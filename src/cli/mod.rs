@@ -14,6 +14,7 @@ mod io;
 mod memory;
 mod output;
 mod package;
+mod progress;
 
 use std::process::ExitCode;
 

@@ -603,7 +603,7 @@ async fn erode_with(
         close(scope).await?;
         wait_for_submitted_work(gpu).await?;
         ctx.checkpoint(
-            0.6 + 0.3 * (step + 1) as f32 / steps as f32,
+            0.1 + 0.8 * (step + 1) as f32 / steps as f32,
             &format!("eroding: step {} of {steps} (GPU)", step + 1),
         )
         .await?;

@@ -400,7 +400,7 @@ pub(super) async fn in_row_bands<T: Send>(
 }
 
 /// The progress and message reported while the stage prepares the solver's fields.
-pub(super) const PREPARING: (f32, &str) = (0.6, "eroding: preparing");
+pub(super) const PREPARING: (f32, &str) = (0.05, "eroding: preparing");
 /// ... and while it brings a coarse solver grid back to the full one, and measures.
 pub(super) const FINISHING: (f32, &str) = (0.9, "eroding: back to the full grid");
 
@@ -856,7 +856,7 @@ pub(super) async fn run_solver(
     while eroder.steps_done() < steps {
         let done = eroder.steps_done();
         ctx.tick(
-            0.6 + 0.3 * done as f32 / steps as f32,
+            0.1 + 0.8 * done as f32 / steps as f32,
             &format!("eroding: step {} of {steps}", done + 1),
         )
         .await?;

@@ -12,6 +12,11 @@
 //!
 //! The UI owns a [`JobHandle`], reads [`JobHandle::progress`] every frame and takes the result
 //! with [`JobHandle::try_take`]. Dropping the handle cancels the job.
+//!
+//! A job's progress only moves forward: one bar per job. A job of several parts (the
+//! pipeline's stages) hands each part [`JobCtx::part`], whose fractions 0..1 fill that part's
+//! span of the bar; a part that reports a fraction lower than the bar already shows leaves
+//! the bar where it is. [`time_left`] estimates the rest from the time so far.
 
 mod yield_now;
 
@@ -34,7 +39,8 @@ pub struct Cancelled;
 /// Progress and cancel flags shared between a job and its handle.
 #[derive(Debug, Default)]
 struct Control {
-    /// Progress in [0, 1] stored as `f32` bits.
+    /// Progress in [0, 1] stored as `f32` bits; it only grows (non-negative `f32`s order as
+    /// their bits do, so `fetch_max` on the bits keeps the largest).
     progress: AtomicU32,
     cancelled: AtomicBool,
     /// What the job is doing now, in words ("sweep 300 of 1000").
@@ -59,15 +65,45 @@ struct SliceClock {
 #[derive(Clone, Debug)]
 pub struct JobCtx {
     control: Arc<Control>,
+    /// The span of the job's bar this context's fractions 0..1 fill (see [`Self::part`]).
+    span: (f32, f32),
 }
 
 impl JobCtx {
-    /// A context not attached to any handle: never cancelled, progress goes nowhere.
-    /// For the command line and tests, which run stages to completion.
+    /// A context not attached to any handle: never cancelled, progress goes nowhere (the
+    /// command line may read it: [`Self::progress`]). For the command line and tests, which
+    /// run stages to completion.
     pub fn detached() -> Self {
         Self {
             control: Arc::default(),
+            span: (0.0, 1.0),
         }
+    }
+
+    /// The context of one part of the job, which fills `from..to` of this context's span
+    /// (both in 0..=1, `from <= to`): its fraction 0 is `from`, 1 is `to`. Cancelling and
+    /// yielding are shared with the whole job.
+    pub fn part(&self, from: f32, to: f32) -> Self {
+        let (a, b) = self.span;
+        let at = |f: f32| a + (b - a) * f.clamp(0.0, 1.0);
+        Self {
+            control: Arc::clone(&self.control),
+            span: (at(from), at(to.max(from))),
+        }
+    }
+
+    /// The job's progress so far in [0, 1] (the whole bar, not this part's fraction).
+    pub fn progress(&self) -> f32 {
+        f32::from_bits(self.control.progress.load(Ordering::Relaxed))
+    }
+
+    /// The job's last reported activity, in words.
+    pub fn message(&self) -> String {
+        self.control
+            .message
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
     }
 
     /// A detached context that also times the work between its ticks (see
@@ -148,15 +184,18 @@ impl JobCtx {
     }
 
     /// Like [`Self::checkpoint`] without yielding: for tight loops that yield elsewhere.
+    /// `fraction` is of this context's part; the job's bar never moves back.
     pub fn set_progress(&self, fraction: f32, message: &str) {
         let fraction = if fraction.is_finite() {
             fraction.clamp(0.0, 1.0)
         } else {
             0.0
         };
+        let (a, b) = self.span;
+        let global = (a + (b - a) * fraction).clamp(0.0, 1.0);
         self.control
             .progress
-            .store(fraction.to_bits(), Ordering::Relaxed);
+            .fetch_max(global.to_bits(), Ordering::Relaxed);
         let mut text = self
             .control
             .message
@@ -184,11 +223,18 @@ pub struct JobHandle<T> {
     name: String,
     control: Arc<Control>,
     result: Slot<T>,
+    started: web_time::Instant,
 }
 
 impl<T> JobHandle<T> {
     pub fn name(&self) -> &str {
         &self.name
+    }
+
+    /// About how long the job still needs, from its progress and the time since it started
+    /// ([`time_left`]).
+    pub fn time_left(&self) -> Option<std::time::Duration> {
+        time_left(self.progress(), self.started.elapsed())
     }
 
     /// Last reported progress in [0, 1].
@@ -225,6 +271,26 @@ impl<T> Drop for JobHandle<T> {
     }
 }
 
+/// About how long a job at `progress` (0..1) after `elapsed` still needs, at the rate so far:
+/// `elapsed (1 - p) / p`. `None` until the estimate means something (a second in and 2% done)
+/// and once the job is done.
+pub fn time_left(progress: f32, elapsed: std::time::Duration) -> Option<std::time::Duration> {
+    let p = f64::from(progress);
+    let ready = (0.02..1.0).contains(&p) && elapsed >= std::time::Duration::from_secs(1);
+    ready.then(|| elapsed.mul_f64((1.0 - p) / p))
+}
+
+/// A time left in words: "a second", "12 s", "3 min 5 s", "2 h 4 min".
+pub fn time_words(d: std::time::Duration) -> String {
+    let s = d.as_secs();
+    match s {
+        0..2 => "a second".to_owned(),
+        2..60 => format!("{s} s"),
+        60..3600 => format!("{} min {} s", s / 60, s % 60),
+        _ => format!("{} h {} min", s / 3600, (s % 3600) / 60),
+    }
+}
+
 /// The operating system refused a worker thread (native only).
 #[derive(Debug, Error)]
 #[error("could not start a worker thread for {name}: {source}")]
@@ -251,6 +317,7 @@ where
     let result: Slot<T> = Arc::default();
     let ctx = JobCtx {
         control: Arc::clone(&control),
+        span: (0.0, 1.0),
     };
     let slot = Arc::clone(&result);
     // The future is built where it runs: natively inside the worker thread, so only the
@@ -276,6 +343,7 @@ where
         name: name.to_owned(),
         control,
         result,
+        started: web_time::Instant::now(),
     })
 }
 
@@ -317,6 +385,40 @@ mod tests {
         assert_eq!(wait_for(&handle), Ok(4950));
         assert_eq!(handle.progress(), 1.0);
         assert_eq!(handle.message(), "done");
+    }
+
+    /// Parts fill their spans of one bar, which never moves back: a part that starts again
+    /// at 0 holds the bar until it passes it.
+    #[test]
+    fn parts_fill_their_spans_and_the_bar_only_moves_forward() {
+        let ctx = JobCtx::detached();
+        let first = ctx.part(0.0, 0.25);
+        first.set_progress(0.5, "first");
+        assert_eq!(ctx.progress(), 0.125);
+        let second = ctx.part(0.25, 1.0);
+        second.set_progress(0.0, "second");
+        assert_eq!((ctx.progress(), ctx.message().as_str()), (0.25, "second"));
+        let inner = second.part(0.5, 1.0);
+        inner.set_progress(0.5, "inner");
+        assert_eq!(ctx.progress(), 0.25 + 0.75 * 0.75);
+        second.set_progress(0.1, "back");
+        assert_eq!(ctx.progress(), 0.25 + 0.75 * 0.75, "never back");
+        inner.set_progress(f32::NAN, "nan");
+        assert_eq!(ctx.progress(), 0.25 + 0.75 * 0.75);
+        ctx.set_progress(1.0, "done");
+        assert_eq!(ctx.progress(), 1.0);
+    }
+
+    #[test]
+    fn time_left_follows_the_rate_so_far() {
+        let ten = Duration::from_secs(10);
+        assert_eq!(time_left(0.25, ten), Some(Duration::from_secs(30)));
+        assert_eq!(time_left(0.01, ten), None, "too early to say");
+        assert_eq!(time_left(0.5, Duration::from_millis(200)), None);
+        assert_eq!(time_left(1.0, ten), None, "done");
+        assert_eq!(time_words(Duration::from_secs(7500)), "2 h 5 min");
+        assert_eq!(time_words(Duration::from_secs(65)), "1 min 5 s");
+        assert_eq!(time_words(Duration::from_millis(400)), "a second");
     }
 
     #[test]

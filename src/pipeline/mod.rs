@@ -216,6 +216,40 @@ impl Pipeline {
     }
 }
 
+/// The stages in the order they fill a run's progress bar.
+#[derive(Clone, Copy)]
+enum Bar {
+    Hydrology,
+    Erosion,
+    Style,
+    Detail,
+    Blend,
+    Report,
+}
+
+/// Each stage's span of a run's progress bar, in proportion to about its share of the time
+/// (natively on the CPU at 512^2-2048^2, erosion takes most of a run and the terrain most of
+/// the rest); stages the scene does not have take none. A stage found in the cache fills its
+/// span at once.
+fn bar_spans(scene: &Scene, options: &RunOptions) -> [(f32, f32); 6] {
+    let on = |yes: bool, weight: f32| if yes { weight } else { 0.0 };
+    let weights = [
+        1.0,
+        on(scene.erosion.is_some(), 3.0),
+        on(scene.style.is_some(), 0.5),
+        on(scene.detail.levels > 0, 0.5),
+        on(!scene.blend.is_empty(), 0.5),
+        0.05 + on(options.realism, 0.25),
+    ];
+    let total: f32 = weights.iter().sum();
+    let mut from = 0.0;
+    weights.map(|w| {
+        let span = (from / total, (from + w) / total);
+        from += w;
+        span
+    })
+}
+
 async fn run_stages(
     stages: &mut Stages,
     scene: &Scene,
@@ -225,6 +259,11 @@ async fn run_stages(
 ) -> Result<Output, PipelineError> {
     let mut computed = Vec::new();
     let mut times = Vec::new();
+    let spans = bar_spans(scene, options);
+    let part = |stage: Bar| {
+        let (from, to) = spans[stage as usize];
+        ctx.part(from, to)
+    };
 
     // 1. Hydrology: everything up to the conditioned, drained terrain.
     let key = StageKey::start("hydrology")
@@ -239,6 +278,7 @@ async fn run_stages(
         None => {
             let mut params = scene.terrain_params();
             params.solver = options.solver;
+            let ctx = &part(Bar::Hydrology);
             let generated = terrain::generate(&scene.strokes(), &params, backend, ctx).await?;
             computed.push("hydrology");
             stages.hydrology.put(key, generated)
@@ -259,6 +299,7 @@ async fn run_stages(
             Some(cached) => cached,
             None => {
                 let clock = Instant::now();
+                let ctx = &part(Bar::Erosion);
                 ctx.checkpoint(0.0, "eroding").await?;
                 let seed = stage_seed(scene.seed, "erosion");
                 let out = erosion::erode_terrain(
@@ -306,6 +347,7 @@ async fn run_stages(
         let out = match stages.style.get(key) {
             Some(cached) => cached,
             None => {
+                let ctx = &part(Bar::Style);
                 let out = style(scene, settings, &field, &hydrology, ctx).await?;
                 computed.push("style");
                 stages.style.put(key, out)
@@ -322,6 +364,7 @@ async fn run_stages(
         let out = match stages.detail.get(key) {
             Some(cached) => cached,
             None => {
+                let ctx = &part(Bar::Detail);
                 let out = detail(scene, &field, on_gpu.as_ref(), backend, ctx).await?;
                 computed.push("detail");
                 stages.detail.put(key, out)
@@ -338,6 +381,7 @@ async fn run_stages(
         let out = match stages.blend.get(key) {
             Some(cached) => cached,
             None => {
+                let ctx = &part(Bar::Blend);
                 let out = blend_blocks(scene, &field, on_gpu.as_ref(), backend, ctx).await?;
                 computed.push("blend");
                 stages.blend.put(key, out)
@@ -353,7 +397,8 @@ async fn run_stages(
         blended.is_some(),
     );
 
-    ctx.tick(0.99, "terrain report").await?;
+    let ctx = &part(Bar::Report);
+    ctx.checkpoint(0.0, "terrain report").await?;
     let cell_m = scene.map_width() / field.width().max(1) as f64;
     let later = report::Later {
         eroded: eroded.as_deref(),
@@ -363,12 +408,13 @@ async fn run_stages(
     };
     let mut report = Report::new(&hydrology.report, later, &field, times, ctx).await?;
     if options.realism {
-        ctx.tick(0.995, "measuring realism").await?;
+        ctx.checkpoint(0.2, "measuring realism").await?;
         let mouths = &hydrology.skeleton.mouths;
         report.realism = Some(crate::realism::RealismReport::of_terrain(
             &field, cell_m, cell_m, mouths,
         ));
     }
+    ctx.set_progress(1.0, "done");
     Ok(Output {
         hydrology,
         erosion: eroded,

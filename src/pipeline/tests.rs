@@ -332,3 +332,62 @@ fn write_golden_scenes() {
     let text = serde_json::to_string_pretty(&sums).unwrap();
     std::fs::write(format!("{dir}/checksums.json"), text + "\n").unwrap();
 }
+
+/// One bar per run: the stages fill their spans of it in order (the bar is past the
+/// terrain's share whenever erosion reports, past both when the report is measured), and it
+/// never moves back while the run goes on.
+#[cfg(not(target_arch = "wasm32"))]
+#[test]
+fn a_run_fills_one_bar_in_stage_order() {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let scene = Scene {
+        size: 128,
+        rivers: vec![river([0.5, 1.0], [0.5, 0.35], 3, 5)],
+        ..Scene::default()
+    };
+    let options = RunOptions {
+        realism: true,
+        ..RunOptions::for_scene(&scene)
+    };
+    let ctx = JobCtx::detached();
+    let done = AtomicBool::new(false);
+    let samples = std::thread::scope(|scope| {
+        let watcher = scope.spawn(|| {
+            let mut samples = Vec::new();
+            while !done.load(Ordering::Relaxed) {
+                // The message first: a stage stores its progress before its message.
+                let message = ctx.message();
+                samples.push((ctx.progress(), message));
+                std::thread::sleep(std::time::Duration::from_micros(200));
+            }
+            samples
+        });
+        let mut pipeline = Pipeline::new();
+        let run = pipeline.run(&scene, &options, &Backend::Cpu, &ctx);
+        let result = pollster::block_on(run);
+        done.store(true, Ordering::Relaxed);
+        result.expect("the pipeline runs");
+        watcher.join().expect("the watcher ends")
+    });
+    let spans = bar_spans(&scene, &options);
+    let (erosion, report) = (spans[Bar::Erosion as usize], spans[Bar::Report as usize]);
+    assert!(
+        erosion.1 - erosion.0 > 0.5,
+        "erosion is most of a run: {spans:?}"
+    );
+    let mut eroding = 0;
+    for pair in samples.windows(2) {
+        assert!(pair[1].0 >= pair[0].0, "the bar moved back: {pair:?}");
+    }
+    for (progress, message) in &samples {
+        if message.starts_with("eroding") {
+            eroding += 1;
+            assert!(*progress >= erosion.0, "{progress} {message}");
+        }
+        if message.starts_with("measuring realism") {
+            assert!(*progress >= report.0, "{progress} {message}");
+        }
+    }
+    assert!(eroding > 0, "the watcher saw the erosion");
+    assert_eq!(ctx.progress(), 1.0, "a finished run fills the bar");
+}
