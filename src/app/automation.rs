@@ -69,6 +69,8 @@ pub struct DemStatus {
     pub zmin: f32,
     pub zmax: f32,
     pub void_cells: usize,
+    /// FNV-1a of the heights' bits (the same after a reload restores the DEM).
+    pub checksum: String,
     /// Cell size in the CRS's units, when the file says.
     pub cell_size: Option<f64>,
     pub crs: Option<String>,
@@ -135,6 +137,12 @@ pub enum Command {
     PaintMask(glam::DVec2, glam::DVec2, crate::wavelet::Brush),
     /// A file's bytes for the DEM panel (upload button, drop, or script).
     LoadDem {
+        name: String,
+        bytes: Vec<u8>,
+    },
+    /// The DEM an earlier visit uploaded, as the browser kept it (a float32 GeoTIFF; see
+    /// `stored_dem`).
+    RestoreDem {
         name: String,
         bytes: Vec<u8>,
     },

@@ -133,8 +133,27 @@ impl StrahlerApp {
             }
         }
         match read {
-            Ok(dem) => self.set_dem(ctx, name, dem, bytes),
+            Ok(dem) => {
+                super::stored_dem::keep(name, &dem, &self.automation);
+                self.set_dem(ctx, name, dem, bytes);
+            }
             Err(err) => self.set_error(format!("{name}: {err}")),
+        }
+    }
+
+    /// The DEM an earlier visit uploaded, as the browser kept it (`stored_dem`), unless a DEM
+    /// was uploaded since the page opened.
+    pub(super) fn restore_dem(&mut self, ctx: &egui::Context, name: &str, bytes: Vec<u8>) {
+        if self.blend.dem.is_some() {
+            return;
+        }
+        match super::stored_dem::read(&bytes) {
+            Ok(dem) => {
+                self.set_dem(ctx, name, dem, Arc::new(bytes));
+                self.messages.notice =
+                    Some(format!("Restored the DEM {name} kept in this browser"));
+            }
+            Err(err) => self.set_error(format!("{name} (kept in this browser): {err}")),
         }
     }
 
@@ -153,6 +172,7 @@ impl StrahlerApp {
             zmin,
             zmax,
             void_cells: dem.void_cells(),
+            checksum: dem.field.checksum(),
             cell_size: dem.georef.cell_size_m(h).map(|c| c.0),
             crs: dem.georef.crs_label(),
         };
@@ -390,6 +410,7 @@ impl StrahlerApp {
                         georef: loaded.dem.georef,
                     };
                     // The same DEM with its voids filled: the chosen window stays.
+                    super::stored_dem::keep(&loaded.name, &dem, &self.automation);
                     let window = self.blend.selection;
                     self.set_dem(ctx, &loaded.name, dem, loaded.bytes);
                     self.blend.selection = window;

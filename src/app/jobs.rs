@@ -209,6 +209,7 @@ impl StrahlerApp {
                     self.set_mask(ctx, self.canvas.mask.clone());
                 }
                 Command::LoadDem { name, bytes } => self.load_dem(ctx, &name, bytes),
+                Command::RestoreDem { name, bytes } => self.restore_dem(ctx, &name, bytes),
                 Command::ImportMask { name, bytes } => self.import_mask(ctx, &name, &bytes),
                 Command::FillVoids => self.fill_dem_voids(ctx),
                 Command::ExtractFeatures => self.extract_features(ctx),

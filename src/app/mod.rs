@@ -23,6 +23,7 @@ mod select;
 mod session;
 mod side_panel;
 mod status_bar;
+mod stored_dem;
 mod view3d;
 
 use std::sync::Arc;
@@ -146,6 +147,8 @@ impl StrahlerApp {
             }
             None => {}
         }
+        // So does the DEM it had uploaded (web only; read in the background).
+        stored_dem::restore(&app.automation);
         let (undo, redo) = app.session.history_depths();
         app.automation.update(|s| {
             s.undo = undo;

@@ -323,6 +323,11 @@ async function runMode(url, mode, expectedChecksum) {
     // Issue 35: the undo history survives the reload too (the newest steps that fit).
     const undoAfter = await page.evaluate(() => window.strahler.status().undo);
     check('a reload keeps the undo history', undoAfter >= 1, `undo steps after the reload: ${undoAfter}`);
+    // ... and the uploaded DEM, bit for bit (kept in IndexedDB).
+    const demAfter = await page.waitForFunction(() => window.strahler.status().dem, null, { timeout: 30_000 })
+      .then((handle) => handle.jsonValue()).catch(() => null);
+    check('a reload keeps the uploaded DEM bit for bit', demAfter !== null && demAfter.checksum === dem.checksum
+      && demAfter.name === dem.name && demAfter.width === dem.width, `${JSON.stringify(dem)} vs ${JSON.stringify(demAfter)}`);
     // A scripted edit is autosaved too (the autosave follows changes, not frames): wait for
     // the terrain, leave the page idle a little over 2 s, reload.
     await page.evaluate(() => window.strahler.addRiver([0.0, 0.8], [0.3, 0.75], { phi: 2, depth: 4 }));
