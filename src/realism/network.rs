@@ -186,8 +186,8 @@ pub fn extract_channels(
         if let Some((j, _)) = r
             && channel[i]
         {
-            donors[fill[*j] as usize] = i as u32;
-            fill[*j] += 1;
+            donors[fill[j] as usize] = i as u32;
+            fill[j] += 1;
         }
     }
     let donors_of = |j: usize| &donors[first[j] as usize..first[j + 1] as usize];
@@ -199,8 +199,8 @@ pub fn extract_channels(
     let mut cells = Vec::new();
     let mut basins = Vec::new();
     let mut queue = VecDeque::new();
-    for root in 0..n {
-        if !channel[root] || rcv[root].is_some() || donors_of(root).is_empty() {
+    for (root, &is_channel) in channel.iter().enumerate() {
+        if !is_channel || rcv.get(root).is_some() || donors_of(root).is_empty() {
             continue;
         }
         let start = cells.len();
