@@ -87,6 +87,13 @@ fn compute_details(ui: &mut egui::Ui, path: &ComputePath) {
                  larger ones)",
                 c.max_square_field()
             ));
+            if context.is_software() {
+                ui.label(
+                    "A software rasteriser: with Compute on auto, erosion and the wavelet \
+                     statistics run on the CPU, which is faster here (choose GPU to run every \
+                     stage on it).",
+                );
+            }
         }
         ComputePath::Cpu { reason } => {
             ui.label(format!("Computing on the CPU because {reason}."));

@@ -57,6 +57,19 @@ pub struct AdapterSummary {
 }
 
 impl AdapterSummary {
+    /// Whether this is a software rasteriser: the adapter says it is a CPU, or its name or
+    /// driver names one of the known ones (a SwiftShader a browser was told to use may call
+    /// itself "Other").
+    pub fn is_software(&self) -> bool {
+        let named = |text: &str| {
+            let text = text.to_ascii_lowercase();
+            ["swiftshader", "llvmpipe", "lavapipe", "softpipe", "microsoft basic render"]
+                .iter()
+                .any(|soft| text.contains(soft))
+        };
+        self.device_type == "Cpu" || named(&self.name) || named(&self.driver)
+    }
+
     fn of(info: &wgpu::AdapterInfo) -> Self {
         Self {
             name: info.name.clone(),
@@ -102,7 +115,7 @@ impl GpuContext {
     /// fallback adapter such as SwiftShader): correct, but slower than the CPU for work
     /// like erosion.
     pub fn is_software(&self) -> bool {
-        self.adapter.device_type == "Cpu"
+        self.adapter.is_software()
     }
 
     /// Whether stages whose GPU version only pays on real hardware (erosion: hundreds of
@@ -260,5 +273,29 @@ pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'sta
         required_features: requested_features(adapter),
         required_limits: requested_limits(adapter),
         ..Default::default()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::AdapterSummary;
+
+    fn adapter(name: &str, device_type: &str, driver: &str) -> AdapterSummary {
+        AdapterSummary {
+            name: name.into(),
+            backend: "Vulkan".into(),
+            device_type: device_type.into(),
+            driver: driver.into(),
+        }
+    }
+
+    /// Software rasterisers are known by their type or by name; hardware is not.
+    #[test]
+    fn software_adapters_are_known_by_type_or_name() {
+        assert!(adapter("llvmpipe (LLVM 19.1.7, 256 bits)", "Cpu", "llvmpipe").is_software());
+        assert!(adapter("SwiftShader Device (Subzero)", "Other", "").is_software());
+        assert!(adapter("", "Other", "SwiftShader driver").is_software());
+        assert!(!adapter("NVIDIA H200", "DiscreteGpu", "NVIDIA 570.86").is_software());
+        assert!(!adapter("", "Other", "").is_software());
     }
 }
