@@ -63,9 +63,15 @@ impl AdapterSummary {
     pub fn is_software(&self) -> bool {
         let named = |text: &str| {
             let text = text.to_ascii_lowercase();
-            ["swiftshader", "llvmpipe", "lavapipe", "softpipe", "microsoft basic render"]
-                .iter()
-                .any(|soft| text.contains(soft))
+            [
+                "swiftshader",
+                "llvmpipe",
+                "lavapipe",
+                "softpipe",
+                "microsoft basic render",
+            ]
+            .iter()
+            .any(|soft| text.contains(soft))
         };
         self.device_type == "Cpu" || named(&self.name) || named(&self.driver)
     }
