@@ -315,3 +315,55 @@ fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
     h.run();
     assert!(h.state().actions.is_empty(), "nothing is asked for");
 }
+
+/// The status bar alone: the compute path, the running job's bar with its stage and the
+/// time left, the active tool's hint and the height under the pointer.
+#[test]
+fn status_bar_shows_the_path_the_job_and_the_pointer() {
+    use strahler::app::panels::{JobLine, StatusBar, StatusInfo};
+    use strahler::app::{Hover, Tool};
+    use strahler::compute::{ComputePath, CpuReason};
+    struct State {
+        bar: StatusBar,
+        path: ComputePath,
+        job: Option<JobLine>,
+    }
+    let state = State {
+        bar: StatusBar,
+        path: ComputePath::Cpu {
+            reason: CpuReason::BrowserWithoutWebGpu,
+        },
+        job: Some(JobLine {
+            name: "terrain".into(),
+            progress: 0.4,
+            message: "eroding: step 3 of 20".into(),
+            left: Some(std::time::Duration::from_secs(12)),
+        }),
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(1200.0, 40.0))
+        .build_ui_state(
+            |ui, s: &mut State| {
+                let info = StatusInfo {
+                    path: &s.path,
+                    job: s.job.clone(),
+                    tool: Tool::River,
+                    hover: Some(Hover {
+                        map: egui::pos2(0.25, 0.5),
+                        height: Some(812.34),
+                    }),
+                };
+                s.bar.show(ui, &info);
+            },
+            state,
+        );
+    h.run();
+    h.get_by_label("CPU (this browser has no WebGPU)");
+    h.get_by_label("terrain 40%: eroding: step 3 of 20, about 12 s left");
+    h.get_by_label("Tool: draw river (R) - press at the estuary, drag upstream");
+    h.get_by_label("x 0.2500  y 0.5000  812.3 m");
+    // No job: no bar.
+    h.state_mut().job = None;
+    h.run();
+    assert!(h.query_by_label_contains("terrain 40%").is_none());
+}

@@ -10,6 +10,7 @@ mod export;
 mod realism;
 mod rivers;
 mod solver;
+mod status;
 mod style;
 mod terrain;
 
@@ -19,6 +20,7 @@ pub use export::{ExportDialog, ExportInfo};
 pub use realism::RealismPanel;
 pub use rivers::RiversPanel;
 pub use solver::{Report as SolverReport, SolverPanel};
+pub use status::{JobLine, StatusBar, StatusInfo, tool_hint};
 pub use style::StylePanel;
 pub use terrain::TerrainPanel;
 
@@ -60,4 +62,5 @@ pub struct Panels {
     pub style: StylePanel,
     pub realism: RealismPanel,
     pub detail: DetailPanel,
+    pub status: StatusBar,
 }
