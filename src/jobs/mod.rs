@@ -51,6 +51,19 @@ struct Control {
     slices: Mutex<Option<SliceClock>>,
 }
 
+impl Control {
+    fn progress(&self) -> f32 {
+        f32::from_bits(self.progress.load(Ordering::Relaxed))
+    }
+
+    fn message(&self) -> String {
+        self.message
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+    }
+}
+
 /// The stretches of work between consecutive [`JobCtx::tick`] or [`JobCtx::checkpoint`]
 /// calls (whether they yield or not): on the web each must stay short, as the page is frozen
 /// while it runs (a `tick` that is not due yet extends the stretch to the next yield).
@@ -94,16 +107,12 @@ impl JobCtx {
 
     /// The job's progress so far in [0, 1] (the whole bar, not this part's fraction).
     pub fn progress(&self) -> f32 {
-        f32::from_bits(self.control.progress.load(Ordering::Relaxed))
+        self.control.progress()
     }
 
     /// The job's last reported activity, in words.
     pub fn message(&self) -> String {
-        self.control
-            .message
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone()
+        self.control.message()
     }
 
     /// A detached context that also times the work between its ticks (see
@@ -239,16 +248,12 @@ impl<T> JobHandle<T> {
 
     /// Last reported progress in [0, 1].
     pub fn progress(&self) -> f32 {
-        f32::from_bits(self.control.progress.load(Ordering::Relaxed))
+        self.control.progress()
     }
 
     /// Last reported activity, in words.
     pub fn message(&self) -> String {
-        self.control
-            .message
-            .lock()
-            .unwrap_or_else(PoisonError::into_inner)
-            .clone()
+        self.control.message()
     }
 
     /// Asks the job to stop at its next checkpoint.
