@@ -150,8 +150,12 @@ impl StrahlerApp {
         match super::stored_dem::read(&bytes) {
             Ok(dem) => {
                 self.set_dem(ctx, name, dem, Arc::new(bytes));
-                self.messages.notice =
-                    Some(format!("Restored the DEM {name} kept in this browser"));
+                let said = format!("the DEM {name}");
+                // One notice for what one load brought back (the scene too, usually).
+                self.messages.notice = Some(match self.messages.notice.take() {
+                    Some(scene) if scene.starts_with("Restored") => format!("{scene}, and {said}"),
+                    _ => format!("Restored {said} kept in this browser"),
+                });
             }
             Err(err) => self.set_error(format!("{name} (kept in this browser): {err}")),
         }

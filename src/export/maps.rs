@@ -374,7 +374,7 @@ mod tests {
             })
             .collect();
         let field = Heightfield::from_vec(w, h, data).unwrap();
-        let (outlet, area) = crate::realism::outlets(field.data(), w, h, 1.0).unwrap();
+        let (outlet, area) = crate::realism::outlets(field.data(), w, h, 1.0, &[]).unwrap();
         let estuary = outlet[(h - 1) * w + 10];
         let labels = basin_labels(&outlet, &area, &[estuary], 20.0);
         assert_eq!(labels[(h - 1) * w + 10], 1);

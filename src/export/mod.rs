@@ -484,7 +484,7 @@ fn texture(
         MapKind::Normal => write_colour8(w, h, 3, &maps::normal_map(sized, spacing, normals)),
         MapKind::Slope => write_grey8(w, h, &maps::slope_map(&maps::slope_degrees(sized, spacing))),
         MapKind::Curvature => write_grey8(w, h, &maps::curvature_map(sized, spacing).0),
-        MapKind::Flow => write_grey8(w, h, &maps::log_map(&area_of(sized, spacing)?)),
+        MapKind::Flow => write_grey8(w, h, &maps::log_map(&area_of(sized, spacing, inputs)?)),
         MapKind::Erosion => {
             let lowered = inputs
                 .lowered
@@ -503,7 +503,7 @@ fn texture(
         }
         MapKind::Splat => {
             let slopes = maps::slope_degrees(sized, spacing);
-            let area = area_of(sized, spacing)?;
+            let area = area_of(sized, spacing, inputs)?;
             write_colour8(
                 w,
                 h,
@@ -513,7 +513,8 @@ fn texture(
         }
         MapKind::Basins => {
             let (outlet, area) =
-                crate::realism::outlets(sized.data(), w, h, spacing).ok_or(NO_CELLS)?;
+                crate::realism::outlets(sized.data(), w, h, spacing, &mouths(inputs, w, h))
+                    .ok_or(NO_CELLS)?;
             let cell = |p: glam::DVec2| {
                 let x = (p.x * (w - 1) as f64).round().clamp(0.0, (w - 1) as f64) as usize;
                 let y = (p.y * (h - 1) as f64).round().clamp(0.0, (h - 1) as f64) as usize;
@@ -536,10 +537,34 @@ fn texture(
     encoded.map_err(|e| e.to_string())
 }
 
-/// Drainage area (m^2) of the exported terrain itself, so flow lines up with its slopes.
-fn area_of(sized: &Heightfield, spacing: f64) -> Result<Vec<f64>, String> {
-    crate::realism::drainage_area_m2(sized.data(), sized.width(), sized.height(), spacing)
+/// Drainage area (m^2) of the exported terrain itself, so flow lines up with its slopes;
+/// water leaves at the border and at the rivers' mouths inside the map.
+fn area_of(sized: &Heightfield, spacing: f64, inputs: &Inputs) -> Result<Vec<f64>, String> {
+    let (w, h) = (sized.width(), sized.height());
+    let sinks = mouths(inputs, w, h);
+    crate::realism::drainage_area_m2_with_sinks(sized.data(), w, h, spacing, &sinks)
         .ok_or_else(|| NO_CELLS.to_owned())
+}
+
+/// The cells of the rivers' mouths (their estuary nodes) that lie inside a `w` x `h` export,
+/// off its border: where the terrain's water leaves it there (`Skeleton::mouths`).
+fn mouths(inputs: &Inputs, w: usize, h: usize) -> Vec<u32> {
+    if w < 3 || h < 3 {
+        return Vec::new();
+    }
+    let inside = |v: f64, n: usize| {
+        let k = (v * (n - 1) as f64).round();
+        (k >= 1.0 && k <= (n as f64 - 2.0)).then_some(k as usize)
+    };
+    inputs
+        .networks
+        .iter()
+        .flat_map(|net| {
+            let roots = net.parent.iter().enumerate().filter(|(_, p)| p.is_none());
+            roots.map(|(k, _)| net.nodes[k])
+        })
+        .filter_map(|p| Some((inside(p.y, h)? * w + inside(p.x, w)?) as u32))
+        .collect()
 }
 
 const NO_CELLS: &str = "the terrain has no valid cells to route water over";

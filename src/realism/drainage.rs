@@ -194,7 +194,19 @@ pub(super) fn flow_accumulation(g: &Grid, rcv: &Receivers) -> Vec<f64> {
 /// the Priority-Flood+epsilon surface (the measures' own routing), `None` when the shape or
 /// cell size is not valid; no-data cells drain nothing (0).
 pub fn drainage_area_m2(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Option<Vec<f64>> {
-    let (g, outlet) = filled_grid(heights, w, h, cell_m)?;
+    drainage_area_m2_with_sinks(heights, w, h, cell_m, &[])
+}
+
+/// [`drainage_area_m2`] with water also leaving at the interior cells `sinks` (a designed
+/// terrain's river mouths).
+pub fn drainage_area_m2_with_sinks(
+    heights: &[f32],
+    w: usize,
+    h: usize,
+    cell_m: f64,
+    sinks: &[u32],
+) -> Option<Vec<f64>> {
+    let (g, outlet) = filled_grid(heights, w, h, cell_m, sinks)?;
     let rcv = d8_receivers(&g, &g.z, &outlet);
     Some(flow_accumulation(&g, &rcv))
 }
@@ -202,8 +214,14 @@ pub fn drainage_area_m2(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Opt
 /// The grid of `heights` with its heights replaced by the Priority-Flood+epsilon surface
 /// (no data where the input had none, so the routing reads the same), and the outlet flags:
 /// the input's `f64` copy is let go before the routing allocates its own fields.
-fn filled_grid(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Option<(Grid, Vec<bool>)> {
-    let mut g = Grid::new(heights, w, h, cell_m, cell_m)?;
+fn filled_grid(
+    heights: &[f32],
+    w: usize,
+    h: usize,
+    cell_m: f64,
+    sinks: &[u32],
+) -> Option<(Grid, Vec<bool>)> {
+    let mut g = Grid::new(heights, w, h, cell_m, cell_m)?.with_sinks(sinks);
     let (z, outlet) = priority_flood_epsilon(&g);
     g.z = z;
     Some((g, outlet))
@@ -211,9 +229,16 @@ fn filled_grid(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Option<(Grid
 
 /// The outlet (a cell index) every cell of `heights` drains to by the same D8 routing as
 /// [`drainage_area_m2`], and every cell's upstream area (m²); `u32::MAX` for no-data.
-/// `None` when the shape or cell size is not valid. O(cells): each chain is walked once.
-pub fn outlets(heights: &[f32], w: usize, h: usize, cell_m: f64) -> Option<(Vec<u32>, Vec<f64>)> {
-    let (g, outlet) = filled_grid(heights, w, h, cell_m)?;
+/// `None` when the shape or cell size is not valid. Water also leaves at the interior cells
+/// `sinks` (a designed terrain's river mouths). O(cells): each chain is walked once.
+pub fn outlets(
+    heights: &[f32],
+    w: usize,
+    h: usize,
+    cell_m: f64,
+    sinks: &[u32],
+) -> Option<(Vec<u32>, Vec<f64>)> {
+    let (g, outlet) = filled_grid(heights, w, h, cell_m, sinks)?;
     let rcv = d8_receivers(&g, &g.z, &outlet);
     let area = flow_accumulation(&g, &rcv);
     let mut out = vec![u32::MAX; rcv.len()];
@@ -442,5 +467,23 @@ mod tests {
             assert_eq!(bits(&reference_again), bits(&reference), "seed {seed}");
             assert_eq!(bits(&again), bits(&reference), "seed {seed}");
         }
+    }
+
+    /// A sink inside the map (a designed river's mouth) takes the water of the bowl around
+    /// it; without it the bowl is filled and drains over its rim to the border.
+    #[test]
+    fn a_sink_gathers_its_bowl() {
+        let n = 21;
+        let bowl: Vec<f32> = (0..n * n)
+            .map(|i| ((i % n) as f32 - 10.0).hypot((i / n) as f32 - 10.0))
+            .collect();
+        let centre = 10 * n + 10;
+        let with = drainage_area_m2_with_sinks(&bowl, n, n, 1.0, &[centre as u32]).unwrap();
+        // Every cell off the border drains to the sink (the border cells are outlets).
+        assert_eq!(with[centre], ((n - 2) * (n - 2)) as f64);
+        let (outlet, _) = outlets(&bowl, n, n, 1.0, &[centre as u32]).unwrap();
+        assert_eq!(outlet[centre + 1], centre as u32);
+        let without = drainage_area_m2(&bowl, n, n, 1.0).unwrap();
+        assert!(without[centre] < with[centre] / 2.0, "{}", without[centre]);
     }
 }

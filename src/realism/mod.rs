@@ -19,7 +19,7 @@
 //! everywhere. Computation is in `f64`. Only `std` is used.
 
 mod drainage;
-pub use drainage::{drainage_area_m2, outlets};
+pub use drainage::{drainage_area_m2, drainage_area_m2_with_sinks, outlets};
 mod geomorphon;
 mod grid;
 mod harmonic;
