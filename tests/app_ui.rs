@@ -5,7 +5,7 @@ mod common;
 
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
-use strahler::app::StrahlerApp;
+use strahler::app::{COARSE_SIZE, Pass, StrahlerApp};
 
 fn harness() -> Harness<'static, StrahlerApp> {
     common::app::harness(1200.0, 900.0)
@@ -762,4 +762,67 @@ fn extract_features_asks_before_replacing_the_scene() {
     wait_idle(&mut harness);
     let after = harness.state().scene();
     assert!(after.rivers.is_empty() && !after.sketch.ridges.is_empty());
+}
+
+/// The passes an edit shows on the map, in order, until the app is idle: each new terrain's
+/// size and pass, checking that the status bar says which it is.
+fn passes_until_idle(harness: &mut Harness<'static, StrahlerApp>) -> Vec<(usize, Pass)> {
+    let mut seen: Vec<(usize, Pass)> = Vec::new();
+    let start = std::time::Instant::now();
+    let mut last = harness.state().on_map();
+    harness.run_steps(2);
+    loop {
+        let now = harness.state().on_map();
+        if let Some(map) = now
+            && now != last
+            && map.coming.is_none_or(|_| map.pass == Pass::Coarse)
+            && seen.last() != Some(&(map.size, map.pass))
+        {
+            seen.push((map.size, map.pass));
+            harness.get_by_label_contains(&map.words());
+        }
+        last = now;
+        if !harness.state().busy() && !seen.is_empty() {
+            return seen;
+        }
+        assert!(start.elapsed().as_secs() < 120, "the runs never ended");
+        harness.step();
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+}
+
+/// Progressive previews: an edit that changes the terrain shows a coarse 128^2 one first (the
+/// status bar says so and which size is coming), then the preview; Generate full size and an
+/// edit of a later stage (detail) replace the map directly, with no coarse pass.
+#[test]
+fn an_edit_shows_a_coarse_terrain_first_then_its_own_size() {
+    let mut harness = tall_cpu_harness();
+    wait_idle(&mut harness);
+    let mut scene = harness.state().scene();
+    scene.size = 1024;
+    // Without erosion the debug build's full-size run stays short.
+    scene.erosion = None;
+    scene.seed += 1;
+    harness.state_mut().load_scene(&scene);
+    assert_eq!(
+        passes_until_idle(&mut harness),
+        [(COARSE_SIZE, Pass::Coarse), (512, Pass::Preview)]
+    );
+    harness.get_by_label("map 512x512 (preview of 1024x1024)");
+
+    harness
+        .get_by_label("Generate full size (1024 x 1024)")
+        .click();
+    assert_eq!(passes_until_idle(&mut harness), [(1024, Pass::Full)]);
+
+    let mut scene = harness.state().scene();
+    scene.detail.levels = 1;
+    harness.state_mut().load_scene(&scene);
+    let passes = passes_until_idle(&mut harness);
+    assert_eq!(
+        passes,
+        [(512, Pass::Preview)],
+        "the terrain came from the cache"
+    );
+    assert_eq!(harness.state().terrain().unwrap().width(), 1023);
 }

@@ -316,17 +316,18 @@ fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
     assert!(h.state().actions.is_empty(), "nothing is asked for");
 }
 
-/// The status bar alone: the compute path, the running job's bar with its stage and the
-/// time left, the active tool's hint and the height under the pointer.
+/// The status bar alone: the compute path, what the map shows, the running job's bar with
+/// its stage and the time left, the active tool's hint and the height under the pointer.
 #[test]
 fn status_bar_shows_the_path_the_job_and_the_pointer() {
     use strahler::app::panels::{JobLine, StatusBar, StatusInfo};
-    use strahler::app::{Hover, Tool};
+    use strahler::app::{Hover, OnMap, Pass, Tool};
     use strahler::compute::{ComputePath, CpuReason};
     struct State {
         bar: StatusBar,
         path: ComputePath,
         job: Option<JobLine>,
+        map: Option<OnMap>,
     }
     let state = State {
         bar: StatusBar,
@@ -339,6 +340,12 @@ fn status_bar_shows_the_path_the_job_and_the_pointer() {
             message: "eroding: step 3 of 20".into(),
             left: Some(std::time::Duration::from_secs(12)),
         }),
+        map: Some(OnMap {
+            size: 128,
+            pass: Pass::Coarse,
+            scene: 2048,
+            coming: Some(512),
+        }),
     };
     let mut h = Harness::builder()
         .with_size(egui::vec2(1200.0, 40.0))
@@ -347,6 +354,7 @@ fn status_bar_shows_the_path_the_job_and_the_pointer() {
                 let info = StatusInfo {
                     path: &s.path,
                     job: s.job.clone(),
+                    map: s.map,
                     tool: Tool::River,
                     hover: Some(Hover {
                         map: egui::pos2(0.25, 0.5),
@@ -362,8 +370,16 @@ fn status_bar_shows_the_path_the_job_and_the_pointer() {
     h.get_by_label("terrain 40%: eroding: step 3 of 20, about 12 s left");
     h.get_by_label("Tool: draw river (R) - press at the estuary, drag upstream");
     h.get_by_label("x 0.2500  y 0.5000  812.3 m");
-    // No job: no bar.
+    h.get_by_label("map 128x128 (coarse), 512x512 coming");
+    // No job: no bar; the preview on the map says what it is a preview of.
     h.state_mut().job = None;
+    h.state_mut().map = Some(OnMap {
+        size: 512,
+        pass: Pass::Preview,
+        scene: 2048,
+        coming: None,
+    });
     h.run();
     assert!(h.query_by_label_contains("terrain 40%").is_none());
+    h.get_by_label("map 512x512 (preview of 2048x2048)");
 }

@@ -96,6 +96,9 @@ pub struct TerrainStatus {
     pub height: usize,
     pub zmin: f32,
     pub zmax: f32,
+    /// "coarse" (an edit's first, small pass, while its own size is computed), "preview"
+    /// (smaller than the scene, Preview on) or "full".
+    pub pass: super::session::Pass,
 }
 
 /// The levels of detail on the map, as scripts see them.
@@ -320,13 +323,19 @@ impl Automation {
             .clone()
     }
 
-    pub(crate) fn set_terrain(&self, field: Arc<crate::heightfield::Heightfield>, cell: f64) {
+    pub(crate) fn set_terrain(
+        &self,
+        field: Arc<crate::heightfield::Heightfield>,
+        cell: f64,
+        pass: super::session::Pass,
+    ) {
         let (zmin, zmax) = field.finite_range().unwrap_or((0.0, 0.0));
         let status = TerrainStatus {
             width: field.width(),
             height: field.height(),
             zmin,
             zmax,
+            pass,
         };
         let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
         shared.terrain = Some((field, cell));

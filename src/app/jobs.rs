@@ -177,8 +177,12 @@ impl StrahlerApp {
         self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
         self.show_detail_status(&output);
         self.show_blend_status(&output);
+        let pass = self
+            .session
+            .on_map()
+            .map_or(super::session::Pass::Full, |m| m.pass);
         self.automation
-            .set_terrain(output.field.clone(), output.cell_m);
+            .set_terrain(output.field.clone(), output.cell_m, pass);
         let realism = output.report.realism.clone();
         self.automation.update(|s| s.realism = realism);
         self.canvas.showing_before = self.panels.erosion.show_before && before.is_some();

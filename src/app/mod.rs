@@ -31,7 +31,7 @@ use std::sync::Arc;
 pub use automation::{Automation, Command, JobStatus, Status};
 pub use canvas::RunSummaries;
 pub use map_view::{Hover, MapView, Overlay, Tool};
-pub use session::{PREVIEW_SIZE, RunSettings, Session, SolverSettings};
+pub use session::{COARSE_SIZE, OnMap, PREVIEW_SIZE, Pass, RunSettings, Session, SolverSettings};
 pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};
 
 use glam::DVec2;
@@ -173,6 +173,11 @@ impl StrahlerApp {
         self.canvas.map.field()
     }
 
+    /// What the map shows of the runs (the pass and its size) and the run under way.
+    pub fn on_map(&self) -> Option<OnMap> {
+        self.session.on_map()
+    }
+
     /// The erosion stage's map overlays, when the terrain has them: whether drainage area and
     /// erosion depth are shown.
     pub fn erosion_overlays(&self) -> Option<[bool; 2]> {
@@ -234,11 +239,7 @@ impl StrahlerApp {
             Action::Tool(tool) => self.canvas.tool = tool,
             Action::Generate => self.start_generate(ctx),
             Action::GenerateFullSize => self.generate_full_size(ctx),
-            Action::Cancel => {
-                if let Some(job) = self.session.job() {
-                    job.cancel();
-                }
-            }
+            Action::Cancel => self.session.cancel(),
             Action::Error(message) => self.set_error(message),
             Action::Export { request, layers } => self.download(ctx, request, layers),
         }

@@ -21,6 +21,53 @@ use super::history::History;
 /// size and the full size is generated on demand.
 pub const PREVIEW_SIZE: usize = 512;
 
+/// Side of the coarse pass: an edit that has to recompute the terrain of a run at least
+/// [`COARSE_FIRST_FROM`] cells a side first shows the terrain at this size (a sixteenth of
+/// the cells of a 512^2 preview, so it comes in a fraction of its time), then the run's own.
+pub const COARSE_SIZE: usize = 128;
+
+/// Runs of at least this many cells a side go through a coarse pass first.
+pub const COARSE_FIRST_FROM: usize = 4 * COARSE_SIZE;
+
+/// Which run of an edit a terrain comes from (what the map says it shows).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Pass {
+    /// At [`COARSE_SIZE`], while the run's own size is computed.
+    Coarse,
+    /// At [`PREVIEW_SIZE`], smaller than the scene (Preview on).
+    Preview,
+    /// At the scene's own size.
+    Full,
+}
+
+/// The terrain on the map and the one coming to replace it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OnMap {
+    /// Cells a side of the terrain on the map (before detail levels).
+    pub size: usize,
+    pub pass: Pass,
+    /// Cells a side of the scene (of the full-size terrain).
+    pub scene: usize,
+    /// Cells a side of the run under way, if any.
+    pub coming: Option<usize>,
+}
+
+impl OnMap {
+    /// "map 128^2 (coarse), 512^2 coming", "map 512^2 (preview of 2048^2)", "map 512^2".
+    pub fn words(&self) -> String {
+        let what = match self.pass {
+            Pass::Coarse => " (coarse)".to_owned(),
+            Pass::Preview => format!(" (preview of {0}x{0})", self.scene),
+            Pass::Full => String::new(),
+        };
+        let coming = self
+            .coming
+            .map_or(String::new(), |n| format!(", {n}x{n} coming"));
+        format!("map {0}x{0}{what}{coming}", self.size)
+    }
+}
+
 /// How runs are made: options of the session, not part of the document.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunSettings {
@@ -112,8 +159,23 @@ pub struct Session {
     submitted: Option<Submitted>,
     /// The next run is at the full size even with Preview on.
     full_size: bool,
+    /// Run again at the next poll, whether or not anything changed.
+    rerun: bool,
     job: Option<JobHandle<Result<Arrived, PipelineError>>>,
+    /// The size and pass of [`Self::job`].
+    running: (usize, Pass),
+    /// The run to start once the running coarse pass has finished.
+    next: Option<Next>,
     output: Option<Output>,
+    /// The pass [`Self::output`] came from.
+    shown: Pass,
+}
+
+/// A run waiting for the coarse pass before it.
+struct Next {
+    options: RunOptions,
+    backend: Backend,
+    pass: Pass,
 }
 
 impl Session {
@@ -136,8 +198,12 @@ impl Session {
             pipeline: Pipeline::new(),
             submitted: None,
             full_size: false,
+            rerun: false,
             job: None,
+            running: (0, Pass::Full),
+            next: None,
             output: None,
+            shown: Pass::Full,
         }
     }
 
@@ -173,27 +239,53 @@ impl Session {
         self.job.as_ref()
     }
 
+    /// What the map shows of the last finished run, and the size of the run under way.
+    pub fn on_map(&self) -> Option<OnMap> {
+        let output = self.output.as_ref()?;
+        let coming = match (&self.job, &self.next) {
+            (Some(_), _) => Some(self.running.0),
+            (None, Some(next)) => Some(next.options.size),
+            (None, None) => None,
+        };
+        Some(OnMap {
+            size: output.hydrology.terrain.width(),
+            pass: self.shown,
+            scene: self.scene.size,
+            coming,
+        })
+    }
+
+    /// Stops the running job and the pass that would follow it; the map keeps what it shows.
+    pub fn cancel(&mut self) {
+        if let Some(job) = &self.job {
+            job.cancel();
+        }
+        self.next = None;
+    }
+
     /// Runs again at the next poll even if nothing changed (the Generate button).
     pub fn regenerate(&mut self) {
-        self.submitted = None;
+        self.rerun = true;
     }
 
     /// The next run is at the full grid size (with Preview on, edits use a smaller one).
     pub fn generate_full_size(&mut self) {
         self.full_size = true;
-        self.submitted = None;
+        self.rerun = true;
     }
 
-    /// Whether the scene or the settings differ from the last run's.
+    /// Whether a run was asked for, or the scene or the settings differ from the last run's.
     pub fn needs_run(&self) -> bool {
-        self.submitted.as_ref().is_none_or(|s| {
-            s.settings != self.settings || (s.revision != self.revision && s.scene != self.scene)
-        })
+        self.rerun
+            || self.submitted.as_ref().is_none_or(|s| {
+                s.settings != self.settings
+                    || (s.revision != self.revision && s.scene != self.scene)
+            })
     }
 
     /// Whether a run is going or due.
     pub fn busy(&self) -> bool {
-        self.job.is_some() || self.needs_run()
+        self.job.is_some() || self.next.is_some() || self.needs_run()
     }
 
     /// Takes a finished run, and starts one when the document or the settings changed and
@@ -208,6 +300,7 @@ impl Session {
         let mut events = Vec::new();
         if let Some(result) = self.job.as_ref().and_then(JobHandle::try_take) {
             self.job = None;
+            let pass = self.running.1;
             match result {
                 Ok(arrived) => {
                     let Arrived {
@@ -217,9 +310,13 @@ impl Session {
                     } = arrived;
                     self.pipeline = pipeline;
                     self.output = Some(output);
+                    self.shown = pass;
                     events.push(Event::Finished(shown));
                 }
-                Err(err) if err.is_cancelled() => {}
+                Err(err) if err.is_cancelled() => self.next = None,
+                // The run's own pass follows and says what is wrong, if anything is: a
+                // coarse grid may fail where the real one works (a block of a few cells).
+                Err(err) if pass == Pass::Coarse => log::info!("the coarse pass failed: {err}"),
                 Err(err) => events.push(Event::Failed(format!("Terrain failed: {err}"))),
             }
         }
@@ -231,9 +328,17 @@ impl Session {
                 Ok(()) => Event::Started,
                 Err(message) => Event::Failed(message),
             });
-        } else if let Some(submitted) = &mut self.submitted {
+            return events;
+        }
+        if let Some(submitted) = &mut self.submitted {
             // Edits that changed nothing: remember so, not to compare again next frame.
             submitted.revision = self.revision;
+        }
+        if self.job.is_none()
+            && let Some(next) = self.next.take()
+            && let Err(message) = self.spawn(next.options, next.backend, next.pass, repaint)
+        {
+            events.push(Event::Failed(message));
         }
         events
     }
@@ -246,12 +351,18 @@ impl Session {
         path: &ComputePath,
         repaint: impl Fn() + Send + 'static,
     ) -> Result<(), String> {
+        let edited = self
+            .submitted
+            .as_ref()
+            .is_none_or(|s| s.scene != self.scene);
         self.submitted = Some(Submitted {
             revision: self.revision,
             scene: self.scene.clone(),
             settings: self.settings.clone(),
         });
         let full_size = std::mem::take(&mut self.full_size);
+        self.rerun = false;
+        self.next = None;
         if self.scene.rivers.is_empty() && self.scene.sketch.is_empty() {
             self.job = None;
             return Err(
@@ -264,16 +375,50 @@ impl Session {
             .backend
             .resolve(path)
             .map_err(|err| err.to_string())?;
-        let scene = self.scene.clone();
         let mut options = RunOptions {
-            size: scene.size,
+            size: self.scene.size,
             solver: self.settings.solver.method(),
             realism: self.settings.measure_realism,
         };
-        if self.settings.preview && !full_size {
-            options.size = options.size.min(PREVIEW_SIZE);
+        let mut pass = Pass::Full;
+        if self.settings.preview && !full_size && options.size > PREVIEW_SIZE {
+            options.size = PREVIEW_SIZE;
+            pass = Pass::Preview;
         }
+        // An edit whose terrain must be computed anew shows a coarse one first; a run of the
+        // scene on the map (Generate, full size, other settings) replaces it directly.
+        let coarse_first = edited
+            && options.size >= COARSE_FIRST_FROM
+            && !self
+                .pipeline
+                .has_terrain_for(&self.scene, &options, &backend);
+        if coarse_first {
+            self.next = Some(Next {
+                options,
+                backend: backend.clone(),
+                pass,
+            });
+            let coarse = RunOptions {
+                size: COARSE_SIZE,
+                realism: false,
+                ..options
+            };
+            return self.spawn(coarse, backend, Pass::Coarse, repaint);
+        }
+        self.spawn(options, backend, pass, repaint)
+    }
+
+    /// Starts the terrain job of one pass, cancelling a running one.
+    fn spawn(
+        &mut self,
+        options: RunOptions,
+        backend: Backend,
+        pass: Pass,
+        repaint: impl Fn() + Send + 'static,
+    ) -> Result<(), String> {
+        let scene = self.scene.clone();
         let mut pipeline = self.pipeline.clone();
+        self.running = (options.size, pass);
         let spawned = crate::jobs::spawn(
             "terrain",
             move |job| async move {

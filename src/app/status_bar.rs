@@ -15,6 +15,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let info = StatusInfo {
         path: &app.path,
         job,
+        map: app.session.on_map(),
         tool: app.canvas.tool,
         hover: app.canvas.hover,
     };

@@ -175,13 +175,13 @@ impl Output {
 /// can take a copy, run, and hand the updated cache back.
 #[derive(Clone, Debug, Default)]
 pub struct Pipeline {
-    /// One set of cached stages per map size, most recently used first (at most two: the
-    /// preview and the full size).
+    /// One set of cached stages per map size, most recently used first (at most three: the
+    /// coarse pass, the preview and the full size).
     sizes: Vec<Stages>,
 }
 
-/// Map sizes whose stages are kept.
-const SIZES_KEPT: usize = 2;
+/// Map sizes whose stages are kept: the app's coarse pass, its preview and the full size.
+const SIZES_KEPT: usize = 3;
 
 impl Pipeline {
     pub fn new() -> Self {
@@ -198,9 +198,7 @@ impl Pipeline {
         backend: &Backend,
         ctx: &JobCtx,
     ) -> Result<Output, PipelineError> {
-        let mut sized = scene.clone();
-        sized.size = options.size;
-        sized.cell_size = scene.map_width() / options.size.max(1) as f64;
+        let sized = sized(scene, options.size);
         sized.validate()?;
         let scene = &sized;
 
@@ -214,6 +212,46 @@ impl Pipeline {
         self.sizes.truncate(SIZES_KEPT);
         result
     }
+
+    /// Whether a run of `scene` with `options` on `backend` would find its terrain (the
+    /// hydrology and, when the scene erodes, the erosion) in the cache, so that only the
+    /// later stages (style, detail, blocks), if any, would run. O(scene's JSON).
+    pub fn has_terrain_for(&self, scene: &Scene, options: &RunOptions, backend: &Backend) -> bool {
+        let Some(stages) = self.sizes.iter().find(|s| s.size == options.size) else {
+            return false;
+        };
+        let scene = sized(scene, options.size);
+        let key = hydrology_key(&scene, options, backend);
+        let eroded = match &scene.erosion {
+            Some(settings) => stages.erosion.get(erosion_key(key, settings)).is_some(),
+            None => true,
+        };
+        stages.hydrology.get(key).is_some() && eroded
+    }
+}
+
+/// `scene` at `size` cells a side over the same map width.
+fn sized(scene: &Scene, size: usize) -> Scene {
+    let mut sized = scene.clone();
+    sized.size = size;
+    sized.cell_size = scene.map_width() / size.max(1) as f64;
+    sized
+}
+
+/// The hydrology stage's key: the grid, the seed, the design and how it is solved.
+fn hydrology_key(scene: &Scene, options: &RunOptions, backend: &Backend) -> StageKey {
+    StageKey::start("hydrology")
+        .with(&(scene.size, scene.cell_size, scene.seed))
+        .with(&scene.rivers)
+        .with(&scene.params)
+        .with(&scene.sketch)
+        .with(&format!("{:?}", options.solver))
+        .with(&backend.key())
+}
+
+/// The erosion stage's key, after the hydrology's `key`.
+fn erosion_key(key: StageKey, settings: &erosion::ErosionSettings) -> StageKey {
+    key.then("erosion").with(settings)
 }
 
 /// The stages in the order they fill a run's progress bar.
@@ -266,13 +304,7 @@ async fn run_stages(
     };
 
     // 1. Hydrology: everything up to the conditioned, drained terrain.
-    let key = StageKey::start("hydrology")
-        .with(&(scene.size, scene.cell_size, scene.seed))
-        .with(&scene.rivers)
-        .with(&scene.params)
-        .with(&scene.sketch)
-        .with(&format!("{:?}", options.solver))
-        .with(&backend.key());
+    let key = hydrology_key(scene, options, backend);
     let hydrology = match stages.hydrology.get(key) {
         Some(cached) => cached,
         None => {
@@ -294,7 +326,7 @@ async fn run_stages(
     // 2. Erosion, on when the scene has an erosion section.
     let mut eroded = None;
     if let Some(settings) = &scene.erosion {
-        key = key.then("erosion").with(settings);
+        key = erosion_key(key, settings);
         let out = match stages.erosion.get(key) {
             Some(cached) => cached,
             None => {

@@ -119,12 +119,19 @@ fn every_stage_runs_and_a_later_stage_changes_the_terrain() {
     assert!(d.rms_masked.is_some_and(|m| m < d.rms_unmasked), "{d:?}");
 }
 
+/// Whether `pipeline` has the terrain (hydrology and erosion) of `scene` at its own size.
+fn has_terrain(pipeline: &Pipeline, scene: &Scene) -> bool {
+    pipeline.has_terrain_for(scene, &RunOptions::for_scene(scene), &Backend::Cpu)
+}
+
 #[test]
 fn an_edit_recomputes_only_the_stages_it_touched() {
     let mut scene = block_scene();
     scene.detail.levels = 1;
     let mut pipeline = Pipeline::new();
+    assert!(!has_terrain(&pipeline, &scene));
     let first = run(&mut pipeline, &scene);
+    assert!(has_terrain(&pipeline, &scene));
     assert_eq!(first.computed, ["hydrology", "erosion", "detail", "blend"]);
 
     // Nothing changed: nothing recomputed, the same outputs shared.
@@ -147,12 +154,17 @@ fn an_edit_recomputes_only_the_stages_it_touched() {
         &Brush::default(),
     );
     scene.detail.set_mask(Some(&mask));
+    assert!(
+        has_terrain(&pipeline, &scene),
+        "the terrain is before the mask"
+    );
     assert_eq!(run(&mut pipeline, &scene).computed, ["detail", "blend"]);
 
     // An erosion parameter: erosion and what follows.
     if let Some(e) = scene.erosion.as_mut() {
         e.diffusivity *= 2.0;
     }
+    assert!(!has_terrain(&pipeline, &scene), "the erosion is part of it");
     assert_eq!(
         run(&mut pipeline, &scene).computed,
         ["erosion", "detail", "blend"]
@@ -160,6 +172,7 @@ fn an_edit_recomputes_only_the_stages_it_touched() {
 
     // A river edit: everything.
     scene.rivers[0].phi = 2;
+    assert!(!has_terrain(&pipeline, &scene));
     assert_eq!(
         run(&mut pipeline, &scene).computed,
         ["hydrology", "erosion", "detail", "blend"]

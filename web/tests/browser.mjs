@@ -36,6 +36,46 @@ function nativeChecksum() {
   return report.check.cpu.checksum;
 }
 
+// Runs in the page before its scripts: each terrain that reaches the map until the page is
+// first idle (its pass and width), so the first terrain's passes can be checked.
+function watchFirstTerrains() {
+  window.__firstTerrains = [];
+  let last = null;
+  const poll = () => {
+    const s = window.strahler?.status();
+    if (s?.lastRun && s.lastRun.checksum !== last) {
+      last = s.lastRun.checksum;
+      window.__firstTerrains.push({ pass: s.terrain.pass, width: s.terrain.width });
+    }
+    if (!(s?.lastRun && s.job === null)) setTimeout(poll, 5);
+  };
+  poll();
+}
+
+// Runs in the page: applies an edit (the body of `edit`, a function of window.strahler) and
+// returns each terrain that reaches the map until the page is idle again: its pass, width and
+// the milliseconds since the edit.
+async function passesOfEdit(editSource) {
+  const edit = new Function('strahler', editSource);
+  const seen = [];
+  let last = window.strahler.status().lastRun?.checksum;
+  const start = performance.now();
+  edit(window.strahler);
+  await new Promise((done) => {
+    const poll = () => {
+      const s = window.strahler.status();
+      if (s.lastRun && s.lastRun.checksum !== last) {
+        last = s.lastRun.checksum;
+        seen.push({ pass: s.terrain.pass, width: s.terrain.width, ms: performance.now() - start });
+      }
+      if (seen.length > 0 && s.job === null) done();
+      else setTimeout(poll, 5);
+    };
+    poll();
+  });
+  return seen;
+}
+
 async function runMode(url, mode, expectedChecksum) {
   console.log(`browser (${mode}):`);
   const browser = await chromium.launch({
@@ -53,6 +93,7 @@ async function runMode(url, mode, expectedChecksum) {
       if (msg.type() === 'error') consoleErrors.push(msg.text());
       if (msg.type() === 'warning') consoleWarnings.push(msg.text());
     });
+    await page.addInitScript(watchFirstTerrains);
     await page.goto(url);
     await page.waitForFunction(() => window.strahler?.status().ready === true, null, { timeout: 90_000 });
     const status = await page.evaluate(() => window.strahler.status());
@@ -68,6 +109,12 @@ async function runMode(url, mode, expectedChecksum) {
 
     // The first fill runs by itself: terrain appears without any click.
     await page.waitForFunction(() => window.strahler.status().lastRun !== null, null, { timeout: 90_000 });
+    // The first terrain comes in two passes: a coarse one at once, then the scene's own size.
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
+    const firsts = await page.evaluate(() => window.__firstTerrains);
+    check('the first terrain shows a coarse 128^2 pass, then the scene\'s 512^2',
+      JSON.stringify(firsts) === JSON.stringify([{ pass: 'coarse', width: 128 }, { pass: 'full', width: 512 }]),
+      JSON.stringify(firsts));
     const run = (await page.evaluate(() => window.strahler.status())).lastRun;
     check('first terrain is shown', run.max - run.min > 100, JSON.stringify(run));
     check('first terrain is a converged multigrid fill', run.method === 'multigrid' && run.converged,
@@ -112,13 +159,13 @@ async function runMode(url, mode, expectedChecksum) {
     // Back to the first scene for the edits below.
     await page.evaluate((s) => window.strahler.loadScene(s), scene);
     await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
-    const before = run.checksum;
-    await page.evaluate(() => window.strahler.addRiver([1.0, 0.25], [0.7, 0.3], { phi: 2, depth: 7 }));
-    await page.waitForFunction((old) => {
-      const s = window.strahler.status();
-      return window.strahler.scene().rivers.length === 2 && s.job === null && s.lastRun.checksum !== old;
-    }, before, { timeout: 120_000 });
-    check('addRiver() adds a river and regenerates', true);
+    const passes = await page.evaluate(passesOfEdit,
+      'strahler.addRiver([1.0, 0.25], [0.7, 0.3], { phi: 2, depth: 7 })');
+    console.log(`  addRiver(): ${passes.map((p) => `${p.pass} ${p.width}^2 after ${p.ms.toFixed(0)} ms`).join(', ')}`);
+    check('addRiver() adds a river and regenerates, a coarse pass first',
+      (await page.evaluate(() => window.strahler.scene().rivers.length)) === 2
+      && passes.map((p) => `${p.pass} ${p.width}`).join(', ') === 'coarse 128, full 512',
+      JSON.stringify(passes));
     const bad = await page.evaluate(() => {
       try { window.strahler.loadScene({ version: 1, rivers: [{ estuary: [0.5, 1], toward: [0.5, 0.3], phi: 9 }] }); return null; }
       catch (e) { return String(e.message); }

@@ -1,5 +1,5 @@
 //! The bottom bar as a component: the compute path in plain words (its details on hover),
-//! the running job's one bar with its stage and the time left, the active tool's hint and
+//! what the map shows (a coarse pass, a preview or the full size), the running job's one bar with its stage and the time left, the active tool's hint and
 //! the height under the pointer. It reads a [`StatusInfo`] and asks for nothing.
 
 use egui::RichText;
@@ -36,6 +36,8 @@ impl JobLine {
 pub struct StatusInfo<'a> {
     pub path: &'a ComputePath,
     pub job: Option<JobLine>,
+    /// The terrain on the map (which pass, which size) and the one coming.
+    pub map: Option<crate::app::OnMap>,
     pub tool: Tool,
     pub hover: Option<Hover>,
 }
@@ -49,6 +51,14 @@ impl StatusBar {
         ui.horizontal(|ui| {
             let label = ui.label(RichText::new(info.path.to_string()).strong());
             label.on_hover_ui(|ui| compute_details(ui, info.path));
+            if let Some(map) = &info.map {
+                ui.separator();
+                ui.label(map.words()).on_hover_text(
+                    "An edit that changes the terrain shows a coarse one first, then the \
+                     terrain at its own size; with Preview on, a map larger than the preview is \
+                     generated at full size on demand (Diffusion section).",
+                );
+            }
             if let Some(job) = &info.job {
                 ui.separator();
                 // A still bar, not a spinner: a spinner repaints every frame, which on the
