@@ -29,6 +29,13 @@ fn tall_cpu_harness() -> Harness<'static, StrahlerApp> {
 
 use common::app::wait_idle;
 
+/// Unfolds the side panel's Advanced section (the paper's parameters, the diffusion's
+/// settings, the compute check).
+fn open_advanced(harness: &mut Harness<'static, StrahlerApp>) {
+    harness.get_by_label("Advanced").click();
+    harness.run_steps(10);
+}
+
 #[test]
 fn first_screen_names_the_compute_path_and_shows_terrain() {
     if common::gpu().is_none() {
@@ -69,6 +76,7 @@ fn compute_check_reports_agreement() {
     }
     let mut harness = tall_harness();
     wait_idle(&mut harness);
+    open_advanced(&mut harness);
     harness.get_by_label("Compare CPU and GPU").click();
     harness.run_steps(2);
     wait_idle(&mut harness);
@@ -92,8 +100,13 @@ fn fill_can_be_cancelled_and_the_ui_keeps_the_old_terrain() {
 
 #[test]
 fn solver_switch_shows_the_matching_parameter_and_runs_jacobi() {
-    let mut harness = cpu_harness();
+    let mut harness = tall_cpu_harness();
     wait_idle(&mut harness);
+    assert!(
+        harness.query_by_label("Tolerance").is_none(),
+        "the solver's settings are folded under Advanced"
+    );
+    open_advanced(&mut harness);
     harness.get_by_label("Tolerance");
     assert!(harness.query_by_label("Sweeps").is_none());
     harness.get_by_label("Jacobi").click();

@@ -7,11 +7,11 @@ mod common;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::panels::{
-    Action, DetailPanel, ErosionPanel, ExportDialog, ExportInfo, RealismPanel, RiversPanel,
-    SolverPanel, SolverReport, StylePanel, TerrainPanel,
+    Action, DESIGN_ONLY, DetailPanel, ErosionPanel, ExportDialog, ExportInfo, RealismPanel,
+    RiversPanel, SolverPanel, SolverReport, StartPanel, StylePanel, TerrainPanel,
 };
 use strahler::app::{RunSettings, RunSummaries, Tool};
-use strahler::erosion::ErosionReport;
+use strahler::erosion::{ErosionReport, ErosionSettings};
 use strahler::scene::{Edit, RiverStroke, Scene, StyleSettings};
 
 /// A panel under test, the scene it reads, and every action it returned.
@@ -84,10 +84,10 @@ fn rivers_panel_removes_clears_and_picks_tools() {
 }
 
 #[test]
-fn terrain_panel_draws_a_new_seed_and_turns_preview_off() {
+fn start_panel_picks_a_terrain_type_draws_a_new_seed_and_turns_preview_off() {
     let scene = two_rivers();
     let seed = scene.seed;
-    let mut h = harness(Bench::new(TerrainPanel, scene), |p, ui, scene, run| {
+    let mut h = harness(Bench::new(StartPanel, scene), |p, ui, scene, run| {
         p.show(ui, scene, run)
     });
     h.run();
@@ -105,6 +105,44 @@ fn terrain_panel_draws_a_new_seed_and_turns_preview_off() {
         [Action::Settings(run)] => assert!(!run.preview),
         other => panic!("{other:?}"),
     }
+    // The terrain type is the erosion preset, or the design alone.
+    h.state_mut().actions.clear();
+    h.get_by_label("Terrain type").click();
+    h.run();
+    h.get_by_label("badlands").click();
+    h.run();
+    assert_eq!(
+        h.state().actions,
+        [Action::Edit(Edit::SetErosion(ErosionSettings::preset(
+            "badlands"
+        )))]
+    );
+    h.state_mut().actions.clear();
+    h.state_mut().scene.erosion = ErosionSettings::preset("badlands");
+    h.run();
+    h.get_by_label("Terrain type").click();
+    h.run();
+    h.get_by_label(DESIGN_ONLY).click();
+    h.run();
+    assert_eq!(h.state().actions, [Action::Edit(Edit::SetErosion(None))]);
+}
+
+#[test]
+fn terrain_panel_edits_the_papers_parameters() {
+    let mut h = harness(Bench::new(TerrainPanel, two_rivers()), |p, ui, scene, _| {
+        p.show(ui, scene)
+    });
+    h.run();
+    assert!(h.state().actions.is_empty(), "showing asks for nothing");
+    h.get_by_label("between points").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::Edit(Edit::SetParams(params))] => assert_eq!(
+            params.enrich.distance_rule,
+            strahler::skeleton::enrich::DistanceRule::Points
+        ),
+        other => panic!("{other:?}"),
+    }
 }
 
 #[test]
@@ -120,7 +158,9 @@ fn solver_panel_switches_to_jacobi_generates_and_cancels() {
                 job: Some((0.5, "diffusing".into())),
                 summaries: &summaries,
             };
-            p.show(ui, scene, run, &report)
+            let mut actions = p.show(ui, scene, run, &report);
+            actions.extend(p.show_settings(ui, scene, run));
+            actions
         },
     );
     h.run();
@@ -254,6 +294,9 @@ fn snapshot_of_the_erosion_panel() {
             },
             ErosionPanel::default(),
         );
+    h.run();
+    // The parameters are folded at first; the picture shows them unfolded.
+    h.get_by_label("Parameters (young-mountains)").click();
     h.run();
     h.snapshot_options(
         "panel_erosion",

@@ -102,7 +102,7 @@ impl StrahlerApp {
         }
     }
 
-    /// The backend the Diffusion section asks for, or `None` after telling the user why
+    /// The backend the diffusion settings (Advanced) ask for, or `None` after telling the user why
     /// there is none (the GPU was requested but does not compute).
     pub(super) fn backend(&mut self) -> Option<crate::compute::Backend> {
         match self.settings().backend.resolve(&self.path) {

@@ -1,5 +1,6 @@
-//! The left panel: the river tool and strokes, the terrain parameters (with the paper's
-//! symbols in tooltips), the diffusion solver, and the compute check.
+//! The left panel, in the order of the work: the document, the main choices (Start), the
+//! drawing tools, the run, the map's layers and each stage's section; under Advanced
+//! (folded) the paper's parameters, the diffusion's settings and the compute check.
 
 use egui::RichText;
 
@@ -16,13 +17,8 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
                 document_row(ui, app);
                 messages(ui, app);
-                let eroded = app.canvas.map.has_erosion_layers();
-                super::layers::section(ui, &mut app.canvas.layers, eroded);
                 ui.separator();
                 sections(ui, app);
-                super::detail::mask_section(ui, app);
-                ui.separator();
-                super::blend::section(ui, app);
                 ui.separator();
                 if ui
                     .button("Export heightmap... (E)")
@@ -32,27 +28,32 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     app.export.dialog.open = true;
                 }
                 ui.separator();
-                selftest_section(ui, app);
+                advanced(ui, app);
             });
         });
 }
 
-/// The panels from Rivers to Detail, each given what it reads; their actions are applied
-/// once they are all drawn.
+/// The sections in the order of the work: the main choices and the drawing tools first,
+/// then what the map shows, the run, and each stage after the design (erosion, style,
+/// detail and its mask, real terrain). Each panel is given what it reads; their actions are
+/// applied once they are all drawn.
 fn sections(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     let scene = app.session.scene();
     let run = app.session.settings();
     let output = app.session.output();
     let panels = &mut app.panels;
-    let mut actions = panels.rivers.show(ui, scene, app.canvas.tool);
+    let mut actions = panels.start.show(ui, scene, run);
     ui.separator();
-    actions.extend(panels.terrain.show(ui, scene, run));
+    actions.extend(panels.rivers.show(ui, scene, app.canvas.tool));
     ui.separator();
     let report = super::panels::SolverReport {
         job: app.session.job().map(|j| (j.progress(), j.message())),
         summaries: &app.summaries,
     };
     actions.extend(panels.solver.show(ui, scene, run, &report));
+    ui.separator();
+    let eroded = app.canvas.map.has_erosion_layers();
+    super::layers::section(ui, &mut app.canvas.layers, eroded);
     ui.separator();
     let erosion = output.and_then(|o| o.report.erosion.as_ref());
     actions.extend(panels.erosion.show(ui, scene, erosion));
@@ -64,14 +65,41 @@ fn sections(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         .map(|l| (l.name.as_str(), &l.dem.field));
     actions.extend(panels.style.show(ui, scene, dem));
     ui.separator();
-    let realism = output.and_then(|o| o.report.realism.as_ref());
-    actions.extend(panels.realism.show(ui, run, realism));
-    ui.separator();
     actions.extend(panels.detail.show(ui, scene));
     let ctx = ui.ctx().clone();
     for action in actions {
         app.act(&ctx, action);
     }
+    super::detail::mask_section(ui, app);
+    ui.separator();
+    super::blend::section(ui, app);
+    ui.separator();
+    let run = app.session.settings();
+    let realism = app.session.output().and_then(|o| o.report.realism.as_ref());
+    let actions = app.panels.realism.show(ui, run, realism);
+    for action in actions {
+        app.act(&ctx, action);
+    }
+}
+
+/// Folded at first: the design's parameters (the paper's), the diffusion's settings and
+/// the compute check.
+fn advanced(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    egui::CollapsingHeader::new(RichText::new("Advanced").strong())
+        .id_salt("advanced")
+        .show(ui, |ui| {
+            let scene = app.session.scene();
+            let run = app.session.settings();
+            let mut actions = app.panels.terrain.show(ui, scene);
+            ui.separator();
+            actions.extend(app.panels.solver.show_settings(ui, scene, run));
+            let ctx = ui.ctx().clone();
+            for action in actions {
+                app.act(&ctx, action);
+            }
+            ui.separator();
+            selftest_section(ui, app);
+        });
 }
 
 /// The last error and the passing notice, in one place under the document's buttons, each

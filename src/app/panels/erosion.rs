@@ -1,11 +1,11 @@
 //! The Erosion section: stream-power erosion with uplift and hillslope processes (the
-//! scene's `erosion`), its presets and parameters in physical units, the before/after toggle
-//! and the last run's report.
+//! scene's `erosion`): on or off, its parameters in physical units (folded; the preset is
+//! the Start section's terrain type), the before/after toggle and the last run's report.
 
-use egui::{ComboBox, DragValue, RichText};
+use egui::{DragValue, RichText};
 
 use super::Action;
-use crate::erosion::{ErosionReport, ErosionSettings, PRESETS};
+use crate::erosion::{ErosionReport, ErosionSettings};
 use crate::scene::{Edit, Scene};
 
 /// The Erosion section; it owns the before/after toggle.
@@ -45,7 +45,9 @@ impl ErosionPanel {
             return Vec::new();
         };
         let mut edited = before.clone();
-        settings(ui, &mut edited);
+        egui::CollapsingHeader::new(format!("Parameters ({})", before.preset))
+            .id_salt("erosion parameters")
+            .show(ui, |ui| settings(ui, &mut edited));
         if edited != *before
             && edited.preset == before.preset
             && ErosionSettings::preset(&edited.preset).as_ref() != Some(&edited)
@@ -69,26 +71,12 @@ impl ErosionPanel {
     }
 }
 
-/// The preset and the parameters, on a copy of the scene's settings.
+/// The parameters, on a copy of the scene's settings (the preset is the Start section's
+/// terrain type).
 fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
     egui::Grid::new("erosion settings")
         .num_columns(2)
         .show(ui, |ui| {
-            let label = ui.label("Preset");
-            ComboBox::from_id_salt("erosion preset")
-                .selected_text(e.preset.clone())
-                .show_ui(ui, |ui| {
-                    for name in PRESETS {
-                        if ui.selectable_label(e.preset == *name, *name).clicked()
-                            && let Some(p) = ErosionSettings::preset(name)
-                        {
-                            *e = p;
-                        }
-                    }
-                })
-                .response
-                .labelled_by(label.id);
-            ui.end_row();
             let row = |ui: &mut egui::Ui, name: &str, tip: &str, value: &mut f64, range: std::ops::RangeInclusive<f64>, speed: f64| {
                 let label = ui.label(name).on_hover_text(tip);
                 ui.add(DragValue::new(value).range(range).speed(speed))

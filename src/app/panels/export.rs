@@ -125,7 +125,7 @@ impl ExportDialog {
             ui.label(
                 RichText::new(format!(
                     "The map shows a {0} x {0} preview: generate the full size first \
-                     (Diffusion section) to export from {full} x {full}.",
+                     (Generate section) to export from {full} x {full}.",
                     info.native
                 ))
                 .weak(),

@@ -10,6 +10,7 @@ mod export;
 mod realism;
 mod rivers;
 mod solver;
+mod start;
 mod status;
 mod style;
 mod terrain;
@@ -20,6 +21,7 @@ pub use export::{ExportDialog, ExportInfo};
 pub use realism::RealismPanel;
 pub use rivers::RiversPanel;
 pub use solver::{Report as SolverReport, SolverPanel};
+pub use start::{DESIGN_ONLY, SIZES, StartPanel};
 pub use status::{JobLine, StatusBar, StatusInfo, tool_hint};
 pub use style::StylePanel;
 pub use terrain::TerrainPanel;
@@ -55,6 +57,7 @@ pub enum Action {
 /// Every panel of the side panel, with its own state.
 #[derive(Default)]
 pub struct Panels {
+    pub start: StartPanel,
     pub rivers: RiversPanel,
     pub terrain: TerrainPanel,
     pub solver: SolverPanel,

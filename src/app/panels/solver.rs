@@ -1,5 +1,6 @@
-//! The Diffusion section: the solver and the backend (run settings), the post-filters (the
-//! scene's), Generate / full size / Cancel, and the last run's numbers.
+//! The Generate section (Generate / full size / Cancel, the job's bar and the last run's
+//! numbers) and, under Advanced, the diffusion's settings: the solver and the backend (run
+//! settings) and the post-filters (the scene's).
 
 use egui::{ComboBox, DragValue, ProgressBar, RichText};
 
@@ -9,7 +10,7 @@ use crate::app::session::{PREVIEW_SIZE, RunSettings};
 use crate::compute::BackendChoice;
 use crate::scene::{Edit, Scene};
 
-/// The Diffusion section (it keeps no state of its own).
+/// The Generate section and the diffusion's settings (it keeps no state of its own).
 #[derive(Default)]
 pub struct SolverPanel;
 
@@ -21,6 +22,8 @@ pub struct Report<'a> {
 }
 
 impl SolverPanel {
+    /// The run: Generate, Generate full size, Cancel, the job's bar and the last run's
+    /// numbers (the main flow, always in view).
     pub fn show(
         &mut self,
         ui: &mut egui::Ui,
@@ -28,26 +31,11 @@ impl SolverPanel {
         run: &RunSettings,
         report: &Report<'_>,
     ) -> Vec<Action> {
-        ui.label(RichText::new("Diffusion").strong()).on_hover_text(
-            "Laplace diffusion (seed paper 000, eqs. 6-7): every free cell relaxes to the mean \
-             of its four neighbours while the skeleton's cells keep their heights.",
+        ui.label(RichText::new("Generate").strong()).on_hover_text(
+            "Every edit regenerates the terrain by itself; Generate runs it again as it is.",
         );
         let mut actions = Vec::new();
-        let mut solver = run.solver.clone();
-        let mut post = scene.params.post;
-        settings(ui, &mut solver, &mut post);
-        if solver != run.solver {
-            actions.push(Action::Settings(RunSettings {
-                solver,
-                ..run.clone()
-            }));
-        }
-        if post != scene.params.post {
-            let mut params = scene.params;
-            params.post = post;
-            actions.push(Action::Edit(Edit::SetParams(params)));
-        }
-        ui.horizontal(|ui| {
+        ui.horizontal_wrapped(|ui| {
             if ui.button("Generate terrain").clicked() {
                 actions.push(Action::Generate);
             }
@@ -68,6 +56,36 @@ impl SolverPanel {
             ui.add(ProgressBar::new(*progress).text(message));
         }
         last_run(ui, report.summaries);
+        actions
+    }
+
+    /// The diffusion's settings (advanced): the solver and the backend (run settings) and
+    /// the post-filters (the scene's).
+    pub fn show_settings(
+        &mut self,
+        ui: &mut egui::Ui,
+        scene: &Scene,
+        run: &RunSettings,
+    ) -> Vec<Action> {
+        ui.label(RichText::new("Diffusion").strong()).on_hover_text(
+            "Laplace diffusion (seed paper 000, eqs. 6-7): every free cell relaxes to the mean \
+             of its four neighbours while the skeleton's cells keep their heights.",
+        );
+        let mut actions = Vec::new();
+        let mut solver = run.solver.clone();
+        let mut post = scene.params.post;
+        settings(ui, &mut solver, &mut post);
+        if solver != run.solver {
+            actions.push(Action::Settings(RunSettings {
+                solver,
+                ..run.clone()
+            }));
+        }
+        if post != scene.params.post {
+            let mut params = scene.params;
+            params.post = post;
+            actions.push(Action::Edit(Edit::SetParams(params)));
+        }
         actions
     }
 }

@@ -56,7 +56,7 @@ impl StatusBar {
                 ui.label(map.words()).on_hover_text(
                     "An edit that changes the terrain shows a coarse one first, then the \
                      terrain at its own size; with Preview on, a map larger than the preview is \
-                     generated at full size on demand (Diffusion section).",
+                     generated at full size on demand (Generate section).",
                 );
             }
             if let Some(job) = &info.job {

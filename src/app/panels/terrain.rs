@@ -1,124 +1,41 @@
-//! The Terrain section: grid size, map width, preview, seed and the hydrology paper's
-//! parameters (with its symbols in tooltips).
+//! The design's parameters (under Advanced): the hydrology paper's branching angle, river
+//! slope, ridge slope, noise and enrichment (with its symbols in tooltips). The grid, the
+//! seed and the terrain type are in the Start section ([`super::StartPanel`]).
 
-use egui::{ComboBox, DragValue, RichText};
+use egui::{DragValue, RichText};
 
 use super::Action;
-use crate::app::session::{PREVIEW_SIZE, RunSettings};
 use crate::scene::{Edit, Params, Scene};
 
-/// Grid sizes offered (square, cells per side).
-pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
-
-/// The Terrain section (it keeps no state of its own).
+/// The design's parameters (it keeps no state of its own).
 #[derive(Default)]
 pub struct TerrainPanel;
 
-/// The section's part of the scene, edited as a copy.
-#[derive(Clone, Copy, PartialEq)]
-struct Grid {
-    size: usize,
-    cell_size: f64,
-    seed: u64,
-    params: Params,
-}
-
 impl TerrainPanel {
-    pub fn show(&mut self, ui: &mut egui::Ui, scene: &Scene, run: &RunSettings) -> Vec<Action> {
-        ui.label(RichText::new("Terrain").strong());
-        let before = Grid {
-            size: scene.size,
-            cell_size: scene.cell_size,
-            seed: scene.seed,
-            params: scene.params,
-        };
-        let mut preview = run.preview;
-        let scene = edit_grid(ui, before, &mut preview);
-        let mut actions = Vec::new();
-        if preview != run.preview {
-            actions.push(Action::Settings(RunSettings {
-                preview,
-                ..run.clone()
-            }));
+    pub fn show(&mut self, ui: &mut egui::Ui, scene: &Scene) -> Vec<Action> {
+        ui.label(RichText::new("Design").strong()).on_hover_text(
+            "The hydrology paper's parameters (seed paper 000): how the river networks branch, \
+             how steep rivers and ridges are, and the noise and enrichment of the skeleton.",
+        );
+        let mut params = scene.params;
+        edit_params(ui, &mut params);
+        if params == scene.params {
+            return Vec::new();
         }
-        if (scene.size, scene.cell_size) != (before.size, before.cell_size) {
-            actions.push(Action::Edit(Edit::SetGrid {
-                size: scene.size,
-                cell_size: scene.cell_size,
-            }));
-        }
-        if scene.seed != before.seed {
-            actions.push(Action::Edit(Edit::SetSeed(scene.seed)));
-        }
-        if scene.params != before.params {
-            actions.push(Action::Edit(Edit::SetParams(scene.params)));
-        }
-        actions
+        vec![Action::Edit(Edit::SetParams(params))]
     }
 }
 
-/// The grid's widgets on a copy of the section's fields.
-fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
-    let mut scene = before;
-    let width = before.cell_size * before.size as f64;
-    egui::Grid::new("terrain settings")
+/// The parameters' widgets on a copy of the scene's.
+fn edit_params(ui: &mut egui::Ui, params: &mut Params) {
+    egui::Grid::new("design parameters")
         .num_columns(2)
         .show(ui, |ui| {
-            let label = ui.label("Grid size");
-            ComboBox::from_id_salt("grid size")
-                .selected_text(format!("{0} x {0}", scene.size))
-                .show_ui(ui, |ui| {
-                    for size in SIZES {
-                        ui.selectable_value(&mut scene.size, size, format!("{size} x {size}"));
-                    }
-                })
-                .response
-                .labelled_by(label.id);
-            // The map keeps its width in metres when its cell count changes.
-            scene.cell_size = width / scene.size as f64;
-            ui.end_row();
-            let label = ui
-                .label("Map width")
-                .on_hover_text("Width of the square map in metres (sets the cell size).");
-            let mut km = width / 1000.0;
-            if ui
-                .add(
-                    DragValue::new(&mut km)
-                        .range(0.1..=1000.0)
-                        .speed(0.1)
-                        .suffix(" km"),
-                )
-                .labelled_by(label.id)
-                .changed()
-            {
-                scene.cell_size = km * 1000.0 / scene.size as f64;
-            }
-            ui.end_row();
-            ui.label("Preview").on_hover_text(format!(
-                "Edits of a map larger than {0} x {0} regenerate at {0} x {0}; Generate full \
-                 size makes the real one.",
-                PREVIEW_SIZE
-            ));
-            ui.checkbox(preview, format!("edit at {}", PREVIEW_SIZE));
-            ui.end_row();
-            let label = ui.label("Seed");
-            ui.horizontal(|ui| {
-                ui.add(DragValue::new(&mut scene.seed))
-                    .labelled_by(label.id);
-                if ui.button("New seed").clicked() {
-                    scene.seed = scene
-                        .seed
-                        .wrapping_mul(6_364_136_223_846_793_005)
-                        .wrapping_add(1)
-                        >> 16;
-                }
-            });
-            ui.end_row();
             let label = ui
                 .label("θ (°)")
                 .on_hover_text("Branching angle theta: exterior links turn theta or 2 theta.");
             ui.add(
-                DragValue::new(&mut scene.params.theta)
+                DragValue::new(&mut params.theta)
                     .range(5.0..=60.0)
                     .speed(0.5),
             )
@@ -128,7 +45,7 @@ fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
                 .label("River slope")
                 .on_hover_text("Metres of height per metre of channel (Sec. IV-C).");
             ui.add(
-                DragValue::new(&mut scene.params.river_slope)
+                DragValue::new(&mut params.river_slope)
                     .range(0.0..=0.2)
                     .speed(0.001),
             )
@@ -138,7 +55,7 @@ fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
                 "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
             );
             ui.add(
-                DragValue::new(&mut scene.params.alpha)
+                DragValue::new(&mut params.alpha)
                     .range(0.0..=1.0)
                     .speed(0.005),
             )
@@ -150,7 +67,7 @@ fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
                      eq. 4), so low ridges between close rivers stay above them.",
             );
             ui.add(
-                DragValue::new(&mut scene.params.noise.amplitude)
+                DragValue::new(&mut params.noise.amplitude)
                     .range(0.0..=500.0)
                     .speed(1.0),
             )
@@ -159,14 +76,14 @@ fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
             let label = ui
                 .label("Octaves")
                 .on_hover_text("Octaves of the fractal noise of eq. 5 (1 to 16).");
-            ui.add(DragValue::new(&mut scene.params.noise.octaves).range(1..=16))
+            ui.add(DragValue::new(&mut params.noise.octaves).range(1..=16))
                 .labelled_by(label.id);
             ui.end_row();
             let label = ui
                 .label("Roughness")
                 .on_hover_text("Amplitude ratio between successive octaves of eq. 5's noise.");
             ui.add(
-                DragValue::new(&mut scene.params.noise.roughness)
+                DragValue::new(&mut params.noise.roughness)
                     .range(0.0..=1.0)
                     .speed(0.01),
             )
@@ -176,7 +93,7 @@ fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
                 "Midpoint displacement and its inverse (Sec. V-B): each pass widens rivers and \
                  ridges by a cell of flank. 0 turns enrichment off.",
             );
-            ui.add(DragValue::new(&mut scene.params.enrich.passes).range(0..=16))
+            ui.add(DragValue::new(&mut params.enrich.passes).range(0..=16))
                 .labelled_by(label.id);
             ui.end_row();
             let label = ui.label("L (cells)").on_hover_text(
@@ -186,14 +103,13 @@ fn edit_grid(ui: &mut egui::Ui, before: Grid, preview: &mut bool) -> Grid {
                  limits nothing from L = 3, and the passes alone bound the flanks.",
             );
             ui.horizontal(|ui| {
-                ui.add(DragValue::new(&mut scene.params.enrich.distance_limit).range(1..=64))
+                ui.add(DragValue::new(&mut params.enrich.distance_limit).range(1..=64))
                     .labelled_by(label.id);
                 use crate::skeleton::enrich::DistanceRule;
-                let rule = &mut scene.params.enrich.distance_rule;
+                let rule = &mut params.enrich.distance_rule;
                 ui.selectable_value(rule, DistanceRule::Skeleton, "from skeleton");
                 ui.selectable_value(rule, DistanceRule::Points, "between points");
             });
             ui.end_row();
         });
-    scene
 }
