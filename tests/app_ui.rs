@@ -318,6 +318,13 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
         "{err}"
     );
     assert_eq!(harness.state().terrain(), Some(&before));
+    // The error is shown where the upload was made, beside the DEM panel's buttons, as
+    // well as at the top of the panel.
+    assert_eq!(
+        harness.get_all_by_label(&err).count(),
+        2,
+        "at the top and in the DEM panel"
+    );
 
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/volcano_maungawhau.tif");

@@ -188,6 +188,8 @@ pub enum Command {
     FileRefused {
         name: String,
         message: String,
+        /// The section that asked for the file, where the error is shown.
+        place: super::Place,
     },
 }
 

@@ -137,7 +137,7 @@ impl StrahlerApp {
                 super::stored_dem::keep(name, &dem, &self.automation);
                 self.set_dem(ctx, name, dem, bytes);
             }
-            Err(err) => self.set_error(format!("{name}: {err}")),
+            Err(err) => self.set_error_at(super::Place::Dem, format!("{name}: {err}")),
         }
     }
 
@@ -157,7 +157,10 @@ impl StrahlerApp {
                     _ => format!("Restored {said} kept in this browser"),
                 });
             }
-            Err(err) => self.set_error(format!("{name} (kept in this browser): {err}")),
+            Err(err) => self.set_error_at(
+                super::Place::Dem,
+                format!("{name} (kept in this browser): {err}"),
+            ),
         }
     }
 
@@ -220,7 +223,7 @@ impl StrahlerApp {
         );
         match spawned {
             Ok(handle) => self.blend.fill_job = Some(handle),
-            Err(err) => self.set_error(err.to_string()),
+            Err(err) => self.set_error_at(super::Place::Dem, err.to_string()),
         }
     }
 
@@ -242,15 +245,21 @@ impl StrahlerApp {
         z_scale: f32,
     ) {
         let Some(loaded) = &self.blend.dem else {
-            self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
+            self.set_error_at(
+                super::Place::Dem,
+                "Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into(),
+            );
             return;
         };
         let Some(reference) = crop(&loaded.dem.field, window) else {
-            self.set_error(format!(
-                "The window {window:?} (row, col, height, width) does not fit the {} x {} DEM",
-                loaded.dem.field.height(),
-                loaded.dem.field.width()
-            ));
+            self.set_error_at(
+                super::Place::Dem,
+                format!(
+                    "The window {window:?} (row, col, height, width) does not fit the {} x {} DEM",
+                    loaded.dem.field.height(),
+                    loaded.dem.field.width()
+                ),
+            );
             return;
         };
         let [row, col, h, w] = window;
@@ -280,12 +289,12 @@ impl StrahlerApp {
                 block.mirror = mirror;
                 block.z_scale = z_scale;
                 if let Err(err) = self.session.apply(Edit::AddBlock(block)) {
-                    self.set_error(format!("Block {err}"));
+                    self.set_error_at(super::Place::Dem, format!("Block {err}"));
                     return;
                 }
                 self.blend.selected = Some(self.session.scene().blend.len() - 1);
             }
-            Err(err) => self.set_error(format!("Block: {err}")),
+            Err(err) => self.set_error_at(super::Place::Dem, format!("Block: {err}")),
         }
     }
 
@@ -338,7 +347,10 @@ impl StrahlerApp {
     /// as a job; the result replaces the scene's rivers and sketch (see [`Self::take_features`]).
     pub(super) fn extract_features(&mut self, ctx: &egui::Context) {
         let Some(loaded) = &self.blend.dem else {
-            self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
+            self.set_error_at(
+                super::Place::Dem,
+                "Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into(),
+            );
             return;
         };
         let field = loaded.dem.field.clone();
@@ -366,7 +378,7 @@ impl StrahlerApp {
         );
         match spawned {
             Ok(handle) => self.blend.features_job = Some(handle),
-            Err(err) => self.set_error(err.to_string()),
+            Err(err) => self.set_error_at(super::Place::Dem, err.to_string()),
         }
     }
 
@@ -395,7 +407,9 @@ impl StrahlerApp {
                 self.load_scene(&scene);
             }
             Err(err) if err == "cancelled" => {}
-            Err(err) => self.set_error(format!("Extract features failed: {err}")),
+            Err(err) => {
+                self.set_error_at(super::Place::Dem, format!("Extract features failed: {err}"))
+            }
         }
     }
 
@@ -422,7 +436,7 @@ impl StrahlerApp {
                 }
             }
             Err(DiffusionError::Cancelled(_)) => {}
-            Err(err) => self.set_error(format!("Fill voids failed: {err}")),
+            Err(err) => self.set_error_at(super::Place::Dem, format!("Fill voids failed: {err}")),
         }
     }
 
@@ -506,6 +520,7 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             app.automation.update(|s| s.dem = None);
         }
     });
+    super::side_panel::error_here(ui, app, super::Place::Dem);
     #[cfg(not(target_arch = "wasm32"))]
     ui.horizontal(|ui| {
         ui.add(egui::TextEdit::singleline(&mut app.blend.path_input).hint_text("path/to/dem.tif"));
@@ -518,7 +533,10 @@ pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     let name = path.to_string_lossy().into_owned();
                     app.load_dem(&ctx, &name, bytes);
                 }
-                Err(err) => app.set_error(format!("cannot read {}: {err}", path.display())),
+                Err(err) => app.set_error_at(
+                    super::Place::Dem,
+                    format!("cannot read {}: {err}", path.display()),
+                ),
             }
         }
     });
@@ -788,10 +806,14 @@ pub(super) fn upload(app: &mut StrahlerApp) {
         if let Err(err) = super::files::pick_file(accept, check, move |name, read| {
             automation.push(match read {
                 Ok(bytes) => super::Command::LoadDem { name, bytes },
-                Err(message) => super::Command::FileRefused { name, message },
+                Err(message) => super::Command::FileRefused {
+                    name,
+                    message,
+                    place: super::Place::Dem,
+                },
             });
         }) {
-            app.set_error(err);
+            app.set_error_at(super::Place::Dem, err);
         }
     }
     #[cfg(not(target_arch = "wasm32"))]

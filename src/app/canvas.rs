@@ -53,11 +53,26 @@ impl Default for Canvas {
 }
 
 /// The messages the side panel shows: the last error, and a passing notice (a file saved, a
-/// mask imported).
+/// mask imported). The top of the panel lists them; the section where the error's action
+/// was taken shows it too, beside its buttons.
 #[derive(Default)]
 pub struct Messages {
     pub error: Option<String>,
+    /// Where the error's action was taken.
+    pub error_at: Place,
     pub notice: Option<String>,
+}
+
+/// Where in the side panel an action was taken, for its error to be shown there.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Place {
+    /// The document, the run, or anywhere without a section of its own: the top only.
+    #[default]
+    Top,
+    /// The DEM panel: uploads, blocks, voids, features, network comparison.
+    Dem,
+    /// The mask tools: painting, importing, deriving from the rivers.
+    Mask,
 }
 
 /// What the side panel says about the last run.

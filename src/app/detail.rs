@@ -122,7 +122,10 @@ impl StrahlerApp {
     /// The river networks as a starting mask (rivers stay smooth).
     pub(super) fn mask_from_rivers(&mut self, ctx: &egui::Context) {
         let Some(output) = self.session.output() else {
-            self.set_error("Generate a terrain first: the mask follows its rivers.".into());
+            self.set_error_at(
+                super::Place::Mask,
+                "Generate a terrain first: the mask follows its rivers.".into(),
+            );
             return;
         };
         let grown = &output.hydrology.rivers;
@@ -140,7 +143,7 @@ impl StrahlerApp {
         let mask = Mask::from_rivers(n, n, &rivers, radius);
         match mask {
             Ok(mask) => self.set_mask(ctx, mask),
-            Err(err) => self.set_error(err.to_string()),
+            Err(err) => self.set_error_at(super::Place::Mask, err.to_string()),
         }
     }
 
@@ -192,7 +195,7 @@ impl StrahlerApp {
                 self.canvas.layers.mask = true;
                 self.messages.notice = Some(format!("Mask imported from {name}"));
             }
-            Err(err) => self.set_error(format!("{name}: {err}")),
+            Err(err) => self.set_error_at(super::Place::Mask, format!("{name}: {err}")),
         }
     }
 }
@@ -205,6 +208,7 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         ui.selectable_value(&mut app.canvas.tool, Tool::Mask, "Paint mask (M)");
         ui.checkbox(&mut app.canvas.layers.mask, "show mask");
     });
+    super::side_panel::error_here(ui, app, super::Place::Mask);
     if app.canvas.tool == Tool::Mask {
         egui::Grid::new("brush settings")
             .num_columns(2)
@@ -257,9 +261,9 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     &png,
                 ) {
                     Ok(where_to) => app.messages.notice = Some(format!("Mask {where_to}")),
-                    Err(err) => app.set_error(err),
+                    Err(err) => app.set_error_at(super::Place::Mask, err),
                 },
-                Err(err) => app.set_error(err.to_string()),
+                Err(err) => app.set_error_at(super::Place::Mask, err.to_string()),
             }
         }
     });
@@ -271,10 +275,14 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             if let Err(err) = super::files::pick_file(".png", check, move |name, read| {
                 automation.push(match read {
                     Ok(bytes) => super::Command::ImportMask { name, bytes },
-                    Err(message) => super::Command::FileRefused { name, message },
+                    Err(message) => super::Command::FileRefused {
+                        name,
+                        message,
+                        place: super::Place::Mask,
+                    },
                 });
             }) {
-                app.set_error(err);
+                app.set_error_at(super::Place::Mask, err);
             }
         }
         ui.label(RichText::new("or drop a PNG on the map with the mask tool active").weak());

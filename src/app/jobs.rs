@@ -115,10 +115,16 @@ impl StrahlerApp {
     }
 
     pub(super) fn set_error(&mut self, message: String) {
+        self.set_error_at(super::Place::Top, message);
+    }
+
+    /// An error of an action taken in the section at `place`: shown there and at the top.
+    pub(super) fn set_error_at(&mut self, place: super::Place, message: String) {
         log::warn!("{message}");
         self.automation
             .update(|s| s.last_error = Some(message.clone()));
         self.messages.error = Some(message);
+        self.messages.error_at = place;
     }
 
     /// Puts a finished run on the map with its overlays and publishes its summaries.
@@ -226,9 +232,11 @@ impl StrahlerApp {
                 } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
                 Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
                 Command::Export(request) => self.export_for_script(ctx, *request, number),
-                Command::FileRefused { name, message } => {
-                    self.set_error(format!("{name}: {message}"))
-                }
+                Command::FileRefused {
+                    name,
+                    message,
+                    place,
+                } => self.set_error_at(place, format!("{name}: {message}")),
                 Command::Undo => self.undo(),
                 Command::Redo => self.redo(),
                 Command::SetView(view) => self.set_view(view),
@@ -267,7 +275,14 @@ impl StrahlerApp {
                     self.open_scene(&name, &bytes)
                 }
                 Ok(bytes) => self.load_dem(ctx, &name, bytes),
-                Err(err) => self.set_error(format!("{name}: {err}")),
+                Err(err) => {
+                    let place = match target {
+                        super::detail::ImportTarget::Mask => super::Place::Mask,
+                        super::detail::ImportTarget::Dem => super::Place::Dem,
+                        super::detail::ImportTarget::Scene => super::Place::Top,
+                    };
+                    self.set_error_at(place, format!("{name}: {err}"))
+                }
             }
         }
         self.take_filled_dem(ctx);

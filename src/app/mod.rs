@@ -29,7 +29,7 @@ mod view3d;
 use std::sync::Arc;
 
 pub use automation::{Automation, Command, JobStatus, Status};
-pub use canvas::RunSummaries;
+pub use canvas::{Place, RunSummaries};
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use session::{COARSE_SIZE, OnMap, PREVIEW_SIZE, Pass, RunSettings, Session, SolverSettings};
 pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};

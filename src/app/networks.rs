@@ -49,11 +49,15 @@ impl StrahlerApp {
     /// the terrain on the map. O(cells log cells) (the Priority-Flood fill).
     pub(super) fn compare_networks(&mut self, ctx: &egui::Context) {
         let Some(loaded) = &self.blend.dem else {
-            self.set_error("Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into());
+            self.set_error_at(
+                super::Place::Dem,
+                "Upload a DEM first (DEM panel: Upload DEM, or drop a file).".into(),
+            );
             return;
         };
         let Some(output) = self.session.output() else {
-            self.set_error(
+            self.set_error_at(
+                super::Place::Dem,
                 "Generate a terrain first: its rivers are compared with the DEM's.".into(),
             );
             return;
@@ -86,7 +90,7 @@ impl StrahlerApp {
         );
         match spawned {
             Ok(handle) => self.blend.networks.job = Some(handle),
-            Err(err) => self.set_error(err.to_string()),
+            Err(err) => self.set_error_at(super::Place::Dem, err.to_string()),
         }
     }
 
@@ -117,7 +121,10 @@ impl StrahlerApp {
                 });
             }
             (Err(err), _) if err == "cancelled" => {}
-            (Err(err), _) => self.set_error(format!("Network comparison failed: {err}")),
+            (Err(err), _) => self.set_error_at(
+                super::Place::Dem,
+                format!("Network comparison failed: {err}"),
+            ),
             (Ok(_), None) => {}
         }
     }

@@ -123,6 +123,22 @@ fn messages(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     }
 }
 
+/// The error of an action taken in the section at `place`, shown there beside its buttons
+/// (the top of the panel lists it too); nothing when the last error came from elsewhere.
+pub(super) fn error_here(ui: &mut egui::Ui, app: &mut StrahlerApp, place: super::Place) {
+    if app.messages.error_at != place {
+        return;
+    }
+    if let Some(err) = app.messages.error.clone() {
+        ui.horizontal_wrapped(|ui| {
+            ui.colored_label(ui.visuals().error_fg_color, err);
+            if ui.small_button("Dismiss").clicked() {
+                app.messages.error = None;
+            }
+        });
+    }
+}
+
 /// Undo, redo, save and open: the document.
 fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     ui.horizontal_wrapped(|ui| {
@@ -166,7 +182,11 @@ fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             if let Err(err) = super::files::pick_file(".json", check, move |name, read| {
                 automation.push(match read {
                     Ok(bytes) => super::Command::OpenScene { name, bytes },
-                    Err(message) => super::Command::FileRefused { name, message },
+                    Err(message) => super::Command::FileRefused {
+                        name,
+                        message,
+                        place: super::Place::Top,
+                    },
                 });
             }) {
                 app.set_error(err);

@@ -54,6 +54,7 @@ pub fn restore(automation: &Automation) {
 #[cfg(target_arch = "wasm32")]
 fn refused(automation: &Automation, name: &str, why: &str) {
     automation.push(Command::FileRefused {
+        place: super::Place::Dem,
         name: name.to_owned(),
         message: format!(
             "kept for this visit only: the browser would not store it for the next ({why}); \
