@@ -426,3 +426,64 @@ fn status_bar_shows_the_path_the_job_and_the_pointer() {
     assert!(h.query_by_label_contains("terrain 40%").is_none());
     h.get_by_label("map 512x512 (preview of 2048x2048)");
 }
+
+/// The compute check alone: its button asks for a check, not while one runs; a finished
+/// check on the CPU path says there is no GPU to compare with.
+#[test]
+fn check_panel_asks_for_a_check_and_shows_the_result() {
+    use strahler::app::panels::{CheckPanel, CheckReport};
+    use strahler::compute::{ComputePath, CpuReason};
+    use strahler::diffusion::selftest::SelfTest;
+    struct State {
+        panel: CheckPanel,
+        running: bool,
+        result: Option<Result<SelfTest, String>>,
+        actions: Vec<Action>,
+    }
+    let path = ComputePath::Cpu {
+        reason: CpuReason::BrowserWithoutWebGpu,
+    };
+    let test = pollster::block_on(strahler::diffusion::selftest::run(
+        &path,
+        &strahler::jobs::JobCtx::detached(),
+    ))
+    .unwrap();
+    let state = State {
+        panel: CheckPanel,
+        running: false,
+        result: None,
+        actions: Vec::new(),
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(320.0, 300.0))
+        .build_ui_state(
+            |ui, s: &mut State| {
+                let report = CheckReport {
+                    running: s.running,
+                    result: s.result.as_ref(),
+                };
+                let actions = s.panel.show(ui, &report);
+                s.actions.extend(actions);
+            },
+            state,
+        );
+    h.run();
+    h.get_by_label("Compare CPU and GPU").click();
+    h.run();
+    assert_eq!(h.state().actions, [Action::CompareBackends]);
+    h.state_mut().actions.clear();
+    h.state_mut().running = true;
+    h.run();
+    h.get_by_label("Compare CPU and GPU").click();
+    h.run();
+    assert!(h.state().actions.is_empty(), "not while a check runs");
+    h.state_mut().running = false;
+    let checksum = test.cpu.checksum.clone();
+    h.state_mut().result = Some(Ok(test));
+    h.run();
+    h.get_by_label_contains(&format!("checksum {checksum}"));
+    h.get_by_label("No GPU compute on this path: CPU only.");
+    h.state_mut().result = Some(Err("the device was lost".into()));
+    h.run();
+    h.get_by_label("Check failed: the device was lost");
+}

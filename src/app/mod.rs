@@ -240,6 +240,7 @@ impl StrahlerApp {
             Action::Generate => self.start_generate(ctx),
             Action::GenerateFullSize => self.generate_full_size(ctx),
             Action::Cancel => self.session.cancel(),
+            Action::CompareBackends => self.start_selftest(ctx),
             Action::Error(message) => self.set_error(message),
             Action::Export { request, layers } => self.download(ctx, request, layers),
         }

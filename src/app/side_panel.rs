@@ -93,12 +93,16 @@ fn advanced(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             let mut actions = app.panels.terrain.show(ui, scene);
             ui.separator();
             actions.extend(app.panels.solver.show_settings(ui, scene, run));
+            ui.separator();
+            let report = super::panels::CheckReport {
+                running: app.check.job.is_some(),
+                result: app.check.result.as_ref(),
+            };
+            actions.extend(app.panels.check.show(ui, &report));
             let ctx = ui.ctx().clone();
             for action in actions {
                 app.act(&ctx, action);
             }
-            ui.separator();
-            selftest_section(ui, app);
         });
 }
 
@@ -193,41 +197,4 @@ fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             }
         }
     });
-}
-
-fn selftest_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    ui.label(RichText::new("Compute check").strong())
-        .on_hover_text(
-            "Runs the same diffusion problem on the CPU and on the GPU and compares the results.",
-        );
-    let ctx = ui.ctx().clone();
-    ui.add_enabled_ui(app.check.job.is_none(), |ui| {
-        if ui.button("Compare CPU and GPU").clicked() {
-            app.start_selftest(&ctx);
-        }
-    });
-    match &app.check.result {
-        None => {}
-        Some(Err(err)) => {
-            ui.colored_label(ui.visuals().error_fg_color, format!("Check failed: {err}"));
-        }
-        Some(Ok(test)) => {
-            ui.label(format!(
-                "CPU: {:.0} ms, checksum {}",
-                test.cpu.millis, test.cpu.checksum
-            ));
-            match (&test.gpu, test.relative_diff) {
-                (Some(gpu), Some(rel)) => {
-                    ui.label(format!("GPU: {:.0} ms", gpu.millis));
-                    let verdict = if rel <= 1e-5 { "agree" } else { "DIFFER" };
-                    ui.label(format!(
-                        "CPU and GPU {verdict}: max difference {rel:.2e} of the height range"
-                    ));
-                }
-                _ => {
-                    ui.label("No GPU compute on this path: CPU only.");
-                }
-            }
-        }
-    }
 }

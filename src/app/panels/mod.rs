@@ -4,6 +4,7 @@
 //! scene field needs the scene, its stage and its panel only. Each panel is tested alone in
 //! `tests/panels.rs`.
 
+mod check;
 mod detail;
 mod erosion;
 mod export;
@@ -15,6 +16,7 @@ mod status;
 mod style;
 mod terrain;
 
+pub use check::{AGREEMENT, CheckPanel, CheckReport};
 pub use detail::DetailPanel;
 pub use erosion::ErosionPanel;
 pub use export::{ExportDialog, ExportInfo};
@@ -45,6 +47,8 @@ pub enum Action {
     GenerateFullSize,
     /// Cancel the running terrain job.
     Cancel,
+    /// Run the compute check: the same problems on the CPU and the GPU.
+    CompareBackends,
     /// Say something went wrong.
     Error(String),
     /// Write an export (and the skeleton's layers with `layers`).
@@ -58,6 +62,7 @@ pub enum Action {
 #[derive(Default)]
 pub struct Panels {
     pub start: StartPanel,
+    pub check: CheckPanel,
     pub rivers: RiversPanel,
     pub terrain: TerrainPanel,
     pub solver: SolverPanel,
