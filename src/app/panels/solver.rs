@@ -48,13 +48,19 @@ impl SolverPanel {
             {
                 actions.push(Action::GenerateFullSize);
             }
-            if report.job.is_some() && ui.button("Cancel").clicked() {
+            // Always there, so that nothing below moves when a job starts or ends.
+            if ui
+                .add_enabled(report.job.is_some(), egui::Button::new("Cancel"))
+                .clicked()
+            {
                 actions.push(Action::Cancel);
             }
         });
-        if let Some((progress, message)) = &report.job {
-            ui.add(ProgressBar::new(*progress).text(message));
-        }
+        let (progress, message) = match &report.job {
+            Some((progress, message)) => (*progress, message.as_str()),
+            None => (0.0, "idle: an edit regenerates"),
+        };
+        ui.add(ProgressBar::new(progress).text(message));
         last_run(ui, report.summaries);
         actions
     }
