@@ -552,6 +552,7 @@ fn every_scene_field_round_trips_through_the_app() {
     assert_ne!(scene.detail, defaults.detail);
     assert!(scene.erosion.is_some() && scene.style.is_some() && !scene.blend.is_empty());
     assert_ne!(scene.textures, defaults.textures);
+    assert!(scene.location.is_some());
     assert!(!scene.sketch.ridges.is_empty() && !scene.sketch.peaks.is_empty());
 
     let mut harness = cpu_harness();

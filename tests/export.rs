@@ -349,3 +349,95 @@ fn the_river_network_as_geojson_lies_on_the_rivers() {
     let first = basins.iter().filter(|l| **l == 1).count();
     assert!(first * 2 > basins.len(), "{first} of {}", basins.len());
 }
+
+/// A scene placed on Earth (`--location`, the scene's `location`): the GeoTIFF is in the
+/// centre's UTM zone (EPSG 32632 at 6.9 E), its centre back at the location through the
+/// zone's inverse, and the rivers' GeoJSON in longitude and latitude over the map's 8 km
+/// (no `crs` member). A place UTM does not cover is refused naming the field.
+#[test]
+fn a_scene_placed_on_earth_exports_in_utm_and_longitude_latitude() {
+    use strahler::dem::utm::Utm;
+    let d = dir("location");
+    let out = d.join("g.tif");
+    run(&[
+        "generate",
+        "--backend",
+        "cpu",
+        "--size",
+        "96",
+        "--map-width",
+        "8000",
+        "--location",
+        "45.9,6.9",
+        "--out",
+        &s(&out),
+        "--geojson",
+    ]);
+    let dem =
+        strahler::dem::geotiff::read(&std::fs::read(&out).unwrap(), ReadLimits::default()).unwrap();
+    let keys = dem.georef.geo_keys.clone().unwrap();
+    assert_eq!(keys[keys.len() - 4..], [3072, 0, 1, 32632], "{keys:?}");
+    let tie = dem.georef.tiepoint.clone().unwrap();
+    let scale = dem.georef.pixel_scale.clone().unwrap();
+    let width = 96.0 * scale[0];
+    assert!((width - 8000.0).abs() < 1e-6, "{width}");
+    let utm = Utm {
+        zone: 32,
+        north: true,
+    };
+    let (lon, lat) = utm.inverse(tie[3] + width / 2.0, tie[4] - width / 2.0);
+    assert!(
+        (lon - 6.9).abs() < 1e-9 && (lat - 45.9).abs() < 1e-9,
+        "{lon} {lat}"
+    );
+
+    let text = std::fs::read_to_string(d.join("g-rivers.geojson")).unwrap();
+    let json: serde_json::Value = serde_json::from_str(&text).unwrap();
+    assert!(
+        json.get("crs").is_none(),
+        "RFC 7946's WGS84, named by no member"
+    );
+    let collection = match text.parse::<geojson::GeoJson>().unwrap() {
+        geojson::GeoJson::FeatureCollection(c) => c,
+        other => panic!("not a FeatureCollection: {other:?}"),
+    };
+    // 8 km: 0.072 degrees of latitude, 0.103 of longitude at 45.9 N.
+    let (dlat, dlon) = (
+        8000.0 / 111_132.0,
+        8000.0 / (111_320.0 * 45.9f64.to_radians().cos()),
+    );
+    let mut points = 0;
+    for feature in &collection.features {
+        let geometry = feature.geometry.as_ref().unwrap();
+        let geojson::Value::LineString(line) = &geometry.value else {
+            panic!("rivers and ridges are LineStrings");
+        };
+        for p in line {
+            assert!((p[0] - 6.9).abs() <= dlon / 2.0 + 1e-3, "longitude {p:?}");
+            assert!((p[1] - 45.9).abs() <= dlat / 2.0 + 1e-3, "latitude {p:?}");
+            points += 1;
+        }
+    }
+    assert!(points > 50, "{points}");
+
+    let err = refused(&[
+        "generate",
+        "--size",
+        "64",
+        "--location",
+        "86,10",
+        "--out",
+        &s(&out),
+    ]);
+    assert!(err.contains("location.lat"), "{err}");
+    let err = refused(&[
+        "generate",
+        "--size",
+        "64",
+        "--location",
+        "45",
+        "--out",
+        &s(&out),
+    ]);
+    assert!(err.contains("LAT,LON"), "{err}");
+}

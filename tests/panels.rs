@@ -125,6 +125,19 @@ fn start_panel_picks_a_terrain_type_draws_a_new_seed_and_turns_preview_off() {
     h.get_by_label(DESIGN_ONLY).click();
     h.run();
     assert_eq!(h.state().actions, [Action::Edit(Edit::SetErosion(None))]);
+    // Placing the map on Earth (for georeferenced exports).
+    h.state_mut().actions.clear();
+    h.get_by_label("on Earth").click();
+    h.run();
+    assert_eq!(
+        h.state().actions,
+        [Action::Edit(Edit::SetLocation(Some(
+            strahler::scene::Location {
+                lat: 45.9,
+                lon: 6.9
+            }
+        )))]
+    );
 }
 
 #[test]

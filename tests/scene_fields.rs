@@ -61,6 +61,8 @@ const FIELDS: &[&str] = &[
     "textures.snow_above",
     "textures.sediment_area_m2",
     "textures.softness",
+    "location.lat",
+    "location.lon",
 ];
 
 /// The scene with every field set (shipped with the tests), made small enough to run often.

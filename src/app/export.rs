@@ -113,7 +113,7 @@ impl StrahlerApp {
             }
             return;
         };
-        let source = output.export_source(self.session.scene().textures.splat());
+        let source = output.export_source(self.session.scene());
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "export",

@@ -137,6 +137,7 @@ fn package(
     // No rivers to describe: the maps route their own water.
     let order = vec![0u8; w * h];
     let inputs = crate::export::Inputs {
+        centre_lonlat: None,
         field,
         cell_m,
         networks: &[],

@@ -32,6 +32,11 @@ pub struct GenerateArgs {
     /// Width of the map in metres [default: 10000].
     #[arg(allow_hyphen_values = true, long)]
     pub map_width: Option<f64>,
+    /// The map's centre on Earth, LAT,LON in degrees (the scene's `location`): the heightmap
+    /// is georeferenced in that point's UTM zone and the rivers' GeoJSON is in longitude and
+    /// latitude.
+    #[arg(allow_hyphen_values = true, long, value_name = "LAT,LON", value_parser = parse_location)]
+    pub location: Option<crate::scene::Location>,
     /// Branching angle theta in degrees [default: 30].
     #[arg(allow_hyphen_values = true, long)]
     pub theta: Option<f64>,
@@ -138,6 +143,9 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     if let Some(seed) = args.seed {
         scene.seed = seed;
     }
+    if let Some(location) = args.location {
+        scene.location = Some(location);
+    }
     if let Some(v) = args.theta {
         scene.params.theta = v;
     }
@@ -239,6 +247,25 @@ fn default_river() -> RiverStroke {
 }
 
 /// Parses `X0,Y0,X1,Y1[:phi=P][:depth=D]`.
+/// `LAT,LON` in degrees (the range is checked with the scene, naming `location.lat`/`lon`).
+fn parse_location(text: &str) -> Result<crate::scene::Location, String> {
+    let numbers: Vec<f64> = text
+        .split(',')
+        .map(|v| {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{v:?} is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    match numbers[..] {
+        [lat, lon] => Ok(crate::scene::Location { lat, lon }),
+        _ => Err(format!(
+            "a location is LAT,LON in degrees, got {} numbers",
+            numbers.len()
+        )),
+    }
+}
+
 pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
     let mut parts = text.split(':');
     let coords: Vec<f64> = parts
@@ -324,19 +351,13 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     if let (Some(request), Some(path)) = (&package, &args.out) {
-        let source = out.export_source(scene.textures.splat());
+        let source = out.export_source(&scene);
         let files = super::progress::with_bar(args.progress, |ctx| {
             pollster::block_on(source.files(request, ctx))
         })?;
         super::package::write(&outputs, path, &files)?;
     } else if let Some(path) = &args.out {
-        write_heightmap(
-            &outputs,
-            path,
-            &out.field,
-            scene.map_width(),
-            scene.vertical_scale,
-        )?;
+        write_heightmap(&outputs, path, &out.field, &scene)?;
     }
     if let Some((dir, layers)) = layers {
         std::fs::create_dir_all(dir)
@@ -434,9 +455,9 @@ fn write_heightmap(
     outputs: &Outputs,
     out: &Path,
     terrain: &crate::heightfield::Heightfield,
-    map_width: f64,
-    vertical_scale: f64,
+    scene: &Scene,
 ) -> Result<(), Box<dyn std::error::Error>> {
+    let (map_width, vertical_scale) = (scene.map_width(), scene.vertical_scale);
     // The scene's vertical scale applies to every export (the report keeps true heights).
     let scaled;
     let terrain = if vertical_scale == 1.0 {
@@ -452,10 +473,14 @@ fn write_heightmap(
         &scaled
     };
     let cell = map_width / terrain.width() as f64;
-    let georef = GeoRef {
-        pixel_scale: Some(vec![cell, cell, 0.0]),
-        tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, map_width, 0.0]),
-        ..Default::default()
+    // In the UTM zone of the scene's location, else a local grid (south-west corner at 0, 0).
+    let georef = match scene.location {
+        Some(l) => crate::export::Placed::at([l.lon, l.lat]).georef(map_width, cell, 0.0, 0.0),
+        None => GeoRef {
+            pixel_scale: Some(vec![cell, cell, 0.0]),
+            tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, map_width, 0.0]),
+            ..Default::default()
+        },
     };
     super::io::write_dem(outputs, out, terrain, &georef, Some(cell))
 }

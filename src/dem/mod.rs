@@ -27,6 +27,7 @@ pub mod raw;
 pub mod raw32;
 pub mod resize;
 pub mod sidecar;
+pub mod utm;
 
 use thiserror::Error;
 

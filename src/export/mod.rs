@@ -197,8 +197,69 @@ pub struct Inputs<'a> {
     pub lowered: Option<&'a [f32]>,
     pub splat: SplatRules,
     /// Where the terrain lies, for a GeoTIFF or ASCII grid written whole at its own size
-    /// (a converted DEM keeps its CRS); otherwise a local metric grid.
+    /// (a converted DEM keeps its CRS); otherwise a local metric grid, or the UTM zone of
+    /// [`Self::centre_lonlat`].
     pub georef: Option<&'a GeoRef>,
+    /// The map's centre on Earth, `[lon, lat]` in degrees (a scene's location): the
+    /// heightmap is georeferenced in its UTM zone and the rivers' GeoJSON is in longitude
+    /// and latitude.
+    pub centre_lonlat: Option<[f64; 2]>,
+}
+
+/// A map placed on Earth: its UTM zone and its centre there (metres).
+#[derive(Clone, Copy, Debug)]
+pub struct Placed {
+    pub utm: crate::dem::utm::Utm,
+    pub centre: [f64; 2],
+}
+
+impl Placed {
+    /// The map centred on `[lon, lat]` (degrees), in that point's zone.
+    pub fn at([lon, lat]: [f64; 2]) -> Self {
+        let utm = crate::dem::utm::Utm::for_lonlat(lon, lat);
+        let (e, n) = utm.forward(lon, lat);
+        Self {
+            utm,
+            centre: [e, n],
+        }
+    }
+
+    /// The georeferencing of a raster `width_m` wide (its outer edges) centred on the map,
+    /// whose first column and row are `x0_m` east and `y0_m` south of its north-west corner.
+    pub fn georef(&self, width_m: f64, spacing: f64, x0_m: f64, y0_m: f64) -> GeoRef {
+        let [e, n] = self.centre;
+        GeoRef {
+            pixel_scale: Some(vec![spacing, spacing, 0.0]),
+            tiepoint: Some(vec![
+                0.0,
+                0.0,
+                0.0,
+                e - width_m / 2.0 + x0_m,
+                n + width_m / 2.0 - y0_m,
+                0.0,
+            ]),
+            // A projected model (GTModelType 1), pixels as areas (GTRasterType 1), the zone.
+            geo_keys: Some(vec![
+                1,
+                1,
+                0,
+                3,
+                1024,
+                0,
+                1,
+                1,
+                1025,
+                0,
+                1,
+                1,
+                3072,
+                0,
+                1,
+                self.utm.epsg(),
+            ]),
+            ..Default::default()
+        }
+    }
 }
 
 /// One file to write.
@@ -313,7 +374,8 @@ pub async fn files(
     let own = (plan.size == native && plan.grid.is_none())
         .then_some(inputs.georef)
         .flatten();
-    heightmaps(&sized, spacing, own, request, &plan, &mut out)?;
+    let placed = inputs.centre_lonlat.map(Placed::at);
+    heightmaps(&sized, spacing, own, placed, request, &plan, &mut out)?;
     if let Some(numbers) = &plan.numbers {
         let json = serde_json::to_string_pretty(numbers).map_err(|e| e.to_string())?;
         out.push(File {
@@ -348,6 +410,7 @@ pub async fn files(
         let frame = network::MapFrame {
             cells: native,
             cell_m: inputs.cell_m,
+            placed,
         };
         let area = network::AreaRaster {
             area_m2: inputs.area_m2,
@@ -378,6 +441,7 @@ fn heightmaps(
     sized: &Heightfield,
     spacing: f64,
     own: Option<&GeoRef>,
+    placed: Option<Placed>,
     request: &Request,
     plan: &Plan,
     out: &mut Vec<File>,
@@ -393,17 +457,21 @@ fn heightmaps(
         cell_size: spacing,
         z_range: range,
     };
-    let local = |x0: usize, y0: usize| GeoRef {
-        pixel_scale: Some(vec![spacing, spacing, 0.0]),
-        tiepoint: Some(vec![
-            0.0,
-            0.0,
-            0.0,
-            x0 as f64 * spacing,
-            (plan.size - y0) as f64 * spacing,
-            0.0,
-        ]),
-        ..Default::default()
+    let width_m = plan.size as f64 * spacing;
+    let local = |x0: usize, y0: usize| match placed {
+        Some(placed) => placed.georef(width_m, spacing, x0 as f64 * spacing, y0 as f64 * spacing),
+        None => GeoRef {
+            pixel_scale: Some(vec![spacing, spacing, 0.0]),
+            tiepoint: Some(vec![
+                0.0,
+                0.0,
+                0.0,
+                x0 as f64 * spacing,
+                (plan.size - y0) as f64 * spacing,
+                0.0,
+            ]),
+            ..Default::default()
+        },
     };
     let ext = request.format.extension();
     let stem = &request.stem;

@@ -7,8 +7,9 @@
 //! vertex lies on a river cell), with its Strahler order, its width in metres (hydraulic
 //! geometry by order, `crate::view3d::maps::river_width_m`), and the drainage area at each
 //! vertex. Each ridge segment (the Voronoi ridges of the design) is one `LineString` with its
-//! heights. RFC 7946 asks for WGS84 longitudes and latitudes; a scene has no place on Earth,
-//! so the file names its local metric CRS in a `crs` member as older GeoJSON did.
+//! heights. RFC 7946 asks for WGS84 longitudes and latitudes: a scene placed on Earth (its
+//! `location`) gets them, through its UTM zone ([`crate::dem::utm`]); a scene with no place
+//! names its local metric CRS in a `crs` member instead, as older GeoJSON did.
 
 use glam::DVec2;
 use serde_json::{Value, json};
@@ -23,9 +24,26 @@ pub struct MapFrame {
     pub cells: usize,
     /// Metres between them.
     pub cell_m: f64,
+    /// Where the map lies on Earth, if it does: coordinates are then longitude and latitude.
+    pub placed: Option<super::Placed>,
 }
 
 impl MapFrame {
+    /// `p` (map units) as the file's coordinates: `[lon, lat]` in degrees when the map is
+    /// placed on Earth (its UTM zone's inverse), else [`Self::metres`].
+    pub fn coordinates(&self, p: DVec2) -> [f64; 2] {
+        let [x, y] = self.metres(p);
+        match self.placed {
+            Some(placed) => {
+                let half = self.cells as f64 * self.cell_m / 2.0;
+                let [e, n] = placed.centre;
+                let (lon, lat) = placed.utm.inverse(e - half + x, n - half + y);
+                [lon, lat]
+            }
+            None => [x, y],
+        }
+    }
+
     /// `p` (map units, y south) in metres (y north).
     pub fn metres(&self, p: DVec2) -> [f64; 2] {
         let s = (self.cells.max(2) - 1) as f64;
@@ -83,7 +101,7 @@ pub fn geojson(
                 "type": "Feature",
                 "geometry": {
                     "type": "LineString",
-                    "coordinates": points.iter().map(|p| frame.metres(*p)).collect::<Vec<_>>(),
+                    "coordinates": points.iter().map(|p| frame.coordinates(*p)).collect::<Vec<_>>(),
                 },
                 "properties": {
                     "kind": "river",
@@ -101,13 +119,17 @@ pub fn geojson(
             "type": "Feature",
             "geometry": {
                 "type": "LineString",
-                "coordinates": [frame.metres(DVec2::from(ridge.a)), frame.metres(DVec2::from(ridge.b))],
+                "coordinates": [frame.coordinates(DVec2::from(ridge.a)), frame.coordinates(DVec2::from(ridge.b))],
             },
             "properties": {
                 "kind": "ridge",
                 "height_m": [ridge.height_a, ridge.height_b],
             },
         }));
+    }
+    if frame.placed.is_some() {
+        // RFC 7946's own coordinates: WGS84 longitude and latitude, no `crs` member.
+        return json!({ "type": "FeatureCollection", "features": features });
     }
     json!({
         "type": "FeatureCollection",

@@ -8,6 +8,7 @@ use crate::dem::GeoRef;
 use crate::dem::format::{self, ExportOptions, Exported, Format};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
+use crate::scene::Scene;
 
 use super::Output;
 
@@ -23,19 +24,27 @@ pub struct HeightmapExport {
     pub flip_y: bool,
     /// Multiplies every height (the scene's vertical scale times the export's own).
     pub z_scale: f32,
+    /// The map's centre on Earth, `[lon, lat]` (the scene's location): georeferenced in its
+    /// UTM zone.
+    pub centre_lonlat: Option<[f64; 2]>,
 }
 
-/// Encodes `field` (cells of `cell` metres) as `export` asks, georeferenced as a local metric
-/// grid with its north-west corner at (0, 0).
+/// Encodes `field` (cells of `cell` metres) as `export` asks, georeferenced in the UTM zone
+/// of its location, or as a local metric grid with its south-west corner at (0, 0).
 pub fn encode_heightmap(
     field: &Heightfield,
     cell: f64,
     export: &HeightmapExport,
 ) -> Result<Exported, String> {
-    let georef = GeoRef {
-        pixel_scale: Some(vec![cell, cell, 0.0]),
-        tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, cell * field.height() as f64, 0.0]),
-        ..Default::default()
+    let georef = match export.centre_lonlat {
+        Some(centre) => {
+            crate::export::Placed::at(centre).georef(cell * field.width() as f64, cell, 0.0, 0.0)
+        }
+        None => GeoRef {
+            pixel_scale: Some(vec![cell, cell, 0.0]),
+            tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, cell * field.height() as f64, 0.0]),
+            ..Default::default()
+        },
     };
     let options = ExportOptions {
         size: export.size,
@@ -49,8 +58,8 @@ pub fn encode_heightmap(
 
 impl Output {
     /// What an engine export of this terrain reads, owned so a job can take it
-    /// ([`ExportSource::files`]); `splat`: the scene's splat-map rules.
-    pub fn export_source(&self, splat: crate::export::SplatRules) -> ExportSource {
+    /// ([`ExportSource::files`]): the scene gives its splat-map rules and its place on Earth.
+    pub fn export_source(&self, scene: &Scene) -> ExportSource {
         ExportSource {
             field: self.field.clone(),
             cell_m: self.cell_m,
@@ -68,7 +77,8 @@ impl Output {
                 .erosion
                 .as_ref()
                 .map(|e| e.depth(&self.hydrology.terrain)),
-            splat,
+            splat: scene.textures.splat(),
+            centre_lonlat: scene.location.map(|l| [l.lon, l.lat]),
         }
     }
 
@@ -100,6 +110,7 @@ pub struct ExportSource {
     base: Arc<Heightfield>,
     lowered: Option<Vec<f32>>,
     splat: crate::export::SplatRules,
+    centre_lonlat: Option<[f64; 2]>,
 }
 
 impl ExportSource {
@@ -137,6 +148,7 @@ impl ExportSource {
             lowered: self.lowered.as_deref(),
             splat: self.splat,
             georef: None,
+            centre_lonlat: self.centre_lonlat,
         };
         crate::export::files(&inputs, request, ctx).await
     }

@@ -267,6 +267,10 @@ fn every_field_scene() -> Scene {
     scene.params.post.smooth_sigma = 0.5;
     scene.params.post.fbm_amplitude = 2.0;
     scene.params.post.fbm_octaves = 3;
+    scene.location = Some(crate::scene::Location {
+        lat: 45.9,
+        lon: 6.9,
+    });
     scene.textures = crate::scene::TextureRules {
         rock_slope_deg: 40.0,
         snow_above: 0.7,

@@ -66,6 +66,8 @@ pub enum Edit {
         cell_size: f64,
     },
     SetSeed(u64),
+    /// Places the map's centre on Earth (or takes it off).
+    SetLocation(Option<super::Location>),
     SetParams(Params),
     SetErosion(Option<ErosionSettings>),
     SetStyle(Option<StyleSettings>),
@@ -160,6 +162,7 @@ impl Scene {
                 (self.size, self.cell_size) = (size, cell_size);
             }
             Edit::SetSeed(seed) => self.seed = seed,
+            Edit::SetLocation(location) => self.location = location,
             Edit::SetParams(params) => self.params = params,
             Edit::SetErosion(erosion) => self.erosion = erosion,
             Edit::SetStyle(style) => self.style = style,

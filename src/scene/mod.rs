@@ -350,6 +350,19 @@ pub struct Scene {
     /// Where the exported splat map puts rock, snow and sediment; absent = the defaults.
     #[serde(default, skip_serializing_if = "TextureRules::is_default")]
     pub textures: TextureRules,
+    /// Where the map lies on Earth: its centre. Exports then georeference the heightmap in
+    /// the centre's UTM zone and give the rivers in longitude and latitude; absent = a
+    /// local metric grid.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub location: Option<Location>,
+}
+
+/// A place on Earth: WGS84 latitude and longitude in degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Location {
+    pub lat: f64,
+    pub lon: f64,
 }
 
 /// The rules of the exported splat map (`crate::export::maps::splat_weights`): ground steeper
@@ -513,6 +526,7 @@ impl Default for Scene {
             style: None,
             blend: Vec::new(),
             textures: TextureRules::default(),
+            location: None,
         }
     }
 }

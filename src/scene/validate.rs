@@ -25,6 +25,32 @@ impl Scene {
         self.check_style()?;
         self.check_textures()?;
         self.check_extent()?;
+        self.check_location()?;
+        Ok(())
+    }
+
+    /// The place on Earth, if any: a latitude UTM covers and a longitude.
+    fn check_location(&self) -> Result<(), SceneError> {
+        let Some(Location { lat, lon }) = self.location else {
+            return Ok(());
+        };
+        let lats = crate::dem::utm::LATITUDES;
+        if !(lat.is_finite() && lats.contains(&lat)) {
+            return bad(
+                "location.lat",
+                format!(
+                    "must be a latitude from {} to {} degrees (the UTM zones), got {lat}",
+                    lats.start(),
+                    lats.end()
+                ),
+            );
+        }
+        if !(lon.is_finite() && (-180.0..=180.0).contains(&lon)) {
+            return bad(
+                "location.lon",
+                format!("must be a longitude from -180 to 180 degrees, got {lon}"),
+            );
+        }
         Ok(())
     }
 

@@ -495,6 +495,10 @@ fn export_bytes(
             * export_source
                 .scene()
                 .map_or(1.0, |s| s.vertical_scale as f32),
+        centre_lonlat: export_source
+            .scene()
+            .and_then(|s| s.location)
+            .map(|l| [l.lon, l.lat]),
     };
     let out = crate::pipeline::encode_heightmap(&field, cell, &export).map_err(error)?;
     Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))

@@ -7,7 +7,7 @@ use egui::{ComboBox, DragValue, RichText};
 use super::Action;
 use crate::app::session::{PREVIEW_SIZE, RunSettings};
 use crate::erosion::{ErosionSettings, PRESETS};
-use crate::scene::{Edit, Scene};
+use crate::scene::{Edit, Location, Scene};
 
 /// Grid sizes offered (square, cells per side).
 pub const SIZES: [usize; 6] = [128, 256, 512, 1024, 2048, 4096];
@@ -28,6 +28,7 @@ struct Choices {
     cell_size: f64,
     seed: u64,
     preview: bool,
+    location: Option<Location>,
 }
 
 impl StartPanel {
@@ -45,6 +46,7 @@ impl StartPanel {
             cell_size: scene.cell_size,
             seed: scene.seed,
             preview: run.preview,
+            location: scene.location,
         };
         let mut after = before.clone();
         choices(ui, &mut after);
@@ -67,6 +69,9 @@ fn actions(run: &RunSettings, before: &Choices, after: Choices) -> Vec<Action> {
     }
     if after.seed != before.seed {
         actions.push(Action::Edit(Edit::SetSeed(after.seed)));
+    }
+    if after.location != before.location {
+        actions.push(Action::Edit(Edit::SetLocation(after.location)));
     }
     if after.preview != before.preview {
         actions.push(Action::Settings(RunSettings {
@@ -156,5 +161,41 @@ fn choices(ui: &mut egui::Ui, c: &mut Choices) {
                 }
             });
             ui.end_row();
+
+            location(ui, &mut c.location);
+            ui.end_row();
         });
+}
+
+/// The map's place on Earth (its centre), or none.
+fn location(ui: &mut egui::Ui, location: &mut Option<Location>) {
+    ui.label("Location").on_hover_text(
+        "The map's centre on Earth, latitude and longitude in degrees (WGS84). Exports are \
+         then georeferenced in its UTM zone and the rivers' GeoJSON is in longitude and \
+         latitude; the terrain does not change.",
+    );
+    ui.horizontal(|ui| {
+        let mut on = location.is_some();
+        ui.checkbox(&mut on, "on Earth");
+        let mut place = location.unwrap_or(Location {
+            lat: 45.9,
+            lon: 6.9,
+        });
+        if on {
+            let lats = crate::dem::utm::LATITUDES;
+            ui.add(
+                DragValue::new(&mut place.lat)
+                    .range(*lats.start()..=*lats.end())
+                    .speed(0.01)
+                    .suffix("° N"),
+            );
+            ui.add(
+                DragValue::new(&mut place.lon)
+                    .range(-180.0..=180.0)
+                    .speed(0.01)
+                    .suffix("° E"),
+            );
+        }
+        *location = on.then_some(place);
+    });
 }
