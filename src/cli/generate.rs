@@ -249,14 +249,7 @@ fn default_river() -> RiverStroke {
 /// Parses `X0,Y0,X1,Y1[:phi=P][:depth=D]`.
 /// `LAT,LON` in degrees (the range is checked with the scene, naming `location.lat`/`lon`).
 fn parse_location(text: &str) -> Result<crate::scene::Location, String> {
-    let numbers: Vec<f64> = text
-        .split(',')
-        .map(|v| {
-            v.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("{v:?} is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
+    let numbers = parse_numbers(text)?;
     match numbers[..] {
         [lat, lon] => Ok(crate::scene::Location { lat, lon }),
         _ => Err(format!(
@@ -266,18 +259,20 @@ fn parse_location(text: &str) -> Result<crate::scene::Location, String> {
     }
 }
 
-pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
-    let mut parts = text.split(':');
-    let coords: Vec<f64> = parts
-        .next()
-        .unwrap_or_default()
-        .split(',')
+/// Comma-separated numbers, each named when it is not one.
+fn parse_numbers(text: &str) -> Result<Vec<f64>, String> {
+    text.split(',')
         .map(|v| {
             v.trim()
                 .parse::<f64>()
                 .map_err(|_| format!("{v:?} is not a number"))
         })
-        .collect::<Result<_, _>>()?;
+        .collect()
+}
+
+pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
+    let mut parts = text.split(':');
+    let coords = parse_numbers(parts.next().unwrap_or_default())?;
     let [x0, y0, x1, y1] = coords[..] else {
         return Err(format!(
             "a river needs X0,Y0,X1,Y1, got {} numbers",
