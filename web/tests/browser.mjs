@@ -428,8 +428,30 @@ async function goldenScenes(page, mode) {
     }
   }
   // exportHeightmap() waits for the terrain being computed instead of failing.
-  const bytes = await page.evaluate(async () => (await window.strahler.exportHeightmap('tif')).length);
-  check('exportHeightmap() waits for the terrain of the scene just loaded', bytes > 1000, String(bytes));
+  const bytes = await page.evaluate(async () => Array.from(await window.strahler.exportHeightmap('tif')));
+  check('exportHeightmap() waits for the terrain of the scene just loaded', bytes.length > 1000,
+    String(bytes.length));
+  // The last scene (every_field) is placed at 45.9 N, 6.9 E: its GeoTIFF is in UTM zone 32N.
+  const keys = geoKeys(Buffer.from(bytes));
+  check('a scene placed on Earth exports its GeoTIFF in its UTM zone (EPSG 32632)',
+    keys !== null && keys.join(',').includes('3072,0,1,32632'), String(keys));
+}
+
+// The GeoKeyDirectory (tag 34735) of a classic TIFF's first image, as numbers, or null.
+function geoKeys(b) {
+  const le = b.toString('latin1', 0, 2) === 'II';
+  const u16 = (o) => (le ? b.readUInt16LE(o) : b.readUInt16BE(o));
+  const u32 = (o) => (le ? b.readUInt32LE(o) : b.readUInt32BE(o));
+  if (u16(2) !== 42) return null;
+  const ifd = u32(4);
+  for (let i = 0; i < u16(ifd); i += 1) {
+    const entry = ifd + 2 + 12 * i;
+    if (u16(entry) !== 34735) continue;
+    const count = u32(entry + 4);
+    const at = count <= 2 ? entry + 8 : u32(entry + 8);
+    return Array.from({ length: count }, (_, k) => u16(at + 2 * k));
+  }
+  return null;
 }
 
 // Distinct colours (5 bits a channel) in the middle of the 3D area: lit terrain has many,
