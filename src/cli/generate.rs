@@ -6,7 +6,6 @@ use clap::Args;
 use glam::DVec2;
 
 use crate::compute::BackendChoice;
-use crate::dem::GeoRef;
 use crate::erosion::ErosionSettings;
 use crate::pipeline;
 use crate::river::Stroke;
@@ -468,15 +467,8 @@ fn write_heightmap(
         &scaled
     };
     let cell = map_width / terrain.width() as f64;
-    // In the UTM zone of the scene's location, else a local grid (south-west corner at 0, 0).
-    let georef = match scene.location {
-        Some(l) => crate::export::Placed::at([l.lon, l.lat]).georef(map_width, cell, 0.0, 0.0),
-        None => GeoRef {
-            pixel_scale: Some(vec![cell, cell, 0.0]),
-            tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, map_width, 0.0]),
-            ..Default::default()
-        },
-    };
+    let centre = scene.location.map(|l| [l.lon, l.lat]);
+    let georef = crate::export::map_georef(centre, map_width, cell, 0.0, 0.0);
     super::io::write_dem(outputs, out, terrain, &georef, Some(cell))
 }
 

@@ -206,6 +206,29 @@ pub struct Inputs<'a> {
     pub centre_lonlat: Option<[f64; 2]>,
 }
 
+/// The georeferencing of a square raster `width_m` wide (its outer edges) with cells of
+/// `spacing` metres, whose first column and row are `x0_m` east and `y0_m` south of the
+/// map's north-west corner (a tile's, or 0 for the whole map): in the UTM zone of the map's
+/// centre `[lon, lat]` when it has one, else on a local metric grid with the map's
+/// south-west corner at (0, 0). Every GeoTIFF the app, the command line and the page write
+/// of a scene's terrain takes it from here.
+pub fn map_georef(
+    centre_lonlat: Option<[f64; 2]>,
+    width_m: f64,
+    spacing: f64,
+    x0_m: f64,
+    y0_m: f64,
+) -> GeoRef {
+    match centre_lonlat {
+        Some(centre) => Placed::at(centre).georef(width_m, spacing, x0_m, y0_m),
+        None => GeoRef {
+            pixel_scale: Some(vec![spacing, spacing, 0.0]),
+            tiepoint: Some(vec![0.0, 0.0, 0.0, x0_m, width_m - y0_m, 0.0]),
+            ..Default::default()
+        },
+    }
+}
+
 /// A map placed on Earth: its UTM zone and its centre there (metres).
 #[derive(Clone, Copy, Debug)]
 pub struct Placed {
@@ -226,7 +249,7 @@ impl Placed {
 
     /// The georeferencing of a raster `width_m` wide (its outer edges) centred on the map,
     /// whose first column and row are `x0_m` east and `y0_m` south of its north-west corner.
-    pub fn georef(&self, width_m: f64, spacing: f64, x0_m: f64, y0_m: f64) -> GeoRef {
+    fn georef(&self, width_m: f64, spacing: f64, x0_m: f64, y0_m: f64) -> GeoRef {
         let [e, n] = self.centre;
         GeoRef {
             pixel_scale: Some(vec![spacing, spacing, 0.0]),
@@ -374,8 +397,16 @@ pub async fn files(
     let own = (plan.size == native && plan.grid.is_none())
         .then_some(inputs.georef)
         .flatten();
+    heightmaps(
+        &sized,
+        spacing,
+        own,
+        inputs.centre_lonlat,
+        request,
+        &plan,
+        &mut out,
+    )?;
     let placed = inputs.centre_lonlat.map(Placed::at);
-    heightmaps(&sized, spacing, own, placed, request, &plan, &mut out)?;
     if let Some(numbers) = &plan.numbers {
         let json = serde_json::to_string_pretty(numbers).map_err(|e| e.to_string())?;
         out.push(File {
@@ -441,7 +472,7 @@ fn heightmaps(
     sized: &Heightfield,
     spacing: f64,
     own: Option<&GeoRef>,
-    placed: Option<Placed>,
+    centre_lonlat: Option<[f64; 2]>,
     request: &Request,
     plan: &Plan,
     out: &mut Vec<File>,
@@ -458,20 +489,9 @@ fn heightmaps(
         z_range: range,
     };
     let width_m = plan.size as f64 * spacing;
-    let local = |x0: usize, y0: usize| match placed {
-        Some(placed) => placed.georef(width_m, spacing, x0 as f64 * spacing, y0 as f64 * spacing),
-        None => GeoRef {
-            pixel_scale: Some(vec![spacing, spacing, 0.0]),
-            tiepoint: Some(vec![
-                0.0,
-                0.0,
-                0.0,
-                x0 as f64 * spacing,
-                (plan.size - y0) as f64 * spacing,
-                0.0,
-            ]),
-            ..Default::default()
-        },
+    let local = |x0: usize, y0: usize| {
+        let (x0_m, y0_m) = (x0 as f64 * spacing, y0 as f64 * spacing);
+        map_georef(centre_lonlat, width_m, spacing, x0_m, y0_m)
     };
     let ext = request.format.extension();
     let stem = &request.stem;

@@ -4,7 +4,6 @@
 
 use std::sync::Arc;
 
-use crate::dem::GeoRef;
 use crate::dem::format::{self, ExportOptions, Exported, Format};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
@@ -36,16 +35,8 @@ pub fn encode_heightmap(
     cell: f64,
     export: &HeightmapExport,
 ) -> Result<Exported, String> {
-    let georef = match export.centre_lonlat {
-        Some(centre) => {
-            crate::export::Placed::at(centre).georef(cell * field.width() as f64, cell, 0.0, 0.0)
-        }
-        None => GeoRef {
-            pixel_scale: Some(vec![cell, cell, 0.0]),
-            tiepoint: Some(vec![0.0, 0.0, 0.0, 0.0, cell * field.height() as f64, 0.0]),
-            ..Default::default()
-        },
-    };
+    let width_m = cell * field.width() as f64;
+    let georef = crate::export::map_georef(export.centre_lonlat, width_m, cell, 0.0, 0.0);
     let options = ExportOptions {
         size: export.size,
         flip_y: export.flip_y,
