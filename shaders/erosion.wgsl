@@ -44,6 +44,12 @@ struct Params {
     coef_diag: f32,
     cell_area: f32,
     m: f32,
+    // Layered rock (`src/erosion/strata.rs`): the beds' period in metres (0: no beds) and
+    // the logarithm of the soft beds' erodibility over the hard beds'.
+    strata_period: f32,
+    strata_ln_contrast: f32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -377,6 +383,18 @@ fn lift(@builtin(global_invocation_id) gid: vec3<u32>) {
 // Each cell's factor on K (rock hardness; 1 where the rock is uniform).
 @group(0) @binding(6) var<storage, read> inc_erodibility: array<f32>;
 
+// The factor on K of the rock at height `h`: the CPU's `Strata::factor`, with its constants
+// (HARD_FRACTION 0.35, EDGE_FRACTION 0.15).
+fn strata_factor(h: f32) -> f32 {
+    if (params.strata_period <= 0.0) {
+        return 1.0;
+    }
+    let t = h / params.strata_period;
+    let phase = t - floor(t);
+    let hard = smoothstep(0.0, 0.15, phase) * (1.0 - smoothstep(0.35, 0.5, phase));
+    return exp(params.strata_ln_contrast * (0.5 - hard));
+}
+
 // Receiver of `i` as a D8 direction, found from the indices (8 if none).
 fn direction(i: u32, r: u32) -> u32 {
     let w = params.width;
@@ -402,7 +420,7 @@ fn implicit_init(@builtin(global_invocation_id) gid: vec3<u32>) {
     let a = f32(inc_cells[i]) * params.cell_area;
     let diag = diagonal(direction(i, r));
     let f = select(params.coef_axis, params.coef_diag, diag) * pow(a, params.m)
-        * inc_erodibility[i];
+        * inc_erodibility[i] * strata_factor(hi);
     coef_out[i] = f;
     // n != 1: F linearised around the slope at the start of the step (Picard).
     var fl = f;

@@ -188,6 +188,7 @@ fn gpu_reaches_the_analytic_steady_state() {
             params,
             seed: Some(2),
             erodibility: &[],
+            strata: None,
             fill_pits: true,
         },
     );

@@ -52,6 +52,8 @@ const FIELDS: &[&str] = &[
     "erosion.roughness_m",
     "erosion.rock_contrast",
     "erosion.rock_patch_m",
+    "erosion.strata_m",
+    "erosion.strata_contrast",
     "style.gamma.1",
     "style.strength",
     "blend.0.rect.2",

@@ -64,7 +64,7 @@ pub struct GenerateArgs {
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
     #[arg(allow_hyphen_values = true, long)]
     pub fbm: Option<f32>,
-    /// Erosion preset (young-mountains, old-hills, badlands), or "none" to turn erosion off
+    /// Erosion preset, the terrain type (young-mountains, old-hills, badlands, mesas), or "none" to turn erosion off
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
     #[arg(long)]
     pub erosion: Option<String>,

@@ -252,6 +252,7 @@ async fn refine(
         floor,
         seed,
         erodibility,
+        strata: settings.strata(),
     };
     run_solver(prepared, n, cell_m, params, fill_on_gpu, backend, ctx).await
 }

@@ -145,6 +145,9 @@ pub struct GpuInput<'a> {
     /// Each cell's factor on the erodibility
     /// ([`Eroder::with_erodibility`](super::Eroder::with_erodibility)); empty: uniform rock.
     pub erodibility: &'a [f32],
+    /// Beds of hard and soft rock ([`Eroder::with_strata`](super::Eroder::with_strata));
+    /// `None`: no beds.
+    pub strata: Option<super::Strata>,
     /// Whether the last step's pits are filled on the GPU, from the map's border. False where
     /// water also leaves the map inside it (a river mouth): the border-seeded flood would
     /// fill that catchment, so the caller's conditioning fills the pits instead.
@@ -186,6 +189,12 @@ struct Params {
     coef_diag: f32,
     cell_area: f32,
     m: f32,
+    /// Layered rock ([`super::Strata`]): the beds' period in metres (0: no beds) and the
+    /// logarithm of their contrast.
+    strata_period: f32,
+    strata_ln_contrast: f32,
+    /// Uniform buffers are read in 16-byte rows.
+    _pad: [u32; 2],
 }
 
 /// Whether `gpu` can hold the solver's fields for a `width` x `height` grid: its widest
@@ -290,6 +299,7 @@ async fn erode_with(
         params: p,
         seed,
         erodibility,
+        strata,
         fill_pits,
     } = input;
     let grid = check_grid(w, h, cell_m)?;
@@ -343,6 +353,9 @@ async fn erode_with(
         coef_diag: (kdt / (std::f64::consts::SQRT_2 * cell_m).powf(p.n)) as f32,
         cell_area: (cell_m * cell_m) as f32,
         m: p.m as f32,
+        strata_period: strata.map_or(0.0, |s| s.period_m),
+        strata_ln_contrast: strata.map_or(0.0, |s| s.ln_contrast),
+        _pad: [0; 2],
     };
     let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {

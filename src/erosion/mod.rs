@@ -64,6 +64,7 @@ mod params;
 mod rock;
 mod slope_limit;
 mod stage;
+mod strata;
 mod stream_power;
 mod thermal;
 
@@ -74,12 +75,13 @@ pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
 pub use self::hold::Held;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
-pub use self::params::{ErosionParams, PRESETS, preset};
+pub use self::params::{ErosionParams, PRESETS, describe, preset};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::stage::{
     Anchors, Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
     erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
 };
+pub use self::strata::Strata;
 
 use self::flow::Network;
 use self::grid::Grid;
@@ -254,6 +256,13 @@ impl Eroder {
         check_factors(&factors, self.grid.len())?;
         self.erodibility = factors;
         Ok(self)
+    }
+
+    /// Varies the erodibility `K` with height: beds of hard and soft rock (`strata.rs`);
+    /// `None`: no beds.
+    pub fn with_strata(mut self, strata: Option<Strata>) -> Self {
+        self.incision.strata = strata;
+        self
     }
 
     /// Holds the slopes of the surface to `talus_deg` after each step's incision, before the

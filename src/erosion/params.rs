@@ -34,7 +34,23 @@ pub struct ErosionParams {
 }
 
 /// Names accepted by [`preset`].
-pub const PRESETS: &[&str] = &["young-mountains", "old-hills", "badlands"];
+pub const PRESETS: &[&str] = &["young-mountains", "old-hills", "badlands", "mesas"];
+
+/// What a preset ([`PRESETS`]) makes, in a line for the user; `None` for an unknown name.
+pub fn describe(name: &str) -> Option<&'static str> {
+    Some(match name {
+        "young-mountains" => {
+            "Sharp V-shaped valleys and knife-edge ridges held near the talus angle."
+        }
+        "old-hills" => "Strong soil creep: rounded hilltops and broad valleys, lower relief.",
+        "badlands" => "Weak material: dense, finely branched gullies.",
+        "mesas" => {
+            "Layered rock: soft beds stripped back to hard ones, whose edges stand as \
+             escarpments round benches, mesas and buttes."
+        }
+        _ => return None,
+    })
+}
 
 /// Parameter presets for a ~10 km map with a few hundred metres of relief (cells of
 /// ~10-20 m) and a caller-supplied uplift of up to ~0.5 m/kyr (tuned on the
@@ -54,6 +70,12 @@ pub const PRESETS: &[&str] = &["young-mountains", "old-hills", "badlands"];
 /// * `badlands`: weak material (`K` ~ 8x), almost no creep, 300 kyr, and a lower area
 ///   exponent `m = 0.4` so that small catchments incise too: dense, finely branched
 ///   gullies; steep 40 deg talus.
+/// * `mesas`: plateau country cut into layered rock (the scene's beds, see
+///   [`super::Strata`], which the preset's scene settings turn on): moderate `K`, little
+///   creep (`kappa/K` = 250 m; less lets the soft beds channel at the cell scale on 50 m
+///   cells, a speckle) and a 60 deg talus over 2 Myr, so that the soft beds are stripped back
+///   to the hard beds' tops and the beds' edges stand as escarpments: benches, mesas, buttes
+///   and stepped valley sides.
 ///
 /// Returns `None` for an unknown name.
 pub fn preset(name: &str) -> Option<ErosionParams> {
@@ -84,6 +106,15 @@ pub fn preset(name: &str) -> Option<ErosionParams> {
             n: 1.0,
             diffusivity: 0.001,
             talus_deg: Some(40.0),
+        },
+        "mesas" => ErosionParams {
+            years: 2.0e6,
+            steps: 20,
+            erodibility: 2.0e-5,
+            m: 0.5,
+            n: 1.0,
+            diffusivity: 0.005,
+            talus_deg: Some(60.0),
         },
         _ => return None,
     };

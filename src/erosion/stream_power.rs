@@ -17,7 +17,8 @@
 //!   `c = h_i + dt U_i - h_r'`, `F = K dt A^m / L^n`; the root lies in `(0, c]`, and a
 //!   step leaving that bracket is replaced by bisection, so it converges for any `n`.
 //!
-//! The erodibility may vary from cell to cell (`K_i`, rock of varying hardness: `rock.rs`).
+//! The erodibility may vary from cell to cell (`K_i`, rock of varying hardness: `rock.rs`)
+//! and with the height the cell stands at before its update (layered rock: `strata.rs`).
 //!
 //! When `h_i + dt U_i <= h_r'` (a receiver uplifted faster than its donor) there is no
 //! downhill slope: the node only gets its uplift and becomes a pit for the next step.
@@ -36,6 +37,8 @@ pub(super) struct Incision {
     /// `A^m` for drainage areas of 0 to [`POW_TABLE_CELLS`] cells.
     pow_table: Vec<f64>,
     inv_cell2: f64,
+    /// Beds of hard and soft rock (`K` varying with height); `None`: no beds.
+    pub(super) strata: Option<super::Strata>,
 }
 
 /// `A^m` is tabulated for drainage areas below this many cells (most cells), as
@@ -58,6 +61,7 @@ impl Incision {
                 .map(|c| (c as f64 * cell2).powf(m))
                 .collect(),
             inv_cell2: 1.0 / cell2,
+            strata: None,
         }
     }
 
@@ -95,10 +99,14 @@ impl Incision {
                 a.powf(self.m)
             };
             // An empty field is uniform rock: no factor, the bits of before.
-            let f = match erodibility.get(i) {
+            let mut f = match erodibility.get(i) {
                 Some(k) => self.coef[code] * a_m * f64::from(*k),
                 None => self.coef[code] * a_m,
             };
+            // The bed at the height the cell stands at (in f32, as the GPU reads it).
+            if let Some(beds) = self.strata {
+                f *= f64::from(beds.factor(hi as f32));
+            }
             let damp = 1.0 / (1.0 + f);
             // Everything above is independent of the receiver's new height, which
             // was computed just before: keep the dependent chain short.

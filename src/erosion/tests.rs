@@ -539,8 +539,14 @@ fn presets_are_valid() {
             .expect("listed preset exists")
             .validate()
             .expect("valid preset");
+        assert!(describe(name).is_some(), "{name} is described");
+        let settings = ErosionSettings::preset(name).expect("settings of the preset");
+        settings.validate().expect("valid settings");
+        // Only the mesas stand on beds.
+        assert_eq!(settings.strata().is_some(), *name == "mesas", "{name}");
     }
     assert!(preset("nope").is_none());
+    assert!(describe("nope").is_none());
 }
 
 /// A dome of `n`^2 cells of 20 m with cell-scale noise, its border the base level, eroded for
@@ -553,22 +559,7 @@ fn eroded_dome_direction_index(n: usize, seed: Option<u64>) -> f64 {
 
 fn eroded_dome(n: usize, seed: Option<u64>, talus: Option<f64>, kappa: f64, u: f32) -> f64 {
     let cell = 20.0;
-    let mut rng = Lcg(7);
-    let c = (n - 1) as f32 / 2.0;
-    let mut z = vec![0.0f32; n * n];
-    let mut base = vec![false; n * n];
-    for y in 0..n {
-        for x in 0..n {
-            let i = y * n + x;
-            base[i] = x == 0 || y == 0 || x + 1 == n || y + 1 == n;
-            let r = (x as f32 - c).hypot(y as f32 - c) / c;
-            z[i] = if base[i] {
-                0.0
-            } else {
-                300.0 * (1.0 - r * r).max(0.0) + 2.0 * rng.next_f32()
-            };
-        }
-    }
+    let (z, base) = dome(n);
     let p = ErosionParams {
         talus_deg: talus,
         ..params(1.2e-5, 0.5, 1.0, kappa, 2.0e6, 20)
@@ -594,6 +585,74 @@ fn eroded_dome(n: usize, seed: Option<u64>, talus: Option<f64>, kappa: f64, u: f
         report.slope_deg_percentiles[2]
     );
     report.grid_direction_index
+}
+
+/// A dome 300 m high over `n`^2 cells with 2 m of cell-scale noise, its border the base
+/// level: heights and base.
+fn dome(n: usize) -> (Vec<f32>, Vec<bool>) {
+    let mut rng = Lcg(7);
+    let c = (n - 1) as f32 / 2.0;
+    let mut z = vec![0.0f32; n * n];
+    let mut base = vec![false; n * n];
+    for y in 0..n {
+        for x in 0..n {
+            let i = y * n + x;
+            base[i] = x == 0 || y == 0 || x + 1 == n || y + 1 == n;
+            let r = (x as f32 - c).hypot(y as f32 - c) / c;
+            z[i] = if base[i] {
+                0.0
+            } else {
+                300.0 * (1.0 - r * r).max(0.0) + 2.0 * rng.next_f32()
+            };
+        }
+    }
+    (z, base)
+}
+
+/// Layered rock (Forte et al. 2016): rivers cut quickly through the soft beds and slowly
+/// through the hard ones, so the soft beds are stripped back and the land comes to stand on
+/// the tops of the hard beds, as benches, platforms and mesa tops (stripped surfaces, as the
+/// Tonto Platform on the Tapeats Sandstone): most of the land lies at heights inside a hard
+/// bed, and those treads are gentler than the risers between them. Without beds the same
+/// heights fall in the "hard" bands only as often as the bands' share of the period.
+#[test]
+fn land_stands_on_the_hard_beds() {
+    let (n, cell) = (128, 20.0);
+    let beds = Strata::new(60.0, 8.0).expect("beds");
+    // (share of the land in hard beds, mean slope there over the mean slope in soft beds)
+    let measure = |strata: Option<Strata>| {
+        let (z, base) = dome(n);
+        let p = params(1.2e-5, 0.5, 1.0, 0.002, 2.0e6, 20);
+        let e = Eroder::new(z, n, n, cell, base, vec![2e-4; n * n], p)
+            .expect("valid input")
+            .with_seed(5)
+            .with_strata(strata);
+        let z = run(e).into_heights();
+        let (mut hard, mut soft) = ((0.0, 0), (0.0, 0));
+        for y in 2..n - 2 {
+            for x in 2..n - 2 {
+                let i = y * n + x;
+                let gx = (z[i + 1] - z[i - 1]) / (2.0 * cell as f32);
+                let gy = (z[i + n] - z[i - n]) / (2.0 * cell as f32);
+                let slope = f64::from(gx.hypot(gy));
+                match beds.hardness(z[i]) {
+                    k if k > 0.9 => hard = (hard.0 + slope, hard.1 + 1),
+                    k if k < 0.1 => soft = (soft.0 + slope, soft.1 + 1),
+                    _ => {}
+                }
+            }
+        }
+        assert!(hard.1 > 100 && soft.1 > 100, "{hard:?} {soft:?}");
+        let share = f64::from(hard.1) / f64::from(hard.1 + soft.1);
+        let ratio = (hard.0 / f64::from(hard.1)) / (soft.0 / f64::from(soft.1));
+        (share, ratio)
+    };
+    let layered = measure(Some(beds));
+    let plain = measure(None);
+    println!("land in hard beds, slope ratio hard/soft: layered {layered:.2?}, plain {plain:.2?}");
+    assert!(layered.0 > 0.5, "layered rock: {layered:?}");
+    assert!((0.25..0.45).contains(&plain.0), "uniform rock: {plain:?}");
+    assert!(layered.1 < 0.7 * plain.1, "{layered:?} {plain:?}");
 }
 
 /// Isotropy: a radially symmetric dome, whose every aspect is equally common, erodes into

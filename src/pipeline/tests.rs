@@ -287,6 +287,8 @@ fn every_field_scene() -> Scene {
     erosion.river_band = 2;
     erosion.rock_contrast = 3.0;
     erosion.rock_patch_m = 700.0;
+    erosion.strata_m = 90.0;
+    erosion.strata_contrast = 5.0;
     scene.erosion = Some(erosion);
     scene.style = Some(crate::scene::StyleSettings {
         strength: 0.5,

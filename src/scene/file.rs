@@ -69,6 +69,8 @@ pub mod erosion {
         roughness_m: f64,
         rock_contrast: f64,
         rock_patch_m: f64,
+        strata_m: f64,
+        strata_contrast: f64,
     }
 
     impl Default for Erosion {
@@ -93,6 +95,8 @@ pub mod erosion {
                 roughness_m: e.roughness_m,
                 rock_contrast: e.rock_contrast,
                 rock_patch_m: e.rock_patch_m,
+                strata_m: e.strata_m,
+                strata_contrast: e.strata_contrast,
             }
         }
     }
@@ -113,6 +117,8 @@ pub mod erosion {
                 roughness_m: e.roughness_m,
                 rock_contrast: e.rock_contrast,
                 rock_patch_m: e.rock_patch_m,
+                strata_m: e.strata_m,
+                strata_contrast: e.strata_contrast,
             }
         }
     }

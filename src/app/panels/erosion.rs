@@ -91,6 +91,8 @@ fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
             row(ui, "Years", "Simulated time.", &mut e.years, 0.0..=1.0e8, 1000.0);
             row(ui, "Rock contrast", "Rock hardness: how many times faster the softest rock erodes than the hardest (1 = uniform rock). Soft rock is dissected finely, hard rock stands in broader massifs.", &mut e.rock_contrast, 1.0..=100.0, 0.1);
             row(ui, "Rock patches (m)", "The size of the patches of harder and softer rock, in metres.", &mut e.rock_patch_m, 10.0..=1.0e6, 10.0);
+            row(ui, "Rock beds (m)", "Layered rock: the thickness of one hard bed and the soft bed above it, in metres (0 = no beds). Rivers cutting through the beds leave cliffs at the hard beds and benches at the soft ones: mesas, buttes, stepped canyon walls.", &mut e.strata_m, 0.0..=10_000.0, 1.0);
+            row(ui, "Bed contrast", "How many times faster the soft beds erode than the hard ones (1 = no beds).", &mut e.strata_contrast, 1.0..=100.0, 0.1);
             let label = ui.label("Steps").on_hover_text("Time steps (the implicit scheme is stable at any step; more steps follow the evolution more closely).");
             ui.add(DragValue::new(&mut e.steps).range(1..=1000)).labelled_by(label.id);
             ui.end_row();

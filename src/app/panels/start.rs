@@ -97,7 +97,10 @@ fn choices(ui: &mut egui::Ui, c: &mut Choices) {
                 .selected_text(c.terrain_type.clone())
                 .show_ui(ui, |ui| {
                     for name in PRESETS.iter().copied().chain([DESIGN_ONLY]) {
-                        ui.selectable_value(&mut c.terrain_type, name.to_owned(), name);
+                        let what = crate::erosion::describe(name)
+                            .unwrap_or("No erosion: the design as drawn.");
+                        ui.selectable_value(&mut c.terrain_type, name.to_owned(), name)
+                            .on_hover_text(what);
                     }
                 })
                 .response
