@@ -87,6 +87,22 @@ pub fn block_scene() -> Scene {
     scene
 }
 
+/// Plateau country: the mesas terrain type, its beds of hard and soft rock on a 6.4 km map
+/// (the beds are in metres; on a map this wide the land crosses several).
+pub fn mesas_scene() -> Scene {
+    Scene {
+        size: 64,
+        cell_size: 100.0,
+        seed: 11,
+        rivers: vec![
+            river([0.5, 1.0], [0.5, 0.3], 3, 6),
+            river([0.0, 0.2], [0.4, 0.3], 2, 5),
+        ],
+        erosion: crate::erosion::ErosionSettings::preset("mesas"),
+        ..Scene::default()
+    }
+}
+
 fn run(pipeline: &mut Pipeline, scene: &Scene) -> Output {
     pollster::block_on(pipeline.run(
         scene,
@@ -208,7 +224,7 @@ fn preview_and_full_size_keep_their_own_stages() {
 }
 
 /// The golden scenes, as `tests/data/scenes/` holds them (made by [`write_golden_scenes`]).
-fn golden_scenes() -> [(&'static str, Scene); 3] {
+fn golden_scenes() -> [(&'static str, Scene); 4] {
     let read = |text: &str| Scene::from_json(text).unwrap();
     [
         (
@@ -222,6 +238,10 @@ fn golden_scenes() -> [(&'static str, Scene); 3] {
         (
             "block",
             read(include_str!("../../tests/data/scenes/block.json")),
+        ),
+        (
+            "mesas",
+            read(include_str!("../../tests/data/scenes/mesas.json")),
         ),
     ]
 }
@@ -242,6 +262,21 @@ fn golden_scenes_have_pinned_checksums() {
             "scene {name}"
         );
     }
+    // The mesas' beds are in play: without them the same scene is another terrain.
+    let mut flat_rock = mesas_scene();
+    if let Some(e) = flat_rock.erosion.as_mut() {
+        e.strata_m = 0.0;
+    }
+    assert_ne!(
+        run(&mut Pipeline::new(), &flat_rock)
+            .report
+            .terrain
+            .checksum,
+        run(&mut Pipeline::new(), &mesas_scene())
+            .report
+            .terrain
+            .checksum
+    );
 }
 
 /// A scene with every field away from its default (`tests/app_ui.rs` round-trips it through
@@ -338,6 +373,7 @@ fn write_golden_scenes() {
         ("sketch", sketch_scene()),
         ("detail", detail_scene()),
         ("block", block_scene()),
+        ("mesas", mesas_scene()),
     ] {
         std::fs::write(format!("{dir}/{name}.json"), scene.to_json()).unwrap();
         let out = run(&mut Pipeline::new(), &scene);
