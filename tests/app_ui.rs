@@ -6,6 +6,7 @@ mod common;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::{COARSE_SIZE, Pass, StrahlerApp};
+use strahler::scene::MaskKind;
 
 fn harness() -> Harness<'static, StrahlerApp> {
     common::app::harness(1200.0, 900.0)
@@ -846,4 +847,61 @@ fn an_edit_shows_a_coarse_terrain_first_then_its_own_size() {
         "the terrain came from the cache"
     );
     assert_eq!(harness.state().terrain().unwrap().width(), 1023);
+}
+
+/// The mask tools' Paints menu: with "uplift (ranges)" chosen a stroke goes to the scene's
+/// uplift mask, not the detail's, and the eroded land stands higher under it; back on "calm
+/// detail" the brush paints the detail's own (still clear) mask.
+#[test]
+fn painting_uplift_raises_the_land_under_the_stroke() {
+    let mut harness = cpu_harness();
+    wait_idle(&mut harness);
+    let before = harness.state().terrain().expect("a terrain").clone();
+    harness.key_press(egui::Key::M);
+    harness.run_steps(2);
+    harness.get_by_label("Paints").click();
+    harness.run_steps(2);
+    harness.get_by_label("uplift (ranges)").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().mask_kind(), MaskKind::Uplift);
+    harness.state_mut().brush_mut().radius = 40.0;
+    harness.state_mut().brush_mut().hardness = 0.9;
+    drag(
+        &mut harness,
+        egui::pos2(450.0, 300.0),
+        egui::pos2(1100.0, 320.0),
+    );
+    wait_idle(&mut harness);
+    let scene = harness.state().scene();
+    assert!(scene.erosion_masks.uplift_png.is_some());
+    assert!(
+        scene.detail.mask_png.is_none(),
+        "the detail mask is untouched"
+    );
+    let after = harness.state().terrain().expect("a terrain");
+    assert_eq!(after.width(), before.width());
+    let mask = harness
+        .state()
+        .mask()
+        .resampled(after.width(), after.height());
+    let mean_rise = |painted: bool| {
+        let cells: Vec<f64> = (0..mask.len())
+            .filter(|i| (mask[*i] > 0.8) == painted && (mask[*i] < 0.05 || painted))
+            .map(|i| f64::from(after.data()[i] - before.data()[i]))
+            .collect();
+        assert!(cells.len() > 500, "{painted}: {} cells", cells.len());
+        cells.iter().sum::<f64>() / cells.len() as f64
+    };
+    let (under, elsewhere) = (mean_rise(true), mean_rise(false));
+    assert!(
+        under > 20.0 && under > 5.0 * elsewhere.abs(),
+        "risen {under} m under the stroke, {elsewhere} m elsewhere"
+    );
+    // Back to the detail's mask: the brush paints that one, which is still clear.
+    harness.get_by_label("Paints").click();
+    harness.run_steps(2);
+    harness.get_by_label("calm detail").click();
+    harness.run_steps(2);
+    assert_eq!(harness.state().mask_kind(), MaskKind::Detail);
+    assert!(harness.state().mask().is_clear());
 }

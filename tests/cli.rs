@@ -1927,3 +1927,54 @@ fn generate_shows_one_bar_that_only_moves_forward() {
         "{text}"
     );
 }
+
+/// `generate --mask KIND=PNG`: a painted uplift mask changes the eroded terrain (not the
+/// hydrology under it); an unknown kind or a missing file is refused naming the flag.
+#[test]
+fn generate_takes_painted_masks() {
+    let dir = out_dir();
+    let mut mask = strahler::wavelet::Mask::new(32, 32).unwrap();
+    mask.paint_segment(
+        glam::DVec2::new(0.2, 0.4),
+        glam::DVec2::new(0.8, 0.5),
+        &strahler::wavelet::Brush {
+            radius: 6.0,
+            hardness: 1.0,
+            value: 1.0,
+            eraser: false,
+        },
+    );
+    let png = dir.join("uplift-mask.png");
+    std::fs::write(&png, mask.to_png().unwrap()).unwrap();
+    let report = |name: &str, extra: &[&str]| {
+        let path = dir.join(name);
+        let mut args = vec!["generate", "--size", "64", "--map-width", "6400"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--report", path.to_str().unwrap()]);
+        let result = strahler(&args);
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).unwrap()).unwrap()
+    };
+    let plain = report("mask-plain.json", &[]);
+    let given = format!("uplift={}", png.display());
+    let raised = report("mask-uplift.json", &["--mask", &given]);
+    assert_ne!(plain["checksum"], raised["checksum"]);
+    assert_eq!(plain["hydrology_checksum"], raised["hydrology_checksum"]);
+    for (bad, words) in [
+        ("bogus=x.png", "--mask: unknown kind \"bogus\""),
+        ("uplift", "--mask \"uplift\": give KIND=PNG"),
+        (
+            "hard-rock=/no/such/mask.png",
+            "--mask hard-rock=/no/such/mask.png",
+        ),
+    ] {
+        let result = strahler(&["generate", "--size", "64", "--mask", bad]);
+        assert!(!result.status.success(), "{bad}");
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(stderr.contains(words), "{bad}: {stderr}");
+    }
+}

@@ -137,7 +137,13 @@ pub enum Command {
     /// Replace the detail mask by one derived from the rivers.
     MaskFromRivers,
     /// Paint the detail mask from one map point to another with a brush.
-    PaintMask(glam::DVec2, glam::DVec2, crate::wavelet::Brush),
+    /// Paints a segment of the mask of a kind (the brush's kind switches to it).
+    PaintMask(
+        crate::scene::MaskKind,
+        glam::DVec2,
+        glam::DVec2,
+        crate::wavelet::Brush,
+    ),
     /// A file's bytes for the DEM panel (upload button, drop, or script).
     LoadDem {
         name: String,

@@ -18,9 +18,11 @@ pub struct Canvas {
     /// The vector item the Select tool picked, and whether it is being dragged.
     pub selected: Option<super::select::Item>,
     pub moving: bool,
-    /// The energy-reduction mask, decoded, at the scene's size (the scene keeps it as PNG);
-    /// a brush stroke paints here and becomes an edit when it ends.
+    /// The mask being painted, decoded, at the scene's size (the scene keeps it as PNG): the
+    /// detail's energy reduction, the uplift or the hard rock (`mask_kind`); a brush stroke
+    /// paints here and becomes an edit when it ends.
     pub mask: Mask,
+    pub mask_kind: crate::scene::MaskKind,
     pub brush: Brush,
     /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
     pub mask_overlay_stale: bool,
@@ -43,6 +45,7 @@ impl Default for Canvas {
             selected: None,
             moving: false,
             mask: Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
+            mask_kind: Default::default(),
             brush: Default::default(),
             mask_overlay_stale: false,
             pictures: None,

@@ -11,7 +11,7 @@ use super::StrahlerApp;
 use super::automation::DetailStatus;
 use super::map_view::Tool;
 use crate::pipeline::Output;
-use crate::scene::Edit;
+use crate::scene::{Edit, MaskKind};
 use crate::wavelet::Mask;
 
 /// What a dropped file is for.
@@ -52,10 +52,25 @@ impl StrahlerApp {
     }
 
     /// After any mask edit: refresh the overlay, store the mask in the scene (the pipeline
-    /// re-runs detail and what follows; the cache keeps the stages before).
+    /// re-runs the stage that reads it and what follows; the cache keeps the stages before).
     fn mask_changed(&mut self, ctx: &egui::Context) {
         self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
-        self.edit(Edit::SetMask(Some(self.canvas.mask.clone())));
+        let kind = self.canvas.mask_kind;
+        self.edit(Edit::SetMask(kind, Some(self.canvas.mask.clone())));
+    }
+
+    /// Paints `kind` from now on: its mask comes from the scene (clear when it has none).
+    pub fn choose_mask(&mut self, kind: MaskKind) {
+        if kind == self.canvas.mask_kind {
+            return;
+        }
+        self.canvas.mask_kind = kind;
+        self.scene_replaced();
+    }
+
+    /// Which mask the brush paints.
+    pub fn mask_kind(&self) -> MaskKind {
+        self.canvas.mask_kind
     }
 
     /// Paints one piece of a brush stroke (map units).
@@ -71,7 +86,15 @@ impl StrahlerApp {
     pub(super) fn finish_mask_stroke(&mut self, ctx: &egui::Context) {
         self.mask_changed(ctx);
         let scene = self.session.scene();
-        if scene.detail.levels == 0 && scene.style.is_none() {
+        if self.canvas.mask_kind != MaskKind::Detail {
+            if scene.erosion.is_none() {
+                self.messages.notice = Some(
+                    "Uplift and hard rock shape the land through erosion: turn on a terrain \
+                     type (Start) to see them"
+                        .into(),
+                );
+            }
+        } else if scene.detail.levels == 0 && scene.style.is_none() {
             // Nothing on the map changes yet: say what the mask is for.
             self.messages.notice = Some(
                 "The mask calms the synthetic detail where it is white: add new levels in \
@@ -208,6 +231,24 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         ui.selectable_value(&mut app.canvas.tool, Tool::Mask, "Paint mask (M)");
         ui.checkbox(&mut app.canvas.layers.mask, "show mask");
     });
+    let mut kind = app.canvas.mask_kind;
+    ui.horizontal(|ui| {
+        let label = ui.label("Paints").on_hover_text(
+            "What the mask does where it is white: calm the synthetic detail, raise the land \
+             faster (ranges rise there, up to 3 times the uplift), or make the rock harder (up \
+             to 10 times: it stands as massifs). Each is kept in the scene.",
+        );
+        egui::ComboBox::from_id_salt("mask kind")
+            .selected_text(mask_kind_words(kind))
+            .show_ui(ui, |ui| {
+                for k in MaskKind::ALL {
+                    ui.selectable_value(&mut kind, k, mask_kind_words(k));
+                }
+            })
+            .response
+            .labelled_by(label.id);
+    });
+    app.choose_mask(kind);
     super::side_panel::error_here(ui, app, super::Place::Mask);
     if app.canvas.tool == Tool::Mask {
         egui::Grid::new("brush settings")
@@ -289,6 +330,15 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     });
     if let Some(text) = &app.summaries.detail {
         ui.label(text);
+    }
+}
+
+/// What a kind of mask does, as the Paints menu says it.
+fn mask_kind_words(kind: MaskKind) -> &'static str {
+    match kind {
+        MaskKind::Detail => "calm detail",
+        MaskKind::Uplift => "uplift (ranges)",
+        MaskKind::HardRock => "hard rock",
     }
 }
 

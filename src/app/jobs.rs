@@ -214,7 +214,8 @@ impl StrahlerApp {
             match command {
                 Command::Edit(edit) => self.edit(edit),
                 Command::MaskFromRivers => self.mask_from_rivers(ctx),
-                Command::PaintMask(a, b, brush) => {
+                Command::PaintMask(kind, a, b, brush) => {
+                    self.choose_mask(kind);
                     self.canvas.mask.paint_segment(a, b, &brush);
                     self.set_mask(ctx, self.canvas.mask.clone());
                 }

@@ -278,7 +278,7 @@ impl StrahlerApp {
     /// the selections follow it.
     fn scene_replaced(&mut self) {
         let scene = self.session.scene();
-        let (size, mask) = (scene.size, scene.detail.mask());
+        let (size, mask) = (scene.size, scene.mask(self.canvas.mask_kind));
         match mask {
             Ok(Some(mask)) => self.canvas.mask = mask,
             Ok(None) => {

@@ -9,7 +9,7 @@ use crate::compute::BackendChoice;
 use crate::erosion::ErosionSettings;
 use crate::pipeline;
 use crate::river::Stroke;
-use crate::scene::{RiverStroke, Scene, StyleSettings};
+use crate::scene::{MaskKind, RiverStroke, Scene, StyleSettings};
 
 use super::output::Outputs;
 
@@ -68,6 +68,12 @@ pub struct GenerateArgs {
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
     #[arg(long)]
     pub erosion: Option<String>,
+    /// A painted mask, a greyscale PNG (white = the full effect, any resolution) for one of:
+    /// detail (calms the synthetic detail), uplift (ranges rise there, up to 3 times the
+    /// uplift), hard-rock (up to 10 times harder rock). Repeat for several; replaces the
+    /// scene's mask of that kind.
+    #[arg(long = "mask", value_name = "KIND=PNG")]
+    pub masks: Vec<String>,
     /// Style from real terrain: a bundled style (mountains, lowland, volcanic) or "none".
     #[arg(long, conflicts_with = "style_from")]
     pub style: Option<String>,
@@ -185,6 +191,14 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
             })?)
         }
     }
+    for given in &args.masks {
+        let (kind, path) = mask_arg(given)?;
+        let bytes = crate::dem::format::read_file(&path, crate::dem::ReadLimits::default())
+            .map_err(|e| format!("--mask {given}: {e}"))?;
+        let mask = crate::wavelet::Mask::from_png(&bytes, crate::dem::ReadLimits::default())
+            .map_err(|e| format!("--mask {given}: {e}"))?;
+        scene.set_mask(kind, Some(&mask));
+    }
     if let Some(path) = &args.style_from {
         let dem = super::io::read_dem(path, crate::dem::ReadLimits::default(), None)?;
         let gamma = crate::wavelet::style::measure(&dem.field)
@@ -300,6 +314,23 @@ pub fn parse_stroke(text: &str) -> Result<Stroke, String> {
     Ok(stroke)
 }
 
+/// `--mask KIND=PNG`: the kind and the file.
+fn mask_arg(given: &str) -> Result<(MaskKind, PathBuf), String> {
+    let kinds = || {
+        MaskKind::ALL
+            .iter()
+            .map(|k| k.name())
+            .collect::<Vec<_>>()
+            .join(", ")
+    };
+    let (name, path) = given
+        .split_once('=')
+        .ok_or_else(|| format!("--mask {given:?}: give KIND=PNG, KIND one of {}", kinds()))?;
+    let kind = MaskKind::from_name(name)
+        .ok_or_else(|| format!("--mask: unknown kind {name:?}; use one of {}", kinds()))?;
+    Ok((kind, PathBuf::from(path)))
+}
+
 pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     let scene = scene_of(args)?;
     super::memory::check("the terrain", generate_bytes(&scene))?;
@@ -309,6 +340,11 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     }
     if let Some(path) = &args.style_from {
         outputs.input(path, "style source");
+    }
+    for given in &args.masks {
+        if let Ok((_, path)) = mask_arg(given) {
+            outputs.input(&path, "mask");
+        }
     }
     if let Some(path) = &args.compare {
         outputs.input(path, "comparison DEM");

@@ -141,6 +141,7 @@ pub(super) async fn erode_coarse_to_fine(
     let coarse_anchors = Anchors {
         held: &coarse_held,
         mouths: &coarse_mouths,
+        painted: anchors.painted,
     };
     let eroded = solve(
         &coarse,
@@ -183,8 +184,13 @@ pub(super) async fn erode_coarse_to_fine(
         base,
         floor,
         fill_on_gpu: anchors.mouths.is_empty(),
-        // The coarse run's rock, at full resolution (positions in metres: the same patches).
-        erodibility: rock_in_bands(settings, n, cell_m, seed, ctx).await?,
+        // The coarse run's rock, at full resolution (positions in metres: the same patches;
+        // the painted hard rock resampled to the full grid).
+        erodibility: {
+            let mut rock = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
+            anchors.painted.harden(&mut rock, n);
+            rock
+        },
     };
     refine(
         fine,

@@ -60,6 +60,7 @@ pub mod gpu;
 mod grid;
 mod hold;
 mod layers;
+mod painted;
 mod params;
 mod rock;
 mod slope_limit;
@@ -75,6 +76,7 @@ pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
 pub use self::hold::Held;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
+pub use self::painted::{HARD_ROCK, Painted, UPLIFT_GAIN};
 pub use self::params::{ErosionParams, PRESETS, describe, preset};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::stage::{

@@ -800,6 +800,8 @@ pub struct Anchors<'a> {
     pub held: &'a [u32],
     /// River mouths inside the map, where water leaves it besides the border; ascending.
     pub mouths: &'a [u32],
+    /// What the user painted over the design: faster uplift, harder rock.
+    pub painted: super::Painted<'a>,
 }
 
 impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
@@ -807,6 +809,7 @@ impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
         Self {
             held: &skeleton.held,
             mouths: &skeleton.mouths,
+            painted: super::Painted::default(),
         }
     }
 }
@@ -826,6 +829,9 @@ pub(super) async fn solve(
     ctx: &JobCtx,
 ) -> Result<Solved, StageError> {
     let mut prepared = Prepared::prepare(field, kinds, settings, cell_m, seed, ctx).await?;
+    let n = field.width();
+    anchors.painted.raise(&mut prepared.uplift, n);
+    anchors.painted.harden(&mut prepared.erodibility, n);
     super::hold::pin(&mut prepared.floor, field.data(), anchors.held);
     let fill_on_gpu = anchors.mouths.is_empty();
     run_solver(
@@ -925,6 +931,7 @@ pub(super) async fn run_solver(
 pub async fn erode_terrain(
     hydrology: &Generated,
     settings: &ErosionSettings,
+    painted: super::Painted<'_>,
     cell_m: f64,
     seed: u64,
     backend: &Backend,
@@ -934,7 +941,10 @@ pub async fn erode_terrain(
     erode_field(
         &hydrology.terrain,
         kinds,
-        (&hydrology.skeleton).into(),
+        Anchors {
+            painted,
+            ..(&hydrology.skeleton).into()
+        },
         settings,
         cell_m,
         seed,

@@ -45,7 +45,7 @@ use crate::erosion::{self, Eroded};
 use crate::gpu::{GpuContext, GpuError, GpuField};
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
-use crate::scene::{Scene, SceneError};
+use crate::scene::{MaskKind, Scene, SceneError};
 use crate::terrain::{self, Generated, StageTime, TerrainError, stage_seed};
 use crate::wavelet::{self, AmplifyFailure, synthesis};
 
@@ -223,7 +223,10 @@ impl Pipeline {
         let scene = sized(scene, options.size);
         let key = hydrology_key(&scene, options, backend);
         let eroded = match &scene.erosion {
-            Some(settings) => stages.erosion.get(erosion_key(key, settings)).is_some(),
+            Some(settings) => stages
+                .erosion
+                .get(erosion_key(key, settings, &scene.erosion_masks))
+                .is_some(),
             None => true,
         };
         stages.hydrology.get(key).is_some() && eroded
@@ -249,9 +252,14 @@ fn hydrology_key(scene: &Scene, options: &RunOptions, backend: &Backend) -> Stag
         .with(&backend.key())
 }
 
-/// The erosion stage's key, after the hydrology's `key`.
-fn erosion_key(key: StageKey, settings: &erosion::ErosionSettings) -> StageKey {
-    key.then("erosion").with(settings)
+/// The erosion stage's key, after the hydrology's `key`: its settings and the masks painted
+/// for it.
+fn erosion_key(
+    key: StageKey,
+    settings: &erosion::ErosionSettings,
+    masks: &crate::scene::ErosionMasks,
+) -> StageKey {
+    key.then("erosion").with(settings).with(masks)
 }
 
 /// The stages in the order they fill a run's progress bar.
@@ -326,7 +334,7 @@ async fn run_stages(
     // 2. Erosion, on when the scene has an erosion section.
     let mut eroded = None;
     if let Some(settings) = &scene.erosion {
-        key = erosion_key(key, settings);
+        key = erosion_key(key, settings, &scene.erosion_masks);
         let out = match stages.erosion.get(key) {
             Some(cached) => cached,
             None => {
@@ -334,9 +342,16 @@ async fn run_stages(
                 let ctx = &part(Bar::Erosion);
                 ctx.checkpoint(0.0, "eroding").await?;
                 let seed = stage_seed(scene.seed, "erosion");
+                let uplift = scene.mask(MaskKind::Uplift)?;
+                let hard_rock = scene.mask(MaskKind::HardRock)?;
+                let painted = erosion::Painted {
+                    uplift: uplift.as_ref(),
+                    hard_rock: hard_rock.as_ref(),
+                };
                 let out = erosion::erode_terrain(
                     &hydrology,
                     settings,
+                    painted,
                     scene.cell_size,
                     seed,
                     backend,
@@ -510,7 +525,7 @@ async fn style(
     ctx.checkpoint(0.92, "style from real terrain").await?;
     let kinds = &hydrology.skeleton.kinds;
     let (_, distance) = erosion::nearest_channel(field, kinds);
-    let mask = scene.detail.mask()?;
+    let mask = scene.mask(MaskKind::Detail)?;
     let keep = wavelet::style::Keep {
         distance: &distance,
         banks: scene.erosion.as_ref().map_or(1, |e| e.river_band) + 1,
@@ -555,7 +570,7 @@ async fn detail(
 ) -> Result<Detailed, PipelineError> {
     let params = scene.detail.params(stage_seed(scene.seed, "detail"));
     synthesis::check(source, &params).map_err(|e| PipelineError::Detail(e.to_string()))?;
-    let mask = scene.detail.mask()?;
+    let mask = scene.mask(MaskKind::Detail)?;
     let n = synthesis::output_len(source.width(), params.levels);
     let backend = &backend.fitting(n, n);
     let clock = Instant::now();

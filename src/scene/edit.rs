@@ -73,8 +73,9 @@ pub enum Edit {
     SetStyle(Option<StyleSettings>),
     /// The Detail section's settings; the mask stays as it is.
     SetDetail(DetailSettings),
-    /// The energy-reduction mask (`None` or a clear mask: none).
-    SetMask(Option<crate::wavelet::Mask>),
+    /// A painted mask: the detail's energy reduction, the uplift or the hard rock (`None` or
+    /// a clear mask: none).
+    SetMask(super::MaskKind, Option<crate::wavelet::Mask>),
     AddBlock(BlendBlock),
     SetBlock {
         index: usize,
@@ -173,7 +174,7 @@ impl Scene {
                     ..detail
                 };
             }
-            Edit::SetMask(mask) => self.detail.set_mask(mask.as_ref()),
+            Edit::SetMask(kind, mask) => self.set_mask(kind, mask.as_ref()),
             Edit::AddBlock(block) => {
                 check_block(&block, self.blend.len())?;
                 self.blend.push(block);
@@ -285,7 +286,9 @@ mod tests {
             glam::DVec2::new(0.6, 0.5),
             &Default::default(),
         );
-        scene.apply(Edit::SetMask(Some(mask))).unwrap();
+        scene
+            .apply(Edit::SetMask(crate::scene::MaskKind::Detail, Some(mask)))
+            .unwrap();
         assert!(scene.detail.mask_png.is_some());
         let detail = DetailSettings {
             levels: 2,
@@ -294,7 +297,9 @@ mod tests {
         scene.apply(Edit::SetDetail(detail)).unwrap();
         assert_eq!(scene.detail.levels, 2);
         assert!(scene.detail.mask_png.is_some(), "the mask stays");
-        scene.apply(Edit::SetMask(None)).unwrap();
+        scene
+            .apply(Edit::SetMask(crate::scene::MaskKind::Detail, None))
+            .unwrap();
         assert!(scene.detail.mask_png.is_none());
 
         let reference = crate::heightfield::Heightfield::from_vec(4, 4, vec![1.0; 16]).unwrap();

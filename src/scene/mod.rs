@@ -355,6 +355,9 @@ pub struct Scene {
     /// local metric grid.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub location: Option<Location>,
+    /// Masks painted for the erosion: faster uplift, harder rock; absent = none.
+    #[serde(default, skip_serializing_if = "ErosionMasks::is_empty")]
+    pub erosion_masks: ErosionMasks,
 }
 
 /// A place on Earth: WGS84 latitude and longitude in degrees.
@@ -484,29 +487,126 @@ impl DetailSettings {
 
     /// The decoded mask, if any.
     pub fn mask(&self) -> Result<Option<crate::wavelet::Mask>, SceneError> {
-        use base64::Engine as _;
-        let Some(text) = &self.mask_png else {
-            return Ok(None);
-        };
-        let invalid = |problem: String| SceneError::Invalid {
-            field: "detail.mask_png".into(),
-            problem,
-        };
-        let bytes = base64::engine::general_purpose::STANDARD
-            .decode(text.trim())
-            .map_err(|e| invalid(format!("is not base64: {e}")))?;
-        crate::wavelet::Mask::from_png(&bytes, crate::dem::ReadLimits::default())
-            .map(Some)
-            .map_err(|e| invalid(e.to_string()))
+        decode_mask(self.mask_png.as_deref(), "detail.mask_png")
     }
 
     /// Stores `mask` (or removes it when `None` or clear).
     pub fn set_mask(&mut self, mask: Option<&crate::wavelet::Mask>) {
-        use base64::Engine as _;
-        self.mask_png = mask
-            .filter(|m| !m.is_clear())
-            .and_then(|m| m.to_png().ok())
-            .map(|png| base64::engine::general_purpose::STANDARD.encode(png));
+        self.mask_png = encode_mask(mask);
+    }
+}
+
+/// A mask stored as a base64 greyscale PNG, decoded (`None` when absent); `field` names it in
+/// the error.
+fn decode_mask(
+    text: Option<&str>,
+    field: &str,
+) -> Result<Option<crate::wavelet::Mask>, SceneError> {
+    use base64::Engine as _;
+    let Some(text) = text else {
+        return Ok(None);
+    };
+    let invalid = |problem: String| SceneError::Invalid {
+        field: field.into(),
+        problem,
+    };
+    let bytes = base64::engine::general_purpose::STANDARD
+        .decode(text.trim())
+        .map_err(|e| invalid(format!("is not base64: {e}")))?;
+    crate::wavelet::Mask::from_png(&bytes, crate::dem::ReadLimits::default())
+        .map(Some)
+        .map_err(|e| invalid(e.to_string()))
+}
+
+/// A mask as the scene stores it: a base64 greyscale PNG, or `None` for none or a clear mask.
+fn encode_mask(mask: Option<&crate::wavelet::Mask>) -> Option<String> {
+    use base64::Engine as _;
+    mask.filter(|m| !m.is_clear())
+        .and_then(|m| m.to_png().ok())
+        .map(|png| base64::engine::general_purpose::STANDARD.encode(png))
+}
+
+/// What a painted mask does: calm the synthetic detail, raise the land faster, or make the
+/// rock harder.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum MaskKind {
+    /// The detail's energy-reduction mask (`detail.mask_png`).
+    #[default]
+    Detail,
+    /// Faster uplift where painted (`erosion_masks.uplift_png`).
+    Uplift,
+    /// Harder rock where painted (`erosion_masks.hard_rock_png`).
+    HardRock,
+}
+
+impl MaskKind {
+    pub const ALL: [MaskKind; 3] = [MaskKind::Detail, MaskKind::Uplift, MaskKind::HardRock];
+
+    /// The name scripts use (`paintMask({target})`, `generate --mask KIND=PNG`).
+    pub fn name(self) -> &'static str {
+        match self {
+            MaskKind::Detail => "detail",
+            MaskKind::Uplift => "uplift",
+            MaskKind::HardRock => "hard-rock",
+        }
+    }
+
+    /// The kind named `name`, or `None`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|k| k.name() == name)
+    }
+
+    /// Where the scene file keeps it.
+    pub fn field(self) -> &'static str {
+        match self {
+            MaskKind::Detail => "detail.mask_png",
+            MaskKind::Uplift => "erosion_masks.uplift_png",
+            MaskKind::HardRock => "erosion_masks.hard_rock_png",
+        }
+    }
+}
+
+/// Masks the user paints for the erosion (greyscale PNGs in base64, any resolution, white =
+/// the full effect; absent = none): where ranges rise (faster uplift) and where the rock is
+/// harder. They belong to the scene, not to the erosion's settings, so a change of terrain
+/// type keeps them. See [`crate::erosion::Painted`] for what they do.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ErosionMasks {
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub uplift_png: Option<String>,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub hard_rock_png: Option<String>,
+}
+
+impl ErosionMasks {
+    pub fn is_empty(&self) -> bool {
+        self.uplift_png.is_none() && self.hard_rock_png.is_none()
+    }
+}
+
+impl Scene {
+    /// The painted mask of `kind`, decoded (`None` when there is none).
+    pub fn mask(&self, kind: MaskKind) -> Result<Option<crate::wavelet::Mask>, SceneError> {
+        decode_mask(self.mask_text(kind), kind.field())
+    }
+
+    fn mask_text(&self, kind: MaskKind) -> Option<&str> {
+        match kind {
+            MaskKind::Detail => self.detail.mask_png.as_deref(),
+            MaskKind::Uplift => self.erosion_masks.uplift_png.as_deref(),
+            MaskKind::HardRock => self.erosion_masks.hard_rock_png.as_deref(),
+        }
+    }
+
+    /// Stores the painted mask of `kind` (removes it when `None` or clear).
+    pub fn set_mask(&mut self, kind: MaskKind, mask: Option<&crate::wavelet::Mask>) {
+        let text = encode_mask(mask);
+        match kind {
+            MaskKind::Detail => self.detail.mask_png = text,
+            MaskKind::Uplift => self.erosion_masks.uplift_png = text,
+            MaskKind::HardRock => self.erosion_masks.hard_rock_png = text,
+        }
     }
 }
 
@@ -527,6 +627,7 @@ impl Default for Scene {
             blend: Vec::new(),
             textures: TextureRules::default(),
             location: None,
+            erosion_masks: ErosionMasks::default(),
         }
     }
 }

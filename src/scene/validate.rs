@@ -167,6 +167,8 @@ impl Scene {
             );
         }
         d.mask()?;
+        self.mask(super::MaskKind::Uplift)?;
+        self.mask(super::MaskKind::HardRock)?;
         Ok(())
     }
 

@@ -9,7 +9,8 @@
 //! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
 //! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
 //!   first); throws on invalid values. Both regenerate the terrain.
-//! - `maskFromRivers()`, `paintMask([x0, y0], [x1, y1], {radius, hardness, value, eraser})`.
+//! - `maskFromRivers()`, `paintMask([x0, y0], [x1, y1], {radius, hardness, value, eraser,
+//!   target})`: `target` "detail" (the default), "uplift" or "hard-rock".
 //! - `loadDem(name, bytes)`: uploads a DEM (`Uint8Array`; the format comes from `name`).
 //! - `fillVoids()`: harmonic fill of the uploaded DEM's no-data cells.
 //! - `placeBlock({window: [row, col, height, width], rect: [x0, y0, x1, y1], quarterTurns,
@@ -146,7 +147,16 @@ fn install_edits(api: &js_sys::Object, automation: &Automation) {
                     Ok(glam::DVec2::new(p[0], p[1]))
                 };
                 let mut brush = crate::wavelet::Brush::default();
+                let mut kind = crate::scene::MaskKind::Detail;
                 if !(options.is_undefined() || options.is_null()) {
+                    if let Some(name) = js_sys::Reflect::get(&options, &JsValue::from_str("target"))
+                        .ok()
+                        .and_then(|v| v.as_string())
+                    {
+                        kind = crate::scene::MaskKind::from_name(&name).ok_or_else(|| {
+                            error("target is one of \"detail\", \"uplift\", \"hard-rock\"")
+                        })?;
+                    }
                     let get = |key: &str| {
                         js_sys::Reflect::get(&options, &JsValue::from_str(key))
                             .ok()
@@ -172,7 +182,7 @@ fn install_edits(api: &js_sys::Object, automation: &Automation) {
                 {
                     return Err(error("brush values must be finite numbers"));
                 }
-                let command = Command::PaintMask(point(&from)?, point(&to)?, brush);
+                let command = Command::PaintMask(kind, point(&from)?, point(&to)?, brush);
                 Ok(applied(&paint_target, command))
             },
         );

@@ -202,6 +202,18 @@ async function runMode(url, mode, expectedChecksum) {
     const maskPng = await page.evaluate(() => window.strahler.scene().detail.mask_png);
     check('maskFromRivers() makes a mask saved in the scene as a PNG',
       typeof maskPng === 'string' && Buffer.from(maskPng, 'base64').subarray(1, 4).toString() === 'PNG');
+    // Uplift painted by a script goes to the scene's erosion masks, not the detail's mask.
+    await page.evaluate(() => window.strahler.paintMask([0.2, 0.3], [0.8, 0.35], { radius: 20, target: 'uplift' }));
+    const painted = await page.evaluate(() => window.strahler.scene());
+    check('paintMask({target: "uplift"}) paints the scene\'s uplift mask and leaves the detail mask',
+      typeof painted.erosion_masks?.uplift_png === 'string' && painted.detail.mask_png === maskPng,
+      JSON.stringify(Object.keys(painted.erosion_masks ?? {})));
+    const refusedTarget = await page.evaluate(() => {
+      try { window.strahler.paintMask([0, 0], [1, 1], { target: 'lava' }); return null; } catch (e) { return String(e); }
+    });
+    check('paintMask refuses an unknown target, naming the choices',
+      refusedTarget !== null && refusedTarget.includes('hard-rock'), String(refusedTarget));
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
     if (mode === 'webgpu') {
       // Every stage on the GPU (generate's backend option): the wavelet statistics run in
       // WGSL in the page too (beside a software adapter 'auto' keeps them on the CPU).
