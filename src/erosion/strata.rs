@@ -45,9 +45,12 @@ impl Strata {
         })
     }
 
-    /// The factor on the erodibility of rock at height `h` metres. O(1).
-    pub fn factor(&self, h: f32) -> f32 {
-        (self.ln_contrast * (0.5 - self.hardness(h))).exp()
+    /// The factor on the erodibility of rock at height `h` metres. O(1). The hardness is
+    /// `f32` arithmetic, exact alike everywhere; the exponential is taken in `f64`, whose
+    /// `exp` gives the same bits natively and in wasm here, where `f32::exp` did not (the
+    /// page's terrain of a layered scene differed from the native one).
+    pub fn factor(&self, h: f32) -> f64 {
+        (f64::from(self.ln_contrast) * f64::from(0.5 - self.hardness(h))).exp()
     }
 
     /// How hard the rock at height `h` is: 1 inside a hard bed, 0 inside a soft one.

@@ -105,7 +105,7 @@ impl Incision {
             };
             // The bed at the height the cell stands at (in f32, as the GPU reads it).
             if let Some(beds) = self.strata {
-                f *= f64::from(beds.factor(hi as f32));
+                f *= beds.factor(hi as f32);
             }
             let damp = 1.0 / (1.0 + f);
             // Everything above is independent of the receiver's new height, which
