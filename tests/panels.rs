@@ -7,12 +7,13 @@ mod common;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::panels::{
-    Action, DESIGN_ONLY, DetailPanel, ErosionPanel, ExportDialog, ExportInfo, RealismPanel,
-    RiversPanel, SolverPanel, SolverReport, StartPanel, StylePanel, TerrainPanel,
+    Action, DESIGN_ONLY, DetailPanel, ErosionPanel, ExportDialog, ExportInfo, MaskAction,
+    MaskPanel, MaskView, RealismPanel, RiversPanel, SolverPanel, SolverReport, StartPanel,
+    StylePanel, TerrainPanel,
 };
 use strahler::app::{RunSettings, RunSummaries, Tool};
 use strahler::erosion::{ErosionReport, ErosionSettings};
-use strahler::scene::{Edit, RiverStroke, Scene, StyleSettings};
+use strahler::scene::{Edit, MaskKind, RiverStroke, Scene, StyleSettings};
 
 /// A panel under test, the scene it reads, and every action it returned.
 struct Bench<P> {
@@ -289,6 +290,98 @@ fn detail_panel_sets_the_scope_and_shows_the_window_for_local() {
         h.query_all_by_label("Window").count() >= 1,
         "local shows its window"
     );
+}
+
+/// The mask tools: the brush shows with the mask tool only and is the panel's own; the
+/// Paints menu, the layer toggle, the buttons and an error's Dismiss return their actions.
+#[test]
+fn mask_panel_picks_what_it_paints_and_asks_for_its_buttons() {
+    struct Tools {
+        panel: MaskPanel,
+        tool: Tool,
+        kind: MaskKind,
+        error: Option<String>,
+        actions: Vec<Action>,
+    }
+    let tools = Tools {
+        panel: MaskPanel::default(),
+        tool: Tool::Pan,
+        kind: MaskKind::Detail,
+        error: None,
+        actions: Vec::new(),
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(320.0, 500.0))
+        .build_ui_state(
+            |ui, t: &mut Tools| {
+                let view = MaskView {
+                    tool: t.tool,
+                    shown: false,
+                    kind: t.kind,
+                    error: t.error.as_deref(),
+                    summary: Some("Detail: 1025 x 1025"),
+                };
+                let actions = t.panel.show(ui, &view);
+                t.actions.extend(actions);
+            },
+            tools,
+        );
+    h.run();
+    assert!(h.state().actions.is_empty(), "showing asks for nothing");
+    assert!(
+        h.query_by_label("Brush size").is_none(),
+        "no brush without the tool"
+    );
+    h.get_by_label("Paint mask (M)").click();
+    h.get_by_label("show mask").click();
+    h.run();
+    assert_eq!(
+        h.state().actions,
+        [
+            Action::Tool(Tool::Mask),
+            Action::Mask(MaskAction::Show(true))
+        ]
+    );
+    h.state_mut().actions.clear();
+    h.state_mut().tool = Tool::Mask;
+    h.run();
+    assert!(
+        h.query_by_label("Brush size").is_some(),
+        "the brush with the tool"
+    );
+    h.get_by_label("Paints").click();
+    h.run();
+    h.get_by_label("hard rock").click();
+    h.run();
+    assert_eq!(
+        h.state().actions,
+        [Action::Mask(MaskAction::Paint(MaskKind::HardRock))]
+    );
+    h.state_mut().actions.clear();
+    for button in ["Mask from rivers", "Clear mask", "Export mask PNG"] {
+        h.get_by_label(button).click();
+        h.run();
+    }
+    assert_eq!(
+        h.state().actions,
+        [
+            Action::Mask(MaskAction::FromRivers),
+            Action::Mask(MaskAction::Clear),
+            Action::Mask(MaskAction::Export),
+        ]
+    );
+    h.state_mut().actions.clear();
+    h.state_mut().error = Some("no terrain yet".into());
+    h.run();
+    h.get_by_label("no terrain yet");
+    h.get_by_label("Dismiss").click();
+    h.run();
+    assert_eq!(h.state().actions, [Action::DismissError]);
+    // The brush is the panel's: a new size stays with it, and no action is needed.
+    h.state_mut().panel.brush.radius = 30.0;
+    h.run();
+    assert_eq!(h.state().panel.brush.radius, 30.0);
+    assert_eq!(h.state().actions, [Action::DismissError]);
 }
 
 /// The Erosion panel as drawn (the pixels on lavapipe; a few may differ across Mesa versions).

@@ -1,9 +1,9 @@
 //! What the central map keeps between frames: the view and its overlays, the tool, the
-//! selection, the mask being painted and the brush, the pictures before and after erosion,
+//! selection, the mask being painted, the pictures before and after erosion,
 //! and a dropped file being read.
 
 use crate::jobs::JobHandle;
-use crate::wavelet::{Brush, Mask};
+use crate::wavelet::Mask;
 
 use super::map_view::{Hover, MapView, Overlay, Tool};
 use super::picture::Picture;
@@ -20,10 +20,9 @@ pub struct Canvas {
     pub moving: bool,
     /// The mask being painted, decoded, at the scene's size (the scene keeps it as PNG): the
     /// detail's energy reduction, the uplift or the hard rock (`mask_kind`); a brush stroke
-    /// paints here and becomes an edit when it ends.
+    /// (with the mask tools' brush) paints here and becomes an edit when it ends.
     pub mask: Mask,
     pub mask_kind: crate::scene::MaskKind,
-    pub brush: Brush,
     /// The mask changed outside the frame loop (a loaded scene): redraw its overlay.
     pub mask_overlay_stale: bool,
     /// The pictures the Erosion section's before/after toggle switches between (after
@@ -46,7 +45,6 @@ impl Default for Canvas {
             moving: false,
             mask: Mask::new(512, 512).expect("a 512 x 512 mask is within limits"),
             mask_kind: Default::default(),
-            brush: Default::default(),
             mask_overlay_stale: false,
             pictures: None,
             showing_before: false,

@@ -5,11 +5,10 @@
 //! The settings and the mask live in the scene; a change of either re-runs the pipeline,
 //! whose stage cache recomputes only detail and what follows, never the hydrology.
 
-use egui::{DragValue, RichText, Slider};
-
 use super::StrahlerApp;
 use super::automation::DetailStatus;
 use super::map_view::Tool;
+use super::panels::{MaskAction, MaskView};
 use crate::pipeline::Output;
 use crate::scene::{Edit, MaskKind};
 use crate::wavelet::Mask;
@@ -78,7 +77,7 @@ impl StrahlerApp {
         let d = |p: egui::Pos2| glam::DVec2::new(f64::from(p.x), f64::from(p.y));
         self.canvas
             .mask
-            .paint_segment(d(a), d(b), &self.canvas.brush);
+            .paint_segment(d(a), d(b), &self.panels.mask.brush);
         self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
     }
 
@@ -223,95 +222,50 @@ impl StrahlerApp {
     }
 }
 
-/// The Detail section's mask tools (its settings are [`super::panels::DetailPanel`]).
-pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    let ctx = ui.ctx().clone();
-    let size = app.session.scene().size;
-    ui.horizontal_wrapped(|ui| {
-        ui.selectable_value(&mut app.canvas.tool, Tool::Mask, "Paint mask (M)");
-        ui.checkbox(&mut app.canvas.layers.mask, "show mask");
-    });
-    let mut kind = app.canvas.mask_kind;
-    ui.horizontal(|ui| {
-        let label = ui.label("Paints").on_hover_text(
-            "What the mask does where it is white: calm the synthetic detail, raise the land \
-             faster (ranges rise there, up to 3 times the uplift), or make the rock harder (up \
-             to 10 times: it stands as massifs). Each is kept in the scene.",
-        );
-        egui::ComboBox::from_id_salt("mask kind")
-            .selected_text(mask_kind_words(kind))
-            .show_ui(ui, |ui| {
-                for k in MaskKind::ALL {
-                    ui.selectable_value(&mut kind, k, mask_kind_words(k));
-                }
-            })
-            .response
-            .labelled_by(label.id);
-    });
-    app.choose_mask(kind);
-    super::side_panel::error_here(ui, app, super::Place::Mask);
-    if app.canvas.tool == Tool::Mask {
-        egui::Grid::new("brush settings")
-            .num_columns(2)
-            .show(ui, |ui| {
-                let label = ui.label("Brush size");
-                ui.add(
-                    DragValue::new(&mut app.canvas.brush.radius)
-                        .range(1.0..=256.0)
-                        .suffix(" cells"),
-                )
-                .labelled_by(label.id);
-                ui.end_row();
-                let label = ui.label("Hardness");
-                ui.add(Slider::new(&mut app.canvas.brush.hardness, 0.0..=1.0))
-                    .labelled_by(label.id);
-                ui.end_row();
-                let label = ui
-                    .label("Grey value")
-                    .on_hover_text("1 (white) removes all synthetic detail.");
-                ui.add(Slider::new(&mut app.canvas.brush.value, 0.0..=1.0))
-                    .labelled_by(label.id);
-                ui.end_row();
-                ui.label("Eraser");
-                ui.checkbox(&mut app.canvas.brush.eraser, "");
-                ui.end_row();
-            });
-    }
-    ui.horizontal_wrapped(|ui| {
-        if ui
-            .button("Mask from rivers")
-            .on_hover_text("Start from the river network: wider for higher Strahler orders.")
-            .clicked()
-        {
-            app.mask_from_rivers(&ctx);
-            app.canvas.layers.mask = true;
-        }
-        if ui.button("Clear mask").clicked()
-            && let Ok(mask) = Mask::new(size, size)
-        {
-            app.set_mask(&ctx, mask);
-        }
-        if ui.button("Export mask PNG").clicked() {
-            match app.canvas.mask.to_png() {
-                Ok(png) => match super::files::save(
-                    &format!(
-                        "{}.png",
-                        super::files::free_stem("strahler-mask", &[".png"])
-                    ),
-                    "image/png",
-                    &png,
-                ) {
-                    Ok(where_to) => app.messages.notice = Some(format!("Mask {where_to}")),
-                    Err(err) => app.set_error_at(super::Place::Mask, err),
-                },
-                Err(err) => app.set_error_at(super::Place::Mask, err.to_string()),
+impl StrahlerApp {
+    /// What the mask tools asked for ([`MaskPanel`](super::panels::MaskPanel)).
+    pub(super) fn mask_action(&mut self, ctx: &egui::Context, action: MaskAction) {
+        match action {
+            MaskAction::Paint(kind) => self.choose_mask(kind),
+            MaskAction::Show(on) => self.canvas.layers.mask = on,
+            MaskAction::FromRivers => {
+                self.mask_from_rivers(ctx);
+                self.canvas.layers.mask = true;
             }
+            MaskAction::Clear => {
+                let size = self.session.scene().size;
+                match Mask::new(size, size) {
+                    Ok(mask) => self.set_mask(ctx, mask),
+                    Err(err) => self.set_error_at(super::Place::Mask, err.to_string()),
+                }
+            }
+            MaskAction::Export => self.export_mask(),
+            MaskAction::Import => self.pick_mask_file(),
         }
-    });
-    ui.horizontal_wrapped(|ui| {
+    }
+
+    /// Saves the mask being painted as a PNG (downloads it in the page).
+    fn export_mask(&mut self) {
+        let saved = self
+            .canvas
+            .mask
+            .to_png()
+            .map_err(|e| e.to_string())
+            .and_then(|png| {
+                let stem = super::files::free_stem("strahler-mask", &[".png"]);
+                super::files::save(&format!("{stem}.png"), "image/png", &png)
+            });
+        match saved {
+            Ok(where_to) => self.messages.notice = Some(format!("Mask {where_to}")),
+            Err(err) => self.set_error_at(super::Place::Mask, err),
+        }
+    }
+
+    /// Opens the page's file picker for a mask PNG; what is read arrives as a command.
+    fn pick_mask_file(&mut self) {
         #[cfg(target_arch = "wasm32")]
-        if ui.button("Import mask PNG...").clicked() {
-            let automation = app.automation.clone();
+        {
+            let automation = self.automation.clone();
             let check = super::files::check_elevation_file;
             if let Err(err) = super::files::pick_file(".png", check, move |name, read| {
                 automation.push(match read {
@@ -323,22 +277,31 @@ pub(super) fn mask_section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                     },
                 });
             }) {
-                app.set_error_at(super::Place::Mask, err);
+                self.set_error_at(super::Place::Mask, err);
             }
         }
-        ui.label(RichText::new("or drop a PNG on the map with the mask tool active").weak());
-    });
-    if let Some(text) = &app.summaries.detail {
-        ui.label(text);
+        #[cfg(not(target_arch = "wasm32"))]
+        {
+            self.messages.notice =
+                Some("Drop a PNG on the map with the mask tool active to import it".into());
+        }
     }
 }
 
-/// What a kind of mask does, as the Paints menu says it.
-fn mask_kind_words(kind: MaskKind) -> &'static str {
-    match kind {
-        MaskKind::Detail => "calm detail",
-        MaskKind::Uplift => "uplift (ranges)",
-        MaskKind::HardRock => "hard rock",
+/// What the mask tools read from the map, the messages and the last run.
+pub(super) fn mask_view<'a>(
+    canvas: &super::Canvas,
+    messages: &'a super::Messages,
+    summaries: &'a super::RunSummaries,
+) -> MaskView<'a> {
+    MaskView {
+        tool: canvas.tool,
+        shown: canvas.layers.mask,
+        kind: canvas.mask_kind,
+        error: (messages.error_at == super::Place::Mask)
+            .then_some(messages.error.as_deref())
+            .flatten(),
+        summary: summaries.detail.as_deref(),
     }
 }
 

@@ -190,7 +190,7 @@ impl StrahlerApp {
         self.canvas.overlay.show_erosion_depth = l.erosion_depth;
         self.canvas.overlay.show_blocks = l.blocks || self.canvas.tool == Tool::Block;
         self.canvas.overlay.brush_radius =
-            Some(self.canvas.brush.radius / self.canvas.mask.width().max(2) as f32);
+            Some(self.panels.mask.brush.radius / self.canvas.mask.width().max(2) as f32);
         self.canvas.overlay.selected = if self.canvas.tool == Tool::Select {
             self.selected_points()
         } else {

@@ -81,7 +81,7 @@ pub struct StrahlerApp {
     /// The document (the scene) and its history, the pipeline, its job and its last output.
     /// The UI and `window.strahler` change the scene with edits; a run follows each change.
     session: Session,
-    /// The central map: its view, overlays, tool, selection, mask and brush.
+    /// The central map: its view, overlays, tool, selection and mask.
     canvas: Canvas,
     /// What the side panel says about the last run, and its messages.
     summaries: RunSummaries,
@@ -242,6 +242,8 @@ impl StrahlerApp {
             Action::Cancel => self.session.cancel(),
             Action::CompareBackends => self.start_selftest(ctx),
             Action::Error(message) => self.set_error(message),
+            Action::DismissError => self.messages.error = None,
+            Action::Mask(action) => self.mask_action(ctx, action),
             Action::Export { request, layers } => self.download(ctx, request, layers),
         }
     }
@@ -321,7 +323,7 @@ impl StrahlerApp {
 
     /// The mask brush (size, hardness, grey value, eraser).
     pub fn brush_mut(&mut self) -> &mut crate::wavelet::Brush {
-        &mut self.canvas.brush
+        &mut self.panels.mask.brush
     }
 
     pub fn tool(&self) -> Tool {

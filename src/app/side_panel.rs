@@ -66,11 +66,12 @@ fn sections(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     actions.extend(panels.style.show(ui, scene, dem));
     ui.separator();
     actions.extend(panels.detail.show(ui, scene));
+    let mask = super::detail::mask_view(&app.canvas, &app.messages, &app.summaries);
+    actions.extend(panels.mask.show(ui, &mask));
     let ctx = ui.ctx().clone();
     for action in actions {
         app.act(&ctx, action);
     }
-    super::detail::mask_section(ui, app);
     ui.separator();
     super::blend::section(ui, app);
     ui.separator();

@@ -160,11 +160,9 @@ pub(super) async fn erode_coarse_to_fine(
     // The floor only needs the cells near a river (the walk's fields go before the
     // refinement allocates its own).
     let floor = {
-        let floor_cells = FLOOR_CELLS * factor as u32;
-        let (channel, steps_away) =
-            nearest_channel_in_steps(field, kinds, floor_cells, ctx, FINISHING).await?;
+        let near = nearest_channel_in_steps(field, kinds, ctx, FINISHING).await?;
         ctx.tick(FINISHING.0, FINISHING.1).await?;
-        let mut floor = floor_near_rivers(&channel, &steps_away, floor_cells);
+        let mut floor = floor_near_rivers(&near, FLOOR_CELLS * factor as f32);
         super::hold::pin(&mut floor, field.data(), anchors.held);
         floor
     };

@@ -10,6 +10,7 @@ use thiserror::Error;
 
 use super::coarse::{self, MAX_SOLVER_SIDE};
 use super::gpu::{self, GpuErosionError, GpuInput};
+use super::nearest::{NearestChannel, Transform};
 use super::{CHUNK_CELLS, Eroder, ErosionError, ErosionParams};
 use crate::compute::Backend;
 use crate::gpu::GpuField;
@@ -445,99 +446,37 @@ pub(super) const PREPARING: (f32, &str) = (0.05, "eroding: preparing");
 /// ... and while it brings a coarse solver grid back to the full one, and measures.
 pub(super) const FINISHING: (f32, &str) = (0.9, "eroding: back to the full grid");
 
-/// Each cell's nearest river or valley cell by a breadth-first walk over the
-/// 8-neighbourhood from every channel cell (O(cells)): that cell's height and the distance
-/// in steps. A map without channels uses its lowest height at distance 0.
-pub fn nearest_channel(field: &Heightfield, kinds: &[CellKind]) -> (Vec<f32>, Vec<u32>) {
-    let mut walk = ChannelWalk::new(field, kinds, u32::MAX);
-    while !walk.walk(usize::MAX) {}
-    (walk.base, walk.steps)
+/// Each cell's nearest river or valley cell by straight-line distance (the exact transform
+/// of [`super::nearest`], O(cells)): that cell's height and the distance in cells. A map
+/// without channels uses its lowest height at distance 0.
+pub fn nearest_channel(field: &Heightfield, kinds: &[CellKind]) -> NearestChannel {
+    let mut transform = channel_transform(field, kinds);
+    while !transform.advance(usize::MAX) {}
+    transform.finish()
 }
 
-/// [`nearest_channel`] in runs of [`CHUNK_CELLS`] cells with the job's ticks between them,
-/// out to `limit` steps from the channels (the cells farther away keep a NaN height and
-/// `u32::MAX` steps; the others get what the whole walk gives them, as the walk reaches the
-/// cells in order of their distance). O(cells within `limit`).
+/// [`nearest_channel`] in bands of about [`CHUNK_CELLS`] cells with the job's ticks between
+/// them (the same values).
 pub(super) async fn nearest_channel_in_steps(
     field: &Heightfield,
     kinds: &[CellKind],
-    limit: u32,
     ctx: &JobCtx,
     (progress, message): (f32, &str),
-) -> Result<(Vec<f32>, Vec<u32>), Cancelled> {
-    ctx.tick(progress, message).await?;
-    let mut walk = ChannelWalk::new(field, kinds, limit);
+) -> Result<NearestChannel, Cancelled> {
+    let rows = (CHUNK_CELLS / field.width().max(1)).max(1);
+    let mut transform = channel_transform(field, kinds);
     loop {
         ctx.tick(progress, message).await?;
-        if walk.walk(CHUNK_CELLS) {
-            return Ok((walk.base, walk.steps));
+        if transform.advance(rows) {
+            return Ok(transform.finish());
         }
     }
 }
 
-/// The breadth-first walk of [`nearest_channel`] in progress: each reached cell's channel
-/// height (NaN while unreached) and distance (`u32::MAX` while unreached), and the cells
-/// whose neighbours are next; cells `limit` steps away are not walked on from.
-struct ChannelWalk {
-    n: usize,
-    base: Vec<f32>,
-    steps: Vec<u32>,
-    queue: std::collections::VecDeque<usize>,
-    limit: u32,
-}
-
-impl ChannelWalk {
-    /// Starts from every channel cell (O(cells)).
-    fn new(field: &Heightfield, kinds: &[CellKind], limit: u32) -> Self {
-        let z = field.data();
-        let mut base = vec![f32::NAN; z.len()];
-        let mut steps = vec![u32::MAX; z.len()];
-        let mut queue = std::collections::VecDeque::new();
-        for (i, k) in kinds.iter().enumerate() {
-            if matches!(k, CellKind::River | CellKind::Valley) {
-                base[i] = z[i];
-                steps[i] = 0;
-                queue.push_back(i);
-            }
-        }
-        if queue.is_empty() {
-            let lowest = field.finite_range().map_or(0.0, |(lo, _)| lo);
-            base.fill(lowest);
-            steps.fill(0);
-        }
-        Self {
-            n: field.width(),
-            base,
-            steps,
-            queue,
-            limit,
-        }
-    }
-
-    /// Walks on from about `cells` cells of the queue; returns whether the walk is over.
-    fn walk(&mut self, cells: usize) -> bool {
-        let n = self.n;
-        for _ in 0..cells {
-            let Some(i) = self.queue.pop_front() else {
-                return true;
-            };
-            if self.steps[i] >= self.limit {
-                continue;
-            }
-            let (x, y) = (i % n, i / n);
-            for yy in y.saturating_sub(1)..(y + 2).min(n) {
-                for xx in x.saturating_sub(1)..(x + 2).min(n) {
-                    let j = yy * n + xx;
-                    if self.base[j].is_nan() {
-                        self.base[j] = self.base[i];
-                        self.steps[j] = self.steps[i] + 1;
-                        self.queue.push_back(j);
-                    }
-                }
-            }
-        }
-        self.queue.is_empty()
-    }
+fn channel_transform<'a>(field: &'a Heightfield, kinds: &'a [CellKind]) -> Transform<'a> {
+    Transform::new(field.data(), field.width(), |i| {
+        matches!(kinds[i], CellKind::River | CellKind::Valley)
+    })
 }
 
 /// Share of the largest uplift rate that the land beside the rivers gets.
@@ -607,23 +546,17 @@ pub(super) fn roughen_from(
 }
 
 /// How far from a river (cells) the land is kept above the river's height.
-pub(super) const FLOOR_CELLS: u32 = 8;
+pub(super) const FLOOR_CELLS: f32 = 8.0;
 
 /// The near-river floor: within [`FLOOR_CELLS`] of a river no land goes below it (a
 /// centimetre more per cell away, so floors still drain to it), so a river never ends up
 /// hanging on a levee above its valley. Farther away the land is free: floors of different
 /// rivers would meet in steps there.
-pub(super) fn floor_near_rivers(channel: &[f32], steps_away: &[u32], cells: u32) -> Vec<f32> {
-    channel
+pub(super) fn floor_near_rivers(near: &NearestChannel, cells: f32) -> Vec<f32> {
+    near.base
         .iter()
-        .zip(steps_away)
-        .map(|(h, d)| {
-            if *d <= cells {
-                h + 0.01 * *d as f32
-            } else {
-                f32::MIN
-            }
-        })
+        .zip(&near.distance)
+        .map(|(h, d)| if *d <= cells { h + 0.01 * d } else { f32::MIN })
         .collect()
 }
 
@@ -695,9 +628,9 @@ impl Prepared {
     ) -> Self {
         let n = field.width();
         let base = base_level(kinds, n, settings.river_band);
-        let (channel, steps_away) = nearest_channel(field, kinds);
-        let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
-        let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
+        let near = nearest_channel(field, kinds);
+        let uplift = uplift_from_design(field, &near.base, settings.uplift_m_per_kyr / 1000.0);
+        let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
         roughen(&mut heights, &base, settings.roughness_m, seed);
         Self {
@@ -723,12 +656,11 @@ impl Prepared {
     ) -> Result<Self, Cancelled> {
         let n = field.width();
         let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
-        let (channel, steps_away) =
-            nearest_channel_in_steps(field, kinds, u32::MAX, ctx, PREPARING).await?;
+        let near = nearest_channel_in_steps(field, kinds, ctx, PREPARING).await?;
         ctx.tick(PREPARING.0, PREPARING.1).await?;
-        let uplift = uplift_from_design(field, &channel, settings.uplift_m_per_kyr / 1000.0);
+        let uplift = uplift_from_design(field, &near.base, settings.uplift_m_per_kyr / 1000.0);
         ctx.tick(PREPARING.0, PREPARING.1).await?;
-        let floor = floor_near_rivers(&channel, &steps_away, FLOOR_CELLS);
+        let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
         in_row_bands(ctx, PREPARING, &mut heights, n, |rows, h| {
             let cells = rows.start * n..rows.end * n;

@@ -524,10 +524,10 @@ async fn style(
     let clock = Instant::now();
     ctx.checkpoint(0.92, "style from real terrain").await?;
     let kinds = &hydrology.skeleton.kinds;
-    let (_, distance) = erosion::nearest_channel(field, kinds);
+    let near = erosion::nearest_channel(field, kinds);
     let mask = scene.mask(MaskKind::Detail)?;
     let keep = wavelet::style::Keep {
-        distance: &distance,
+        distance: &near.distance,
         banks: scene.erosion.as_ref().map_or(1, |e| e.river_band) + 1,
         mask: mask.as_ref(),
     };

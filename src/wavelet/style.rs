@@ -81,7 +81,7 @@ pub fn measure(dem: &Heightfield) -> Result<[f64; 3], WaveletError> {
 /// Where the added detail must fade out: each cell's distance in cells to the nearest river
 /// (or any cell to keep as it is), the banks kept smooth beside it, and the painted mask.
 pub struct Keep<'a> {
-    pub distance: &'a [u32],
+    pub distance: &'a [f32],
     pub banks: u32,
     pub mask: Option<&'a Mask>,
 }
@@ -174,7 +174,11 @@ pub fn apply(
 /// reaches a kept cell or its banks, all of it one more stride
 /// away; times one minus the painted mask there.
 fn keep_factor(keep: &Keep<'_>, x: usize, y: usize, w: usize, h: usize, s: usize) -> f32 {
-    let d = keep.distance.get(y * w + x).copied().unwrap_or(u32::MAX) as f32;
+    let d = keep
+        .distance
+        .get(y * w + x)
+        .copied()
+        .unwrap_or(f32::INFINITY);
     let reach = (keep.banks as usize + 3 * s) as f32;
     let fade = ((d - reach) / s as f32).clamp(0.0, 1.0);
     let painted = keep.mask.map_or(0.0, |m| {
@@ -223,7 +227,7 @@ mod tests {
             .collect();
         let field = Heightfield::from_vec(n, n, data).unwrap();
         // A "river" down column 20: distances by column.
-        let distance: Vec<u32> = (0..n * n).map(|i| (i % n).abs_diff(20) as u32).collect();
+        let distance: Vec<f32> = (0..n * n).map(|i| (i % n).abs_diff(20) as f32).collect();
         let keep = Keep {
             distance: &distance,
             banks: 1,

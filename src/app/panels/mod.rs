@@ -8,6 +8,7 @@ mod check;
 mod detail;
 mod erosion;
 mod export;
+mod mask;
 mod realism;
 mod rivers;
 mod solver;
@@ -20,6 +21,7 @@ pub use check::{AGREEMENT, CheckPanel, CheckReport};
 pub use detail::DetailPanel;
 pub use erosion::ErosionPanel;
 pub use export::{ExportDialog, ExportInfo};
+pub use mask::{MaskAction, MaskPanel, MaskView, kind_words};
 pub use realism::RealismPanel;
 pub use rivers::RiversPanel;
 pub use solver::{Report as SolverReport, SolverPanel};
@@ -51,6 +53,10 @@ pub enum Action {
     CompareBackends,
     /// Say something went wrong.
     Error(String),
+    /// Forget the error shown.
+    DismissError,
+    /// Something for the mask tools.
+    Mask(MaskAction),
     /// Write an export (and the skeleton's layers with `layers`).
     Export {
         request: crate::export::Request,
@@ -70,5 +76,6 @@ pub struct Panels {
     pub style: StylePanel,
     pub realism: RealismPanel,
     pub detail: DetailPanel,
+    pub mask: MaskPanel,
     pub status: StatusBar,
 }
