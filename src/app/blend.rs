@@ -12,11 +12,10 @@
 
 use std::sync::Arc;
 
-use egui::{Color32, DragValue, ProgressBar, Rect, RichText, Sense, Stroke, StrokeKind, pos2};
-
 use super::StrahlerApp;
 use super::automation::{BlendStatus, DemStatus};
 use super::map_view::{BlockDrag, Tool};
+use super::panels::{DemAction, DemInfo, DemView};
 use crate::blend::BlendBlock;
 use crate::dem::format::{self, Format, ImportOptions};
 use crate::dem::{Dem, DemError, ReadLimits};
@@ -33,6 +32,9 @@ pub struct LoadedDem {
     /// The file's bytes, kept to re-read a PNG/RAW with another height range.
     bytes: Arc<Vec<u8>>,
     preview: Option<egui::TextureHandle>,
+    /// The lowest and highest heights, and the no-data cells (counted once, not per frame).
+    range: (f32, f32),
+    voids: usize,
 }
 
 /// How a block drag changes the block.
@@ -45,43 +47,33 @@ pub enum Grab {
 /// Everything the DEM panel and the blend stage keep.
 pub struct BlendState {
     pub dem: Option<LoadedDem>,
-    /// Height range for PNG and RAW files that carry none.
+    /// Height range for PNG and RAW files that carry none (the DEM panel's, once applied).
     pub z_range: (f32, f32),
     /// The reference window on the DEM: row, col, height, width.
     pub selection: [usize; 4],
-    select_from: Option<(usize, usize)>,
     /// The block selected in the list or on the map (an index into the scene's `blend`).
     pub selected: Option<usize>,
     grab: Option<(usize, Grab)>,
     pub fill_job: Option<JobHandle<Result<Heightfield, DiffusionError>>>,
     /// Extracting the DEM's features (seed 003) into a scene.
     pub features_job: Option<JobHandle<Result<Scene, String>>>,
-    /// Extract features was pressed over a scene with work in it: asking before replacing.
-    pub confirm_extract: bool,
     pub summary: Option<String>,
     /// The DEM panel's network comparison.
     pub networks: super::networks::Comparison,
-    /// Native builds: the path typed into the Open field.
-    #[cfg(not(target_arch = "wasm32"))]
-    pub path_input: String,
 }
 
 impl Default for BlendState {
     fn default() -> Self {
         Self {
             dem: None,
-            z_range: (0.0, 1000.0),
+            z_range: super::panels::DEFAULT_Z_RANGE,
             selection: [0, 0, 0, 0],
-            select_from: None,
             selected: None,
             grab: None,
             fill_job: None,
-            confirm_extract: false,
             features_job: None,
             summary: None,
             networks: Default::default(),
-            #[cfg(not(target_arch = "wasm32"))]
-            path_input: String::new(),
         }
     }
 }
@@ -186,6 +178,8 @@ impl StrahlerApp {
         self.automation.update(|s| s.dem = Some(status));
         self.blend.dem = Some(LoadedDem {
             name: name.to_owned(),
+            range: (zmin, zmax),
+            voids: dem.void_cells(),
             dem,
             bytes,
             preview,
@@ -195,12 +189,7 @@ impl StrahlerApp {
 
     /// Fills the DEM's voids by harmonic diffusion (the diffusion stage's solver), as a job.
     pub(super) fn fill_dem_voids(&mut self, ctx: &egui::Context) {
-        if self
-            .blend
-            .dem
-            .as_ref()
-            .is_none_or(|l| l.dem.void_cells() == 0)
-        {
+        if self.blend.dem.as_ref().is_none_or(|l| l.voids == 0) {
             return;
         }
         let Some(backend) = self.backend() else {
@@ -422,7 +411,7 @@ impl StrahlerApp {
         match result {
             Ok(field) => {
                 if let Some(loaded) = self.blend.dem.take() {
-                    let voids = loaded.dem.void_cells();
+                    let voids = loaded.voids;
                     let dem = Dem {
                         field,
                         georef: loaded.dem.georef,
@@ -498,301 +487,84 @@ impl StrahlerApp {
     }
 }
 
-/// The DEM section of the side panel.
-pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    let ctx = ui.ctx().clone();
-    ui.label(RichText::new("Real DEM and blending").strong())
-        .on_hover_text(
-            "Upload a real elevation file, select a block of it and place it on the map: the \
-             block is solved from the Poisson equation with the terrain on its border (seed \
-             paper 000, Sec. VI), so its landforms appear without a seam.",
-        );
-    ui.horizontal_wrapped(|ui| {
-        if ui
-            .button("Upload DEM... (U)")
-            .on_hover_text("GeoTIFF, SRTM .hgt, ESRI .asc, PNG or RAW .r16; or drop the file")
-            .clicked()
-        {
-            upload(app);
-        }
-        if app.blend.dem.is_some() && ui.button("Remove DEM").clicked() {
-            app.blend.dem = None;
-            app.automation.update(|s| s.dem = None);
-        }
-    });
-    super::side_panel::error_here(ui, app, super::Place::Dem);
-    #[cfg(not(target_arch = "wasm32"))]
-    ui.horizontal(|ui| {
-        ui.add(egui::TextEdit::singleline(&mut app.blend.path_input).hint_text("path/to/dem.tif"));
-        if ui.button("Open").clicked() {
-            let path = std::path::PathBuf::from(app.blend.path_input.trim());
-            // The same checks as the command line: a regular file, its size bounded by its
-            // header (a pipe or a 3 GB file is refused before it is read).
-            match crate::dem::format::read_file(&path, crate::dem::ReadLimits::default()) {
-                Ok(bytes) => {
-                    let name = path.to_string_lossy().into_owned();
-                    app.load_dem(&ctx, &name, bytes);
-                }
-                Err(err) => app.set_error_at(
-                    super::Place::Dem,
-                    format!("cannot read {}: {err}", path.display()),
-                ),
+impl StrahlerApp {
+    /// What the DEM panel asked for ([`DemPanel`](super::panels::DemPanel)).
+    pub(super) fn dem_action(&mut self, ctx: &egui::Context, action: DemAction) {
+        match action {
+            DemAction::Upload => upload(self),
+            DemAction::Remove => {
+                self.blend.dem = None;
+                self.automation.update(|s| s.dem = None);
             }
+            DemAction::Open(path) => self.open_dem(ctx, &path),
+            DemAction::Reread(z_range) => {
+                self.blend.z_range = z_range;
+                if let Some(loaded) = self.blend.dem.take() {
+                    let bytes = loaded.bytes.as_ref().clone();
+                    self.load_dem(ctx, &loaded.name, bytes);
+                }
+            }
+            DemAction::FillVoids => self.fill_dem_voids(ctx),
+            DemAction::ExtractFeatures => self.extract_features(ctx),
+            DemAction::CompareNetworks => self.compare_networks(ctx),
+            DemAction::Window(window) => self.blend.selection = window,
+            DemAction::Place => self.place_selection(),
+            DemAction::Select(block) => self.blend.selected = block,
         }
-    });
-    let mut reread = false;
-    let mut fill = false;
-    let mut place = false;
-    let mut extract = false;
-    if let Some(loaded) = &app.blend.dem {
-        let f = &loaded.dem.field;
-        let (lo, hi) = f.finite_range().unwrap_or((0.0, 0.0));
-        let voids = loaded.dem.void_cells();
-        egui::Grid::new("dem info").num_columns(2).show(ui, |ui| {
-            ui.label("File");
-            ui.label(&loaded.name);
-            ui.end_row();
-            ui.label("Size");
-            ui.label(format!("{} x {} cells", f.width(), f.height()));
-            ui.end_row();
-            ui.label("Heights");
-            ui.label(format!("{lo:.1} to {hi:.1} m"));
-            ui.end_row();
-            ui.label("Cell size");
-            ui.label(
-                loaded
-                    .dem
-                    .georef
-                    .cell_size()
-                    .map_or("unknown".into(), |(x, y)| format!("{x:.6} x {y:.6}")),
-            );
-            ui.end_row();
-            ui.label("CRS");
-            ui.label(loaded.dem.georef.crs_label().unwrap_or("unknown".into()));
-            ui.end_row();
-            ui.label("No-data");
-            ui.label(format!("{voids} cells"));
-            ui.end_row();
-        });
-        if matches!(
+    }
+
+    /// Reads a DEM from a path typed on a native build, with the command line's checks: a
+    /// regular file, its size bounded by its header (a pipe or a 3 GB file is refused before
+    /// it is read).
+    fn open_dem(&mut self, ctx: &egui::Context, path: &std::path::Path) {
+        match crate::dem::format::read_file(path, ReadLimits::default()) {
+            Ok(bytes) => {
+                let name = path.to_string_lossy().into_owned();
+                self.load_dem(ctx, &name, bytes);
+            }
+            Err(err) => self.set_error_at(
+                super::Place::Dem,
+                format!("cannot read {}: {err}", path.display()),
+            ),
+        }
+    }
+}
+
+/// What the DEM panel reads: the DEM and its jobs, the window, the scene's blocks, the tool,
+/// the section's error and the blend stage's summary.
+pub(super) fn dem_view<'a>(
+    blend: &'a BlendState,
+    session: &'a super::session::Session,
+    tool: Tool,
+    messages: &'a super::Messages,
+) -> DemView<'a> {
+    let dem = blend.dem.as_ref().map(|loaded| DemInfo {
+        name: &loaded.name,
+        width: loaded.dem.field.width(),
+        height: loaded.dem.field.height(),
+        range: loaded.range,
+        voids: loaded.voids,
+        cell_size: loaded.dem.georef.cell_size(),
+        crs: loaded.dem.georef.crs_label(),
+        needs_range: matches!(
             Format::from_name(&loaded.name),
             Some(Format::Png | Format::R16)
-        ) {
-            ui.horizontal(|ui| {
-                ui.label("Height range");
-                let (a, b) = &mut app.blend.z_range;
-                ui.add(DragValue::new(a).suffix(" m"));
-                ui.add(DragValue::new(b).suffix(" m"));
-                reread = ui.button("Apply").clicked();
-            });
-        }
-        if voids > 0 {
-            fill = ui
-                .button("Fill voids")
-                .on_hover_text("Harmonic fill: the diffusion solver with every known cell fixed")
-                .clicked();
-        }
-        if let Some(job) = &app.blend.fill_job {
-            ui.add(ProgressBar::new(job.progress()).text(job.message()));
-        }
-        let pressed = ui
-            .add_enabled(voids == 0, egui::Button::new("Extract features"))
-            .on_hover_text(
-                "Ridge lines, valley lines and peaks of the DEM (seed paper 003) become the \
-                 map's sketch, with the DEM's heights: edit them and regenerate. Fill the \
-                 voids first.",
-            )
-            .clicked();
-        // The extraction replaces the whole scene: ask first when there is work in it.
-        let work = scene_work(app.session.scene());
-        if pressed && work.is_empty() {
-            extract = true;
-        } else if pressed {
-            app.blend.confirm_extract = true;
-        }
-        if app.blend.confirm_extract {
-            ui.label(format!(
-                "This replaces the scene's {work} with the DEM's features (Undo brings them \
-                 back)."
-            ));
-            ui.horizontal(|ui| {
-                if ui.button("Replace the scene").clicked() {
-                    extract = true;
-                    app.blend.confirm_extract = false;
-                }
-                if ui.button("Keep the scene").clicked() {
-                    app.blend.confirm_extract = false;
-                }
-            });
-        }
-        if let Some(job) = &app.blend.features_job {
-            ui.add(ProgressBar::new(job.progress()).text(job.message()));
-        }
-        super::networks::section(ui, app);
-        preview(ui, app);
-        place = ui
-            .button("Place block on map")
-            .on_hover_text("Then drag it with the Block tool (B); drag its corner to resize")
-            .clicked();
-    }
-    if reread && let Some(loaded) = app.blend.dem.take() {
-        let bytes = loaded.bytes.as_ref().clone();
-        app.load_dem(&ctx, &loaded.name, bytes);
-    }
-    if fill {
-        app.fill_dem_voids(&ctx);
-    }
-    if extract {
-        app.extract_features(&ctx);
-    }
-    if place {
-        app.place_selection();
-    }
-    blocks_list(ui, app);
-}
-
-/// What an extraction would replace, in words ("2 rivers, 3 sketch items and 1 block"), or
-/// nothing.
-fn scene_work(scene: &Scene) -> String {
-    let sketch = &scene.sketch;
-    let items = sketch.ridges.len() + sketch.valleys.len() + sketch.peaks.len();
-    let parts: Vec<String> = [
-        (scene.rivers.len(), "river"),
-        (items, "sketch item"),
-        (scene.blend.len(), "block"),
-    ]
-    .into_iter()
-    .filter(|(n, _)| *n > 0)
-    .map(|(n, what)| format!("{n} {what}{}", if n == 1 { "" } else { "s" }))
-    .collect();
-    match parts.as_slice() {
-        [] => String::new(),
-        [one] => one.clone(),
-        [rest @ .., last] => format!("{} and {last}", rest.join(", ")),
-    }
-}
-
-/// The DEM preview with the reference window; drag on it to select a new window.
-fn preview(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    let Some(loaded) = &app.blend.dem else {
-        return;
-    };
-    let Some(texture) = &loaded.preview else {
-        return;
-    };
-    let (w, h) = (loaded.dem.field.width(), loaded.dem.field.height());
-    let side = ui.available_width().min(260.0);
-    let scale = side / w.max(h) as f32;
-    let (rect, response) = ui.allocate_exact_size(
-        egui::vec2(w as f32 * scale, h as f32 * scale),
-        Sense::drag(),
-    );
-    let painter = ui.painter_at(rect);
-    let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
-    painter.image(texture.id(), rect, uv, Color32::WHITE);
-    let cell = |p: egui::Pos2| {
-        let v = (p - rect.min) / scale;
-        (
-            (v.y.max(0.0) as usize).min(h - 1),
-            (v.x.max(0.0) as usize).min(w - 1),
-        )
-    };
-    if response.drag_started()
-        && let Some(p) = response.interact_pointer_pos()
-    {
-        app.blend.select_from = Some(cell(p));
-    }
-    if let (Some((r0, c0)), Some(p)) = (app.blend.select_from, response.interact_pointer_pos()) {
-        let (r1, c1) = cell(p);
-        app.blend.selection = [
-            r0.min(r1),
-            c0.min(c1),
-            r0.abs_diff(r1) + 1,
-            c0.abs_diff(c1) + 1,
-        ];
-    }
-    if response.drag_stopped() {
-        app.blend.select_from = None;
-    }
-    let [row, col, sh, sw] = app.blend.selection;
-    let sel = Rect::from_min_size(
-        rect.min + egui::vec2(col as f32, row as f32) * scale,
-        egui::vec2(sw as f32, sh as f32) * scale,
-    );
-    painter.rect_stroke(
-        sel,
-        0.0,
-        Stroke::new(2.0, Color32::from_rgb(230, 40, 40)),
-        StrokeKind::Middle,
-    );
-    ui.horizontal(|ui| {
-        ui.label("Window")
-            .on_hover_text("row, col, height, width on the DEM");
-        let s = &mut app.blend.selection;
-        ui.add(DragValue::new(&mut s[0]).range(0..=h - 1));
-        ui.add(DragValue::new(&mut s[1]).range(0..=w - 1));
-        ui.add(DragValue::new(&mut s[2]).range(3..=h));
-        ui.add(DragValue::new(&mut s[3]).range(3..=w));
-        s[2] = s[2].min(h - s[0]);
-        s[3] = s[3].min(w - s[1]);
+        ),
+        preview: loaded.preview.as_ref().map(egui::TextureHandle::id),
+        window: blend.selection,
     });
-}
-
-/// The placed blocks: select, turn, mirror, scale, remove.
-fn blocks_list(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    if app.session.scene().blend.is_empty() {
-        return;
-    }
-    ui.horizontal_wrapped(|ui| {
-        ui.selectable_value(&mut app.canvas.tool, Tool::Block, "Move blocks (B)");
-    });
-    let mut edits = Vec::new();
-    for (i, placed) in app.session.scene().blend.iter().enumerate() {
-        let mut block = placed.clone();
-        let mut changed = false;
-        let selected = app.blend.selected == Some(i);
-        ui.horizontal(|ui| {
-            if ui.selectable_label(selected, &block.name).clicked() {
-                app.blend.selected = Some(i);
-            }
-            if ui
-                .small_button("x")
-                .on_hover_text("Remove this block")
-                .clicked()
-            {
-                edits.push(Edit::RemoveBlock(i));
-            }
-        });
-        if selected {
-            ui.horizontal(|ui| {
-                if ui.button("Rotate 90").clicked() {
-                    block.quarter_turns = (block.quarter_turns + 1) % 4;
-                    changed = true;
-                }
-                changed |= ui.checkbox(&mut block.mirror, "Mirror").changed();
-                let label = ui.label("z x");
-                changed |= ui
-                    .add(
-                        DragValue::new(&mut block.z_scale)
-                            .range(-10.0..=10.0)
-                            .speed(0.02),
-                    )
-                    .labelled_by(label.id)
-                    .changed();
-            });
-        }
-        if changed {
-            edits.push(Edit::SetBlock { index: i, block });
-        }
-    }
-    for edit in edits {
-        if matches!(edit, Edit::RemoveBlock(_)) {
-            app.blend.selected = None;
-        }
-        app.edit(edit);
-    }
-    if let Some(text) = &app.blend.summary {
-        ui.label(text);
+    DemView {
+        scene: session.scene(),
+        dem,
+        fill: blend.fill_job.as_ref().map(|j| (j.progress(), j.message())),
+        features: (blend.features_job.as_ref()).map(|j| (j.progress(), j.message())),
+        networks: blend.networks.view(session.output().is_some()),
+        tool,
+        selected: blend.selected,
+        error: (messages.error_at == super::Place::Dem)
+            .then_some(messages.error.as_deref())
+            .flatten(),
+        summary: blend.summary.as_deref(),
     }
 }
 

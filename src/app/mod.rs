@@ -244,6 +244,7 @@ impl StrahlerApp {
             Action::Error(message) => self.set_error(message),
             Action::DismissError => self.messages.error = None,
             Action::Mask(action) => self.mask_action(ctx, action),
+            Action::Dem(action) => self.dem_action(ctx, action),
             Action::Export { request, layers } => self.download(ctx, request, layers),
         }
     }

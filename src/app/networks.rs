@@ -4,9 +4,8 @@
 //! same statistics (Strahler orders, streams per order, bifurcation ratio, Tokunaga T_k);
 //! `strahler analyze --network` prints the same table.
 
-use egui::{ProgressBar, RichText};
-
 use super::StrahlerApp;
+use super::panels::{NetworkTable, NetworksView};
 use crate::jobs::JobHandle;
 use crate::realism::ChannelReport;
 use crate::river::{NetworkStats, RiverNetwork, stats};
@@ -41,6 +40,19 @@ impl Comparison {
     /// The last table's rows, if any (label; DEM, its largest basin, generated).
     pub fn rows(&self) -> Option<&[Row]> {
         self.table.as_ref().map(|t| t.rows.as_slice())
+    }
+
+    /// What the DEM panel shows of it; `terrain`: a terrain is on the map to compare with.
+    pub fn view(&self, terrain: bool) -> NetworksView<'_> {
+        NetworksView {
+            can_start: terrain && !self.busy(),
+            progress: self.job.as_ref().map(|j| (j.progress(), j.message())),
+            table: self.table.as_ref().map(|t| NetworkTable {
+                dem: &t.dem,
+                channel_area_m2: t.channel_area_m2,
+                rows: &t.rows,
+            }),
+        }
     }
 }
 
@@ -127,53 +139,5 @@ impl StrahlerApp {
             ),
             (Ok(_), None) => {}
         }
-    }
-}
-
-/// The DEM panel's part: the button, progress and the table.
-pub(super) fn section(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    let clicked = ui
-        .add_enabled(
-            app.output().is_some() && !app.blend.networks.busy(),
-            egui::Button::new("Compare river networks"),
-        )
-        .on_hover_text(
-            "The DEM's channel network (D8 flow accumulation, seed paper 000 Sec. VII) beside \
-             the rivers of the terrain on the map: Strahler orders, bifurcation ratio, \
-             Tokunaga T_k",
-        )
-        .clicked();
-    if let Some(job) = &app.blend.networks.job {
-        ui.add(ProgressBar::new(job.progress()).text(job.message()));
-    }
-    if let Some(table) = &app.blend.networks.table {
-        ui.label(
-            RichText::new(format!(
-                "{}: channels from {:.2} km² upstream",
-                table.dem,
-                table.channel_area_m2 / 1e6
-            ))
-            .weak(),
-        );
-        egui::Grid::new("network comparison")
-            .num_columns(4)
-            .striped(true)
-            .show(ui, |ui| {
-                for header in ["", "DEM", "largest basin", "generated"] {
-                    ui.label(RichText::new(header).strong());
-                }
-                ui.end_row();
-                for (label, cells) in &table.rows {
-                    ui.label(label);
-                    for cell in cells {
-                        ui.label(cell);
-                    }
-                    ui.end_row();
-                }
-            });
-    }
-    if clicked {
-        let ctx = ui.ctx().clone();
-        app.compare_networks(&ctx);
     }
 }

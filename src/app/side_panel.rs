@@ -73,11 +73,12 @@ fn sections(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         app.act(&ctx, action);
     }
     ui.separator();
-    super::blend::section(ui, app);
+    let dem = super::blend::dem_view(&app.blend, &app.session, app.canvas.tool, &app.messages);
+    let mut actions = app.panels.dem.show(ui, &dem);
     ui.separator();
     let run = app.session.settings();
     let realism = app.session.output().and_then(|o| o.report.realism.as_ref());
-    let actions = app.panels.realism.show(ui, run, realism);
+    actions.extend(app.panels.realism.show(ui, run, realism));
     for action in actions {
         app.act(&ctx, action);
     }
@@ -123,22 +124,6 @@ fn messages(ui: &mut egui::Ui, app: &mut StrahlerApp) {
             ui.label(RichText::new(text).weak());
             if ui.small_button("Dismiss").clicked() {
                 app.messages.notice = None;
-            }
-        });
-    }
-}
-
-/// The error of an action taken in the section at `place`, shown there beside its buttons
-/// (the top of the panel lists it too); nothing when the last error came from elsewhere.
-pub(super) fn error_here(ui: &mut egui::Ui, app: &mut StrahlerApp, place: super::Place) {
-    if app.messages.error_at != place {
-        return;
-    }
-    if let Some(err) = app.messages.error.clone() {
-        ui.horizontal_wrapped(|ui| {
-            ui.colored_label(ui.visuals().error_fg_color, err);
-            if ui.small_button("Dismiss").clicked() {
-                app.messages.error = None;
             }
         });
     }

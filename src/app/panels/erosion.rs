@@ -56,10 +56,10 @@ impl ErosionPanel {
         }
         if let Some(report) = report {
             ui.label(format!(
-                "Eroded in {:.0} ms: mean {:.1} m, up to {:.0} m lowered; {:.1}% of river cells \
-                 drain along the river",
+                "Eroded in {:.0} ms: {}, up to {:.0} m lowered; {:.1}% of river cells drain \
+                 along the river",
                 report.millis,
-                report.mean_depth_m,
+                net_change(report.mean_depth_m),
                 report.max_depth_m,
                 report.drainage.river_fraction * 100.0
             ));
@@ -68,6 +68,16 @@ impl ErosionPanel {
             return Vec::new();
         }
         vec![Action::Edit(Edit::SetErosion(Some(edited)))]
+    }
+}
+
+/// The land's mean change in words: uplift can outpace incision, raising the land on
+/// average while the rivers cut their valleys.
+fn net_change(mean_lowered_m: f64) -> String {
+    if mean_lowered_m < 0.0 {
+        format!("the land rose {:.1} m on average", -mean_lowered_m)
+    } else {
+        format!("the land fell {mean_lowered_m:.1} m on average")
     }
 }
 

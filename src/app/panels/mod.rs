@@ -5,6 +5,7 @@
 //! `tests/panels.rs`.
 
 mod check;
+mod dem;
 mod detail;
 mod erosion;
 mod export;
@@ -18,6 +19,7 @@ mod style;
 mod terrain;
 
 pub use check::{AGREEMENT, CheckPanel, CheckReport};
+pub use dem::{DEFAULT_Z_RANGE, DemAction, DemInfo, DemPanel, DemView, NetworkTable, NetworksView};
 pub use detail::DetailPanel;
 pub use erosion::ErosionPanel;
 pub use export::{ExportDialog, ExportInfo};
@@ -57,6 +59,8 @@ pub enum Action {
     DismissError,
     /// Something for the mask tools.
     Mask(MaskAction),
+    /// Something for the DEM panel.
+    Dem(DemAction),
     /// Write an export (and the skeleton's layers with `layers`).
     Export {
         request: crate::export::Request,
@@ -77,5 +81,6 @@ pub struct Panels {
     pub realism: RealismPanel,
     pub detail: DetailPanel,
     pub mask: MaskPanel,
+    pub dem: DemPanel,
     pub status: StatusBar,
 }
