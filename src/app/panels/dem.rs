@@ -139,13 +139,7 @@ impl DemPanel {
                 actions.push(DemAction::Remove);
             }
         });
-        let mut dismissed = false;
-        if let Some(error) = view.error {
-            ui.horizontal_wrapped(|ui| {
-                ui.colored_label(ui.visuals().error_fg_color, error);
-                dismissed = ui.small_button("Dismiss").clicked();
-            });
-        }
+        let dismissed = super::error_row(ui, view.error);
         if !cfg!(target_arch = "wasm32") {
             ui.horizontal(|ui| {
                 ui.add(egui::TextEdit::singleline(&mut self.path).hint_text("path/to/dem.tif"));
@@ -158,9 +152,7 @@ impl DemPanel {
             self.loaded(ui, view, dem, &mut actions);
         }
         let mut actions: Vec<Action> = actions.into_iter().map(Action::Dem).collect();
-        if dismissed {
-            actions.push(Action::DismissError);
-        }
+        actions.extend(dismissed);
         actions.extend(blocks(ui, view));
         actions
     }

@@ -62,14 +62,7 @@ impl MaskPanel {
         if kind != view.kind {
             actions.push(Action::Mask(MaskAction::Paint(kind)));
         }
-        if let Some(error) = view.error {
-            ui.horizontal_wrapped(|ui| {
-                ui.colored_label(ui.visuals().error_fg_color, error);
-                if ui.small_button("Dismiss").clicked() {
-                    actions.push(Action::DismissError);
-                }
-            });
-        }
+        actions.extend(super::error_row(ui, view.error));
         if view.tool == Tool::Mask {
             self.brush_settings(ui, view.kind);
         }

@@ -84,3 +84,15 @@ pub struct Panels {
     pub dem: DemPanel,
     pub status: StatusBar,
 }
+
+/// The error of an action taken in a section, beside its buttons (the top of the side panel
+/// lists it too), with a button that asks to dismiss it.
+fn error_row(ui: &mut egui::Ui, error: Option<&str>) -> Option<Action> {
+    let error = error?;
+    let mut dismissed = false;
+    ui.horizontal_wrapped(|ui| {
+        ui.colored_label(ui.visuals().error_fg_color, error);
+        dismissed = ui.small_button("Dismiss").clicked();
+    });
+    dismissed.then_some(Action::DismissError)
+}
