@@ -852,19 +852,16 @@ fn an_edit_shows_a_coarse_terrain_first_then_its_own_size() {
 /// The mask tools' Paints menu: with "uplift (ranges)" chosen a stroke goes to the scene's
 /// uplift mask, not the detail's, and the eroded land stands higher under it; back on "calm
 /// detail" the brush paints the detail's own (still clear) mask.
-/// Opens the drop-down menu labelled `menu` and picks `item` in it. The side panel below the
-/// fold, under a loaded machine, sometimes missed the first click (its popup never showed):
-/// the menu is opened again until its item shows, three times at most.
+/// Opens the drop-down menu labelled `menu` and picks `item` in it, giving the popup a few
+/// frames to show (egui sizes a new popup in a frame of its own).
 fn choose(harness: &mut Harness<'static, StrahlerApp>, menu: &str, item: &str) {
-    for _ in 0..3 {
-        harness.get_by_label(menu).click();
-        for _ in 0..5 {
-            harness.run_steps(1);
-            if let Some(node) = harness.query_by_label(item) {
-                node.click();
-                harness.run_steps(2);
-                return;
-            }
+    harness.get_by_label(menu).click();
+    for _ in 0..5 {
+        harness.run_steps(1);
+        if let Some(node) = harness.query_by_label(item) {
+            node.click();
+            harness.run_steps(2);
+            return;
         }
     }
     panic!("the menu {menu} never showed {item}");
@@ -872,7 +869,8 @@ fn choose(harness: &mut Harness<'static, StrahlerApp>, menu: &str, item: &str) {
 
 #[test]
 fn painting_uplift_raises_the_land_under_the_stroke() {
-    let mut harness = cpu_harness();
+    // Tall: the Paints menu lies below the fold of a 900-pixel window, where a click misses.
+    let mut harness = tall_cpu_harness();
     wait_idle(&mut harness);
     let before = harness.state().terrain().expect("a terrain").clone();
     harness.key_press(egui::Key::M);
@@ -881,10 +879,11 @@ fn painting_uplift_raises_the_land_under_the_stroke() {
     assert_eq!(harness.state().mask_kind(), MaskKind::Uplift);
     harness.state_mut().brush_mut().radius = 40.0;
     harness.state_mut().brush_mut().hardness = 0.9;
+    // A third of the way down the map, which the tall window centres at about y 610-1490.
     drag(
         &mut harness,
-        egui::pos2(450.0, 300.0),
-        egui::pos2(1100.0, 320.0),
+        egui::pos2(450.0, 900.0),
+        egui::pos2(1100.0, 920.0),
     );
     wait_idle(&mut harness);
     let scene = harness.state().scene();
