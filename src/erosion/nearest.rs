@@ -13,6 +13,8 @@
 //! integers below 2^53, so the result is the same bits natively and in wasm; ties go to the
 //! first column of the envelope and the upper row.
 
+use crate::heightfield::Heightfield;
+
 /// A column's nearest channel row not yet known (or none in the column).
 const NONE: u32 = u32::MAX;
 
@@ -50,8 +52,9 @@ enum Pass {
 }
 
 impl<'a> Transform<'a> {
-    /// Starts on `heights` (`n` x `n`, row-major) with `channel(i)` true on the channel cells.
-    pub(super) fn new(heights: &'a [f32], n: usize, channel: impl Fn(usize) -> bool) -> Self {
+    /// Starts on the square `field` with `channel(i)` true on the channel cells.
+    pub(super) fn new(field: &'a Heightfield, channel: impl Fn(usize) -> bool) -> Self {
+        let (n, heights) = (field.width(), field.data());
         let cells = n * n;
         let column: Vec<u32> = (0..cells)
             .map(|i| if channel(i) { (i / n) as u32 } else { NONE })
@@ -63,12 +66,7 @@ impl<'a> Transform<'a> {
         };
         let out = match phase {
             Pass::Done => {
-                let lowest = heights
-                    .iter()
-                    .copied()
-                    .filter(|h| h.is_finite())
-                    .fold(f32::INFINITY, f32::min);
-                let lowest = if lowest.is_finite() { lowest } else { 0.0 };
+                let lowest = field.finite_range().map_or(0.0, |(lo, _)| lo);
                 NearestChannel {
                     base: vec![lowest; cells],
                     distance: vec![0.0; cells],
@@ -190,7 +188,8 @@ mod tests {
     use super::*;
 
     fn transform(heights: &[f32], n: usize, channel: &[bool]) -> NearestChannel {
-        let mut t = Transform::new(heights, n, |i| channel[i]);
+        let field = Heightfield::from_vec(n, n, heights.to_vec()).unwrap();
+        let mut t = Transform::new(&field, |i| channel[i]);
         // A few rows at a time, as the stage runs it between its ticks.
         while !t.advance(3) {}
         t.finish()

@@ -474,7 +474,7 @@ pub(super) async fn nearest_channel_in_steps(
 }
 
 fn channel_transform<'a>(field: &'a Heightfield, kinds: &'a [CellKind]) -> Transform<'a> {
-    Transform::new(field.data(), field.width(), |i| {
+    Transform::new(field, |i| {
         matches!(kinds[i], CellKind::River | CellKind::Valley)
     })
 }
