@@ -89,7 +89,10 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
         transformation: decoder.get_tag_f64_vec(Tag::ModelTransformationTag).ok(),
         geo_keys: decoder.get_tag_u16_vec(Tag::GeoKeyDirectoryTag).ok(),
         geo_doubles: decoder.get_tag_f64_vec(Tag::GeoDoubleParamsTag).ok(),
-        geo_ascii: decoder.get_tag_ascii_string(Tag::GeoAsciiParamsTag).ok(),
+        geo_ascii: decoder
+            .get_tag_ascii_string(Tag::GeoAsciiParamsTag)
+            .ok()
+            .map(|text| ascii_only(&text)),
     };
     let nodata = match decoder.find_tag(Tag::GdalNodata).map_err(tiff_err)? {
         None => None,
@@ -126,6 +129,22 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
     }
     let field = Heightfield::from_vec(w, h, values).map_err(|e| DemError::Tiff(e.to_string()))?;
     Ok(Dem { field, georef })
+}
+
+/// GeoAsciiParams as the TIFF writer takes it: 7-bit text without NUL. The reader accepts any
+/// UTF-8 (and a short tag may hold a NUL between its strings), which the writer refuses, so a
+/// file read could not be written back. Each other byte becomes '?', one byte for one, because
+/// the GeoKey directory points into this text by byte offset and length (GeoTIFF 1.1, 7.1.4).
+fn ascii_only(text: &str) -> String {
+    text.bytes()
+        .map(|b| {
+            if b.is_ascii() && b != 0 {
+                char::from(b)
+            } else {
+                '?'
+            }
+        })
+        .collect()
 }
 
 /// The most bytes one byte of compressed samples can decode to: LZW's 12-bit codes stand for
@@ -331,6 +350,31 @@ mod tests {
         // An infinite GDAL_NODATA marks the infinite cells as no-data.
         let marked = read(&f64_tiff(&inf, Some("-inf")), Default::default()).unwrap();
         assert_eq!(marked.void_cells(), 1);
+    }
+
+    #[test]
+    fn geo_ascii_params_beyond_ascii_are_kept_byte_for_byte_and_write_back() {
+        let field = Heightfield::filled(3, 2, 7.0).unwrap();
+        let georef = GeoRef {
+            geo_ascii: Some("Lambert|WGS 84|".into()),
+            ..Default::default()
+        };
+        let mut bytes = write(&field, &georef).unwrap();
+        // 'é' in UTF-8 over "La": the tag's length in bytes stays the same.
+        let at = bytes.windows(7).position(|w| w == b"Lambert").unwrap();
+        bytes[at..at + 2].copy_from_slice("é".as_bytes());
+        let read_back = read(&bytes, ReadLimits::default()).unwrap();
+        let text = read_back.georef.geo_ascii.clone().unwrap();
+        assert_eq!(text, "??mbert|WGS 84|");
+        let again = read(
+            &write(&read_back.field, &read_back.georef).unwrap(),
+            Default::default(),
+        );
+        assert_eq!(
+            again.unwrap().georef.geo_ascii.as_deref(),
+            Some(text.as_str())
+        );
+        assert_eq!(ascii_only("a\0b"), "a?b");
     }
 
     #[test]
