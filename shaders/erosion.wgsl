@@ -658,13 +658,15 @@ fn apply_floor(@builtin(global_invocation_id) gid: vec3<u32>) {
 
 // ---- 4b. the threshold-slope limit -----------------------------------------------------
 // The CPU's `slope_limit.rs` in Jacobi form: each pass lowers every free cell to
-// min_j (h_j + tan(talus) |x_i - x_j|) over the 8 neighbours and the 8 knight's moves (the
+// min_j (h_j + strength_i tan(talus) |x_i - x_j|) over the 8 neighbours and the 8 knight's moves (the
 // 5 x 5 mask), reading one buffer and writing the other. The CPU's two raster scans carry a
 // cut across the whole map in one step; a pass here carries it two cells, so the host runs
 // a bounded number a step (LIMIT_PASSES) and the steps after go on from there.
 
 @group(0) @binding(2) var<storage, read> lim_in: array<f32>;
 @group(0) @binding(3) var<storage, read_write> lim_out: array<f32>;
+// Each cell's rock strength: its factor on the talus slope's tangent (1: the talus angle).
+@group(0) @binding(4) var<storage, read> lim_strength: array<f32>;
 
 @compute @workgroup_size(16, 16, 1)
 fn slope_limit(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -679,6 +681,7 @@ fn slope_limit(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // limit_axis = tan(talus) * cell; the knight's move is sqrt(5) cells.
     let knight = params.limit_axis * 2.2360679774997897;
+    let strength = lim_strength[i];
     var cap = h;
     for (var dy = -2; dy <= 2; dy++) {
         for (var dx = -2; dx <= 2; dx++) {
@@ -699,7 +702,7 @@ fn slope_limit(@builtin(global_invocation_id) gid: vec3<u32>) {
             } else if (ax + ay == 3) {
                 rise = knight;
             }
-            cap = min(cap, lim_in[u32(ny) * params.width + u32(nx)] + rise);
+            cap = min(cap, lim_in[u32(ny) * params.width + u32(nx)] + rise * strength);
         }
     }
     lim_out[i] = cap;

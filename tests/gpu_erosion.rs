@@ -189,6 +189,7 @@ fn gpu_reaches_the_analytic_steady_state() {
             seed: Some(2),
             erodibility: &[],
             strata: None,
+            strength: &[],
             fill_pits: true,
         },
     );

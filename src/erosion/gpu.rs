@@ -50,7 +50,8 @@
 //! guarantees (no pit, every cell reaching an outlet) hold whatever the GPU's lakes left.
 //!
 //! 4b. **Threshold-slope limit** (with a talus angle): the CPU's `slope_limit.rs` in Jacobi
-//!    form, [`LIMIT_PASSES`] passes a step over the same 5 x 5 mask. The CPU's two raster
+//!    form, [`LIMIT_PASSES`] passes a step over the same 5 x 5 mask and the same rock
+//!    strength factors (`slope_limit.rs`' [`super::SlopeStrength`]). The CPU's two raster
 //!    scans carry a cut across the whole map in one step; the passes carry it 16 cells a step,
 //!    and the following steps go on, so a slope left steeper after the last step is one the
 //!    CPU would have cut farther than 16 cells from where it started.
@@ -148,6 +149,9 @@ pub struct GpuInput<'a> {
     /// Beds of hard and soft rock ([`Eroder::with_strata`](super::Eroder::with_strata));
     /// `None`: no beds.
     pub strata: Option<super::Strata>,
+    /// Each cell's factor on the talus slope's tangent
+    /// ([`Eroder::with_slope_limit`](super::Eroder::with_slope_limit)); empty: 1.
+    pub strength: &'a [f32],
     /// Whether the last step's pits are filled on the GPU, from the map's border. False where
     /// water also leaves the map inside it (a river mouth): the border-seeded flood would
     /// fill that catchment, so the caller's conditioning fills the pits instead.
@@ -300,6 +304,7 @@ async fn erode_with(
         seed,
         erodibility,
         strata,
+        strength,
         fill_pits,
     } = input;
     let grid = check_grid(w, h, cell_m)?;
@@ -315,7 +320,8 @@ async fn erode_with(
         check_len("floor", f.len(), n)?;
         check_finite("floor", f)?;
     }
-    super::check_factors(erodibility, n)?;
+    super::check_factors("erodibility", erodibility, n)?;
+    super::check_factors("slope strength", strength, n)?;
     p.validate()
         .map_err(|(field, problem)| ErosionError::InvalidParam { field, problem })?;
     if !base_level.contains(&true) {
@@ -397,15 +403,20 @@ async fn erode_with(
         init("uplift dt", bytemuck::cast_slice(&uplift_dt), rw)
     };
     let floor_buf = floor.map(|f| init("floor", bytemuck::cast_slice(f), rw));
-    // Uniform rock: factors of 1.
-    let ones;
-    let factors = if erodibility.is_empty() {
-        ones = vec![1.0f32; n];
-        &ones[..]
+    // Uniform rock, one talus angle: factors of 1.
+    let ones = if erodibility.is_empty() || strength.is_empty() {
+        vec![1.0f32; n]
+    } else {
+        Vec::new()
+    };
+    let erodibility = if erodibility.is_empty() {
+        &ones
     } else {
         erodibility
     };
-    let erodibility_buf = init("erodibility", bytemuck::cast_slice(factors), rw);
+    let erodibility_buf = init("erodibility", bytemuck::cast_slice(erodibility), rw);
+    let strength = if strength.is_empty() { &ones } else { strength };
+    let strength_buf = init("slope strength", bytemuck::cast_slice(strength), rw);
     let rcv = empty("receivers", 4);
     let ptr = [empty("jump a", 4), empty("jump b", 4)];
     let cells = [empty("cells a", 4), empty("cells b", 4)];
@@ -495,8 +506,14 @@ async fn erode_with(
         .map(|f| b(17, &[(1, f), (2, &heights_buf)]));
     // The slope limit reads one of the heights and `tmp` and writes the other.
     let g_limit = [
-        b(18, &[(1, &base), (2, &heights_buf), (3, &tmp)]),
-        b(18, &[(1, &base), (2, &tmp), (3, &heights_buf)]),
+        b(
+            18,
+            &[(1, &base), (2, &heights_buf), (3, &tmp), (4, &strength_buf)],
+        ),
+        b(
+            18,
+            &[(1, &base), (2, &tmp), (3, &heights_buf), (4, &strength_buf)],
+        ),
     ];
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()).into());

@@ -29,8 +29,9 @@
 //!
 //! With [`Eroder::with_slope_limit`] (the pipeline sets it with the talus angle) each step
 //! also holds the slopes to the threshold angle after the incision (`slope_limit.rs`), so
-//! small maps, where uplift outpaces the talus relaxation, keep slopes rock stands. The GPU
-//! solver runs it in Jacobi passes (see `gpu.rs`).
+//! small maps, where uplift outpaces the talus relaxation, keep slopes rock stands; each
+//! cell's angle is the talus angle scaled by the rock's strength ([`SlopeStrength`]), so
+//! failed slopes are not planes. The GPU solver runs it in Jacobi passes (see `gpu.rs`).
 //!
 //! [`Eroder::advance`] runs a step in pieces of about [`CHUNK_CELLS`] cells (bands of rows,
 //! runs of the stack in its fixed order, lakes one by one), so a browser job can yield
@@ -81,6 +82,7 @@ pub use self::nearest::NearestChannel;
 pub use self::painted::{HARD_ROCK, Painted, UPLIFT_GAIN};
 pub use self::params::{ErosionParams, PRESETS, describe, preset};
 pub use self::rock::{Rock, erodibility_factors};
+pub use self::slope_limit::Strength as SlopeStrength;
 pub use self::stage::{
     Anchors, Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
     erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
@@ -257,7 +259,7 @@ impl Eroder {
     /// Multiplies the erodibility `K` of each cell by `factors` (rock of varying hardness,
     /// `rock.rs`); empty: uniform rock. Factors must be finite and above 0.
     pub fn with_erodibility(mut self, factors: Vec<f32>) -> Result<Self, ErosionError> {
-        check_factors(&factors, self.grid.len())?;
+        check_factors("erodibility", &factors, self.grid.len())?;
         self.erodibility = factors;
         Ok(self)
     }
@@ -274,10 +276,18 @@ impl Eroder {
     /// landslides do, and the diffusion rounds the crests the limit leaves): one forward and
     /// one backward scan a step, exact where no base-level cell bends the paths, and the
     /// next step's scans go on from there.
-    pub fn with_slope_limit(mut self, talus_deg: f64) -> Self {
+    /// `strength` is each cell's factor on the talus slope's tangent, in (0, 1] (rock that
+    /// fails lower, [`SlopeStrength`]); empty: the talus angle everywhere.
+    pub fn with_slope_limit(
+        mut self,
+        talus_deg: f64,
+        strength: Vec<f32>,
+    ) -> Result<Self, ErosionError> {
+        check_factors("slope strength", &strength, self.grid.len())?;
         let g = self.grid;
-        self.limit = Some(slope_limit::Mask::new(g.width, g.height, g.cell, talus_deg));
-        self
+        let mask = slope_limit::Mask::new(g.width, g.height, g.cell, talus_deg);
+        self.limit = Some(mask.with_strength(strength));
+        Ok(self)
     }
 
     /// Draws each cell's receiver at random among its lower neighbours, in proportion to
@@ -532,18 +542,16 @@ fn check_len(what: &'static str, got: usize, expected: usize) -> Result<(), Eros
     }
 }
 
-/// Checks erodibility factors: none (uniform rock), or one per cell, finite and above 0.
-fn check_factors(factors: &[f32], cells: usize) -> Result<(), ErosionError> {
+/// Checks per-cell factors (`what`: erodibility, slope strength): none (uniform rock), or
+/// one per cell, finite and above 0.
+fn check_factors(what: &'static str, factors: &[f32], cells: usize) -> Result<(), ErosionError> {
     if factors.is_empty() {
         return Ok(());
     }
-    check_len("erodibility", factors.len(), cells)?;
-    check_finite("erodibility", factors)?;
+    check_len(what, factors.len(), cells)?;
+    check_finite(what, factors)?;
     match factors.iter().position(|k| *k <= 0.0) {
-        Some(index) => Err(ErosionError::NotPositive {
-            what: "erodibility",
-            index,
-        }),
+        Some(index) => Err(ErosionError::NotPositive { what, index }),
         None => Ok(()),
     }
 }

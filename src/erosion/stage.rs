@@ -576,12 +576,15 @@ pub struct Prepared {
     pub erodibility: Vec<f32>,
     /// Beds of hard and soft rock (the erodibility varying with height); `None`: no beds.
     pub strata: Option<super::Strata>,
+    /// Each cell's factor on the talus slope's tangent (rock strength,
+    /// [`super::SlopeStrength`]); empty: no talus angle, or the same everywhere.
+    pub strength: Vec<f32>,
 }
 
 impl Prepared {
     /// The CPU solver of these fields (an `n` x `n` grid of `cell_m` cells) as the stage runs
     /// it: the random receivers of the seed, the rock's erodibility, and the threshold-slope
-    /// limit at the talus angle where one is set.
+    /// limit at the talus angle, varied by the rock's strength, where one is set.
     pub fn into_eroder(
         self,
         n: usize,
@@ -595,7 +598,7 @@ impl Prepared {
             .with_strata(self.strata);
         // The talus relaxation moves scree below the angle; the limit cuts what it could not.
         Ok(match params.talus_deg {
-            Some(talus) => eroder.with_slope_limit(talus),
+            Some(talus) => eroder.with_slope_limit(talus, self.strength)?,
             None => eroder,
         })
     }
@@ -614,6 +617,7 @@ impl Prepared {
             seed: Some(self.seed),
             erodibility: &self.erodibility,
             strata: self.strata,
+            strength: &self.strength,
             fill_pits: true,
         }
     }
@@ -641,6 +645,7 @@ impl Prepared {
             seed,
             erodibility: rock_of(settings, n, cell_m, seed),
             strata: settings.strata(),
+            strength: strength_of(settings, n, cell_m, seed),
         }
     }
 
@@ -674,6 +679,7 @@ impl Prepared {
         })
         .await?;
         let erodibility = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
+        let strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
         Ok(Self {
             heights,
             base,
@@ -682,6 +688,7 @@ impl Prepared {
             seed,
             erodibility,
             strata: settings.strata(),
+            strength,
         })
     }
 }
@@ -719,6 +726,42 @@ pub(super) async fn rock_in_bands(
     let mut factors = vec![0.0f32; n * n];
     in_row_bands(ctx, PREPARING, &mut factors, n, |rows, part| {
         rock.rows(rows.start, part)
+    })
+    .await?;
+    Ok(factors)
+}
+
+/// The rock's strength factors on the talus slope of `settings` on an `n` x `n` map of
+/// `cell_m` cells (empty without a talus angle). O(cells x octaves).
+pub(super) fn strength_of(
+    settings: &ErosionSettings,
+    n: usize,
+    cell_m: f64,
+    seed: u64,
+) -> Vec<f32> {
+    if settings.talus_deg.is_none() {
+        return Vec::new();
+    }
+    let mut factors = vec![0.0f32; n * n];
+    super::SlopeStrength::new(n, cell_m, seed).rows(0, &mut factors);
+    factors
+}
+
+/// [`strength_of`] in bands of rows with the job's ticks between them (the same values).
+pub(super) async fn strength_in_bands(
+    settings: &ErosionSettings,
+    n: usize,
+    cell_m: f64,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<Vec<f32>, Cancelled> {
+    if settings.talus_deg.is_none() {
+        return Ok(Vec::new());
+    }
+    let strength = super::SlopeStrength::new(n, cell_m, seed);
+    let mut factors = vec![0.0f32; n * n];
+    in_row_bands(ctx, PREPARING, &mut factors, n, |rows, part| {
+        strength.rows(rows.start, part)
     })
     .await?;
     Ok(factors)

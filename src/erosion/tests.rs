@@ -312,6 +312,7 @@ fn small_pieces_give_the_same_bits() {
     // Steepest receivers, then the pipeline's: drawn receivers, the threshold-slope limit
     // and rock of varying hardness.
     let factors: Vec<f32> = (0..w * h).map(|i| 0.5 + (i % 7) as f32 * 0.25).collect();
+    let strength: Vec<f32> = (0..w * h).map(|i| 1.0 - (i % 5) as f32 * 0.07).collect();
     let make = |chunk, drawn: bool| {
         let mut e = Eroder::new(z0.clone(), w, h, 15.0, base.clone(), uplift.clone(), p)
             .unwrap()
@@ -320,7 +321,8 @@ fn small_pieces_give_the_same_bits() {
         if drawn {
             e = e
                 .with_seed(9)
-                .with_slope_limit(30.0)
+                .with_slope_limit(30.0, strength.clone())
+                .unwrap()
                 .with_erodibility(factors.clone())
                 .unwrap();
         }
