@@ -723,12 +723,7 @@ pub(super) async fn rock_in_bands(
         settings.rock_patch_m,
         seed,
     );
-    let mut factors = vec![0.0f32; n * n];
-    in_row_bands(ctx, PREPARING, &mut factors, n, |rows, part| {
-        rock.rows(rows.start, part)
-    })
-    .await?;
-    Ok(factors)
+    field_in_bands(n, ctx, |first_row, rows| rock.rows(first_row, rows)).await
 }
 
 /// The rock's strength factors on the talus slope of `settings` on an `n` x `n` map of
@@ -759,12 +754,22 @@ pub(super) async fn strength_in_bands(
         return Ok(Vec::new());
     }
     let strength = super::SlopeStrength::new(n, cell_m, seed);
-    let mut factors = vec![0.0f32; n * n];
-    in_row_bands(ctx, PREPARING, &mut factors, n, |rows, part| {
-        strength.rows(rows.start, part)
+    field_in_bands(n, ctx, |first_row, rows| strength.rows(first_row, rows)).await
+}
+
+/// An `n` x `n` field of one value a cell, filled by `fill(first_row, rows)` in bands of
+/// whole rows with the job's ticks between them (the same values however it is split).
+async fn field_in_bands(
+    n: usize,
+    ctx: &JobCtx,
+    fill: impl Fn(usize, &mut [f32]) + Sync,
+) -> Result<Vec<f32>, Cancelled> {
+    let mut field = vec![0.0f32; n * n];
+    in_row_bands(ctx, PREPARING, &mut field, n, |rows, part| {
+        fill(rows.start, part)
     })
     .await?;
-    Ok(factors)
+    Ok(field)
 }
 
 /// What the design fixes beyond the cell kinds, from the skeleton
