@@ -87,13 +87,15 @@ fn reduce_blocks(
 
 /// Catmull-Rom (cubic convolution, a = -1/2; Keys 1981, "Cubic convolution interpolation
 /// for digital image processing", IEEE TASSP 29) of a coarse `m` x `m` grid (cell centres of
-/// blocks of `f` cells) at the centres of the `n` x `n` fine cells. Bilinear interpolation left every fine cell inside a coarse cell on a bilinear
-/// patch, which is harmonic (`a + bx + cy + dxy`), with creases along the coarse grid's
-/// lines: on a 4096^2 map from a 1024^2 run, a quarter of the cells, in a pattern of the
-/// coarse grid that the refinement step does not touch where the slope stands below the
-/// talus angle. The cubic keeps the coarse surface's curvature inside the coarse cells and
-/// its slope across their edges. O(cells x 16), in bands of rows with the job's ticks between
-/// them.
+/// blocks of `f` cells) at the centres of the `n` x `n` fine cells, separably: each coarse
+/// row across the fine columns once, then each fine row from four of those. Beyond the
+/// edge the samples are the odd reflection about the edge cell (`2 c_0 - c_k`), so linear
+/// ramps stay linear to the map's border. Bilinear interpolation left every fine cell inside
+/// a coarse cell on a bilinear patch, which is harmonic (`a + bx + cy + dxy`), with creases
+/// along the coarse grid's lines: on a 4096^2 map from a 1024^2 run, a quarter of the cells,
+/// in a pattern of the coarse grid. The cubic keeps the coarse surface's curvature inside the
+/// coarse cells and its slope across their edges. O(cells x 4 + m x n x 4), in bands of rows
+/// with the job's ticks between them.
 async fn expand(
     coarse: &[f32],
     m: usize,
@@ -101,58 +103,90 @@ async fn expand(
     n: usize,
     ctx: &JobCtx,
 ) -> Result<Vec<f32>, Cancelled> {
-    // Beyond the edge, the odd reflection about the edge cell (`2 c_0 - c_k`), which keeps
-    // linear ramps linear to the map's border, as the bilinear did.
-    let last = m as isize - 1;
-    let clamp = |v: isize| v.clamp(0, last) as usize;
-    let column = |x: isize, y: usize| {
-        let row = &coarse[y * m..(y + 1) * m];
-        if x < 0 {
-            2.0 * row[0] - row[clamp(-x)]
-        } else if x > last {
-            2.0 * row[last as usize] - row[clamp(2 * last - x)]
-        } else {
-            row[x as usize]
+    let taps = cubic_taps(m, f, n);
+    // The coarse rows interpolated across the fine columns (`m` rows of `n`).
+    let mut across = vec![0.0f32; m * n];
+    in_row_bands(ctx, FINISHING, &mut across, n, |rows, part| {
+        for (y, row) in rows.zip(part.chunks_mut(n)) {
+            let line = &coarse[y * m..(y + 1) * m];
+            for (v, tap) in row.iter_mut().zip(&taps) {
+                *v = tap.apply(|k| line[k]);
+            }
         }
-    };
-    let at = |x: isize, y: isize| {
-        if y < 0 {
-            2.0 * column(x, 0) - column(x, clamp(-y))
-        } else if y > last {
-            2.0 * column(x, last as usize) - column(x, clamp(2 * last - y))
-        } else {
-            column(x, y as usize)
-        }
-    };
-    // Each fine index's coarse cell below it and the four cubic weights.
-    let taps: Vec<(isize, [f32; 4])> = (0..n)
-        .map(|i| {
-            let p = (i as f32 + 0.5) / f as f32 - 0.5;
-            (p.floor() as isize, catmull_rom(p - p.floor()))
-        })
-        .collect();
+    })
+    .await?;
     let mut out = vec![0.0f32; n * n];
     in_row_bands(ctx, FINISHING, &mut out, n, |rows, part| {
         for (y, row) in rows.zip(part.chunks_mut(n)) {
-            let (y0, wy) = taps[y];
+            let tap = &taps[y];
             for (x, v) in row.iter_mut().enumerate() {
-                let (x0, wx) = taps[x];
-                let mut sum = 0.0;
-                for (j, wyj) in wy.iter().enumerate() {
-                    let yy = y0 - 1 + j as isize;
-                    let line: f32 = wx
-                        .iter()
-                        .enumerate()
-                        .map(|(k, wxk)| wxk * at(x0 - 1 + k as isize, yy))
-                        .sum();
-                    sum += wyj * line;
-                }
-                *v = sum;
+                *v = tap.apply(|k| across[k * n + x]);
             }
         }
     })
     .await?;
     Ok(out)
+}
+
+/// Where a fine index falls among the coarse samples: the four samples and their cubic
+/// weights.
+struct Tap {
+    samples: [Sample; 4],
+    weights: [f32; 4],
+}
+
+/// One sample of a tap: a coarse index, or the odd reflection of `mirror` about `edge`.
+#[derive(Clone, Copy)]
+enum Sample {
+    At(usize),
+    Reflected { edge: usize, mirror: usize },
+}
+
+impl Tap {
+    /// The interpolated value, `at(k)` reading coarse sample `k`.
+    fn apply(&self, at: impl Fn(usize) -> f32) -> f32 {
+        self.samples
+            .iter()
+            .zip(&self.weights)
+            .map(|(s, w)| {
+                w * match *s {
+                    Sample::At(k) => at(k),
+                    Sample::Reflected { edge, mirror } => 2.0 * at(edge) - at(mirror),
+                }
+            })
+            .sum()
+    }
+}
+
+/// The taps of the `n` fine centres over `m` coarse ones, `f` fine cells a coarse one.
+fn cubic_taps(m: usize, f: usize, n: usize) -> Vec<Tap> {
+    let last = m as isize - 1;
+    let clamp = |v: isize| v.clamp(0, last) as usize;
+    let sample = |k: isize| {
+        if k < 0 {
+            Sample::Reflected {
+                edge: 0,
+                mirror: clamp(-k),
+            }
+        } else if k > last {
+            Sample::Reflected {
+                edge: last as usize,
+                mirror: clamp(2 * last - k),
+            }
+        } else {
+            Sample::At(k as usize)
+        }
+    };
+    (0..n)
+        .map(|i| {
+            let p = (i as f32 + 0.5) / f as f32 - 0.5;
+            let below = p.floor() as isize;
+            Tap {
+                samples: std::array::from_fn(|j| sample(below - 1 + j as isize)),
+                weights: catmull_rom(p - p.floor()),
+            }
+        })
+        .collect()
 }
 
 /// The Catmull-Rom weights of the samples at -1, 0, 1 and 2 for a point `t` in [0, 1) past
@@ -277,10 +311,10 @@ struct Refinement {
 /// the coarse cell; at full strength, without the uplift it balanced in the coarse run, one
 /// long implicit step relaxed the fine grid towards a harmonic surface, 9% of the default
 /// scene's cells at 2048^2 and 28% at 4096^2, 4.0% and 6.2% now), on the interpolated
-/// heights roughened at the full grid's scale. Interpolation alone leaves smooth bilinear patches between the
-/// coarse cells (a harmonic surface: 27% of the cells of a 4096^2 map) and no channel
-/// finer than a coarse cell; the step cuts the small valleys the finer grid resolves and
-/// routes the water at full resolution (its drainage area is the stage's layer). This is
+/// heights roughened at the full grid's scale. Interpolation alone leaves no channel finer
+/// than a coarse cell (and the design's 1-cell river lines standing as levees); the step
+/// cuts the small valleys the finer grid resolves and routes the water at full resolution
+/// (its drainage area is the stage's layer). This is
 /// the coarse-to-fine use of a landscape-evolution model (a coarse run for the large
 /// valleys, a short run at the target resolution for the small ones); Braun & Willett's
 /// scheme is implicit, so one long step is stable. O(cells), on the coarse run's backend.
