@@ -1978,3 +1978,67 @@ fn generate_takes_painted_masks() {
         assert!(stderr.contains(words), "{bad}: {stderr}");
     }
 }
+
+/// The three columns (DEM, rebuilt, baseline) of a row of the table `features --rebuild`
+/// prints, `%` dropped.
+fn rebuild_row(text: &str, label: &str) -> [f64; 3] {
+    let line = text
+        .lines()
+        .map(str::trim)
+        .find(|l| l.starts_with(label))
+        .unwrap_or_else(|| panic!("no row {label:?}: {text}"));
+    let values: Vec<f64> = line[label.len()..]
+        .split_whitespace()
+        .take(3)
+        .map(|v| v.trim_end_matches('%').parse().expect("a number"))
+        .collect();
+    [values[0], values[1], values[2]]
+}
+
+/// Issue 32, item 6: a terrain rebuilt from a real DEM's features must beat the Laplace fill
+/// of a random 1% of the DEM's heights on SSIM and read as land where that fill does not.
+#[test]
+fn features_rebuild_reads_as_land_and_beats_a_random_fill() {
+    let dem = test_dem("srtm_n44e005_384.tif");
+    let dir = out_dir();
+    let (scene, rebuilt) = (dir.join("rebuild.json"), dir.join("rebuilt.tif"));
+    let out = strahler(&[
+        "features",
+        dem.to_str().unwrap(),
+        "--out",
+        scene.to_str().unwrap(),
+        "--rebuild",
+        rebuilt.to_str().unwrap(),
+        "--force",
+    ]);
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let [_, ours, fill] = rebuild_row(&text, "SSIM against the DEM");
+    assert!(
+        ours > fill,
+        "SSIM {ours} against the random fill's {fill}: {text}"
+    );
+    let [_, ours, fill] = rebuild_row(&text, "straight channel runs");
+    assert!(
+        ours <= 13.0 && fill > 13.0,
+        "straight runs {ours}% vs {fill}%: {text}"
+    );
+    let [_, ours, _] = rebuild_row(&text, "harmonic cells");
+    assert!(ours <= 5.0, "harmonic cells {ours}%: {text}");
+    let [_, ours, _] = rebuild_row(&text, "flats (< 0.5 deg)");
+    assert!(ours <= 3.0, "flats {ours}%: {text}");
+    let [real, ours, _] = rebuild_row(&text, "relief (m)");
+    assert!(
+        (ours - real).abs() < 0.1 * real,
+        "relief {ours} m vs {real} m: {text}"
+    );
+    // The scene erodes as a rebuild, and its size is the DEM's.
+    let json: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&scene).unwrap()).expect("the scene is JSON");
+    assert_eq!(json["erosion"]["preset"], "rebuild", "{json}");
+    assert_eq!(read_tif(&rebuilt).field.width(), 384);
+}

@@ -33,6 +33,9 @@
 //! - profile comparisons use the heights themselves: eqs. 1-2 are monotone, so this equals
 //!   comparing enhanced grey levels except inside the clipped 0/255 bands, where it keeps the
 //!   highest summits' ridges; the grey levels serve eq. 3, the edge weights and eq. 4;
+//! - each valley is continued from its mouth down the DEM's descent until it joins another
+//!   valley or leaves the map, so a terrain rebuilt from the lines drains as the DEM does
+//!   rather than pooling in flat lakes at the valleys' ends ([`drain`]);
 //! - the pruned forest is split into polylines (longest path first, then branches), lines
 //!   shorter than two sampling distances are dropped, valleys are oriented mouth first, and
 //!   output is capped ([`MAX_LINES`], [`MAX_POINTS_PER_LINE`], [`MAX_PEAKS`]).
@@ -42,6 +45,8 @@
 
 use std::fmt;
 
+pub mod baseline;
+mod drain;
 #[cfg(test)]
 mod tests;
 
@@ -68,6 +73,11 @@ pub struct FeatureParams {
     pub k_gray: f64,
     /// Sampling distance in cells of the sampling map (Sec. 3.1.2 step 1; paper: 5).
     ///
+    /// Choice: 3 by default. The paper's lines feed a learned generator; ours are the only
+    /// heights a rebuilt terrain is diffused and eroded from, and every valley or ridge the
+    /// sampling misses is one the rebuild lacks. On the SRTM crop of `tests/data` (384^2)
+    /// the rebuild's SSIM against the DEM rises from 0.68 to 0.80 (eroded: 0.55 to 0.68).
+    ///
     /// Choice: each sample stands for a `sampling`×`sampling` block and sits on the block's
     /// highest cell (lowest for valleys, i.e. highest of the inverted map). Plain decimation
     /// would put every line on a 5-cell lattice, up to 2.5 cells off the crest.
@@ -91,7 +101,7 @@ impl Default for FeatureParams {
     fn default() -> Self {
         Self {
             k_gray: 0.01,
-            sampling: 5,
+            sampling: 3,
             profile_len: 7,
             w: 0.03,
             prune_rounds: 3,
@@ -133,6 +143,22 @@ pub struct Features {
     pub ridge_cells: Vec<bool>,
     /// Raster valley map (`width * height`, row-major): cells crossed by a returned valley line.
     pub valley_cells: Vec<bool>,
+}
+
+impl Features {
+    /// The span of the heights the features carry (lines and peaks), metres; 0 for none.
+    pub fn height_range(&self) -> f64 {
+        let heights = self
+            .ridges
+            .iter()
+            .chain(&self.valleys)
+            .flat_map(|l| l.heights.iter().copied())
+            .chain(self.peaks.iter().map(|p| p.1));
+        let (lo, hi) = heights.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), h| {
+            (lo.min(h), hi.max(h))
+        });
+        if hi >= lo { hi - lo } else { 0.0 }
+    }
 }
 
 /// Why [`extract`] refused its input.
@@ -945,6 +971,8 @@ enum Stage {
     Enhance,
     Graph(Kind),
     Lines(Kind),
+    /// Valleys continued down to their outlets ([`drain`]).
+    Drain,
     Done,
 }
 
@@ -1036,8 +1064,12 @@ impl Extraction {
                 *dst = finish_lines(z, w, h, p.sampling, lines, kind, cells);
                 match kind {
                     Kind::Ridge => Stage::Graph(Kind::Valley),
-                    Kind::Valley => Stage::Done,
+                    Kind::Valley => Stage::Drain,
                 }
+            }
+            Stage::Drain => {
+                drain::drain_valleys(&mut self.out, z, w, h, p.sampling);
+                Stage::Done
             }
             Stage::Done => Stage::Done,
         };
@@ -1057,6 +1089,7 @@ impl Extraction {
             Stage::Lines(Kind::Ridge) => 0.4,
             Stage::Graph(Kind::Valley) => 0.55,
             Stage::Lines(Kind::Valley) => 0.85,
+            Stage::Drain => 0.95,
             Stage::Done => 1.0,
         }
     }
@@ -1069,6 +1102,7 @@ impl Extraction {
             Stage::Lines(Kind::Ridge) => "ridge lines",
             Stage::Graph(Kind::Valley) => "valley points",
             Stage::Lines(Kind::Valley) => "valley lines",
+            Stage::Drain => "valleys down to their outlets",
             Stage::Done => "done",
         }
     }

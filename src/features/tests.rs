@@ -214,6 +214,8 @@ fn tiny_and_mismatched_inputs_are_errors() {
         extract(&[0.0; 0], 0, 0, &p),
         Err(FeatureError::TooSmall { .. })
     ));
+    // Three sampling blocks a side: 15 cells for the paper's sampling of 5.
+    let p = FeatureParams { sampling: 5, ..p };
     let small = vec![0.0; 14 * 20];
     assert!(matches!(
         extract(&small, 14, 20, &p),

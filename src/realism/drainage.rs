@@ -211,6 +211,29 @@ pub fn drainage_area_m2_with_sinks(
     Some(flow_accumulation(&g, &rcv))
 }
 
+/// Where each cell of `heights` (`w` x `h`, cells `cell_x_m` x `cell_y_m`) drains by the
+/// measures' own routing (D8 on the Priority-Flood+epsilon surface, water leaving at the
+/// border and beside no data): the index of the cell it drains to, `u32::MAX` for outlets
+/// and no data, and the filled heights (strictly lower at each step down). `None` when the
+/// shape or cell size is not valid. O(cells).
+pub fn descent(
+    heights: &[f32],
+    w: usize,
+    h: usize,
+    cell_x_m: f64,
+    cell_y_m: f64,
+) -> Option<(Vec<u32>, Vec<f64>)> {
+    let mut g = Grid::new(heights, w, h, cell_x_m, cell_y_m)?;
+    let (z, outlet) = priority_flood_epsilon(&g);
+    g.z = z;
+    let rcv = d8_receivers(&g, &g.z, &outlet);
+    let to = rcv
+        .iter()
+        .map(|r| r.map_or(u32::MAX, |(j, _)| j as u32))
+        .collect();
+    Some((to, g.z))
+}
+
 /// The grid of `heights` with its heights replaced by the Priority-Flood+epsilon surface
 /// (no data where the input had none, so the routing reads the same), and the outlet flags:
 /// the input's `f64` copy is let go before the routing allocates its own fields.

@@ -19,7 +19,7 @@
 //! everywhere. Computation is in `f64`. Only `std` is used.
 
 mod drainage;
-pub use drainage::{drainage_area_m2, drainage_area_m2_with_sinks, outlets};
+pub use drainage::{descent, drainage_area_m2, drainage_area_m2_with_sinks, outlets};
 mod geomorphon;
 mod grid;
 mod harmonic;
@@ -36,7 +36,7 @@ pub use self::geomorphon::GEOMORPHON_NAMES;
 use self::grid::Grid;
 pub use self::landform::FLAT_DEG;
 pub use self::network::{ChannelNetwork, ChannelReport, extract_channels};
-pub use self::report::{BandFit, RealismReport};
+pub use self::report::{BandFit, RealismReport, comparison_table};
 pub use self::ssim::ssim;
 
 /// The realism report of one heightmap. All fields are 0 when nothing could be measured.

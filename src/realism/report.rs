@@ -164,74 +164,88 @@ impl RealismReport {
     /// `self` and `other` (e.g. a real DEM) side by side, a measure a line, with the range of
     /// real land where one is known (`shared/docs/realism.md`).
     pub fn comparison_lines(&self, other: &RealismReport, names: (&str, &str)) -> Vec<String> {
-        let rows: Vec<(&str, [String; 2], &str)> = vec![
-            (
-                "relief (m)",
-                self.pair(other, |r| format!("{:.0}", r.measures.relief_m)),
-                "",
-            ),
-            ("slope p10 (deg)", self.pair(other, |r| slope(r, 0)), ""),
-            ("slope median (deg)", self.pair(other, |r| slope(r, 2)), ""),
-            ("slope p90 (deg)", self.pair(other, |r| slope(r, 4)), ""),
-            (
-                "grid-direction index",
-                self.pair(other, |r| format!("{:.3}", r.measures.grid_direction_index)),
-                "0.005-0.09",
-            ),
-            (
-                "straight channel runs",
-                self.pair(other, |r| percent(r.measures.straight_channel_fraction)),
-                "4-13%",
-            ),
-            (
-                "flats (< 0.5 deg)",
-                self.pair(other, |r| percent(r.measures.flat_fraction)),
-                "~1% (mountains)",
-            ),
-            (
-                "harmonic cells",
-                self.pair(other, |r| percent(r.measures.harmonic_fraction)),
-                "2-5%",
-            ),
-            (
-                "hypsometric integral",
-                self.pair(other, |r| format!("{:.2}", r.measures.hypsometric_integral)),
-                "0.15-0.36",
-            ),
-            (
-                "spectral slope gamma",
-                self.pair(other, |r| optional(r.spectral_gamma)),
-                "2.5-4.5",
-            ),
-            (
-                "spectral bump (log2)",
-                self.pair(other, |r| optional(r.spectral_bump)),
-                "0.3-0.9",
-            ),
-            (
-                "drainage density (/km)",
-                self.pair(other, |r| {
-                    format!("{:.2}", r.measures.drainage_density_per_km)
-                }),
-                "",
-            ),
-        ];
-        let mut lines = vec![format!(
-            "{:<24}{:>14}{:>14}  {}",
-            "",
-            clip(names.0),
-            clip(names.1),
-            "real land"
-        )];
-        for (label, [a, b], real) in rows {
-            lines.push(format!("{label:<24}{a:>14}{b:>14}  {real}"));
-        }
-        lines
+        comparison_table(&[(names.0, self), (names.1, other)], &[])
     }
+}
 
-    fn pair(&self, other: &RealismReport, f: impl Fn(&RealismReport) -> String) -> [String; 2] {
-        [f(self), f(other)]
+/// The realism measures of several terrains side by side, a column each (named), the range
+/// of real land last; `extra` rows (a label and a value per column) come first.
+pub fn comparison_table(
+    columns: &[(&str, &RealismReport)],
+    extra: &[(&str, Vec<String>)],
+) -> Vec<String> {
+    let row = |f: &dyn Fn(&RealismReport) -> String| -> Vec<String> {
+        columns.iter().map(|(_, r)| f(r)).collect()
+    };
+    let mut rows: Vec<(&str, Vec<String>, &str)> = extra
+        .iter()
+        .map(|(label, values)| (*label, values.clone(), ""))
+        .collect();
+    rows.extend([
+        (
+            "relief (m)",
+            row(&|r| format!("{:.0}", r.measures.relief_m)),
+            "",
+        ),
+        ("slope p10 (deg)", row(&|r| slope(r, 0)), ""),
+        ("slope median (deg)", row(&|r| slope(r, 2)), ""),
+        ("slope p90 (deg)", row(&|r| slope(r, 4)), ""),
+        (
+            "grid-direction index",
+            row(&|r| format!("{:.3}", r.measures.grid_direction_index)),
+            "0.005-0.09",
+        ),
+        (
+            "straight channel runs",
+            row(&|r| percent(r.measures.straight_channel_fraction)),
+            "4-13%",
+        ),
+        (
+            "flats (< 0.5 deg)",
+            row(&|r| percent(r.measures.flat_fraction)),
+            "~1% (mountains)",
+        ),
+        (
+            "harmonic cells",
+            row(&|r| percent(r.measures.harmonic_fraction)),
+            "2-5%",
+        ),
+        (
+            "hypsometric integral",
+            row(&|r| format!("{:.2}", r.measures.hypsometric_integral)),
+            "0.15-0.36",
+        ),
+        (
+            "spectral slope gamma",
+            row(&|r| optional(r.spectral_gamma)),
+            "2.5-4.5",
+        ),
+        (
+            "spectral bump (log2)",
+            row(&|r| optional(r.spectral_bump)),
+            "0.3-0.9",
+        ),
+        (
+            "drainage density (/km)",
+            row(&|r| format!("{:.2}", r.measures.drainage_density_per_km)),
+            "",
+        ),
+    ]);
+    let mut header = format!("{:<24}", "");
+    for (name, _) in columns {
+        header.push_str(&format!("{:>14}", clip(name)));
     }
+    header.push_str("  real land");
+    let mut lines = vec![header];
+    for (label, values, real) in rows {
+        let mut line = format!("{label:<24}");
+        for v in values {
+            line.push_str(&format!("{v:>14}"));
+        }
+        line.push_str(&format!("  {real}"));
+        lines.push(line.trim_end().to_string());
+    }
+    lines
 }
 
 fn slope(r: &RealismReport, k: usize) -> String {

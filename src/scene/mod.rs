@@ -714,9 +714,11 @@ impl Scene {
             size: side,
             cell_size: cell_m,
             sketch: SketchSettings::from_features(found, scale),
-            // The sketch carries the DEM's own heights; erosion (one switch away) would carve
-            // a new drainage into it rather than rebuild the DEM.
-            erosion: None,
+            // The sketch carries the DEM's heights and its valleys drain as the DEM does; the
+            // erosion dissects that relief as land between the lines.
+            erosion: Some(crate::erosion::ErosionSettings::rebuild(
+                found.height_range(),
+            )),
             ..Scene::default()
         };
         scene.validate()?;
