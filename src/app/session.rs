@@ -186,7 +186,7 @@ impl Session {
 
     /// A session on `scene` with `undo` steps before it (oldest first), as an earlier visit
     /// left them.
-    pub fn restored(scene: Scene, undo: Vec<Scene>) -> Self {
+    pub fn restored(scene: Scene, undo: Vec<crate::scene::Patch>) -> Self {
         let mut history = History::default();
         history.start(scene.clone(), undo);
         Self {

@@ -8,9 +8,11 @@
 
 mod edit;
 mod file;
+mod patch;
 mod validate;
 
 pub use edit::{Edit, EditError, LineKind};
+pub use patch::Patch;
 
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
