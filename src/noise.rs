@@ -5,6 +5,15 @@
 use rand::rngs::ChaCha12Rng;
 use rand::{RngExt, SeedableRng};
 
+/// SplitMix64's finaliser (Steele, Lea and Flood 2014, "Fast splittable pseudorandom number
+/// generators"): a bijective mix of 64 bits, the hash the stages draw reproducible values from
+/// (a seed and a cell index, a link's end points).
+pub fn splitmix64(mut z: u64) -> u64 {
+    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+    z ^ (z >> 31)
+}
+
 /// The eight 2D gradients of improved noise, picked by the low three bits of the hash:
 /// `x + y`, `-x + y`, `x - y`, `-x - y`, `x`, `-x`, `y`, `-y`.
 const GRADIENTS: [(f64, f64); 8] = [

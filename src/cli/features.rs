@@ -7,7 +7,6 @@ use std::path::PathBuf;
 use clap::Args;
 
 use crate::dem::{GeoRef, ReadLimits, hillshade};
-use crate::erosion::ErosionSettings;
 use crate::features::{self, FeatureParams, Features};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
@@ -56,6 +55,11 @@ pub struct FeaturesArgs {
 }
 
 pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
+    // A bad choice is refused before any work: `None` keeps the rebuild's own erosion.
+    let erosion = match args.erosion.as_str() {
+        "rebuild" => None,
+        name => Some(super::generate::erosion_named(name, &["rebuild"])?),
+    };
     let mut outputs = Outputs::new(args.force);
     outputs.input(&args.input, "input");
     outputs.claim(&args.out, "scene")?;
@@ -82,16 +86,9 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
     let (cx, _) = dem.georef.cell_size_m(h).unwrap_or((30.0, 30.0));
     let mut scene = Scene::from_features(&found, w, h, cx)
         .map_err(|e| format!("{}: {e}", args.input.display()))?;
-    scene.erosion = match args.erosion.as_str() {
-        "rebuild" => scene.erosion,
-        "none" => None,
-        name => Some(ErosionSettings::preset(name).ok_or_else(|| {
-            format!(
-                "--erosion: unknown preset {name:?}; use rebuild, one of {} or none",
-                crate::erosion::PRESETS.join(", ")
-            )
-        })?),
-    };
+    if let Some(erosion) = erosion {
+        scene.erosion = erosion;
+    }
     let s = &scene.sketch;
     let kept = (s.ridges.len(), s.valleys.len(), s.peaks.len());
     if kept != (found.ridges.len(), found.valleys.len(), found.peaks.len()) {

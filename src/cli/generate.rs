@@ -212,17 +212,8 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
             strength: 1.0,
         });
     }
-    match args.erosion.as_deref() {
-        None => {}
-        Some("none") => scene.erosion = None,
-        Some(name) => {
-            scene.erosion = Some(ErosionSettings::preset(name).ok_or_else(|| {
-                format!(
-                    "--erosion: unknown preset {name:?}; use one of {} or none",
-                    crate::erosion::PRESETS.join(", ")
-                )
-            })?)
-        }
+    if let Some(name) = args.erosion.as_deref() {
+        scene.erosion = erosion_named(name, &[])?;
     }
     scene
         .rivers
@@ -437,6 +428,22 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("note: {note}");
     }
     Ok(())
+}
+
+/// The erosion `--erosion NAME` asks for: a preset, or none for "none"; `more` names the
+/// other choices the caller takes before this (for the error).
+pub(super) fn erosion_named(name: &str, more: &[&str]) -> Result<Option<ErosionSettings>, String> {
+    if name == "none" {
+        return Ok(None);
+    }
+    ErosionSettings::preset(name).map(Some).ok_or_else(|| {
+        let mut choices: Vec<&str> = more.to_vec();
+        choices.extend(crate::erosion::PRESETS);
+        format!(
+            "--erosion: unknown preset {name:?}; use one of {} or none",
+            choices.join(", ")
+        )
+    })
 }
 
 /// The engine export `--preset`, `--tiles`, `--maps` or `--geojson` ask for, its files claimed

@@ -551,11 +551,7 @@ pub(super) fn roughen_from(
     if sigma <= 0.0 {
         return;
     }
-    let mix = |mut z: u64| {
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    };
+    let mix = crate::noise::splitmix64;
     for (i, (h, fixed)) in (first..).zip(heights.iter_mut().zip(base)) {
         if *fixed {
             continue;

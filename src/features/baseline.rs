@@ -29,12 +29,8 @@ pub const SAMPLE_FRACTION: f64 = 0.01;
 /// the seed and the index below `fraction` of its range, so the sample is the same on every
 /// platform and does not depend on the order cells are visited.
 fn picked(seed: u64, i: usize, fraction: f64) -> bool {
-    let mix = |mut z: u64| {
-        z = z.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    };
+    const GAMMA: u64 = 0x9e37_79b9_7f4a_7c15;
+    let mix = |z: u64| crate::noise::splitmix64(z.wrapping_add(GAMMA));
     let unit = (mix(seed ^ mix(i as u64)) >> 11) as f64 / (1u64 << 53) as f64;
     unit < fraction
 }

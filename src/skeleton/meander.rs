@@ -13,6 +13,8 @@
 
 use glam::DVec2;
 
+use crate::noise::splitmix64;
+
 /// The most a piece's midpoint moves sideways, as a fraction of the piece's length (0.15
 /// gives a sinuosity near 1.1 and keeps a link within a sixth of its length of the straight
 /// one, far from the ridges between rivers).
@@ -52,7 +54,9 @@ pub fn course(a: DVec2, b: DVec2, n: usize) -> Vec<DVec2> {
 
 /// A uniform number in [-1, 1] for piece `i` of `level` of the link `key`.
 fn unit(key: u64, level: u32, i: u32) -> f64 {
-    let h = mix(key ^ (u64::from(level) << 32 | u64::from(i)).wrapping_mul(0x9e37_79b9_7f4a_7c15));
+    let h = splitmix64(
+        key ^ (u64::from(level) << 32 | u64::from(i)).wrapping_mul(0x9e37_79b9_7f4a_7c15),
+    );
     (h >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
 }
 
@@ -60,14 +64,7 @@ fn unit(key: u64, level: u32, i: u32) -> f64 {
 fn link_key(a: DVec2, b: DVec2) -> u64 {
     [a.x, a.y, b.x, b.y]
         .iter()
-        .fold(0x5851_f42d_4c95_7f2d, |h, v| mix(h ^ v.to_bits()))
-}
-
-/// SplitMix64's finaliser (Steele, Lea & Flood 2014).
-fn mix(mut z: u64) -> u64 {
-    z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-    z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-    z ^ (z >> 31)
+        .fold(0x5851_f42d_4c95_7f2d, |h, v| splitmix64(h ^ v.to_bits()))
 }
 
 #[cfg(test)]

@@ -402,6 +402,25 @@ async function runMode(url, mode, expectedChecksum) {
     check('a scripted edit is autosaved within 2 s and restored after a reload', restored === scripted,
       `${scripted} vs ${restored}`);
     await page.screenshot({ path: join(output, `${mode}.png`) });
+    // Issue 32: the uploaded DEM's features become the scene, which erodes as a rebuild of
+    // the DEM (its valleys run on to their outlets).
+    const before = await page.evaluate(() => window.strahler.status().lastRun?.checksum);
+    await page.evaluate(() => window.strahler.extractFeatures());
+    await page.waitForFunction((old) => {
+      const s = window.strahler.status();
+      return window.strahler.scene()?.erosion?.preset === 'rebuild' && s.job === null
+        && s.lastRun?.checksum !== old;
+    }, before, { timeout: 120_000 });
+    const rebuilt = await page.evaluate(() => {
+      const s = window.strahler.scene();
+      const run = window.strahler.status().lastRun;
+      const k = s.sketch;
+      return { size: s.size, rivers: s.rivers.length, lines: k.ridges.length + k.valleys.length,
+        peaks: k.peaks.length, relief: run.max - run.min };
+    });
+    check('extractFeatures() makes the DEM\'s features the scene and rebuilds it with erosion',
+      rebuilt.size === 87 && rebuilt.rivers === 0 && rebuilt.lines > 0 && rebuilt.peaks > 0
+        && rebuilt.relief > 30 && rebuilt.relief < 200, JSON.stringify(rebuilt));
     check('no page errors', pageErrors.length === 0, pageErrors.join('\n'));
     // Every GPU kernel (the 3D view's too) compiled in this browser at start.
     if (mode === 'webgpu') {
