@@ -383,3 +383,61 @@ fn a_design_turned_by_30_degrees_measures_the_same() {
         assert!(m.straight_channel_fraction <= 0.15, "{m:?}");
     }
 }
+
+/// The scene's `erosion.strength_spread` reaches the terrain: with one talus angle
+/// (spread 0) the failed flanks of a steep small map stand at that angle, with the default
+/// spread far fewer cells do (weaker rock fails lower: chutes and ribs, not planes); a scene
+/// file carries it.
+#[test]
+fn the_rocks_strength_spread_is_a_scene_setting_that_breaks_planar_flanks() {
+    let with = |spread: f64| {
+        let mut scene = Scene::from_json(
+            r#"{"version": 1, "size": 256, "cell_size": 8.0,
+                "rivers": [{"estuary": [0.5, 1.0], "toward": [0.5, 0.3]}]}"#,
+        )
+        .expect("a valid scene");
+        let erosion = scene.erosion.as_mut().expect("eroded by default");
+        erosion.strength_spread = spread;
+        let talus = erosion.talus_deg.expect("a talus angle");
+        let text = scene.to_json();
+        assert!(text.contains("\"strength_spread\""), "{text}");
+        assert_eq!(Scene::from_json(&text).unwrap(), scene, "the file keeps it");
+        let out = run(&scene);
+        (
+            at_angle(&out.field, 8.0, talus),
+            out.report.terrain.checksum.clone(),
+        )
+    };
+    let (planar, one_angle) = with(0.0);
+    let (broken, varied) = with(0.3);
+    assert_ne!(one_angle, varied);
+    assert!(
+        planar > 0.02 && broken < planar / 2.0,
+        "cells at the talus angle: {broken} with the spread vs {planar} with one angle"
+    );
+}
+
+/// Share of the interior cells whose steepest descent to a neighbour lies within a degree
+/// below `talus_deg`.
+fn at_angle(field: &Heightfield, cell_m: f64, talus_deg: f64) -> f64 {
+    let (n, z) = (field.width(), field.data());
+    let mut count = 0usize;
+    for y in 1..n - 1 {
+        for x in 1..n - 1 {
+            let i = y * n + x;
+            let mut steepest = 0.0f64;
+            for (dx, dy) in [(1i64, 0i64), (0, 1), (1, 1), (1, -1)] {
+                let d = cell_m * ((dx * dx + dy * dy) as f64).sqrt();
+                for s in [1, -1] {
+                    let j = (i as i64 + s * (dy * n as i64 + dx)) as usize;
+                    steepest = steepest.max(f64::from(z[i] - z[j]) / d);
+                }
+            }
+            let deg = steepest.atan().to_degrees();
+            if (talus_deg - 1.0..=talus_deg + 0.01).contains(&deg) {
+                count += 1;
+            }
+        }
+    }
+    count as f64 / ((n - 2) * (n - 2)) as f64
+}

@@ -51,6 +51,7 @@ const FIELDS: &[&str] = &[
     "erosion.river_band",
     "erosion.roughness_m",
     "erosion.rock_contrast",
+    "erosion.strength_spread",
     "erosion.rock_patch_m",
     "erosion.strata_m",
     "erosion.strata_contrast",

@@ -327,7 +327,7 @@ mod tests {
         let (n, cell_m) = (65, 10.0);
         let plain = Mask::new(n, n, cell_m, 35.0);
         let mut factors = vec![0.0f32; n * n];
-        super::super::SlopeStrength::new(n, cell_m, 3).rows(0, &mut factors);
+        super::super::SlopeStrength::new(n, cell_m, 3, 0.3).rows(0, &mut factors);
         let varied = Mask::new(n, n, cell_m, 35.0).with_strength(factors);
         let spread = |mask: &Mask| {
             let (eroded, _, _) = worn_peak_held(n, 600.0, mask);

@@ -45,8 +45,9 @@ use std::ops::Range;
 
 use crate::noise::{FbmGrid, Perlin};
 
-/// The strength factors span `(1 - SPREAD, 1]` times the talus slope's tangent: at a talus
-/// of 35 degrees the weakest rock fails at 26 degrees.
+/// The default spread of the strength factors (the scene's `erosion.strength_spread`): they
+/// span `(1 - spread, 1]` times the talus slope's tangent; at 0.3 and a talus of 35 degrees
+/// the weakest rock fails at 26 degrees.
 pub const SPREAD: f64 = 0.3;
 /// Wavelength of the strength field's largest octave, metres: buttresses and gullies of a
 /// rock face (its finer octaves go down to two cells of the grid).
@@ -74,7 +75,7 @@ const FORWARD: [(isize, isize); 8] = [
 ];
 
 /// The rock's strength on an `n` x `n` map of `cell_m` cells: each cell's factor on the
-/// talus slope's tangent, in `(1 - SPREAD, 1]`, sampled row by row ([`Strength::rows`]).
+/// talus slope's tangent, in `(1 - spread, 1]`, sampled row by row ([`Strength::rows`]).
 /// Positions are in metres, so the same scene has the same rock at any resolution (a finer
 /// grid adds octaves, down to two of its cells).
 pub struct Strength {
@@ -83,10 +84,12 @@ pub struct Strength {
     /// fBm cycles of the largest octave across the map.
     cycles: f64,
     octaves: u32,
+    spread: f64,
 }
 
 impl Strength {
-    pub fn new(n: usize, cell_m: f64, seed: u64) -> Self {
+    /// `spread` in `[0, 1)`: 0 is rock of one strength everywhere.
+    pub fn new(n: usize, cell_m: f64, seed: u64, spread: f64) -> Self {
         let finest = STRENGTH_SCALE_M / (2.0 * cell_m.max(1e-9));
         let octaves = (finest.max(1.0).log2().floor() as u32 + 1).min(MAX_OCTAVES);
         Self {
@@ -94,6 +97,7 @@ impl Strength {
             n,
             cycles: n as f64 * cell_m / STRENGTH_SCALE_M,
             octaves,
+            spread,
         }
     }
 
@@ -112,7 +116,7 @@ impl Strength {
             let (x, y) = (k % n, first_row + k / n);
             // `u` in [0, 1] about 1/2 (GAIN widens the octaves' normalised sum).
             let u = (0.5 + GAIN * fbm.at(x, y)).clamp(0.0, 1.0);
-            *v = (1.0 - SPREAD * u) as f32;
+            *v = (1.0 - self.spread * u) as f32;
         }
     }
 }
@@ -278,7 +282,7 @@ mod tests {
         let n = 256;
         let field = |seed| {
             let mut out = vec![0.0f32; n * n];
-            Strength::new(n, 2.5, seed).rows(0, &mut out);
+            Strength::new(n, 2.5, seed, SPREAD).rows(0, &mut out);
             out
         };
         let f = field(3);
@@ -295,9 +299,23 @@ mod tests {
         let steps = (1..n).filter(|x| f[x - 1] != f[*x]).count();
         assert!(steps > n * 9 / 10, "{steps}");
         let mut half = vec![0.0f32; n * n / 2];
-        Strength::new(n, 2.5, 3).rows(n / 2, &mut half);
+        Strength::new(n, 2.5, 3, SPREAD).rows(n / 2, &mut half);
         assert_eq!(&f[n * n / 2..], &half[..]);
         assert_ne!(f, field(4));
+        // The scene's spread sets the range: none is one angle, a wider one reaches lower.
+        let mut one = vec![0.0f32; n * n];
+        Strength::new(n, 2.5, 3, 0.0).rows(0, &mut one);
+        assert!(one.iter().all(|v| *v == 1.0));
+        let mut wide = vec![0.0f32; n * n];
+        Strength::new(n, 2.5, 3, 0.6).rows(0, &mut wide);
+        let lowest = |f: &[f32]| f.iter().copied().fold(1.0f32, f32::min);
+        assert!(wide.iter().all(|v| (0.4..=1.0).contains(v)));
+        assert!(
+            lowest(&wide) < lowest(&f) - 0.05,
+            "{} vs {}",
+            lowest(&wide),
+            lowest(&f)
+        );
     }
 
     /// With the rock's strength a failed slope is no plane: a table cut back from a river
@@ -324,7 +342,7 @@ mod tests {
         let mut plain = table.clone();
         limited(&mut plain, n, &base, 35.0);
         let mut strength = vec![0.0f32; n * n];
-        Strength::new(n, 10.0, 5).rows(0, &mut strength);
+        Strength::new(n, 10.0, 5, SPREAD).rows(0, &mut strength);
         let mut varied = table.clone();
         limited_in(
             &mut varied,

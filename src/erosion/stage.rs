@@ -64,6 +64,10 @@ pub struct ErosionSettings {
     pub strata_m: f64,
     /// How many times faster the soft beds erode than the hard ones (1 = no beds).
     pub strata_contrast: f64,
+    /// How much the rock's strength varies under the talus angle: each cell's slope may
+    /// reach `tan(talus)` times a factor in `(1 - spread, 1]` ([`super::SlopeStrength`]),
+    /// so failed flanks are chutes and ribs, not planes; 0 = one angle everywhere.
+    pub strength_spread: f64,
 }
 
 impl Default for ErosionSettings {
@@ -165,6 +169,7 @@ impl ErosionSettings {
             rock_patch_m: DEFAULT_ROCK_PATCH_M,
             strata_m,
             strata_contrast,
+            strength_spread: super::slope_limit::SPREAD,
         }
     }
 
@@ -228,6 +233,15 @@ impl ErosionSettings {
             return Err((
                 "strata_contrast",
                 format!("must be 1 (no beds) to 100, got {}", self.strata_contrast),
+            ));
+        }
+        if !(self.strength_spread.is_finite() && (0.0..=0.9).contains(&self.strength_spread)) {
+            return Err((
+                "strength_spread",
+                format!(
+                    "must be 0 (one talus angle) to 0.9, got {}",
+                    self.strength_spread
+                ),
             ));
         }
         // Physical ranges, and a bound on the work a scene can ask for (the solver itself
@@ -757,7 +771,7 @@ pub(super) fn strength_of(
         return Vec::new();
     }
     let mut factors = vec![0.0f32; n * n];
-    super::SlopeStrength::new(n, cell_m, seed).rows(0, &mut factors);
+    super::SlopeStrength::new(n, cell_m, seed, settings.strength_spread).rows(0, &mut factors);
     factors
 }
 
@@ -776,7 +790,7 @@ pub(super) async fn strength_in_bands(
     if settings.talus_deg.is_none() {
         return Ok(Vec::new());
     }
-    let strength = super::SlopeStrength::new(n, cell_m, seed);
+    let strength = super::SlopeStrength::new(n, cell_m, seed, settings.strength_spread);
     field_in_bands(n, ctx, |first_row, rows| strength.rows(first_row, rows)).await
 }
 

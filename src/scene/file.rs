@@ -71,6 +71,7 @@ pub mod erosion {
         rock_patch_m: f64,
         strata_m: f64,
         strata_contrast: f64,
+        strength_spread: f64,
     }
 
     impl Default for Erosion {
@@ -97,6 +98,7 @@ pub mod erosion {
                 rock_patch_m: e.rock_patch_m,
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
+                strength_spread: e.strength_spread,
             }
         }
     }
@@ -119,6 +121,7 @@ pub mod erosion {
                 rock_patch_m: e.rock_patch_m,
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
+                strength_spread: e.strength_spread,
             }
         }
     }

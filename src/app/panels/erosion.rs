@@ -103,6 +103,7 @@ fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
             row(ui, "Rock patches (m)", "The size of the patches of harder and softer rock, in metres.", &mut e.rock_patch_m, 10.0..=1.0e6, 10.0);
             row(ui, "Rock beds (m)", "Layered rock: the thickness of one hard bed and the soft bed above it, in metres (0 = no beds). Rivers cutting through the beds leave cliffs at the hard beds and benches at the soft ones: mesas, buttes, stepped canyon walls.", &mut e.strata_m, 0.0..=10_000.0, 1.0);
             row(ui, "Bed contrast", "How many times faster the soft beds erode than the hard ones (1 = no beds).", &mut e.strata_contrast, 1.0..=100.0, 0.1);
+            row(ui, "Strength spread", "How much the rock's strength varies under the talus angle: each cell's steepest slope is the talus slope times a factor between 1 - spread and 1 (0 = one angle everywhere, whose failed flanks are planes; more gives chutes and ribs).", &mut e.strength_spread, 0.0..=0.9, 0.01);
             let label = ui.label("Steps").on_hover_text("Time steps (the implicit scheme is stable at any step; more steps follow the evolution more closely).");
             ui.add(DragValue::new(&mut e.steps).range(1..=1000)).labelled_by(label.id);
             ui.end_row();
