@@ -1056,8 +1056,9 @@ pub async fn erode_field_within(
     let mut heights = solved.heights;
     // The flanks of held peaks and ridges stand within the talus slope varied by the rock's
     // strength, as the solver held them, so they are not cones of planes. Half the solver's
-    // spread of strength (factors 0.85-1): with all of it a peak sketched at 1200 m on a
-    // 10 km map stood 11% short (1072 m), the angle carrying less height from the rivers.
+    // spread of strength (factors 0.85-1 at the default spread): with all of it a peak
+    // sketched at 1200 m on a 10 km map stood 11% short (1072 m), the angle carrying less
+    // height from the rivers.
     let limit = match settings.talus_deg {
         Some(talus) if !anchors.held.is_empty() => {
             let mut strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;

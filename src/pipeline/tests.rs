@@ -324,6 +324,7 @@ fn every_field_scene() -> Scene {
     erosion.rock_patch_m = 700.0;
     erosion.strata_m = 90.0;
     erosion.strata_contrast = 5.0;
+    erosion.strength_spread = 0.45;
     scene.erosion = Some(erosion);
     let mut painted = Mask::new(16, 16).unwrap();
     painted.paint_segment(
