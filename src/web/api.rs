@@ -208,13 +208,13 @@ fn install_dem(api: &js_sys::Object, automation: &Automation) {
     let fill_target = automation.clone();
     let features_target = automation.clone();
     let extract_features = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
-        applied(&features_target, Command::ExtractFeatures)
+        finished(&features_target, Command::ExtractFeatures)
     });
     set(api, "extractFeatures", extract_features.as_ref());
     extract_features.forget();
 
     let fill_voids = Closure::<dyn Fn() -> js_sys::Promise>::new(move || {
-        applied(&fill_target, Command::FillVoids)
+        finished(&fill_target, Command::FillVoids)
     });
     set(api, "fillVoids", fill_voids.as_ref());
     fill_voids.forget();
@@ -523,6 +523,21 @@ fn applied(automation: &Automation, command: Command) -> js_sys::Promise {
         while automation.applied() < number {
             sleep(10).await;
         }
+        Ok(JsValue::UNDEFINED)
+    })
+}
+
+/// A promise of `command` that resolves once it is applied and the jobs it started are
+/// done (a command that runs as a job: its result is in the scene or the DEM panel, and
+/// the terrain of the scene it made is computed).
+fn finished(automation: &Automation, command: Command) -> js_sys::Promise {
+    let number = automation.push(command);
+    let automation = automation.clone();
+    wasm_bindgen_futures::future_to_promise(async move {
+        while automation.applied() < number {
+            sleep(10).await;
+        }
+        settled(&automation).await;
         Ok(JsValue::UNDEFINED)
     })
 }

@@ -405,7 +405,10 @@ async function runMode(url, mode, expectedChecksum) {
     // Issue 32: the uploaded DEM's features become the scene, which erodes as a rebuild of
     // the DEM (its valleys run on to their outlets).
     const before = await page.evaluate(() => window.strahler.status().lastRun?.checksum);
+    // The promise resolves once the features are the scene (and its terrain is built).
     await page.evaluate(() => window.strahler.extractFeatures());
+    const preset = await page.evaluate(() => window.strahler.scene().erosion?.preset);
+    check('extractFeatures() resolves once the features are the scene', preset === 'rebuild', String(preset));
     await page.waitForFunction((old) => {
       const s = window.strahler.status();
       return window.strahler.scene()?.erosion?.preset === 'rebuild' && s.job === null
