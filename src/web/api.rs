@@ -531,12 +531,10 @@ fn applied(automation: &Automation, command: Command) -> js_sys::Promise {
 /// done (a command that runs as a job: its result is in the scene or the DEM panel, and
 /// the terrain of the scene it made is computed).
 fn finished(automation: &Automation, command: Command) -> js_sys::Promise {
-    let number = automation.push(command);
+    automation.push(command);
     let automation = automation.clone();
     wasm_bindgen_futures::future_to_promise(async move {
-        while automation.applied() < number {
-            sleep(10).await;
-        }
+        // Every command queued so far, this one included, applied and no job running.
         settled(&automation).await;
         Ok(JsValue::UNDEFINED)
     })
