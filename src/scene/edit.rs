@@ -3,13 +3,15 @@
 //! The app's panels and map tools return edits, and `window.strahler` sends the same ones, so
 //! a change made with the mouse and one made by a script go through the same code and the
 //! same checks; the session keeps undo, redo and autosave on the edits it applies. An edit
-//! that cannot apply (an index past the end, a block outside the map) is refused with a
-//! specific message and leaves the scene as it was.
+//! that cannot apply (an index past the end, a value out of range) is refused with the
+//! message [`Scene::validate`] gives for it and leaves the scene as it was.
 
 use thiserror::Error;
 
+use super::validate::Part;
 use super::{
-    DetailSettings, Params, RiverStroke, Scene, SketchLine, SketchPeak, StyleSettings, TextureRules,
+    DetailSettings, Params, RiverStroke, Scene, SceneError, SketchLine, SketchPeak, StyleSettings,
+    TextureRules,
 };
 use crate::blend::BlendBlock;
 use crate::erosion::ErosionSettings;
@@ -117,19 +119,68 @@ fn item<'a, T>(
         .ok_or(EditError::NoSuchItem { what, index, len })
 }
 
-/// Checks a block as a scene file's would be.
-fn check_block(block: &BlendBlock, index: usize) -> Result<(), EditError> {
-    block
-        .validate()
-        .map_err(|(field, problem)| EditError::Invalid {
-            field: format!("blend[{index}].{field}"),
-            problem,
-        })
+impl From<SceneError> for EditError {
+    fn from(error: SceneError) -> Self {
+        match error {
+            SceneError::Invalid { field, problem } => Self::Invalid { field, problem },
+            SceneError::Parse(problem) => Self::Invalid {
+                field: "scene".into(),
+                problem,
+            },
+        }
+    }
+}
+
+impl Edit {
+    /// The part of `scene` this edit changes, whose checks the result must pass.
+    fn part(&self, scene: &Scene) -> Part {
+        match self {
+            Self::AddRiver(_) | Self::SetRiver { .. } => Part::Rivers,
+            Self::AddLine { .. }
+            | Self::SetLine { .. }
+            | Self::AddPeak(_)
+            | Self::SetPeak { .. } => Part::Sketch,
+            Self::SetGrid { .. } => Part::Map,
+            Self::SetLocation(_) => Part::Location,
+            Self::SetParams(_) => Part::Params,
+            Self::SetErosion(_) => Part::Erosion,
+            Self::SetStyle(_) => Part::Style,
+            Self::SetDetail(_) => Part::Detail,
+            Self::AddBlock(_) => Part::Block(scene.blend.len()),
+            Self::SetBlock { index, .. } | Self::SetBlockRect { index, .. } => Part::Block(*index),
+            Self::SetTextures(_) => Part::Textures,
+            Self::RemoveRiver(_)
+            | Self::ClearRivers
+            | Self::RemoveLine { .. }
+            | Self::RemovePeak(_)
+            | Self::ClearSketch
+            | Self::SetSeed(_)
+            | Self::SetMask(..)
+            | Self::RemoveBlock(_)
+            | Self::Replace(_) => Part::Unchecked,
+        }
+    }
 }
 
 impl Scene {
-    /// Applies `edit`, or refuses it with the scene unchanged.
+    /// Applies `edit`, or refuses it with the scene unchanged: a missing item, or a value
+    /// [`Scene::validate`] would refuse in the part the edit changes (with its message). A
+    /// whole scene ([`Edit::Replace`]) is taken as it is: the history goes back to any scene
+    /// the session held.
     pub fn apply(&mut self, edit: Edit) -> Result<(), EditError> {
+        let part = edit.part(self);
+        if part == Part::Unchecked {
+            return self.change(edit);
+        }
+        let mut next = self.clone();
+        next.change(edit)?;
+        next.check_part(part)?;
+        *self = next;
+        Ok(())
+    }
+
+    /// Makes the change `edit` names, refusing only a missing item.
+    fn change(&mut self, edit: Edit) -> Result<(), EditError> {
         match edit {
             Edit::AddRiver(stroke) => self.rivers.push(stroke),
             Edit::SetRiver { index, stroke } => *item(&mut self.rivers, index, "river")? = stroke,
@@ -153,15 +204,7 @@ impl Scene {
                 self.sketch.peaks.remove(index);
             }
             Edit::ClearSketch => self.sketch = Default::default(),
-            Edit::SetGrid { size, cell_size } => {
-                if !(cell_size.is_finite() && cell_size > 0.0) || size < 2 {
-                    return Err(EditError::Invalid {
-                        field: "size, cell_size".into(),
-                        problem: format!("{size} cells of {cell_size} m is not a map"),
-                    });
-                }
-                (self.size, self.cell_size) = (size, cell_size);
-            }
+            Edit::SetGrid { size, cell_size } => (self.size, self.cell_size) = (size, cell_size),
             Edit::SetSeed(seed) => self.seed = seed,
             Edit::SetLocation(location) => self.location = location,
             Edit::SetParams(params) => self.params = params,
@@ -175,39 +218,16 @@ impl Scene {
                 };
             }
             Edit::SetMask(kind, mask) => self.set_mask(kind, mask.as_ref()),
-            Edit::AddBlock(block) => {
-                check_block(&block, self.blend.len())?;
-                self.blend.push(block);
-            }
-            Edit::SetBlock { index, block } => {
-                check_block(&block, index)?;
-                *item(&mut self.blend, index, "block")? = block;
-            }
+            Edit::AddBlock(block) => self.blend.push(block),
+            Edit::SetBlock { index, block } => *item(&mut self.blend, index, "block")? = block,
             Edit::SetBlockRect { index, rect } => {
-                let block = item(&mut self.blend, index, "block")?;
-                let moved = BlendBlock {
-                    rect,
-                    ..block.clone()
-                };
-                check_block(&moved, index)?;
-                *block = moved;
+                item(&mut self.blend, index, "block")?.rect = rect
             }
             Edit::RemoveBlock(index) => {
                 item(&mut self.blend, index, "block")?;
                 self.blend.remove(index);
             }
-            Edit::SetTextures(rules) => {
-                rules.check().map_err(|e| match e {
-                    super::SceneError::Invalid { field, problem } => {
-                        EditError::Invalid { field, problem }
-                    }
-                    other => EditError::Invalid {
-                        field: "textures".into(),
-                        problem: other.to_string(),
-                    },
-                })?;
-                self.textures = rules;
-            }
+            Edit::SetTextures(rules) => self.textures = rules,
             Edit::Replace(scene) => *self = *scene,
         }
         Ok(())
@@ -326,5 +346,83 @@ mod tests {
             })
             .unwrap_err();
         assert!(err.to_string().contains("cell_size"), "{err}");
+    }
+
+    /// An edit that would leave a value out of range is refused with the message the scene
+    /// file's check gives for the same value, and changes nothing: a script's edit is held
+    /// to what the file is held to.
+    #[test]
+    fn an_edit_out_of_range_is_refused_with_the_files_message() {
+        let scene = Scene::default();
+        let mut hostile = vec![
+            Edit::AddRiver(RiverStroke {
+                phi: 0,
+                ..stroke(0.5)
+            }),
+            Edit::AddLine {
+                kind: LineKind::Ridge,
+                line: SketchLine {
+                    points: vec![[0.5, 0.5]],
+                    height: None,
+                    heights: None,
+                },
+            },
+            Edit::AddPeak(SketchPeak {
+                at: [1.5, 0.5],
+                height: None,
+            }),
+            Edit::SetGrid {
+                size: 5,
+                cell_size: 10.0,
+            },
+            Edit::SetGrid {
+                size: 512,
+                cell_size: f64::NAN,
+            },
+            Edit::SetLocation(Some(super::super::Location {
+                lat: 95.0,
+                lon: 0.0,
+            })),
+            Edit::SetParams(Params {
+                theta: 0.0,
+                ..Params::default()
+            }),
+            Edit::SetDetail(DetailSettings {
+                window: 2,
+                ..Default::default()
+            }),
+            Edit::SetStyle(Some(StyleSettings {
+                strength: 9.0,
+                ..StyleSettings::bundled("mountains").expect("a bundled style")
+            })),
+            Edit::SetTextures(TextureRules {
+                snow_above: 2.0,
+                ..Default::default()
+            }),
+        ];
+        for field in ["strength_spread", "years", "talus_deg"] {
+            let mut erosion = ErosionSettings::default();
+            match field {
+                "strength_spread" => erosion.strength_spread = 5.0,
+                "years" => erosion.years = f64::INFINITY,
+                _ => erosion.talus_deg = Some(-3.0),
+            }
+            hostile.push(Edit::SetErosion(Some(erosion)));
+        }
+        for edit in hostile {
+            let mut unchecked = scene.clone();
+            unchecked.change(edit.clone()).unwrap();
+            let Err(SceneError::Invalid { field, problem }) = unchecked.validate() else {
+                panic!("{edit:?} is not out of range");
+            };
+            let mut edited = scene.clone();
+            let refused = edited.apply(edit.clone());
+            assert_eq!(
+                refused,
+                Err(EditError::Invalid { field, problem }),
+                "{edit:?}"
+            );
+            assert_eq!(edited, scene, "a refused edit changes nothing: {edit:?}");
+        }
     }
 }

@@ -11,7 +11,55 @@ fn bad(field: &str, problem: String) -> Result<(), SceneError> {
     })
 }
 
+/// A part of the scene an edit changes: [`Scene::check_part`] runs the checks of
+/// [`Scene::validate`] that such a change can break, with the same messages.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Part {
+    /// The grid (size and cell size), which bounds the detail's output and the map's width.
+    Map,
+    Rivers,
+    Sketch,
+    Params,
+    Detail,
+    /// Block `i` and the blocks' totals.
+    Block(usize),
+    Erosion,
+    Style,
+    Textures,
+    Location,
+    /// A change no check can refuse: the seed, a painted mask (valid as made), a removal, or
+    /// a whole scene (one opened, extracted or taken back by undo).
+    Unchecked,
+}
+
 impl Scene {
+    /// The checks of `part`, naming the first bad field.
+    pub(super) fn check_part(&self, part: Part) -> Result<(), SceneError> {
+        match part {
+            Part::Map => {
+                self.check_map()?;
+                self.check_detail_settings()?;
+                self.check_extent()
+            }
+            Part::Rivers => self.check_rivers(),
+            Part::Sketch => self.check_sketch(),
+            Part::Params => {
+                self.check_paper_params()?;
+                self.check_enrichment_and_filters()
+            }
+            Part::Detail => self.check_detail_settings(),
+            Part::Block(i) => {
+                self.check_blend_totals()?;
+                self.check_block(i)
+            }
+            Part::Erosion => self.check_erosion(),
+            Part::Style => self.check_style(),
+            Part::Textures => self.check_textures(),
+            Part::Location => self.check_location(),
+            Part::Unchecked => Ok(()),
+        }
+    }
+
     /// Checks every value, naming the first bad field.
     pub fn validate(&self) -> Result<(), SceneError> {
         self.check_map()?;
@@ -122,8 +170,18 @@ impl Scene {
         Ok(())
     }
 
-    /// The detail levels, scope, window and mask; the output size is checked here, before any stage runs.
+    /// The detail settings and the painted masks.
     fn check_detail(&self) -> Result<(), SceneError> {
+        self.check_detail_settings()?;
+        self.detail.mask()?;
+        self.mask(super::MaskKind::Uplift)?;
+        self.mask(super::MaskKind::HardRock)?;
+        Ok(())
+    }
+
+    /// The detail levels, scope and window; the output size is checked here, before any
+    /// stage runs.
+    fn check_detail_settings(&self) -> Result<(), SceneError> {
         let d = &self.detail;
         if d.levels > crate::wavelet::synthesis::MAX_LEVELS {
             return bad(
@@ -166,14 +224,17 @@ impl Scene {
                 format!("must be an odd number from 1 to 65, got {}", d.window),
             );
         }
-        d.mask()?;
-        self.mask(super::MaskKind::Uplift)?;
-        self.mask(super::MaskKind::HardRock)?;
         Ok(())
     }
 
     /// The blended blocks, their references measured from their headers.
     fn check_blend(&self) -> Result<(), SceneError> {
+        self.check_blend_totals()?;
+        (0..self.blend.len()).try_for_each(|i| self.check_block(i))
+    }
+
+    /// How many blocks there are and how many cells their references hold together.
+    fn check_blend_totals(&self) -> Result<(), SceneError> {
         if self.blend.len() > MAX_BLEND_BLOCKS {
             return bad(
                 "blend",
@@ -200,12 +261,15 @@ impl Scene {
                 ),
             );
         }
-        for (i, block) in self.blend.iter().enumerate() {
-            if let Err((field, problem)) = block.validate() {
-                return bad(&format!("blend[{i}].{field}"), problem);
-            }
-        }
         Ok(())
+    }
+
+    /// Block `i` (there is none to check past the end).
+    fn check_block(&self, i: usize) -> Result<(), SceneError> {
+        match self.blend.get(i).map(crate::blend::BlendBlock::validate) {
+            Some(Err((field, problem))) => bad(&format!("blend[{i}].{field}"), problem),
+            _ => Ok(()),
+        }
     }
 
     /// The hydrology paper's parameters: theta, the river slope, alpha and the noise of eq. 5.
