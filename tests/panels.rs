@@ -522,6 +522,103 @@ fn snapshot_of_the_erosion_panel() {
     );
 }
 
+/// The DEM panel with a real DEM's preview as the app draws it (shaded relief) and the window
+/// to place outlined on it; a drag on the preview picks a new window.
+#[test]
+fn snapshot_of_the_dem_panel_and_a_window_dragged_on_its_preview() {
+    struct Dem {
+        panel: DemPanel,
+        scene: Scene,
+        field: strahler::heightfield::Heightfield,
+        texture: Option<egui::TextureHandle>,
+        window: [usize; 4],
+        actions: Vec<Action>,
+    }
+    let bytes = std::fs::read(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/tests/data/srtm_n44e005_384.tif"
+    ))
+    .unwrap();
+    let dem =
+        strahler::dem::format::read("srtm_n44e005_384.tif", &bytes, &Default::default()).unwrap();
+    let state = Dem {
+        panel: DemPanel::default(),
+        scene: Scene::default(),
+        field: dem.field,
+        texture: None,
+        window: [64, 96, 128, 128],
+        actions: Vec::new(),
+    };
+    let builder = Harness::builder().with_size(egui::vec2(320.0, 560.0));
+    let show = |ui: &mut egui::Ui, d: &mut Dem| {
+        let field = &d.field;
+        let texture = d.texture.get_or_insert_with(|| {
+            let image = strahler::app::shaded_relief(field, 90.0);
+            ui.ctx()
+                .load_texture("dem preview", image, egui::TextureOptions::LINEAR)
+        });
+        let (zmin, zmax) = field.finite_range().unwrap();
+        let view = DemView {
+            scene: &d.scene,
+            dem: Some(DemInfo {
+                name: "srtm_n44e005_384.tif",
+                width: field.width(),
+                height: field.height(),
+                range: (zmin, zmax),
+                voids: 0,
+                cell_size: Some((90.0, 90.0)),
+                crs: None,
+                needs_range: false,
+                preview: Some(texture.id()),
+                window: d.window,
+            }),
+            fill: None,
+            features: None,
+            networks: NetworksView::default(),
+            tool: Tool::Pan,
+            selected: None,
+            error: None,
+            summary: None,
+        };
+        let actions = d.panel.show(ui, &view);
+        d.actions.extend(actions);
+    };
+    let mut h = match common::gpu() {
+        Some(_) => builder.wgpu().build_ui_state(show, state),
+        None => builder.build_ui_state(show, state),
+    };
+    h.run();
+    assert!(h.state().actions.is_empty(), "showing asks for nothing");
+    if common::gpu().is_some() {
+        h.snapshot_options(
+            "panel_dem",
+            &egui_kittest::SnapshotOptions::new().max_failed_pixels(400),
+        );
+    }
+    // A drag across the preview's upper-left quarter picks that window (rows and columns
+    // of the DEM, whatever the preview's size on screen).
+    let rect = h.get_by_label("DEM preview").rect();
+    let at = |f: f32| rect.min + rect.size() * f;
+    h.hover_at(at(0.0));
+    h.drag_at(at(0.0));
+    h.run();
+    h.hover_at(at(0.25));
+    h.run();
+    h.hover_at(at(0.5));
+    h.run();
+    h.drop_at(at(0.5));
+    h.run();
+    let Some(Action::Dem(DemAction::Window([row, col, height, width]))) = h.state().actions.last()
+    else {
+        panic!("no window picked: {:?}", h.state().actions);
+    };
+    assert!(row + col <= 2, "from the corner: {row}, {col}");
+    assert!(
+        (188..=196).contains(height) && (188..=196).contains(width),
+        "half the DEM's side: {height} x {width}"
+    );
+}
+
 /// The export dialog: an engine preset shows the numbers to type in and the files before
 /// anything is written, refuses tiles that do not share edges, and asks for the export.
 #[test]

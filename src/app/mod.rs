@@ -31,6 +31,7 @@ use std::sync::Arc;
 pub use automation::{Automation, Command, JobStatus, Status};
 pub use canvas::{Place, RunSummaries};
 pub use map_view::{Hover, MapView, Overlay, Tool};
+pub use relief::shaded_relief;
 pub use session::{COARSE_SIZE, OnMap, PREVIEW_SIZE, Pass, RunSettings, Session, SolverSettings};
 pub use view3d::{CameraRequest, MapsChoice, View3d, View3dStatus, ViewKind};
 

@@ -4,6 +4,7 @@ use std::ops::Range;
 
 use egui::{Color32, ColorImage};
 
+use crate::dem::hillshade::Sun;
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
 
@@ -16,8 +17,8 @@ const TINT: [(f32, [u8; 3]); 5] = [
     (1.00, [242, 240, 236]),
 ];
 
-/// Shaded relief of `field`: the height range tinted low to high, lit from the north-west at
-/// 45 degrees (the cartographic convention). `cell_size` is the horizontal spacing in metres,
+/// Shaded relief of `field`: the height range tinted low to high, times the light of
+/// [`crate::dem::hillshade`] (from the north-west at 45 degrees, the cartographic convention). `cell_size` is the horizontal spacing in metres,
 /// so slopes are true slopes. Non-finite (no-data) cells are transparent.
 /// O(cells).
 pub fn shaded_relief(field: &Heightfield, cell_size: f32) -> ColorImage {
@@ -45,51 +46,35 @@ pub async fn shaded_relief_stepped(
     Ok(ColorImage::new([w, h], pixels))
 }
 
-/// What every pixel of one relief shares: the height range, the sun and the cell size.
+/// What every pixel of one relief shares: the height range and the sun.
 struct Shading {
     lo: f32,
     span: f32,
-    sun: (f32, f32, f32),
-    cell_size: f32,
+    sun: Sun,
 }
 
 impl Shading {
     fn of(field: &Heightfield, cell_size: f32) -> Self {
         let (lo, hi) = field.finite_range().unwrap_or((0.0, 1.0));
-        let (az, alt) = (315f32.to_radians(), 45f32.to_radians());
+        let cell = f64::from(cell_size);
         Self {
             lo,
             span: (hi - lo).max(1e-6),
-            // x east, y south (rows grow southwards), z up.
-            sun: (alt.cos() * az.sin(), -alt.cos() * az.cos(), alt.sin()),
-            cell_size,
+            sun: Sun::new(cell, cell, 1.0),
         }
     }
 
     /// Appends the pixels of `rows` to `pixels`.
     fn rows(&self, field: &Heightfield, rows: Range<usize>, pixels: &mut Vec<Color32>) {
-        let (w, h) = (field.width(), field.height());
-        let (sun_x, sun_y, sun_z) = self.sun;
-        let cell_size = self.cell_size;
-        let at = |x: usize, y: usize| field.data()[y * w + x];
+        let w = field.width();
         for y in rows {
             for x in 0..w {
-                let z = at(x, y);
-                if !z.is_finite() {
+                let Some(light) = self.sun.shade(field, x, y) else {
                     pixels.push(Color32::TRANSPARENT);
                     continue;
-                }
-                let finite_or = |v: f32| if v.is_finite() { v } else { z };
-                let (xl, xr) = (x.saturating_sub(1), (x + 1).min(w - 1));
-                let (yu, yd) = (y.saturating_sub(1), (y + 1).min(h - 1));
-                let dzdx = (finite_or(at(xr, y)) - finite_or(at(xl, y)))
-                    / (((xr - xl).max(1)) as f32 * cell_size);
-                let dzdy = (finite_or(at(x, yd)) - finite_or(at(x, yu)))
-                    / (((yd - yu).max(1)) as f32 * cell_size);
-                // Surface normal (-dz/dx, -dz/dy, 1), normalised.
-                let norm = (dzdx * dzdx + dzdy * dzdy + 1.0).sqrt();
-                let light = ((-dzdx * sun_x - dzdy * sun_y + sun_z) / norm).clamp(0.0, 1.0);
-                let shade = 0.35 + 0.65 * light;
+                };
+                let shade = 0.35 + 0.65 * light as f32;
+                let z = field.data()[y * w + x];
                 let [r, g, b] = tint((z - self.lo) / self.span);
                 let mul = |c: f32| (c * shade).round().clamp(0.0, 255.0) as u8;
                 pixels.push(Color32::from_rgb(mul(r), mul(g), mul(b)));

@@ -488,31 +488,26 @@ fn generate_bytes(scene: &Scene) -> u64 {
     estimate(Work::Generate, cells).saturating_add(estimate(Work::Amplify, detail))
 }
 
+/// The terrain as the file `out` names, as the app's export dialog and the page's
+/// `exportHeightmap` encode it: the scene's vertical scale on every height (the report keeps
+/// true heights), georeferenced at the scene's location.
 fn write_heightmap(
     outputs: &Outputs,
     out: &Path,
     terrain: &crate::heightfield::Heightfield,
     scene: &Scene,
 ) -> Result<(), Box<dyn std::error::Error>> {
-    let (map_width, vertical_scale) = (scene.map_width(), scene.vertical_scale);
-    // The scene's vertical scale applies to every export (the report keeps true heights).
-    let scaled;
-    let terrain = if vertical_scale == 1.0 {
-        terrain
-    } else {
-        let data = terrain
-            .data()
-            .iter()
-            .map(|v| v * vertical_scale as f32)
-            .collect();
-        scaled =
-            crate::heightfield::Heightfield::from_vec(terrain.width(), terrain.height(), data)?;
-        &scaled
+    let export = crate::pipeline::HeightmapExport {
+        format: super::io::output_format(out)?,
+        size: None,
+        flip_y: false,
+        z_scale: scene.vertical_scale as f32,
+        centre_lonlat: scene.location.map(|l| [l.lon, l.lat]),
     };
-    let cell = map_width / terrain.width() as f64;
-    let centre = scene.location.map(|l| [l.lon, l.lat]);
-    let georef = crate::export::map_georef(centre, map_width, cell, 0.0, 0.0);
-    super::io::write_dem(outputs, out, terrain, &georef, Some(cell))
+    let cell = scene.map_width() / terrain.width() as f64;
+    let encoded = crate::pipeline::encode_heightmap(terrain, cell, &export)
+        .map_err(|e| format!("{}: {e}", out.display()))?;
+    super::io::write_exported(outputs, out, &encoded)
 }
 
 fn parse_distance_rule(text: &str) -> Result<crate::skeleton::enrich::DistanceRule, String> {

@@ -127,15 +127,25 @@ pub fn write_dem_with(
     georef: &GeoRef,
     options: &ExportOptions,
 ) -> Result<()> {
-    let name = path.to_string_lossy();
-    let format = Format::from_name(&name).ok_or_else(|| {
+    let out = format::write(output_format(path)?, field, georef, options)
+        .map_err(|e| format!("{}: {e}", path.display()))?;
+    write_exported(outputs, path, &out)
+}
+
+/// The heightmap format `path`'s extension names.
+pub fn output_format(path: &Path) -> Result<Format> {
+    Format::from_name(&path.to_string_lossy()).ok_or_else(|| {
         format!(
             "{}: unknown output format; use .tif, .png, .r16, .r32, .exr, .asc, .hgt or .obj",
             path.display()
         )
-    })?;
-    let out = format::write(format, field, georef, options)
-        .map_err(|e| format!("{}: {e}", path.display()))?;
+        .into()
+    })
+}
+
+/// Writes an encoded heightmap to `path`, and its sidecar (the height range of PNG and RAW
+/// files) beside it.
+pub fn write_exported(outputs: &Outputs, path: &Path, out: &format::Exported) -> Result<()> {
     outputs.write(path, &out.bytes)?;
     if let Some(json) = &out.sidecar {
         outputs.write(&super::output::sidecar_of(path), json.as_bytes())?;

@@ -255,6 +255,7 @@ impl DemPanel {
             egui::vec2(w as f32 * scale, h as f32 * scale),
             Sense::drag(),
         );
+        response.widget_info(|| egui::WidgetInfo::labeled(egui::Role::Image, true, "DEM preview"));
         let painter = ui.painter_at(rect);
         let uv = Rect::from_min_max(pos2(0.0, 0.0), pos2(1.0, 1.0));
         painter.image(texture, rect, uv, Color32::WHITE);
@@ -298,15 +299,29 @@ impl DemPanel {
             ui.label("Window")
                 .on_hover_text("row, col, height, width on the DEM");
             let s = &mut window;
-            ui.add(DragValue::new(&mut s[0]).range(0..=h - 1));
-            ui.add(DragValue::new(&mut s[1]).range(0..=w - 1));
-            ui.add(DragValue::new(&mut s[2]).range(3..=h));
-            ui.add(DragValue::new(&mut s[3]).range(3..=w));
+            let ranges = [0..=h - 1, 0..=w - 1, 3..=h, 3..=w];
+            let names = [
+                "Window row",
+                "Window column",
+                "Window height",
+                "Window width",
+            ];
+            for ((value, range), name) in s.iter_mut().zip(ranges).zip(names) {
+                let response = ui.add(DragValue::new(value).range(range));
+                response
+                    .widget_info(|| egui::WidgetInfo::labeled(egui::Role::SpinButton, true, name));
+            }
             s[2] = s[2].min(h - s[0]);
             s[3] = s[3].min(w - s[1]);
         });
         Some(window)
     }
+}
+
+/// `v` with up to six decimals and no trailing zeros: "90", "0.000833".
+fn short(v: f64) -> String {
+    let text = format!("{v:.6}");
+    text.trim_end_matches('0').trim_end_matches('.').to_owned()
 }
 
 /// The DEM's file, size, heights, cell size, CRS and voids.
@@ -321,8 +336,9 @@ fn facts(ui: &mut egui::Ui, dem: &DemInfo<'_>) {
             ),
             (
                 "Cell size",
-                dem.cell_size
-                    .map_or("unknown".into(), |(x, y)| format!("{x:.6} x {y:.6}")),
+                dem.cell_size.map_or("unknown".into(), |(x, y)| {
+                    format!("{} x {}", short(x), short(y))
+                }),
             ),
             ("CRS", dem.crs.clone().unwrap_or("unknown".into())),
             ("No-data", format!("{} cells", dem.voids)),
