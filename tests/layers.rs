@@ -48,6 +48,21 @@ const STAGE_ORDER: &[&str] = &[
     "view3d", "export",
 ];
 
+/// Inside `app`, the app's own files: its frame, its jobs, the side panel and the handlers of
+/// the map's tools, each an `impl StrahlerApp`. Only they may refer to each other; the
+/// components below them may not.
+const APP_OWN: &[&str] = &[
+    "blend",
+    "detail",
+    "export",
+    "frame",
+    "jobs",
+    "networks",
+    "select",
+    "side_panel",
+    "status_bar",
+];
+
 /// Inside `app`, the components: they get what they read as arguments and return what they
 /// want changed, so none refers to the app itself (`StrahlerApp`); the app's own files (its
 /// frame, jobs, side panel and the sections not yet components) may.
@@ -64,6 +79,7 @@ const APP_COMPONENTS: &[&str] = &[
     "relief",
     "files",
     "automation",
+    "stored_dem",
 ];
 
 fn sources(dir: &Path, out: &mut Vec<PathBuf>) {
@@ -242,11 +258,13 @@ fn violations(rel: &Path, text: &str) -> Result<Vec<String>, String> {
         out.extend(
             refs.found
                 .iter()
-                .filter(|path| path.len() >= 2 && path[0] == "app" && path[1] == "StrahlerApp")
-                .map(|_| {
+                .filter(|path| path.len() >= 2 && path[0] == "app")
+                .filter(|path| path[1] == "StrahlerApp" || APP_OWN.contains(&path[1].as_str()))
+                .map(|path| {
                     format!(
-                        "{}: a component of app refers to StrahlerApp",
-                        rel.display()
+                        "{}: a component of app refers to the app's own {}",
+                        rel.display(),
+                        path[1]
                     )
                 }),
         );
@@ -282,6 +300,18 @@ fn no_module_refers_to_a_higher_layer_or_a_later_stage() {
         broken_rules.is_empty(),
         "layer rules broken: {broken_rules:#?}"
     );
+    let app_modules: Vec<String> = std::fs::read_dir(src.join("app"))
+        .expect("src/app")
+        .map(|entry| entry.expect("an entry").path())
+        .filter_map(|p| Some(p.file_stem()?.to_string_lossy().into_owned()))
+        .filter(|m| m != "mod")
+        .collect();
+    for m in &app_modules {
+        assert!(
+            APP_OWN.contains(&m.as_str()) != APP_COMPONENTS.contains(&m.as_str()),
+            "app::{m} must be listed once, in APP_OWN or in APP_COMPONENTS"
+        );
+    }
     for stage in STAGE_ORDER {
         assert_eq!(layers.get(stage), Some(&2), "{stage} is a stage");
     }
@@ -325,6 +355,18 @@ fn planted_violations_are_found() {
     let own = Path::new("app/frame.rs");
     let code = "fn f(app: &mut super::super::StrahlerApp) {}";
     assert!(!violations(panel, code).unwrap().is_empty());
+    let canvas = Path::new("app/canvas.rs");
+    assert!(
+        !violations(canvas, "struct C { s: Option<super::select::Item> }")
+            .unwrap()
+            .is_empty(),
+        "a component refers to the app's own select.rs"
+    );
+    assert!(
+        violations(canvas, "use super::map_view::Tool;")
+            .unwrap()
+            .is_empty()
+    );
     assert!(
         !violations(Path::new("app/session.rs"), "use super::StrahlerApp;")
             .unwrap()

@@ -7,7 +7,8 @@ mod common;
 use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::panels::{
-    Action, DESIGN_ONLY, DemAction, DemInfo, DemPanel, DemView, DetailPanel, ErosionPanel,
+    Action, DESIGN_ONLY, DemAction, DemInfo, DemPanel, DemView, DetailPanel, DocumentAction,
+    DocumentPanel, DocumentView, ErosionPanel,
     ExportDialog, ExportInfo, MaskAction, MaskPanel, MaskView, NetworksView, RealismPanel,
     RiversPanel, SolverPanel, SolverReport, StartPanel, StylePanel, TerrainPanel,
 };
@@ -616,6 +617,125 @@ fn snapshot_of_the_dem_panel_and_a_window_dragged_on_its_preview() {
     assert!(
         (188..=196).contains(height) && (188..=196).contains(width),
         "half the DEM's side: {height} x {width}"
+    );
+}
+
+/// The Layers row: each box turns its layer on or off, the river order shows with the rivers
+/// only, and the erosion stage's layers with an eroded terrain only.
+#[test]
+fn layers_row_toggles_layers_and_offers_what_exists() {
+    use strahler::app::{Layers, layers_section};
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(320.0, 200.0))
+        .build_ui_state(
+            |ui, (layers, eroded): &mut (Layers, bool)| layers_section(ui, layers, *eroded),
+            (Layers::default(), false),
+        );
+    h.run();
+    assert!(h.query_by_label("drainage area").is_none(), "not eroded");
+    assert!(h.query_by_label("from order").is_some(), "rivers are on");
+    h.get_by_label("contours").click();
+    h.get_by_label("rivers").click();
+    h.run();
+    let layers = h.state().0;
+    assert!(layers.contours && !layers.rivers);
+    assert!(h.query_by_label("from order").is_none(), "no rivers drawn");
+    h.state_mut().1 = true;
+    h.run();
+    h.get_by_label("erosion depth").click();
+    h.run();
+    assert!(h.state().0.erosion_depth && !h.state().0.drainage);
+    assert_eq!(
+        Layers {
+            contours: true,
+            rivers: false,
+            erosion_depth: true,
+            ..Layers::default()
+        },
+        h.state().0,
+        "nothing else changed"
+    );
+}
+
+/// The document's row: Undo and Redo only when there is a step to take, Open only where a
+/// file can be picked, the error and the notice each dismissed by its own button, and the
+/// Export button.
+#[test]
+fn document_row_asks_for_undo_save_open_and_dismissals() {
+    struct Doc {
+        panel: DocumentPanel,
+        can_undo: bool,
+        can_open: bool,
+        error: Option<String>,
+        notice: Option<String>,
+        actions: Vec<Action>,
+    }
+    let doc = Doc {
+        panel: DocumentPanel,
+        can_undo: false,
+        can_open: false,
+        error: None,
+        notice: None,
+        actions: Vec::new(),
+    };
+    let mut h = Harness::builder()
+        .with_size(egui::vec2(320.0, 300.0))
+        .build_ui_state(
+            |ui, d: &mut Doc| {
+                let view = DocumentView {
+                    can_undo: d.can_undo,
+                    can_redo: false,
+                    can_open: d.can_open,
+                    error: d.error.as_deref(),
+                    notice: d.notice.as_deref(),
+                };
+                let mut actions = d.panel.show(ui, &view);
+                actions.extend(d.panel.export_button(ui));
+                d.actions.extend(actions);
+            },
+            doc,
+        );
+    h.run();
+    assert!(h.state().actions.is_empty(), "showing asks for nothing");
+    assert!(h.query_by_label("Open scene...").is_none(), "no picker here");
+    h.get_by_label("Undo").click();
+    h.run();
+    assert!(h.state().actions.is_empty(), "nothing to undo");
+    h.state_mut().can_undo = true;
+    h.state_mut().can_open = true;
+    h.run();
+    for button in ["Undo", "Save scene", "Open scene...", "Export heightmap... (E)"] {
+        h.get_by_label(button).click();
+        h.run();
+    }
+    let asked: Vec<Action> = [
+        DocumentAction::Undo,
+        DocumentAction::Save,
+        DocumentAction::Open,
+        DocumentAction::Export,
+    ]
+    .into_iter()
+    .map(Action::Document)
+    .collect();
+    assert_eq!(h.state().actions, asked);
+    h.state_mut().actions.clear();
+    h.state_mut().error = Some("scene: size: must be 16 to 8192 cells, got 5".into());
+    h.state_mut().notice = Some("Undone".into());
+    h.run();
+    h.get_by_label("scene: size: must be 16 to 8192 cells, got 5");
+    h.get_by_label("Undone");
+    let dismiss: Vec<_> = h.get_all_by_label("Dismiss").collect();
+    assert_eq!(dismiss.len(), 2, "one for the error, one for the notice");
+    dismiss[1].click();
+    h.run();
+    h.get_all_by_label("Dismiss").next().unwrap().click();
+    h.run();
+    assert_eq!(
+        h.state().actions,
+        [
+            Action::Document(DocumentAction::DismissNotice),
+            Action::DismissError
+        ]
     );
 }
 

@@ -8,6 +8,29 @@ use crate::wavelet::Mask;
 use super::map_view::{Hover, MapView, Overlay, Tool};
 use super::picture::Picture;
 
+/// A vector item of the scene.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Item {
+    River(usize),
+    Ridge(usize),
+    Valley(usize),
+    Peak(usize),
+}
+
+/// What a dropped file is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImportTarget {
+    /// The detail mask: a PNG dropped while the mask tool is active.
+    Mask,
+    /// The DEM panel: any elevation file otherwise.
+    Dem,
+    /// A scene (`.json`): replaces the document.
+    Scene,
+}
+
+/// A dropped file's name, what it is for, and its contents.
+pub type Dropped = (String, ImportTarget, Result<Vec<u8>, String>);
+
 pub struct Canvas {
     pub map: MapView,
     pub tool: Tool,
@@ -16,7 +39,7 @@ pub struct Canvas {
     /// Which map layers are drawn.
     pub layers: super::layers::Layers,
     /// The vector item the Select tool picked, and whether it is being dragged.
-    pub selected: Option<super::select::Item>,
+    pub selected: Option<Item>,
     pub moving: bool,
     /// The mask being painted, decoded, at the scene's size (the scene keeps it as PNG): the
     /// detail's energy reduction, the uplift or the hard rock (`mask_kind`); a brush stroke
@@ -30,7 +53,7 @@ pub struct Canvas {
     pub pictures: Option<(Picture, Option<Picture>)>,
     pub showing_before: bool,
     /// A dropped file being read (the browser reads files asynchronously).
-    pub import_job: Option<JobHandle<super::detail::Dropped>>,
+    pub import_job: Option<JobHandle<Dropped>>,
 }
 
 impl Default for Canvas {

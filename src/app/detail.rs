@@ -7,25 +7,12 @@
 
 use super::StrahlerApp;
 use super::automation::DetailStatus;
+use super::canvas::ImportTarget;
 use super::map_view::Tool;
 use super::panels::{MaskAction, MaskView};
 use crate::pipeline::Output;
 use crate::scene::{Edit, MaskKind};
 use crate::wavelet::Mask;
-
-/// What a dropped file is for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ImportTarget {
-    /// The detail mask: a PNG dropped while the mask tool is active.
-    Mask,
-    /// The DEM panel: any elevation file otherwise.
-    Dem,
-    /// A scene (`.json`): replaces the document.
-    Scene,
-}
-
-/// A dropped file's name, what it is for, and its contents.
-pub type Dropped = (String, ImportTarget, Result<Vec<u8>, String>);
 
 impl StrahlerApp {
     /// The mask, resampled to the `size x size` terrain when the size changed.

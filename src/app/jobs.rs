@@ -269,18 +269,18 @@ impl StrahlerApp {
         {
             self.canvas.import_job = None;
             match bytes {
-                Ok(bytes) if target == super::detail::ImportTarget::Mask => {
+                Ok(bytes) if target == super::canvas::ImportTarget::Mask => {
                     self.import_mask(ctx, &name, &bytes)
                 }
-                Ok(bytes) if target == super::detail::ImportTarget::Scene => {
+                Ok(bytes) if target == super::canvas::ImportTarget::Scene => {
                     self.open_scene(&name, &bytes)
                 }
                 Ok(bytes) => self.load_dem(ctx, &name, bytes),
                 Err(err) => {
                     let place = match target {
-                        super::detail::ImportTarget::Mask => super::Place::Mask,
-                        super::detail::ImportTarget::Dem => super::Place::Dem,
-                        super::detail::ImportTarget::Scene => super::Place::Top,
+                        super::canvas::ImportTarget::Mask => super::Place::Mask,
+                        super::canvas::ImportTarget::Dem => super::Place::Dem,
+                        super::canvas::ImportTarget::Scene => super::Place::Top,
                     };
                     self.set_error_at(place, format!("{name}: {err}"))
                 }

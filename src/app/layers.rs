@@ -149,7 +149,7 @@ pub fn erosion_images(eroded: &crate::erosion::Eroded, before: &Heightfield) -> 
 }
 
 /// The Layers row of the side panel; `eroded` offers the erosion stage's layers.
-pub(super) fn section(ui: &mut egui::Ui, layers: &mut Layers, eroded: bool) {
+pub fn section(ui: &mut egui::Ui, layers: &mut Layers, eroded: bool) {
     ui.horizontal_wrapped(|ui| {
         ui.label("Layers:");
         ui.checkbox(&mut layers.relief, "relief");

@@ -30,6 +30,7 @@ use std::sync::Arc;
 
 pub use automation::{Automation, Command, JobStatus, Status};
 pub use canvas::{Place, RunSummaries};
+pub use layers::{Layers, section as layers_section};
 pub use map_view::{Hover, MapView, Overlay, Tool};
 pub use relief::shaded_relief;
 pub use session::{COARSE_SIZE, OnMap, PREVIEW_SIZE, Pass, RunSettings, Session, SolverSettings};
@@ -246,6 +247,7 @@ impl StrahlerApp {
             Action::DismissError => self.messages.error = None,
             Action::Mask(action) => self.mask_action(ctx, action),
             Action::Dem(action) => self.dem_action(ctx, action),
+            Action::Document(action) => self.document_action(action),
             Action::Export { request, layers } => self.download(ctx, request, layers),
         }
     }

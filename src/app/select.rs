@@ -6,17 +6,9 @@ use egui::{Pos2, Vec2, pos2};
 use glam::DVec2;
 
 use super::StrahlerApp;
+use super::canvas::Item;
 use super::map_view::BlockDrag;
 use crate::scene::{Edit, LineKind, Scene};
-
-/// A vector item of the scene.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Item {
-    River(usize),
-    Ridge(usize),
-    Valley(usize),
-    Peak(usize),
-}
 
 /// Distance from `p` to the segment `a`-`b`.
 fn to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {

@@ -5,6 +5,7 @@
 use egui::RichText;
 
 use super::StrahlerApp;
+use super::panels::{DocumentAction, DocumentView};
 
 pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
     egui::Panel::left("pipeline")
@@ -15,17 +16,12 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
                 ui.add_space(6.0);
                 ui.heading("Strahler");
                 ui.label(RichText::new("Hydrology-based terrain sandbox").weak());
-                document_row(ui, app);
-                messages(ui, app);
+                document(ui, app);
                 ui.separator();
                 sections(ui, app);
                 ui.separator();
-                if ui
-                    .button("Export heightmap... (E)")
-                    .on_hover_text("PNG 16-bit, GeoTIFF, RAW R16, ESRI ASCII, SRTM .hgt or OBJ")
-                    .clicked()
-                {
-                    app.export.dialog.open = true;
+                if let Some(action) = app.panels.document.export_button(ui) {
+                    app.act(&ui.ctx().clone(), action);
                 }
                 ui.separator();
                 advanced(ui, app);
@@ -108,79 +104,70 @@ fn advanced(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         });
 }
 
-/// The last error and the passing notice, in one place under the document's buttons, each
-/// with a button to dismiss it.
-fn messages(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    if let Some(err) = app.messages.error.clone() {
-        ui.horizontal_wrapped(|ui| {
-            ui.colored_label(ui.visuals().error_fg_color, err);
-            if ui.small_button("Dismiss").clicked() {
-                app.messages.error = None;
-            }
-        });
-    }
-    if let Some(text) = app.messages.notice.clone() {
-        ui.horizontal_wrapped(|ui| {
-            ui.label(RichText::new(text).weak());
-            if ui.small_button("Dismiss").clicked() {
-                app.messages.notice = None;
-            }
-        });
+/// The document's row (undo, redo, save, open) with the last error and the passing notice
+/// under it.
+fn document(ui: &mut egui::Ui, app: &mut StrahlerApp) {
+    let view = DocumentView {
+        can_undo: app.session.can_undo(),
+        can_redo: app.session.can_redo(),
+        can_open: cfg!(target_arch = "wasm32"),
+        error: app.messages.error.as_deref(),
+        notice: app.messages.notice.as_deref(),
+    };
+    let actions = app.panels.document.show(ui, &view);
+    let ctx = ui.ctx().clone();
+    for action in actions {
+        app.act(&ctx, action);
     }
 }
 
-/// Undo, redo, save and open: the document.
-fn document_row(ui: &mut egui::Ui, app: &mut StrahlerApp) {
-    ui.horizontal_wrapped(|ui| {
-        if ui
-            .add_enabled(app.session.can_undo(), egui::Button::new("Undo"))
-            .on_hover_text("Ctrl+Z")
-            .clicked()
-        {
-            app.undo();
+impl StrahlerApp {
+    /// Carries out what the document's row asked for.
+    pub(super) fn document_action(&mut self, action: DocumentAction) {
+        match action {
+            DocumentAction::Undo => self.undo(),
+            DocumentAction::Redo => self.redo(),
+            DocumentAction::Save => self.save_scene(),
+            DocumentAction::Open => self.pick_scene(),
+            DocumentAction::DismissNotice => self.messages.notice = None,
+            DocumentAction::Export => self.export.dialog.open = true,
         }
-        if ui
-            .add_enabled(app.session.can_redo(), egui::Button::new("Redo"))
-            .on_hover_text("Ctrl+Shift+Z or Ctrl+Y")
-            .clicked()
-        {
-            app.redo();
+    }
+
+    /// Saves the scene as JSON: a download in the browser, a file in the working directory
+    /// natively.
+    fn save_scene(&mut self) {
+        let json = self.scene().to_json();
+        let name = format!(
+            "{}.json",
+            super::files::free_stem("strahler-scene", &[".json"])
+        );
+        match super::files::save(&name, "application/json", json.as_bytes()) {
+            Ok(said) => self.messages.notice = Some(format!("Scene {said}")),
+            Err(err) => self.set_error(err),
         }
-        if ui
-            .button("Save scene")
-            .on_hover_text("The whole document as JSON (rivers, sketch, parameters, mask, blocks)")
-            .clicked()
-        {
-            let json = app.scene().to_json();
-            let name = format!(
-                "{}.json",
-                super::files::free_stem("strahler-scene", &[".json"])
-            );
-            match super::files::save(&name, "application/json", json.as_bytes()) {
-                Ok(said) => app.messages.notice = Some(format!("Scene {said}")),
-                Err(err) => app.set_error(err),
-            }
+    }
+
+    /// The browser's file picker for a scene; the file arrives as `Command::OpenScene`.
+    #[cfg(target_arch = "wasm32")]
+    fn pick_scene(&mut self) {
+        let automation = self.automation.clone();
+        let check = super::files::check_scene_file;
+        if let Err(err) = super::files::pick_file(".json", check, move |name, read| {
+            automation.push(match read {
+                Ok(bytes) => super::Command::OpenScene { name, bytes },
+                Err(message) => super::Command::FileRefused {
+                    name,
+                    message,
+                    place: super::Place::Top,
+                },
+            });
+        }) {
+            self.set_error(err);
         }
-        #[cfg(target_arch = "wasm32")]
-        if ui
-            .button("Open scene...")
-            .on_hover_text("A scene saved before; or drop the .json file on the map")
-            .clicked()
-        {
-            let automation = app.automation.clone();
-            let check = super::files::check_scene_file;
-            if let Err(err) = super::files::pick_file(".json", check, move |name, read| {
-                automation.push(match read {
-                    Ok(bytes) => super::Command::OpenScene { name, bytes },
-                    Err(message) => super::Command::FileRefused {
-                        name,
-                        message,
-                        place: super::Place::Top,
-                    },
-                });
-            }) {
-                app.set_error(err);
-            }
-        }
-    });
+    }
+
+    /// Natively a scene is opened by dropping it on the map (or `strahler generate`).
+    #[cfg(not(target_arch = "wasm32"))]
+    fn pick_scene(&mut self) {}
 }

@@ -7,6 +7,7 @@
 mod check;
 mod dem;
 mod detail;
+mod document;
 mod erosion;
 mod export;
 mod mask;
@@ -21,6 +22,7 @@ mod terrain;
 pub use check::{AGREEMENT, CheckPanel, CheckReport};
 pub use dem::{DEFAULT_Z_RANGE, DemAction, DemInfo, DemPanel, DemView, NetworkTable, NetworksView};
 pub use detail::DetailPanel;
+pub use document::{DocumentAction, DocumentPanel, DocumentView};
 pub use erosion::ErosionPanel;
 pub use export::{ExportDialog, ExportInfo};
 pub use mask::{MaskAction, MaskPanel, MaskView, kind_words};
@@ -61,6 +63,8 @@ pub enum Action {
     Mask(MaskAction),
     /// Something for the DEM panel.
     Dem(DemAction),
+    /// Something for the document: undo, redo, save, open, export.
+    Document(DocumentAction),
     /// Write an export (and the skeleton's layers with `layers`).
     Export {
         request: crate::export::Request,
@@ -82,6 +86,7 @@ pub struct Panels {
     pub detail: DetailPanel,
     pub mask: MaskPanel,
     pub dem: DemPanel,
+    pub document: DocumentPanel,
     pub status: StatusBar,
 }
 
