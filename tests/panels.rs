@@ -8,9 +8,9 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::panels::{
     Action, DESIGN_ONLY, DemAction, DemInfo, DemPanel, DemView, DetailPanel, DocumentAction,
-    DocumentPanel, DocumentView, ErosionPanel,
-    ExportDialog, ExportInfo, MaskAction, MaskPanel, MaskView, NetworksView, RealismPanel,
-    RiversPanel, SolverPanel, SolverReport, StartPanel, StylePanel, TerrainPanel,
+    DocumentPanel, DocumentView, ErosionPanel, ExportDialog, ExportInfo, MaskAction, MaskPanel,
+    MaskView, NetworksView, RealismPanel, RiversPanel, SolverPanel, SolverReport, StartPanel,
+    StylePanel, TerrainPanel,
 };
 use strahler::app::{RunSettings, RunSummaries, Tool};
 use strahler::erosion::{ErosionReport, ErosionSettings};
@@ -697,14 +697,22 @@ fn document_row_asks_for_undo_save_open_and_dismissals() {
         );
     h.run();
     assert!(h.state().actions.is_empty(), "showing asks for nothing");
-    assert!(h.query_by_label("Open scene...").is_none(), "no picker here");
+    assert!(
+        h.query_by_label("Open scene...").is_none(),
+        "no picker here"
+    );
     h.get_by_label("Undo").click();
     h.run();
     assert!(h.state().actions.is_empty(), "nothing to undo");
     h.state_mut().can_undo = true;
     h.state_mut().can_open = true;
     h.run();
-    for button in ["Undo", "Save scene", "Open scene...", "Export heightmap... (E)"] {
+    for button in [
+        "Undo",
+        "Save scene",
+        "Open scene...",
+        "Export heightmap... (E)",
+    ] {
         h.get_by_label(button).click();
         h.run();
     }
