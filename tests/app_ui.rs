@@ -70,6 +70,27 @@ fn first_screen_names_the_compute_path_and_shows_terrain() {
     assert!(status.last_run.as_ref().is_some_and(|r| r.converged));
 }
 
+/// Before the first terrain arrives (a first visit, or a reload computing the restored
+/// scene) the map says what is being built and how far along it is, not "No terrain yet".
+#[test]
+fn the_map_says_the_terrain_is_being_built_until_it_arrives() {
+    let mut harness = cpu_harness();
+    harness.run_steps(2);
+    assert!(
+        harness.state().terrain().is_none(),
+        "the first build takes a while"
+    );
+    harness.get_by_label_contains("Building the terrain: ");
+    assert!(harness.query_by_label("No terrain yet").is_none());
+    wait_idle(&mut harness);
+    assert!(harness.state().terrain().is_some());
+    assert!(
+        harness
+            .query_by_label_contains("Building the terrain")
+            .is_none()
+    );
+}
+
 #[test]
 fn compute_check_reports_agreement() {
     if common::gpu().is_none() {

@@ -189,6 +189,7 @@ impl StrahlerApp {
         self.canvas.overlay.show_drainage = l.drainage;
         self.canvas.overlay.show_erosion_depth = l.erosion_depth;
         self.canvas.overlay.show_blocks = l.blocks || self.canvas.tool == Tool::Block;
+        self.canvas.overlay.building = self.session.job().map(|j| (j.progress(), j.message()));
         self.canvas.overlay.brush_radius =
             Some(self.panels.mask.brush.radius / self.canvas.mask.width().max(2) as f32);
         self.canvas.overlay.selected = if self.canvas.tool == Tool::Select {

@@ -75,6 +75,9 @@ pub struct Overlay {
     pub blocks: Vec<(Rect, bool)>,
     /// The selected vector item's points, highlighted.
     pub selected: Vec<Pos2>,
+    /// While no terrain is shown: the running build's progress (0 to 1) and what it is
+    /// doing, said in its place (a reload computes the restored scene before any picture).
+    pub building: Option<(f32, String)>,
 }
 
 /// A drag with the block tool, in map units.
@@ -363,7 +366,7 @@ impl MapView {
     /// mask), and the map's frame.
     fn draw_terrain(
         &self,
-        ui: &egui::Ui,
+        ui: &mut egui::Ui,
         painter: &egui::Painter,
         at: Placement,
         overlay: &Overlay,
@@ -402,12 +405,20 @@ impl MapView {
                 }
             }
             None => {
-                painter.text(
-                    at.rect.center(),
-                    egui::Align2::CENTER_CENTER,
-                    "No terrain yet",
-                    egui::FontId::proportional(16.0),
-                    ui.visuals().weak_text_color(),
+                let text = match &overlay.building {
+                    Some((progress, doing)) => format!(
+                        "Building the terrain: {:.0}%\n{doing}",
+                        100.0 * progress.clamp(0.0, 1.0)
+                    ),
+                    None => "No terrain yet".to_owned(),
+                };
+                // A label (not painted text), so the words are read out and tests find
+                // them; it senses nothing, so strokes drawn across it reach the map.
+                let label =
+                    egui::Label::new(egui::RichText::new(text).size(16.0).weak()).selectable(false);
+                ui.put(
+                    Rect::from_center_size(at.rect.center(), egui::vec2(420.0, 60.0)),
+                    label,
                 );
             }
         }
