@@ -194,3 +194,27 @@ fn cpu_stages_keep_no_gpu_copy() {
     assert!(out.blend.as_ref().is_some_and(|b| b.gpu.is_none()));
     assert!(out.gpu.is_none());
 }
+
+/// "Compute on: auto" takes a hardware GPU and the CPU beside a software rasteriser (every
+/// stage is slower on one: it runs on the same cores); "gpu" takes any GPU with every stage
+/// on it; "cpu" the CPU.
+#[test]
+fn auto_computes_on_the_cpu_beside_a_software_rasteriser() {
+    use strahler::compute::{BackendChoice, ComputePath};
+    let Some(gpu) = common::gpu() else {
+        return;
+    };
+    let software = gpu.is_software();
+    let path = ComputePath::from_context(gpu);
+    let key = |choice: BackendChoice| choice.resolve(&path).unwrap().key();
+    assert_eq!(
+        key(BackendChoice::Auto),
+        if software { "cpu" } else { "gpu" }
+    );
+    assert_eq!(key(BackendChoice::Gpu), "gpu");
+    assert_eq!(key(BackendChoice::Cpu), "cpu");
+    match BackendChoice::Gpu.resolve(&path).unwrap() {
+        Backend::Gpu(context) => assert!(context.runs_heavy_stages()),
+        Backend::Cpu => unreachable!(),
+    }
+}

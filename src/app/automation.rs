@@ -181,6 +181,9 @@ pub enum Command {
     SetCamera(super::CameraRequest),
     /// Where the 3D view's rasters are made (and show the 3D view).
     View3dMaps(super::MapsChoice),
+    /// Where the terrain is computed (the Advanced section's "Compute on"): a change
+    /// recomputes it.
+    Compute(crate::compute::BackendChoice),
     /// An engine export of the terrain on the map (`exportHeightmap` with a preset, tiles,
     /// maps or rivers): its one file, or its files as a zip, kept for the script
     /// ([`Automation::take_export`]).

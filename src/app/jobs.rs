@@ -241,6 +241,9 @@ impl StrahlerApp {
                 Command::Undo => self.undo(),
                 Command::Redo => self.redo(),
                 Command::SetView(view) => self.set_view(view),
+                Command::Compute(choice) => {
+                    self.session.settings_mut().solver.backend = choice;
+                }
                 Command::View3dMaps(maps) => {
                     self.set_view(ViewKind::ThreeD);
                     self.view3d.set_maps(maps);

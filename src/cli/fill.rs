@@ -23,7 +23,7 @@ pub struct FillArgs {
     /// .png or .r16 (+ sidecar .json), .obj.
     #[arg(long)]
     pub out: PathBuf,
-    /// auto (GPU if it computes, else CPU), cpu or gpu.
+    /// auto (a hardware GPU; the CPU beside a software rasteriser), cpu or gpu.
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
     /// multigrid (converged) or jacobi (exactly --iterations sweeps).

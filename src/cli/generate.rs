@@ -100,6 +100,8 @@ pub struct GenerateArgs {
     /// Write the JSON report (stages, river statistics, ridges, drainage) here.
     #[arg(long)]
     pub report: Option<PathBuf>,
+    /// auto (a hardware GPU; the CPU beside a software rasteriser such as lavapipe, where
+    /// every stage is slower), cpu, or gpu (every stage on any GPU).
     #[arg(long, default_value = "auto")]
     pub backend: BackendChoice,
     /// A progress bar on standard error: auto (on a terminal), always, never.

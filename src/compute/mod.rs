@@ -71,14 +71,19 @@ impl BackendChoice {
 
     /// Picks the backend. `Gpu` without a computing GPU is an error rather than a silent
     /// fallback, so a user who asked for the GPU learns why they did not get it. `Gpu` also
-    /// runs every stage on the GPU, software rasteriser or not; `Auto` keeps erosion and the
-    /// wavelet statistics on the CPU beside one ([`crate::gpu::GpuContext::runs_heavy_stages`]).
+    /// runs every stage on the GPU, software rasteriser or not. `Auto` takes a hardware GPU
+    /// and the CPU beside a software rasteriser (Mesa's lavapipe, the browser's SwiftShader):
+    /// one runs on the same cores as the CPU path and every stage is slower there (the
+    /// multigrid ten times on lavapipe, docs/performance.md).
     pub fn resolve(self, path: &ComputePath) -> Result<Backend, NoGpuError> {
         match (self, path) {
             (BackendChoice::Cpu, _) => Ok(Backend::Cpu),
             (BackendChoice::Gpu, ComputePath::Gpu { context, .. }) => Ok(Backend::Gpu(Arc::new(
                 context.as_ref().clone().with_all_stages(),
             ))),
+            (BackendChoice::Auto, ComputePath::Gpu { context, .. }) if context.is_software() => {
+                Ok(Backend::Cpu)
+            }
             (_, ComputePath::Gpu { context, .. }) => Ok(Backend::Gpu(Arc::clone(context))),
             (BackendChoice::Auto, ComputePath::Cpu { .. }) => Ok(Backend::Cpu),
             (BackendChoice::Gpu, ComputePath::Cpu { reason }) => Err(NoGpuError {

@@ -651,20 +651,18 @@ pub enum WarmError {
 }
 
 /// Builds every compute kernel the pipeline's GPU stages use on `gpu` (diffusion, the
-/// post-filters and blending; the wavelet detail; erosion and depression filling where the
-/// device runs them), yielding
+/// post-filters and blending; the wavelet detail; erosion and depression filling), yielding
 /// between them, so that the first run on the device, in the browser the first edit, does not
-/// wait for them. Later calls cost a few map lookups.
+/// wait for them, whichever stages the user then runs there ("Compute on" auto or gpu).
+/// Later calls cost a few map lookups.
 pub async fn warm_kernels(gpu: &GpuContext, ctx: &JobCtx) -> Result<(), WarmError> {
     ctx.checkpoint(0.0, "building the GPU kernels").await?;
     crate::diffusion::warm_gpu(gpu).await?;
     ctx.checkpoint(0.5, "building the GPU kernels").await?;
     wavelet::gpu::warm(gpu).await?;
-    if gpu.runs_heavy_stages() {
-        ctx.checkpoint(0.8, "building the GPU kernels").await?;
-        erosion::gpu::warm(gpu).await?;
-        terrain::drainage::gpu::warm(gpu).await?;
-    }
+    ctx.checkpoint(0.8, "building the GPU kernels").await?;
+    erosion::gpu::warm(gpu).await?;
+    terrain::drainage::gpu::warm(gpu).await?;
     ctx.set_progress(1.0, "GPU kernels built");
     Ok(())
 }

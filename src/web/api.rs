@@ -338,6 +338,20 @@ fn install_outputs(api: &js_sys::Object, automation: &Automation) {
     });
     set(api, "generate", generate.as_ref());
     generate.forget();
+
+    let compute_target = automation.clone();
+    let set_compute =
+        Closure::<dyn Fn(String) -> Result<js_sys::Promise, JsValue>>::new(move |name: String| {
+            // As the Advanced section's "Compute on": 'auto', 'cpu' or 'gpu'; 'gpu' is an
+            // error where the page has no GPU that computes.
+            let choice: crate::compute::BackendChoice = name.parse().map_err(error)?;
+            if let Some(path) = compute_target.compute_path() {
+                choice.resolve(&path).map_err(error)?;
+            }
+            Ok(finished(&compute_target, Command::Compute(choice)))
+        });
+    set(api, "setCompute", set_compute.as_ref());
+    set_compute.forget();
 }
 
 /// The views: `setView` and `setCamera`.

@@ -4,14 +4,21 @@
 use std::time::{Duration, Instant};
 
 use egui_kittest::Harness;
-use strahler::app::{Automation, StrahlerApp};
+use strahler::app::{Automation, Command, StrahlerApp};
+use strahler::compute::BackendChoice;
 
 /// The app in a window of `width` x `height` points.
 pub fn harness(width: f32, height: f32) -> Harness<'static, StrahlerApp> {
     Harness::builder()
         .with_size(egui::vec2(width, height))
         .wgpu()
-        .build_eframe(|cc| StrahlerApp::new(cc, Automation::default()))
+        .build_eframe(|cc| {
+            // Compute on the GPU, software rasteriser or not (auto would take the CPU beside
+            // lavapipe): these tests are of the GPU path.
+            let automation = Automation::default();
+            automation.push(Command::Compute(BackendChoice::Gpu));
+            StrahlerApp::new(cc, automation)
+        })
 }
 
 /// The app without a GPU renderer: it computes on the CPU path, as in a browser without

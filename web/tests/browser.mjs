@@ -121,8 +121,22 @@ async function runMode(url, mode, expectedChecksum) {
     check('first terrain is shown', run.max - run.min > 100, JSON.stringify(run));
     check('first terrain is a converged multigrid fill', run.method === 'multigrid' && run.converged,
       JSON.stringify(run));
-    check('first terrain ran on the active path', run.backend === (mode === 'webgpu' ? 'gpu' : 'cpu'),
-      run.backend);
+    // SwiftShader is a software rasteriser: "Compute on: auto" computes on the CPU beside it
+    // (every stage is slower on it), as the command line does beside lavapipe.
+    check('first terrain ran on the CPU (auto beside a software rasteriser, or no WebGPU)',
+      run.backend === 'cpu', run.backend);
+    if (mode === 'webgpu') {
+      // From here on the GPU path is what this mode tests: every stage on the GPU, as a user
+      // who picks "Compute on: gpu".
+      let refused = null;
+      try { await page.evaluate(() => window.strahler.setCompute('tpu')); } catch (e) { refused = String(e); }
+      check('setCompute() names a choice it does not know', refused !== null && refused.includes('tpu'),
+        String(refused));
+      await page.evaluate(() => window.strahler.setCompute('gpu'));
+      const onGpu = (await page.evaluate(() => window.strahler.status())).lastRun;
+      check('setCompute("gpu") recomputes the terrain on the GPU',
+        onGpu.backend === 'gpu' && onGpu.converged && onGpu.max - onGpu.min > 100, JSON.stringify(onGpu));
+    }
 
     const test = await page.evaluate(() => window.strahler.selfTest());
     console.log(`  selfTest: cpu ${test.cpu.millis.toFixed(0)} ms` +

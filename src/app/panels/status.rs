@@ -122,9 +122,8 @@ fn compute_details(ui: &mut egui::Ui, path: &ComputePath) {
             ));
             if context.is_software() {
                 ui.label(
-                    "A software rasteriser: with Compute on auto, erosion and the wavelet \
-                     statistics run on the CPU, which is faster here (choose GPU to run every \
-                     stage on it).",
+                    "A software rasteriser: with Compute on auto the terrain is computed on \
+                     the CPU, which is faster here (choose GPU to run every stage on it).",
                 );
             }
         }

@@ -57,14 +57,12 @@ pub(super) struct Params {
 const ENTRIES: [&str; 2] = ["fill", "lift"];
 
 /// Builds the wavelet kernels on `gpu` now (see [`crate::gpu::GpuContext::pipelines`]): the
-/// synthesis's, and the statistics' where the device runs them.
+/// synthesis's and the statistics' (which a software rasteriser runs when every stage is
+/// asked of it, see `statistics`).
 pub async fn warm(gpu: &GpuContext) -> Result<(), GpuError> {
     gpu.pipelines(&SHADER, ENTRIES).await?;
-    // The statistics' kernels only where the device runs them (see `statistics`).
-    if gpu.runs_heavy_stages() {
-        analysis::warm(gpu).await?;
-        gpu.pipelines(&SHADER, rms::ENTRY).await?;
-    }
+    analysis::warm(gpu).await?;
+    gpu.pipelines(&SHADER, rms::ENTRY).await?;
     Ok(())
 }
 
