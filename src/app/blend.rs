@@ -572,20 +572,12 @@ pub(super) fn dem_view<'a>(
 pub(super) fn upload(app: &mut StrahlerApp) {
     #[cfg(target_arch = "wasm32")]
     {
-        let automation = app.automation.clone();
         let accept = ".tif,.tiff,.hgt,.asc,.png,.r16,.raw";
         let check = super::files::check_elevation_file;
-        if let Err(err) = super::files::pick_file(accept, check, move |name, read| {
-            automation.push(match read {
-                Ok(bytes) => super::Command::LoadDem { name, bytes },
-                Err(message) => super::Command::FileRefused {
-                    name,
-                    message,
-                    place: super::Place::Dem,
-                },
-            });
-        }) {
-            app.set_error_at(super::Place::Dem, err);
+        let load = |name, bytes| super::Command::LoadDem { name, bytes };
+        let place = super::Place::Dem;
+        if let Err(err) = super::files::pick_into(&app.automation, accept, check, place, load) {
+            app.set_error_at(place, err);
         }
     }
     #[cfg(not(target_arch = "wasm32"))]

@@ -252,19 +252,13 @@ impl StrahlerApp {
     fn pick_mask_file(&mut self) {
         #[cfg(target_arch = "wasm32")]
         {
-            let automation = self.automation.clone();
             let check = super::files::check_elevation_file;
-            if let Err(err) = super::files::pick_file(".png", check, move |name, read| {
-                automation.push(match read {
-                    Ok(bytes) => super::Command::ImportMask { name, bytes },
-                    Err(message) => super::Command::FileRefused {
-                        name,
-                        message,
-                        place: super::Place::Mask,
-                    },
-                });
-            }) {
-                self.set_error_at(super::Place::Mask, err);
+            let import = |name, bytes| super::Command::ImportMask { name, bytes };
+            let place = super::Place::Mask;
+            if let Err(err) =
+                super::files::pick_into(&self.automation, ".png", check, place, import)
+            {
+                self.set_error_at(place, err);
             }
         }
         #[cfg(not(target_arch = "wasm32"))]

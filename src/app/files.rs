@@ -154,6 +154,30 @@ pub fn check_scene_file(_name: &str, len: u64) -> Result<(), String> {
     }
 }
 
+/// Opens the browser's file picker for `accept`; the chosen file arrives at the app as the
+/// command `command` makes of its name and bytes, or, refused by `check`, as
+/// `Command::FileRefused` shown at `place` (the section that asked for it).
+#[cfg(target_arch = "wasm32")]
+pub fn pick_into(
+    automation: &super::Automation,
+    accept: &str,
+    check: fn(&str, u64) -> Result<(), String>,
+    place: super::Place,
+    command: fn(String, Vec<u8>) -> super::Command,
+) -> Result<(), String> {
+    let automation = automation.clone();
+    pick_file(accept, check, move |name, read| {
+        automation.push(match read {
+            Ok(bytes) => command(name, bytes),
+            Err(message) => super::Command::FileRefused {
+                name,
+                message,
+                place,
+            },
+        });
+    })
+}
+
 /// Opens the browser's file picker for `accept` (e.g. ".tif,.png"); the chosen file's name
 /// and bytes go to `deliver` once read. `check` sees the name and length first, before the
 /// browser reads the file into memory: what it refuses is delivered as the message instead

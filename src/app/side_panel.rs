@@ -151,18 +151,10 @@ impl StrahlerApp {
     /// The browser's file picker for a scene; the file arrives as `Command::OpenScene`.
     #[cfg(target_arch = "wasm32")]
     fn pick_scene(&mut self) {
-        let automation = self.automation.clone();
         let check = super::files::check_scene_file;
-        if let Err(err) = super::files::pick_file(".json", check, move |name, read| {
-            automation.push(match read {
-                Ok(bytes) => super::Command::OpenScene { name, bytes },
-                Err(message) => super::Command::FileRefused {
-                    name,
-                    message,
-                    place: super::Place::Top,
-                },
-            });
-        }) {
+        let open = |name, bytes| super::Command::OpenScene { name, bytes };
+        let place = super::Place::Top;
+        if let Err(err) = super::files::pick_into(&self.automation, ".json", check, place, open) {
             self.set_error(err);
         }
     }
