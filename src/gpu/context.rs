@@ -126,8 +126,10 @@ impl GpuContext {
 
     /// Whether stages whose GPU version only pays on real hardware (erosion: hundreds of
     /// dependent passes per step; the wavelet statistics: dozens of small dispatches) run on
-    /// this device. The diffusion and the wavelet synthesis run on any GPU; those run on the
-    /// CPU beside a software rasteriser unless [`GpuContext::with_all_stages`] asked for it.
+    /// this device: a hardware GPU, or any once [`GpuContext::with_all_stages`] asked for
+    /// every stage. "Compute on: auto" never hands a software rasteriser to the stages
+    /// (`BackendChoice::resolve` takes the CPU beside one); this guard is for contexts given
+    /// to the stages directly (benches, tests).
     pub fn runs_heavy_stages(&self) -> bool {
         !self.is_software() || self.all_stages
     }

@@ -162,6 +162,68 @@ impl Edit {
     }
 }
 
+/// The scene's heavy parts: the blocks (their references as PNG) and the painted masks.
+/// Only block and mask edits change them, so [`Saved`] keeps them out of its copy.
+struct Heavy {
+    blend: Vec<BlendBlock>,
+    detail_mask: Option<String>,
+    erosion_masks: super::ErosionMasks,
+}
+
+impl Heavy {
+    fn take(scene: &mut Scene) -> Self {
+        Self {
+            blend: std::mem::take(&mut scene.blend),
+            detail_mask: scene.detail.mask_png.take(),
+            erosion_masks: std::mem::take(&mut scene.erosion_masks),
+        }
+    }
+
+    fn put(self, scene: &mut Scene) {
+        scene.blend = self.blend;
+        scene.detail.mask_png = self.detail_mask;
+        scene.erosion_masks = self.erosion_masks;
+    }
+}
+
+/// The scene before a checked edit, to put back when the edit's checks fail: everything but
+/// the heavy parts, and for a block edit the one block it changes. An edit sent as the
+/// pointer moves copies a few numbers, not the blocks' references.
+struct Saved {
+    light: Scene,
+    blocks: usize,
+    block: Option<(usize, BlendBlock)>,
+}
+
+impl Saved {
+    fn of(scene: &mut Scene, part: Part) -> Self {
+        let heavy = Heavy::take(scene);
+        let light = scene.clone();
+        heavy.put(scene);
+        let block = match part {
+            Part::Block(i) => scene.blend.get(i).map(|b| (i, b.clone())),
+            _ => None,
+        };
+        Self {
+            light,
+            blocks: scene.blend.len(),
+            block,
+        }
+    }
+
+    fn restore(self, scene: &mut Scene) {
+        let heavy = Heavy::take(scene);
+        *scene = self.light;
+        heavy.put(scene);
+        scene.blend.truncate(self.blocks);
+        if let Some((i, block)) = self.block
+            && let Some(slot) = scene.blend.get_mut(i)
+        {
+            *slot = block;
+        }
+    }
+}
+
 impl Scene {
     /// Applies `edit`, or refuses it with the scene unchanged: a missing item, or a value
     /// [`Scene::validate`] would refuse in the part the edit changes (with its message). A
@@ -172,11 +234,14 @@ impl Scene {
         if part == Part::Unchecked {
             return self.change(edit);
         }
-        let mut next = self.clone();
-        next.change(edit)?;
-        next.check_part(part)?;
-        *self = next;
-        Ok(())
+        let saved = Saved::of(self, part);
+        let checked = self
+            .change(edit)
+            .and_then(|()| self.check_part(part).map_err(EditError::from));
+        if checked.is_err() {
+            saved.restore(self);
+        }
+        checked
     }
 
     /// Makes the change `edit` names, refusing only a missing item.
@@ -326,9 +391,18 @@ mod tests {
         let mut block = BlendBlock::new("b", &reference, [0.1, 0.1, 0.4, 0.4]).unwrap();
         scene.apply(Edit::AddBlock(block.clone())).unwrap();
         block.rect = [0.5, 0.5, 0.2, 0.9];
-        let err = scene.apply(Edit::SetBlock { index: 0, block }).unwrap_err();
+        let err = scene
+            .apply(Edit::SetBlock {
+                index: 0,
+                block: block.clone(),
+            })
+            .unwrap_err();
         assert!(err.to_string().starts_with("blend[0].rect"), "{err}");
         assert_eq!(scene.blend[0].rect, [0.1, 0.1, 0.4, 0.4]);
+        let before = scene.clone();
+        let err = scene.apply(Edit::AddBlock(block)).unwrap_err();
+        assert!(err.to_string().starts_with("blend[1].rect"), "{err}");
+        assert_eq!(scene, before, "a refused block is not added");
         let rect = [0.5, 0.5, 0.9, 0.9];
         scene.apply(Edit::SetBlockRect { index: 0, rect }).unwrap();
         assert_eq!(scene.blend[0].rect, rect);
@@ -409,7 +483,24 @@ mod tests {
             }
             hostile.push(Edit::SetErosion(Some(erosion)));
         }
-        for edit in hostile {
+        // The grid bounds the detail's output: a size whose levels would exceed it.
+        let detailed = Scene {
+            detail: DetailSettings {
+                levels: 3,
+                ..Default::default()
+            },
+            ..Scene::default()
+        };
+        let mut cases: Vec<(Scene, Edit)> =
+            hostile.into_iter().map(|e| (scene.clone(), e)).collect();
+        cases.push((
+            detailed,
+            Edit::SetGrid {
+                size: 4096,
+                cell_size: 10.0,
+            },
+        ));
+        for (scene, edit) in cases {
             let mut unchecked = scene.clone();
             unchecked.change(edit.clone()).unwrap();
             let Err(SceneError::Invalid { field, problem }) = unchecked.validate() else {

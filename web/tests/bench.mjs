@@ -15,7 +15,7 @@
 //                  --pipeline` (four rivers, phi 2 to 4), median of 3 generations on the CPU
 //                  path (the wasm build is single-threaded; these stages never use the GPU)
 //
-// Usage: node web/tests/bench.mjs [DIST_DIR]   (env: CHROMIUM, BROWSER_MODES)
+// Usage: node web/tests/bench.mjs [DIST_DIR]   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE)
 
 import { existsSync } from 'node:fs';
 import { join, resolve } from 'node:path';
@@ -83,6 +83,11 @@ async function measure(url, mode) {
     await page.waitForFunction(() => window.__firstTerrain !== undefined, null, { timeout: 120_000 });
     const first = await page.evaluate(() => window.__firstTerrain);
     await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
+    // "Compute on" for the edits and the 2048^2 generation: auto (the default) computes on the
+    // CPU beside SwiftShader; BENCH_COMPUTE=gpu measures the GPU path there.
+    if (process.env.BENCH_COMPUTE) {
+      await page.evaluate((choice) => window.strahler.setCompute(choice), process.env.BENCH_COMPUTE);
+    }
 
     const edits = await page.evaluate(async () => {
       // The edit's runs until the page is idle: the first terrain on the map (its coarse
