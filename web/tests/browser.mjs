@@ -422,6 +422,10 @@ async function runMode(url, mode, expectedChecksum) {
     await page.screenshot({ path: join(output, `${mode}.png`) });
     // Issue 32: the uploaded DEM's features become the scene, which erodes as a rebuild of
     // the DEM (its valleys run on to their outlets).
+    // After the reload: the DEM back from IndexedDB and the restored scene's terrain built
+    // (an extraction before the DEM is back is refused: "Upload a DEM first").
+    await page.waitForFunction(() => window.strahler.status().dem !== null
+      && window.strahler.status().job === null, null, { timeout: 120_000 });
     const before = await page.evaluate(() => window.strahler.status().lastRun?.checksum);
     // The promise resolves once the features are the scene (and its terrain is built).
     await page.evaluate(() => window.strahler.extractFeatures());
