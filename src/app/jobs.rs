@@ -259,7 +259,6 @@ impl StrahlerApp {
             self.automation.set_scene(self.scene());
         }
         self.automation.mark_applied(applied);
-        self.poll_session(ctx);
         if self.canvas.mask_overlay_stale {
             self.canvas.mask_overlay_stale = false;
             self.canvas.map.set_mask(ctx, Some(&self.canvas.mask));
@@ -293,6 +292,10 @@ impl StrahlerApp {
         self.take_features();
         self.take_exports();
         self.take_networks();
+        // After the jobs whose results edit the scene (features, an opened file): a run of
+        // the new scene starts in this frame, so a script waiting for the page to settle
+        // never sees it idle with the scene changed and its terrain not yet started.
+        self.poll_session(ctx);
         if let Some(result) = self.check.kernels.as_ref().and_then(JobHandle::try_take) {
             self.check.kernels = None;
             if let Err(err) = result {
