@@ -100,6 +100,23 @@ impl Heightfield {
             })
     }
 
+    /// [`Self::finite_range`] in a job: a tick every [`crate::jobs::CELLS_PER_TICK`] cells.
+    pub async fn finite_range_in(
+        &self,
+        ctx: &crate::jobs::JobCtx,
+    ) -> Result<Option<(f32, f32)>, crate::jobs::Cancelled> {
+        let mut range: Option<(f32, f32)> = None;
+        ctx.for_cells(self.data.len(), "measuring the heights", |cells| {
+            for &v in self.data[cells].iter().filter(|v| v.is_finite()) {
+                let (lo, hi) = range.get_or_insert((v, v));
+                *lo = lo.min(v);
+                *hi = hi.max(v);
+            }
+        })
+        .await?;
+        Ok(range)
+    }
+
     /// Largest absolute difference to `other` (same size), or `None` if the sizes differ.
     pub fn max_abs_diff(&self, other: &Heightfield) -> Option<f32> {
         (self.width == other.width && self.height == other.height).then(|| {

@@ -330,7 +330,7 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
 
     // A corrupt file is refused with a message naming the format; nothing is lost.
     let automation = harness.state().automation().clone();
-    automation.push(strahler::app::Command::LoadDem {
+    let number = automation.push(strahler::app::Command::LoadDem {
         name: "broken.asc".into(),
         bytes: b"ncols 3\nnrows 3\ncellsize 1\n1 2\n".to_vec(),
     });
@@ -340,6 +340,15 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
         err.contains("ESRI ASCII") && err.contains("truncated"),
         "{err}"
     );
+    // The script's promise gets the same message (once), and a command applied without
+    // complaint has none.
+    assert_eq!(automation.take_refusal(number), Some(err.clone()));
+    assert_eq!(automation.take_refusal(number), None);
+    let view = automation.push(strahler::app::Command::SetView(
+        strahler::app::ViewKind::Map,
+    ));
+    harness.run_steps(1);
+    assert_eq!(automation.take_refusal(view), None);
     assert_eq!(harness.state().terrain(), Some(&before));
     // The error is shown where the upload was made, beside the DEM panel's buttons, as
     // well as at the top of the panel.

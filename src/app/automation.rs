@@ -204,6 +204,9 @@ pub enum Command {
 
 type Repaint = Arc<dyn Fn() + Send + Sync>;
 
+/// Refusals kept for scripts that do not await their promises.
+const MAX_REFUSALS: usize = 64;
+
 /// Shared between the app and its automation bindings.
 #[derive(Clone, Default)]
 pub struct Automation {
@@ -220,6 +223,9 @@ struct Shared {
     commands: Vec<Command>,
     /// Finished exports by the number of their command.
     exports: Vec<(u64, Result<Vec<u8>, String>)>,
+    /// The app's message for each command it refused as it applied it, by number, until the
+    /// script's promise takes it (the newest [`MAX_REFUSALS`]).
+    refused: std::collections::VecDeque<(u64, String)>,
     /// Commands queued so far, and how many of them the app has applied (and published the
     /// scene after): a script's mutation resolves once `applied` reaches its number.
     queued: u64,
@@ -317,6 +323,22 @@ impl Automation {
         let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
         let at = shared.exports.iter().position(|(n, _)| *n == number)?;
         Some(shared.exports.remove(at).1)
+    }
+
+    /// The app refused command `number` with `message` (shown in the app too).
+    pub(crate) fn refuse(&self, number: u64, message: String) {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        if shared.refused.len() == MAX_REFUSALS {
+            shared.refused.pop_front();
+        }
+        shared.refused.push_back((number, message));
+    }
+
+    /// Takes the app's message if it refused command `number` (once it is applied).
+    pub fn take_refusal(&self, number: u64) -> Option<String> {
+        let mut shared = self.inner.lock().unwrap_or_else(PoisonError::into_inner);
+        let at = shared.refused.iter().position(|(n, _)| *n == number)?;
+        shared.refused.remove(at).map(|(_, message)| message)
     }
 
     /// The app applied every command up to `number` and published the scene.

@@ -85,6 +85,9 @@ pub struct Messages {
     /// Where the error's action was taken.
     pub error_at: Place,
     pub notice: Option<String>,
+    /// Errors set so far (each `set_error_at`), so a script's command can tell whether it
+    /// was refused.
+    pub errors: u64,
 }
 
 /// Where in the side panel an action was taken, for its error to be shown there.

@@ -1,9 +1,10 @@
 //! The app's side of exports: what the export dialog (`panels::ExportDialog`) is told of
 //! the terrain, and the export jobs it and scripts start (`crate::export` through
-//! `pipeline::ExportSource`). A job reports its progress by file in the status bar and keeps
-//! the page answering between files. In the browser a heightmap and its sidecar download as
-//! they are and more files as one zip; natively each is saved in the working directory under a stem no file there
-//! has yet.
+//! `pipeline::ExportSource`). A job reports its progress in the status bar, file by file
+//! and within each (every pass over the cells ticks), and keeps the page answering. In the
+//! browser a heightmap and its sidecar download as they are and more files as one zip, made
+//! in the job too; natively each is saved in the working directory under a stem no file
+//! there has yet.
 
 use std::sync::{Arc, Weak};
 
@@ -31,8 +32,13 @@ pub(super) struct Exporting {
 }
 
 enum Destination {
-    /// Saved (natively) or downloaded (in the browser), with the layers asked for.
-    Save { stem: String, layers: Vec<LayerPng> },
+    /// Saved (natively) or downloaded (in the browser), with the layers asked for; `files`:
+    /// how many the request writes (a zip holds them in the browser).
+    Save {
+        stem: String,
+        layers: Vec<LayerPng>,
+        files: usize,
+    },
     /// Kept for the script whose command had this number.
     Script(u64),
 }
@@ -94,7 +100,16 @@ impl StrahlerApp {
             _ => Vec::new(),
         };
         let stem = request.stem.clone();
-        self.start_export(ctx, request, Destination::Save { stem, layers });
+        let files = request.names().len();
+        self.start_export(
+            ctx,
+            request,
+            Destination::Save {
+                stem,
+                layers,
+                files,
+            },
+        );
     }
 
     /// Starts exporting `request` for the script command `number` (`exportHeightmap`).
@@ -114,10 +129,22 @@ impl StrahlerApp {
             return;
         };
         let source = output.export_source(self.session.scene());
+        let bundle = to.bundles(&request.names());
         let repaint = ctx.clone();
         let spawned = crate::jobs::spawn(
             "export",
-            move |job| async move { source.files(&request, &job).await },
+            move |job| async move {
+                if !bundle {
+                    return source.files(&request, &job).await;
+                }
+                let files = source.files(&request, &job.part(0.0, 0.8)).await?;
+                let zip = crate::export::bundle::zip_in(&files, &job.part(0.8, 1.0)).await?;
+                Ok(vec![File {
+                    name: format!("{}.zip", request.stem),
+                    mime: "application/zip",
+                    bytes: zip,
+                }])
+            },
             move || repaint.request_repaint(),
         );
         match (spawned, to) {
@@ -142,12 +169,20 @@ impl StrahlerApp {
                 Destination::Script(number) => {
                     let bytes = result.and_then(|files| match files.as_slice() {
                         [file] => Ok(file.bytes.clone()),
-                        _ => crate::export::bundle::zip(&files),
+                        _ => Err(format!(
+                            "{} files where one (or its zip) was due",
+                            files.len()
+                        )),
                     });
                     self.automation.set_export(number, bytes);
                 }
-                Destination::Save { stem, layers } => {
-                    match result.and_then(|files| save_all(&files, &stem, &layers)) {
+                Destination::Save {
+                    stem,
+                    layers,
+                    files: count,
+                } => {
+                    let saved = result.and_then(|files| save_all(&files, &stem, &layers, count));
+                    match saved {
                         Ok(said) => self.messages.notice = Some(format!("Heightmap {said}")),
                         Err(err) if err == "cancelled" => {}
                         Err(err) => self.set_error(format!("Export failed: {err}")),
@@ -158,10 +193,19 @@ impl StrahlerApp {
     }
 }
 
-/// Saves `files` and `layers`: a heightmap (and its sidecar) as they are; more files as
-/// `stem.zip` in the browser, one by one natively.
-fn save_all(files: &[File], stem: &str, layers: &[LayerPng]) -> Result<String, String> {
+/// Saves `files` and `layers`: a heightmap (and its sidecar) as they are, the zip of
+/// `count` files the job made in the browser, or several files one by one natively.
+fn save_all(
+    files: &[File],
+    stem: &str,
+    layers: &[LayerPng],
+    count: usize,
+) -> Result<String, String> {
     let mut said = match files {
+        [file] if count > 1 => {
+            let said = super::files::save(&file.name, file.mime, &file.bytes)?;
+            format!("{said} ({count} files)")
+        }
         [file] => super::files::save(&file.name, file.mime, &file.bytes)?,
         [map, sidecar] if sidecar.name.ends_with(".json") => {
             let said = super::files::save(&map.name, map.mime, &map.bytes)?;
@@ -181,14 +225,27 @@ fn save_all(files: &[File], stem: &str, layers: &[LayerPng]) -> Result<String, S
     Ok(said)
 }
 
-#[cfg(target_arch = "wasm32")]
-fn save_several(files: &[File], stem: &str) -> Result<String, String> {
-    let zip = crate::export::bundle::zip(files)?;
-    let said = super::files::save(&format!("{stem}.zip"), "application/zip", &zip)?;
-    Ok(format!("{said} ({} files)", files.len()))
+impl Destination {
+    /// Whether the job hands over the files named `names` as one zip: for a script, any
+    /// export of more than one file; in the browser, more than a heightmap and its sidecar.
+    fn bundles(&self, names: &[String]) -> bool {
+        match self {
+            Destination::Script(_) => names.len() > 1,
+            Destination::Save { .. } => cfg!(target_arch = "wasm32") && !alone(names),
+        }
+    }
 }
 
-#[cfg(not(target_arch = "wasm32"))]
+/// A heightmap alone, or with its sidecar JSON.
+fn alone(names: &[String]) -> bool {
+    match names {
+        [_] => true,
+        [_, sidecar] => sidecar.ends_with(".json"),
+        _ => false,
+    }
+}
+
+/// Several files saved one by one (natively; the browser gets them zipped by the job).
 fn save_several(files: &[File], _stem: &str) -> Result<String, String> {
     for file in files {
         super::files::save(&file.name, file.mime, &file.bytes)?;

@@ -125,6 +125,7 @@ impl StrahlerApp {
             .update(|s| s.last_error = Some(message.clone()));
         self.messages.error = Some(message);
         self.messages.error_at = place;
+        self.messages.errors += 1;
     }
 
     /// Puts a finished run on the map with its overlays and publishes its summaries.
@@ -205,53 +206,64 @@ impl StrahlerApp {
         self.messages.error = None;
     }
 
+    /// Applies one script command (number `number`, for the results it sends back).
+    fn apply_command(&mut self, ctx: &egui::Context, number: u64, command: Command) {
+        match command {
+            Command::Edit(edit) => self.edit(edit),
+            Command::MaskFromRivers => self.mask_from_rivers(ctx),
+            Command::PaintMask(kind, a, b, brush) => {
+                self.choose_mask(kind);
+                self.canvas.mask.paint_segment(a, b, &brush);
+                self.set_mask(ctx, self.canvas.mask.clone());
+            }
+            Command::LoadDem { name, bytes } => self.load_dem(ctx, &name, bytes),
+            Command::RestoreDem { name, bytes } => self.restore_dem(ctx, &name, bytes),
+            Command::ImportMask { name, bytes } => self.import_mask(ctx, &name, &bytes),
+            Command::FillVoids => self.fill_dem_voids(ctx),
+            Command::ExtractFeatures => self.extract_features(ctx),
+            Command::PlaceBlock {
+                window,
+                rect,
+                quarter_turns,
+                mirror,
+                z_scale,
+            } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
+            Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
+            Command::Export(request) => self.export_for_script(ctx, *request, number),
+            Command::FileRefused {
+                name,
+                message,
+                place,
+            } => self.set_error_at(place, format!("{name}: {message}")),
+            Command::Undo => self.undo(),
+            Command::Redo => self.redo(),
+            Command::SetView(view) => self.set_view(view),
+            Command::Compute(choice) => {
+                self.session.settings_mut().solver.backend = choice;
+            }
+            Command::View3dMaps(maps) => {
+                self.set_view(ViewKind::ThreeD);
+                self.view3d.set_maps(maps);
+            }
+            Command::SetCamera(request) => {
+                self.set_view(ViewKind::ThreeD);
+                self.view3d.request_camera(request);
+            }
+        }
+    }
+
     /// Takes finished results and publishes job progress. Called once per frame.
     pub(super) fn poll_jobs(&mut self, ctx: &egui::Context) {
         let (commands, applied) = self.automation.take_commands();
         let scripted = !commands.is_empty();
         let first = applied + 1 - commands.len() as u64;
         for (number, command) in (first..).zip(commands) {
-            match command {
-                Command::Edit(edit) => self.edit(edit),
-                Command::MaskFromRivers => self.mask_from_rivers(ctx),
-                Command::PaintMask(kind, a, b, brush) => {
-                    self.choose_mask(kind);
-                    self.canvas.mask.paint_segment(a, b, &brush);
-                    self.set_mask(ctx, self.canvas.mask.clone());
-                }
-                Command::LoadDem { name, bytes } => self.load_dem(ctx, &name, bytes),
-                Command::RestoreDem { name, bytes } => self.restore_dem(ctx, &name, bytes),
-                Command::ImportMask { name, bytes } => self.import_mask(ctx, &name, &bytes),
-                Command::FillVoids => self.fill_dem_voids(ctx),
-                Command::ExtractFeatures => self.extract_features(ctx),
-                Command::PlaceBlock {
-                    window,
-                    rect,
-                    quarter_turns,
-                    mirror,
-                    z_scale,
-                } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
-                Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
-                Command::Export(request) => self.export_for_script(ctx, *request, number),
-                Command::FileRefused {
-                    name,
-                    message,
-                    place,
-                } => self.set_error_at(place, format!("{name}: {message}")),
-                Command::Undo => self.undo(),
-                Command::Redo => self.redo(),
-                Command::SetView(view) => self.set_view(view),
-                Command::Compute(choice) => {
-                    self.session.settings_mut().solver.backend = choice;
-                }
-                Command::View3dMaps(maps) => {
-                    self.set_view(ViewKind::ThreeD);
-                    self.view3d.set_maps(maps);
-                }
-                Command::SetCamera(request) => {
-                    self.set_view(ViewKind::ThreeD);
-                    self.view3d.request_camera(request);
-                }
+            let errors_before = self.messages.errors;
+            self.apply_command(ctx, number, command);
+            if self.messages.errors != errors_before
+                && let Some(message) = &self.messages.error
+            {
+                self.automation.refuse(number, message.clone());
             }
         }
         if scripted {

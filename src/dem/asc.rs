@@ -179,6 +179,16 @@ pub fn read(bytes: &[u8], limits: ReadLimits) -> Result<Dem, DemError> {
 /// and `cell_size`). A non-finite or non-positive cell size, or a corner that is not finite,
 /// is refused rather than written.
 pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Result<Vec<u8>, DemError> {
+    crate::jobs::run_inline(|ctx| async move { write_in(field, georef, cell_size, &ctx).await })
+}
+
+/// [`write`] in a job: a tick after each row.
+pub async fn write_in(
+    field: &Heightfield,
+    georef: &GeoRef,
+    cell_size: f64,
+    ctx: &crate::jobs::JobCtx,
+) -> Result<Vec<u8>, DemError> {
     use std::fmt::Write as _;
     let cell = georef.cell_size().map_or(cell_size, |(sx, _)| sx);
     let (left, top) = georef
@@ -211,7 +221,10 @@ pub fn write(field: &Heightfield, georef: &GeoRef, cell_size: f64) -> Result<Vec
     let _ = writeln!(out, "yllcorner {bottom}");
     let _ = writeln!(out, "cellsize {cell}");
     let _ = writeln!(out, "NODATA_value {nodata}");
-    for row in field.data().chunks(field.width()) {
+    for (y, row) in field.data().chunks(field.width()).enumerate() {
+        ctx.tick_of(y, field.height(), "writing the ASCII grid")
+            .await
+            .map_err(|_| DemError::Cancelled)?;
         for (i, &z) in row.iter().enumerate() {
             if i > 0 {
                 out.push(' ');

@@ -11,10 +11,13 @@
 
 use std::io::Cursor;
 
-use exr::prelude::{
-    AnyChannel, AnyChannels, Encoding, FlatSamples, Image, Layer, LayerAttributes,
-    ReadChannels as _, ReadLayers as _, SmallVec, WritableImage as _,
-};
+use exr::block::writer::ChunksWriter as _;
+use exr::block::{UncompressedBlock, enumerate_ordered_header_block_indices};
+use exr::meta::BlockDescription;
+use exr::meta::Headers;
+use exr::meta::attribute::{ChannelDescription, SampleType};
+use exr::meta::header::Header;
+use exr::prelude::{Compression, LineOrder, ReadChannels as _, ReadLayers as _, SmallVec};
 
 use super::{Dem, DemError, GeoRef, ReadLimits};
 use crate::heightfield::Heightfield;
@@ -28,21 +31,47 @@ fn bad(problem: String) -> DemError {
 
 /// Encodes `field` as a one-channel float EXR.
 pub fn write(field: &Heightfield) -> Result<Vec<u8>, DemError> {
+    crate::jobs::run_inline(|ctx| async move { write_in(field, &ctx).await })
+}
+
+/// [`write`] in a job: the blocks of 16 scanlines are compressed one at a time with a tick
+/// after each (the crate's block API), then written with the header and offset table.
+pub async fn write_in(field: &Heightfield, ctx: &crate::jobs::JobCtx) -> Result<Vec<u8>, DemError> {
+    let fail = |e: exr::error::Error| DemError::Write(format!("OpenEXR: {e}"));
     let (w, h) = (field.width(), field.height());
-    let channel = AnyChannel::new("R", FlatSamples::F32(field.data().to_vec()));
-    let layer = Layer::new(
-        (w, h),
-        LayerAttributes::named("height"),
-        Encoding::SMALL_LOSSLESS,
-        AnyChannels::sort(SmallVec::from_vec(vec![channel])),
-    );
-    let image = Image::from_layer(layer);
+    let channel = ChannelDescription::named("R", SampleType::F32);
+    let header = Header::new("height".into(), (w, h), SmallVec::from_vec(vec![channel]))
+        .with_encoding(
+            Compression::ZIP16,
+            BlockDescription::ScanLines,
+            LineOrder::Increasing,
+        );
+    let headers: Headers = SmallVec::from_vec(vec![header]);
+    let mut chunks = Vec::with_capacity(headers[0].chunk_count);
+    for (index, block) in enumerate_ordered_header_block_indices(&headers) {
+        let (y0, rows) = (block.pixel_position.y(), block.pixel_size.height());
+        ctx.tick_of(y0, h, "writing the OpenEXR file")
+            .await
+            .map_err(|_| DemError::Cancelled)?;
+        let x0 = block.pixel_position.x();
+        let width = block.pixel_size.width();
+        let mut data = Vec::with_capacity(rows * width * 4);
+        for y in y0..y0 + rows {
+            for z in &field.data()[y * w + x0..y * w + x0 + width] {
+                data.extend_from_slice(&z.to_ne_bytes());
+            }
+        }
+        let block = UncompressedBlock { index: block, data };
+        chunks.push((index, block.compress_to_chunk(&headers).map_err(fail)?));
+    }
     let mut bytes = Vec::new();
-    image
-        .write()
-        .non_parallel()
-        .to_buffered(Cursor::new(&mut bytes))
-        .map_err(|e| DemError::Write(format!("OpenEXR: {e}")))?;
+    exr::block::write(Cursor::new(&mut bytes), headers, true, |_, writer| {
+        for (index, chunk) in chunks {
+            writer.write_chunk(index, chunk)?;
+        }
+        Ok(())
+    })
+    .map_err(fail)?;
     Ok(bytes)
 }
 

@@ -4,7 +4,10 @@
 use super::{
     Dem, DemError, GeoRef, ReadLimits, asc, exr, geotiff, hgt, obj, png16, raw, raw32, resize,
 };
+use std::borrow::Cow;
+
 use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
 
 /// A file format.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -330,6 +333,20 @@ pub fn write(
     georef: &GeoRef,
     options: &ExportOptions,
 ) -> Result<Exported, DemError> {
+    crate::jobs::run_inline(
+        |ctx| async move { write_in(format, field, georef, options, &ctx).await },
+    )
+}
+
+/// [`write`] in a job: resampling, the checks and the encoding tick after each row (or
+/// strip, or block), with the resampling the first 30% of `ctx`'s part.
+pub async fn write_in(
+    format: Format,
+    field: &Heightfield,
+    georef: &GeoRef,
+    options: &ExportOptions,
+    ctx: &JobCtx,
+) -> Result<Exported, DemError> {
     if !(options.z_scale.is_finite() && options.z_scale != 0.0) {
         return Err(DemError::Write(format!(
             "the z scale must be a non-zero number, got {}",
@@ -345,20 +362,31 @@ pub fn write(
             }
             let fx = (n - 1) as f64 / (field.width().max(2) - 1) as f64;
             let fy = (n - 1) as f64 / (field.height().max(2) - 1) as f64;
+            let resized = resize::resample_filtered_in(field, n, n, &ctx.part(0.0, 0.3))
+                .await
+                .map_err(|_| DemError::Cancelled)?;
             (
-                resize::resample_filtered(field, n, n),
+                Cow::Owned(resized),
                 georef.resampled(fx, fy),
                 options.cell_size / fx,
             )
         }
-        _ => (field.clone(), georef.clone(), options.cell_size),
+        _ => (Cow::Borrowed(field), georef.clone(), options.cell_size),
     };
     if options.z_scale != 1.0 {
-        out.data_mut()
-            .iter_mut()
-            .for_each(|z| *z *= options.z_scale);
+        let scale = options.z_scale;
+        let data = out.to_mut().data_mut();
+        let rows = data.len().div_ceil(SCAN_CELLS);
+        for (k, part) in data.chunks_mut(SCAN_CELLS).enumerate() {
+            ctx.part(0.3, 0.35)
+                .tick_of(k, rows, "scaling the heights")
+                .await
+                .map_err(|_| DemError::Cancelled)?;
+            part.iter_mut().for_each(|z| *z *= scale);
+        }
     }
-    if let Some(i) = out.data().iter().position(|z| z.is_infinite()) {
+    let scan = Scan::of(&out, &ctx.part(0.35, 0.4)).await?;
+    if let Some(i) = scan.first_infinite {
         let scaled = if options.z_scale != 1.0 {
             format!(" after the z scale {:?}", options.z_scale)
         } else {
@@ -371,23 +399,21 @@ pub fn write(
             i % out.width()
         )));
     }
-    if matches!(format, Format::Png | Format::R16) {
-        let voids = out.data().iter().filter(|z| z.is_nan()).count();
-        if voids > 0 {
-            return Err(DemError::Write(format!(
-                "{voids} no-data cells: a {} has no no-data value (they would read back as the \
-                 lowest height); fill them first (strahler convert --fill-voids, or strahler \
-                 fill) or write .tif or .asc",
-                format.name()
-            )));
-        }
+    if matches!(format, Format::Png | Format::R16) && scan.voids > 0 {
+        return Err(DemError::Write(format!(
+            "{} no-data cells: a {} has no no-data value (they would read back as the \
+             lowest height); fill them first (strahler convert --fill-voids, or strahler \
+             fill) or write .tif or .asc",
+            scan.voids,
+            format.name()
+        )));
     }
     if !(cell.is_finite() && cell > 0.0) {
         return Err(DemError::Write(format!(
             "the cell size must be a positive number, got {cell}"
         )));
     }
-    let range = options.z_range.or(out.finite_range());
+    let range = options.z_range.or(scan.range);
     if matches!(format, Format::Png | Format::R16)
         && let Some((lo, hi)) = range
     {
@@ -396,9 +422,6 @@ pub fn write(
         super::sidecar::check_range(lo, hi, format.name()).map_err(|problem| {
             DemError::Write(format!("{problem}; write .tif (32-bit floats) instead"))
         })?;
-    }
-    if options.flip_y && matches!(format, Format::Png) {
-        out = resize::flipped_y(&out);
     }
     let sidecar = |range: (f32, f32), decode: &str| {
         format!(
@@ -413,49 +436,87 @@ pub fn write(
         )
     };
     const STEPS: &str = "z = zmin + v / 65535 * (zmax - zmin)";
+    let ctx = &ctx.part(0.4, 1.0);
+    let cancelled = |_| DemError::Cancelled;
+    let range16 = range.unwrap_or((0.0, 0.0));
+    let plain = |bytes| Exported {
+        bytes,
+        sidecar: None,
+    };
     Ok(match format {
-        Format::GeoTiff => Exported {
-            bytes: geotiff::write(&out, &georef)?,
-            sidecar: None,
-        },
+        Format::GeoTiff => plain(geotiff::write_in(&out, &georef, ctx).await?),
         Format::Png => {
-            let (bytes, range) = png16::write_heightmap_in(&out, range.unwrap_or((0.0, 0.0)))?;
+            let (bytes, range) =
+                png16::write_heightmap_in(&out, range16, options.flip_y, ctx).await?;
             Exported {
                 bytes,
                 sidecar: Some(sidecar(range, STEPS)),
             }
         }
         Format::R16 => {
-            let (bytes, range) = raw::write_in(&out, options.flip_y, range.unwrap_or((0.0, 0.0)));
+            let (bytes, range) = raw::write_in(&out, options.flip_y, range16, ctx)
+                .await
+                .map_err(cancelled)?;
             Exported {
                 bytes,
                 sidecar: Some(sidecar(range, STEPS)),
             }
         }
-        Format::Asc => Exported {
-            bytes: asc::write(&out, &georef, cell)?,
-            sidecar: None,
-        },
-        Format::Hgt => Exported {
-            bytes: hgt::write(&out)?,
-            sidecar: None,
-        },
-        Format::Obj => Exported {
-            bytes: obj::write(&out, cell)?,
-            sidecar: None,
-        },
-        Format::Exr => Exported {
-            bytes: exr::write(&out)?,
-            sidecar: None,
-        },
+        Format::Asc => plain(asc::write_in(&out, &georef, cell, ctx).await?),
+        Format::Hgt => plain(hgt::write(&out)?),
+        Format::Obj => plain(obj::write_in(&out, cell, ctx).await?),
+        Format::Exr => plain(exr::write_in(&out, ctx).await?),
         Format::R32 => Exported {
-            bytes: raw32::write(&out, options.flip_y),
+            bytes: raw32::write_in(&out, options.flip_y, ctx)
+                .await
+                .map_err(cancelled)?,
             sidecar: Some(sidecar(
-                out.finite_range().unwrap_or((0.0, 0.0)),
+                scan.range.unwrap_or((0.0, 0.0)),
                 "z = little-endian float32 in metres, NaN = no data",
             )),
         },
     })
+}
+
+/// Cells [`write_in`] scans between two ticks.
+const SCAN_CELLS: usize = 1 << 16;
+
+/// What [`write`] checks of the heights it is about to encode, in one pass.
+struct Scan {
+    /// The first infinite height, by index.
+    first_infinite: Option<usize>,
+    /// No-data (NaN) cells.
+    voids: usize,
+    /// The finite heights' range (`Heightfield::finite_range`).
+    range: Option<(f32, f32)>,
+}
+
+impl Scan {
+    async fn of(field: &Heightfield, ctx: &JobCtx) -> Result<Self, DemError> {
+        let mut scan = Scan {
+            first_infinite: None,
+            voids: 0,
+            range: None,
+        };
+        let parts = field.data().len().div_ceil(SCAN_CELLS);
+        for (k, part) in field.data().chunks(SCAN_CELLS).enumerate() {
+            ctx.tick_of(k, parts, "checking the heights")
+                .await
+                .map_err(|_| DemError::Cancelled)?;
+            for (i, &z) in part.iter().enumerate() {
+                if z.is_nan() {
+                    scan.voids += 1;
+                } else if z.is_infinite() {
+                    scan.first_infinite.get_or_insert(k * SCAN_CELLS + i);
+                } else {
+                    let (lo, hi) = scan.range.get_or_insert((z, z));
+                    *lo = lo.min(z);
+                    *hi = hi.max(z);
+                }
+            }
+        }
+        Ok(scan)
+    }
 }
 
 #[cfg(test)]

@@ -54,6 +54,9 @@ pub enum DemError {
     Png(String),
     #[error("could not write the file: {0}")]
     Write(String),
+    /// The job writing the file was cancelled (a newer export, or the user).
+    #[error("cancelled")]
+    Cancelled,
     #[error("not a readable {format}: {problem}")]
     Malformed {
         format: &'static str,

@@ -14,6 +14,16 @@ pub const MAX_VERTICES: u64 = 2049 * 2049;
 
 /// Writes the mesh; `cell_size` is the horizontal spacing in metres.
 pub fn write(field: &Heightfield, cell_size: f64) -> Result<Vec<u8>, DemError> {
+    crate::jobs::run_inline(|ctx| async move { write_in(field, cell_size, &ctx).await })
+}
+
+/// [`write`] in a job: a tick after each row of vertices, of texture coordinates and of
+/// faces.
+pub async fn write_in(
+    field: &Heightfield,
+    cell_size: f64,
+    ctx: &crate::jobs::JobCtx,
+) -> Result<Vec<u8>, DemError> {
     let (w, h) = (field.width(), field.height());
     if (w as u64) * (h as u64) > MAX_VERTICES {
         return Err(DemError::Write(format!(
@@ -36,8 +46,16 @@ pub fn write(field: &Heightfield, cell_size: f64) -> Result<Vec<u8>, DemError> {
         "# Strahler heightmap, {w} x {h} vertices, {cell_size} m apart"
     );
     let _ = writeln!(out, "o terrain");
+    let tick = |row: usize| async move {
+        ctx.tick_of(row, 3 * h, "writing the OBJ mesh")
+            .await
+            .map_err(|_| DemError::Cancelled)
+    };
     for (i, &z) in field.data().iter().enumerate() {
         let (x, y) = (i % w, i / w);
+        if x == 0 {
+            tick(y).await?;
+        }
         let z = if z.is_finite() { z } else { 0.0 };
         let _ = writeln!(
             out,
@@ -49,6 +67,9 @@ pub fn write(field: &Heightfield, cell_size: f64) -> Result<Vec<u8>, DemError> {
     }
     for i in 0..w * h {
         let (x, y) = (i % w, i / w);
+        if x == 0 {
+            tick(h + y).await?;
+        }
         let _ = writeln!(
             out,
             "vt {} {}",
@@ -58,6 +79,7 @@ pub fn write(field: &Heightfield, cell_size: f64) -> Result<Vec<u8>, DemError> {
     }
     let ok = |i: usize| field.data()[i].is_finite();
     for y in 0..h - 1 {
+        tick(2 * h + y).await?;
         for x in 0..w - 1 {
             let a = y * w + x;
             let (b, c, d) = (a + 1, a + w, a + w + 1);

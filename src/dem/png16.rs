@@ -2,49 +2,78 @@
 //! height range in a text chunk (`strahler:z_range` = "min,max" in metres), and 8-bit masks
 //! for the layer images.
 
+use std::io::Write as _;
+
 use super::DemError;
 use crate::heightfield::Heightfield;
+use crate::jobs::{JobCtx, run_inline};
 
 /// Encodes `field` so that `z = min + v / 65535 * (max - min)`. A PNG heightmap has no
 /// no-data value: [`super::format::write`] refuses fields with no-data cells before they get
 /// here (a NaN would be written as 0, the minimum). Returns the bytes and the `(min, max)`
 /// range used.
 pub fn write_heightmap(field: &Heightfield) -> Result<(Vec<u8>, (f32, f32)), DemError> {
-    write_heightmap_in(field, field.finite_range().unwrap_or((0.0, 0.0)))
+    let range = field.finite_range().unwrap_or((0.0, 0.0));
+    run_inline(|ctx| async move { write_heightmap_in(field, range, false, &ctx).await })
 }
 
 /// [`write_heightmap`] spread over the range `(lo, hi)` instead of the field's own (tiles of
-/// one map share one range); heights outside it are clamped.
-pub fn write_heightmap_in(
+/// one map share one range; heights outside it are clamped), rows bottom-up when `flip_y`,
+/// in a job: a tick after each row.
+pub async fn write_heightmap_in(
     field: &Heightfield,
     (lo, hi): (f32, f32),
+    flip_y: bool,
+    ctx: &JobCtx,
 ) -> Result<(Vec<u8>, (f32, f32)), DemError> {
     let span = f64::from(hi - lo);
-    let mut samples = Vec::with_capacity(field.data().len() * 2);
-    for &z in field.data() {
-        let v = if z.is_finite() && span > 0.0 {
+    let w = field.width();
+    let sample = |z: f32| {
+        if z.is_finite() && span > 0.0 {
             ((f64::from(z - lo) / span) * 65535.0)
                 .round()
                 .clamp(0.0, 65535.0) as u16
         } else {
             0
-        };
-        samples.extend_from_slice(&v.to_be_bytes());
-    }
+        }
+    };
+    let shape = Shape {
+        width: w,
+        height: field.height(),
+        colour: png::ColorType::Grayscale,
+        depth: png::BitDepth::Sixteen,
+    };
     let text = ("strahler:z_range".to_owned(), format!("{lo},{hi}"));
-    let bytes = encode(
-        field.width(),
-        field.height(),
-        png::BitDepth::Sixteen,
-        &samples,
-        Some(text),
-    )?;
+    let last = field.height().saturating_sub(1);
+    let row = |y: usize, out: &mut Vec<u8>| {
+        let y = if flip_y { last - y } else { y };
+        for &z in &field.data()[y * w..(y + 1) * w] {
+            out.extend_from_slice(&sample(z).to_be_bytes());
+        }
+    };
+    let bytes = encode_rows(shape, Some(text), row, ctx).await?;
     Ok((bytes, (lo, hi)))
 }
 
 /// Encodes an 8-bit greyscale image (masks, layers).
 pub fn write_grey8(width: usize, height: usize, values: &[u8]) -> Result<Vec<u8>, DemError> {
-    encode(width, height, png::BitDepth::Eight, values, None)
+    run_inline(|ctx| async move { write_grey8_in(width, height, values, &ctx).await })
+}
+
+/// [`write_grey8`] in a job: a tick after each row.
+pub async fn write_grey8_in(
+    width: usize,
+    height: usize,
+    values: &[u8],
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, DemError> {
+    let shape = Shape {
+        width,
+        height,
+        colour: png::ColorType::Grayscale,
+        depth: png::BitDepth::Eight,
+    };
+    encode_slice(shape, values, ctx).await
 }
 
 /// Encodes an 8-bit colour image with `channels` 3 (RGB) or 4 (RGBA) interleaved samples a
@@ -55,43 +84,97 @@ pub fn write_colour8(
     channels: usize,
     values: &[u8],
 ) -> Result<Vec<u8>, DemError> {
+    run_inline(|ctx| async move { write_colour8_in(width, height, channels, values, &ctx).await })
+}
+
+/// [`write_colour8`] in a job: a tick after each row.
+pub async fn write_colour8_in(
+    width: usize,
+    height: usize,
+    channels: usize,
+    values: &[u8],
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, DemError> {
     let colour = match channels {
         3 => png::ColorType::Rgb,
         4 => png::ColorType::Rgba,
         _ => return Err(DemError::Write(format!("{channels} channels a pixel"))),
     };
-    encode_as(width, height, colour, png::BitDepth::Eight, values, None)
+    let shape = Shape {
+        width,
+        height,
+        colour,
+        depth: png::BitDepth::Eight,
+    };
+    encode_slice(shape, values, ctx).await
 }
 
-fn encode(
-    width: usize,
-    height: usize,
-    depth: png::BitDepth,
-    data: &[u8],
-    text: Option<(String, String)>,
-) -> Result<Vec<u8>, DemError> {
-    encode_as(width, height, png::ColorType::Grayscale, depth, data, text)
-}
-
-fn encode_as(
+/// The size and sample layout of an image to encode.
+struct Shape {
     width: usize,
     height: usize,
     colour: png::ColorType,
     depth: png::BitDepth,
-    data: &[u8],
+}
+
+impl Shape {
+    /// Bytes a row of samples takes.
+    fn row_bytes(&self) -> usize {
+        let bytes = if self.depth == png::BitDepth::Sixteen {
+            2
+        } else {
+            1
+        };
+        self.width * self.colour.samples() * bytes
+    }
+}
+
+/// `values` (rows of samples, top first) encoded, a row at a time.
+async fn encode_slice(shape: Shape, values: &[u8], ctx: &JobCtx) -> Result<Vec<u8>, DemError> {
+    let len = shape.row_bytes();
+    if values.len() != len * shape.height {
+        return Err(DemError::Write(format!(
+            "{} bytes for a {} x {} image of {len} bytes a row",
+            values.len(),
+            shape.width,
+            shape.height
+        )));
+    }
+    let row = |y: usize, out: &mut Vec<u8>| out.extend_from_slice(&values[y * len..(y + 1) * len]);
+    encode_rows(shape, None, row, ctx).await
+}
+
+/// A PNG of `shape` whose row `y` (top first) `row(y, out)` appends to `out`, with an
+/// optional text chunk. The rows stream through the encoder (Deflate as they come), with
+/// a tick after each, so no row's work holds the page.
+async fn encode_rows(
+    shape: Shape,
     text: Option<(String, String)>,
+    mut row: impl FnMut(usize, &mut Vec<u8>),
+    ctx: &JobCtx,
 ) -> Result<Vec<u8>, DemError> {
     let err = |e: png::EncodingError| DemError::Write(e.to_string());
+    let io = |e: std::io::Error| DemError::Write(e.to_string());
     let mut out = Vec::new();
     {
-        let mut encoder = png::Encoder::new(&mut out, width as u32, height as u32);
-        encoder.set_color(colour);
-        encoder.set_depth(depth);
+        let mut encoder = png::Encoder::new(&mut out, shape.width as u32, shape.height as u32);
+        encoder.set_color(shape.colour);
+        encoder.set_depth(shape.depth);
         if let Some((key, value)) = text {
             encoder.add_text_chunk(key, value).map_err(err)?;
         }
         let mut writer = encoder.write_header().map_err(err)?;
-        writer.write_image_data(data).map_err(err)?;
+        let mut stream = writer.stream_writer_with_size(1 << 16).map_err(err)?;
+        let mut bytes = Vec::with_capacity(shape.row_bytes());
+        for y in 0..shape.height {
+            ctx.tick_of(y, shape.height, "encoding the PNG")
+                .await
+                .map_err(|_| DemError::Cancelled)?;
+            bytes.clear();
+            row(y, &mut bytes);
+            stream.write_all(&bytes).map_err(io)?;
+        }
+        stream.finish().map_err(err)?;
         writer.finish().map_err(err)?;
     }
     Ok(out)

@@ -5,21 +5,30 @@
 
 use super::{Dem, DemError, GeoRef, ReadLimits};
 use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx, finish_inline};
 
 /// Encodes `field` and returns the bytes and the `(min, max)` range used. R16 has no no-data
 /// value: [`super::format::write`] refuses fields with no-data cells before they get here
 /// (a NaN would be written as 0, the minimum).
 pub fn write(field: &Heightfield, flip_y: bool) -> (Vec<u8>, (f32, f32)) {
-    write_in(field, flip_y, field.finite_range().unwrap_or((0.0, 0.0)))
+    let range = field.finite_range().unwrap_or((0.0, 0.0));
+    finish_inline(|ctx| async move { write_in(field, flip_y, range, &ctx).await })
 }
 
 /// [`write`] spread over the range `(lo, hi)` instead of the field's own (tiles of one map
-/// share one range); heights outside it are clamped.
-pub fn write_in(field: &Heightfield, flip_y: bool, (lo, hi): (f32, f32)) -> (Vec<u8>, (f32, f32)) {
+/// share one range; heights outside it are clamped), in a job: a tick after each row.
+pub async fn write_in(
+    field: &Heightfield,
+    flip_y: bool,
+    (lo, hi): (f32, f32),
+    ctx: &JobCtx,
+) -> Result<(Vec<u8>, (f32, f32)), Cancelled> {
     let span = f64::from(hi - lo);
     let mut out = Vec::with_capacity(field.data().len() * 2);
     let w = field.width();
     for y in 0..field.height() {
+        ctx.tick_of(y, field.height(), "writing the R16 file")
+            .await?;
         let row = if flip_y { field.height() - 1 - y } else { y };
         for &z in &field.data()[row * w..(row + 1) * w] {
             let v = if z.is_finite() && span > 0.0 {
@@ -32,7 +41,7 @@ pub fn write_in(field: &Heightfield, flip_y: bool, (lo, hi): (f32, f32)) -> (Vec
             out.extend_from_slice(&v.to_le_bytes());
         }
     }
-    (out, (lo, hi))
+    Ok((out, (lo, hi)))
 }
 
 /// Decodes a square R16 file (the size comes from the byte count) with the height range

@@ -5,18 +5,30 @@
 
 use super::{Dem, DemError, GeoRef, ReadLimits};
 use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx, finish_inline};
 
 /// Encodes `field`, rows bottom-up when `flip_y`.
 pub fn write(field: &Heightfield, flip_y: bool) -> Vec<u8> {
+    finish_inline(|ctx| async move { write_in(field, flip_y, &ctx).await })
+}
+
+/// [`write`] in a job: a tick after each row.
+pub async fn write_in(
+    field: &Heightfield,
+    flip_y: bool,
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, Cancelled> {
     let w = field.width();
     let mut out = Vec::with_capacity(field.data().len() * 4);
     for y in 0..field.height() {
+        ctx.tick_of(y, field.height(), "writing the R32 file")
+            .await?;
         let row = if flip_y { field.height() - 1 - y } else { y };
         for z in &field.data()[row * w..(row + 1) * w] {
             out.extend_from_slice(&z.to_le_bytes());
         }
     }
-    out
+    Ok(out)
 }
 
 /// Decodes an R32 file of `size` cells (from its sidecar), else a square from the byte

@@ -10,6 +10,7 @@
 //! A cell whose stencil touches no-data is no-data.
 
 use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx};
 
 /// `field` resampled to `width` x `height` cells (each at least 1).
 pub fn resample_corners(field: &Heightfield, width: usize, height: usize) -> Heightfield {
@@ -81,6 +82,19 @@ fn reflected(j: isize, len: usize, at: &dyn Fn(usize) -> f64) -> f64 {
 
 /// `field` resampled to `width` x `height` cells by the tent filter (see the module).
 pub fn resample_filtered(field: &Heightfield, width: usize, height: usize) -> Heightfield {
+    crate::jobs::finish_inline(|ctx| async move {
+        resample_filtered_in(field, width, height, &ctx).await
+    })
+}
+
+/// [`resample_filtered`] in a job: a tick after each row, so the page paints meanwhile.
+pub async fn resample_filtered_in(
+    field: &Heightfield,
+    width: usize,
+    height: usize,
+    ctx: &JobCtx,
+) -> Result<Heightfield, Cancelled> {
+    const WHAT: &str = "resampling";
     let (w, h) = (field.width(), field.height());
     let (width, height) = (width.max(1), height.max(1));
     let xs = tent_taps(width, w);
@@ -97,16 +111,18 @@ pub fn resample_filtered(field: &Heightfield, width: usize, height: usize) -> He
     // Rows first (every source row at the output width), then columns.
     let mut rows = Vec::with_capacity(h * width);
     for y in 0..h {
+        ctx.tick_of(y, 2 * h, WHAT).await?;
         let row = &d[y * w..(y + 1) * w];
         rows.extend(xs.iter().map(|t| tap(t, w, &|x| f64::from(row[x]))));
     }
     let mut out = Vec::with_capacity(width * height);
-    for t in &ys {
+    for (y, t) in ys.iter().enumerate() {
+        ctx.tick_of(height + y, 2 * height, WHAT).await?;
         for x in 0..width {
             out.push(tap(t, h, &|y| rows[y * width + x]) as f32);
         }
     }
-    Heightfield::from_vec(width, height, out).expect("non-empty output")
+    Ok(Heightfield::from_vec(width, height, out).expect("non-empty output"))
 }
 
 /// `field` with its rows in reverse order.

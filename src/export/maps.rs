@@ -6,6 +6,7 @@
 //! apart; image rows run north to south, so "up" in the picture is north.
 
 use crate::heightfield::Heightfield;
+use crate::jobs::{Cancelled, JobCtx, finish_inline};
 
 /// Tangent-space normal map conventions: OpenGL (Unity, Godot, Blender) has green towards
 /// the top of the image; DirectX (Unreal) towards its bottom.
@@ -17,21 +18,23 @@ pub enum NormalConvention {
 
 /// `(dz/dx east, dz/dy north)` at every vertex.
 pub fn gradients(field: &Heightfield, spacing: f64) -> Vec<(f64, f64)> {
+    (0..field.data().len())
+        .map(|i| gradient(field, spacing, i))
+        .collect()
+}
+
+/// `(dz/dx east, dz/dy north)` at vertex `i`: central differences, one-sided at the edges.
+fn gradient(field: &Heightfield, spacing: f64, i: usize) -> (f64, f64) {
     let (w, h) = (field.width(), field.height());
     let d = field.data();
     let at = |x: usize, y: usize| f64::from(d[y * w + x]);
-    let mut out = Vec::with_capacity(w * h);
-    for y in 0..h {
-        for x in 0..w {
-            let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
-            let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
-            let dx = (at(xb, y) - at(xa, y)) / ((xb - xa).max(1) as f64 * spacing);
-            // Rows run south: north is -y.
-            let dy = (at(x, ya) - at(x, yb)) / ((yb - ya).max(1) as f64 * spacing);
-            out.push((dx, dy));
-        }
-    }
-    out
+    let (x, y) = (i % w, i / w);
+    let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
+    let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
+    let dx = (at(xb, y) - at(xa, y)) / ((xb - xa).max(1) as f64 * spacing);
+    // Rows run south: north is -y.
+    let dy = (at(x, ya) - at(x, yb)) / ((yb - ya).max(1) as f64 * spacing);
+    (dx, dy)
 }
 
 /// Unit normal `(x east, y north, z up)` of a surface with gradient `(gx, gy)`.
@@ -48,131 +51,210 @@ fn unit_to_byte(v: f64) -> u8 {
 /// The normal map, RGB interleaved: `(n + 1) / 2` of each component, green per `convention`.
 /// A no-data vertex gets the flat normal.
 pub fn normal_map(field: &Heightfield, spacing: f64, convention: NormalConvention) -> Vec<u8> {
+    finish_inline(|ctx| async move { normal_map_in(field, spacing, convention, &ctx).await })
+}
+
+/// [`normal_map`] in a job: a tick every [`crate::jobs::CELLS_PER_TICK`] vertices.
+pub async fn normal_map_in(
+    field: &Heightfield,
+    spacing: f64,
+    convention: NormalConvention,
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, Cancelled> {
     let mut out = Vec::with_capacity(field.data().len() * 3);
-    for g in gradients(field, spacing) {
-        let g = if g.0.is_finite() && g.1.is_finite() {
-            g
-        } else {
-            (0.0, 0.0)
-        };
-        let n = normal(g);
-        let green = match convention {
-            NormalConvention::OpenGl => n[1],
-            NormalConvention::DirectX => -n[1],
-        };
-        out.extend([unit_to_byte(n[0]), unit_to_byte(green), unit_to_byte(n[2])]);
-    }
-    out
+    ctx.for_cells(field.data().len(), "the normal map", |cells| {
+        for i in cells {
+            let g = gradient(field, spacing, i);
+            let g = if g.0.is_finite() && g.1.is_finite() {
+                g
+            } else {
+                (0.0, 0.0)
+            };
+            let n = normal(g);
+            let green = match convention {
+                NormalConvention::OpenGl => n[1],
+                NormalConvention::DirectX => -n[1],
+            };
+            out.extend([unit_to_byte(n[0]), unit_to_byte(green), unit_to_byte(n[2])]);
+        }
+    })
+    .await?;
+    Ok(out)
 }
 
 /// Slope in degrees at every vertex (NaN at no-data).
 pub fn slope_degrees(field: &Heightfield, spacing: f64) -> Vec<f64> {
-    gradients(field, spacing)
-        .into_iter()
-        .map(|(gx, gy)| gx.hypot(gy).atan().to_degrees())
-        .collect()
+    finish_inline(|ctx| async move { slope_degrees_in(field, spacing, &ctx).await })
+}
+
+/// [`slope_degrees`] in a job: a tick every [`crate::jobs::CELLS_PER_TICK`] vertices.
+pub async fn slope_degrees_in(
+    field: &Heightfield,
+    spacing: f64,
+    ctx: &JobCtx,
+) -> Result<Vec<f64>, Cancelled> {
+    ctx.map_cells(field.data().len(), "slopes", |i| {
+        let (gx, gy) = gradient(field, spacing, i);
+        gx.hypot(gy).atan().to_degrees()
+    })
+    .await
 }
 
 /// Slope as 8 bits: 0 = flat, 255 = vertical (`degrees / 90 * 255`).
-pub fn slope_map(slopes: &[f64]) -> Vec<u8> {
-    slopes
-        .iter()
-        .map(|s| {
-            if s.is_finite() {
-                (s / 90.0 * 255.0).round().clamp(0.0, 255.0) as u8
-            } else {
-                0
-            }
-        })
-        .collect()
+pub async fn slope_map(slopes: &[f64], ctx: &JobCtx) -> Result<Vec<u8>, Cancelled> {
+    ctx.map_cells(slopes.len(), "the slope map", |i| {
+        let s = slopes[i];
+        if s.is_finite() {
+            (s / 90.0 * 255.0).round().clamp(0.0, 255.0) as u8
+        } else {
+            0
+        }
+    })
+    .await
 }
 
 /// Curvature as 8 bits: the Laplacian (1/m) of the surface, 128 = planar, above = concave
 /// (hollows, valleys), below = convex (ridges), scaled so the 99th percentile of |Laplacian|
 /// reaches the ends; and that scale (1/m per step).
 pub fn curvature_map(field: &Heightfield, spacing: f64) -> (Vec<u8>, f64) {
+    finish_inline(|ctx| async move { curvature_map_in(field, spacing, &ctx).await })
+}
+
+/// [`curvature_map`] in a job: every pass ticks (the percentile is found by a histogram of
+/// the values' bits, not a sort, so that it can).
+pub async fn curvature_map_in(
+    field: &Heightfield,
+    spacing: f64,
+    ctx: &JobCtx,
+) -> Result<(Vec<u8>, f64), Cancelled> {
+    const WHAT: &str = "the curvature map";
     let (w, h) = (field.width(), field.height());
     let d = field.data();
     let at = |x: usize, y: usize| f64::from(d[y * w + x]);
-    let lap: Vec<f64> = (0..w * h)
-        .map(|i| {
+    let lap = ctx
+        .map_cells(w * h, WHAT, |i| {
             let (x, y) = (i % w, i / w);
             let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
             let (ya, yb) = (y.saturating_sub(1), (y + 1).min(h - 1));
             (at(xa, y) + at(xb, y) + at(x, ya) + at(x, yb) - 4.0 * at(x, y)) / (spacing * spacing)
         })
-        .collect();
-    let mut mags: Vec<f64> = lap
-        .iter()
-        .filter(|v| v.is_finite())
-        .map(|v| v.abs())
-        .collect();
-    mags.sort_by(f64::total_cmp);
-    let p99 = mags
-        .get(mags.len().saturating_sub(1) * 99 / 100)
-        .copied()
+        .await?;
+    let p99 = percentile_of_magnitudes(&lap, 99, ctx)
+        .await?
         .filter(|v| *v > 0.0)
         .unwrap_or(1.0);
     let per_step = p99 / 127.0;
-    let bytes = lap
-        .iter()
-        .map(|v| {
+    let bytes = ctx
+        .map_cells(lap.len(), WHAT, |i| {
+            let v = lap[i];
             if v.is_finite() {
                 (128.0 + v / per_step).round().clamp(0.0, 255.0) as u8
             } else {
                 128
             }
         })
-        .collect();
-    (bytes, per_step)
+        .await?;
+    Ok((bytes, per_step))
+}
+
+/// The value of rank `(count - 1) * percent / 100` (0-based, ascending) among the finite
+/// `|v|` of `values`, as a sort would find it; `None` when none is finite. Two passes: a
+/// histogram of the top 16 bits of each magnitude (non-negative `f64`s order as their bits
+/// do) finds the bucket holding that rank, then the bucket's values are sorted.
+async fn percentile_of_magnitudes(
+    values: &[f64],
+    percent: usize,
+    ctx: &JobCtx,
+) -> Result<Option<f64>, Cancelled> {
+    const WHAT: &str = "the curvature's scale";
+    let bucket = |v: f64| (v.abs().to_bits() >> 48) as usize;
+    let mut counts = vec![0usize; 1 << 16];
+    ctx.for_cells(values.len(), WHAT, |cells| {
+        for &v in values[cells].iter().filter(|v| v.is_finite()) {
+            counts[bucket(v)] += 1;
+        }
+    })
+    .await?;
+    let total: usize = counts.iter().sum();
+    if total == 0 {
+        return Ok(None);
+    }
+    let mut rank = (total - 1) * percent / 100;
+    let Some(chosen) = counts.iter().position(|&c| {
+        if rank < c {
+            true
+        } else {
+            rank -= c;
+            false
+        }
+    }) else {
+        return Ok(None);
+    };
+    let mut inside = Vec::new();
+    ctx.for_cells(values.len(), WHAT, |cells| {
+        let picked = values[cells]
+            .iter()
+            .filter(|v| v.is_finite() && bucket(**v) == chosen);
+        inside.extend(picked.map(|v| v.abs()));
+    })
+    .await?;
+    inside.sort_by(f64::total_cmp);
+    Ok(inside.get(rank).copied())
 }
 
 /// `values` on a log scale over their positive range, as 8 bits (0 = the smallest, 255 = the
 /// largest); used for drainage area.
-pub fn log_map(values: &[f64]) -> Vec<u8> {
-    let logs: Vec<f64> = values
-        .iter()
-        .map(|v| if *v > 0.0 { v.log10() } else { f64::NAN })
-        .collect();
-    let (lo, hi) = logs
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(*v), b.max(*v))
-        });
+pub async fn log_map(values: &[f64], ctx: &JobCtx) -> Result<Vec<u8>, Cancelled> {
+    const WHAT: &str = "the flow map";
+    let log = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    ctx.for_cells(values.len(), WHAT, |cells| {
+        for v in values[cells]
+            .iter()
+            .map(|v| log(*v))
+            .filter(|v| v.is_finite())
+        {
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+    })
+    .await?;
     let span = (hi - lo).max(1e-12);
-    logs.iter()
-        .map(|v| {
-            if v.is_finite() {
-                ((v - lo) / span * 255.0).round() as u8
-            } else {
-                0
-            }
-        })
-        .collect()
+    ctx.map_cells(values.len(), WHAT, |i| {
+        let v = log(values[i]);
+        if v.is_finite() {
+            ((v - lo) / span * 255.0).round() as u8
+        } else {
+            0
+        }
+    })
+    .await
 }
 
 /// Erosion (positive: lowered) and deposition (negative) in metres as 8 bits: 128 = unchanged,
 /// 255 = the most lowered, 0 = the most raised (one scale for both); and that scale (m per
 /// step).
-pub fn erosion_map(lowered: &[f32]) -> (Vec<u8>, f64) {
-    let max = lowered
-        .iter()
-        .filter(|v| v.is_finite())
-        .fold(0.0f64, |m, v| m.max(f64::from(v.abs())))
-        .max(1e-6);
-    let per_step = max / 127.0;
-    let bytes = lowered
-        .iter()
-        .map(|v| {
+pub async fn erosion_map(lowered: &[f32], ctx: &JobCtx) -> Result<(Vec<u8>, f64), Cancelled> {
+    const WHAT: &str = "the erosion map";
+    let mut max = 0.0f64;
+    ctx.for_cells(lowered.len(), WHAT, |cells| {
+        for v in lowered[cells].iter().filter(|v| v.is_finite()) {
+            max = max.max(f64::from(v.abs()));
+        }
+    })
+    .await?;
+    let per_step = max.max(1e-6) / 127.0;
+    let bytes = ctx
+        .map_cells(lowered.len(), WHAT, |i| {
+            let v = lowered[i];
             if v.is_finite() {
-                (128.0 + f64::from(*v) / per_step).round().clamp(0.0, 255.0) as u8
+                (128.0 + f64::from(v) / per_step).round().clamp(0.0, 255.0) as u8
             } else {
                 128
             }
         })
-        .collect();
-    (bytes, per_step)
+        .await?;
+    Ok((bytes, per_step))
 }
 
 /// Watershed labels as 8 bits from every cell's `outlet` (`u32::MAX`: no-data) and upstream
@@ -180,18 +262,30 @@ pub fn erosion_map(lowered: &[f32]) -> (Vec<u8>, f64) {
 /// in that order, then the other basins draining at least `min_area` by size, up to 255
 /// labels; 0 is every smaller basin (slivers along the map's edge) and no-data.
 pub fn basin_labels(outlet: &[u32], area: &[f64], first: &[u32], min_area: f64) -> Vec<u8> {
+    finish_inline(|ctx| async move { basin_labels_in(outlet, area, first, min_area, &ctx).await })
+}
+
+/// [`basin_labels`] in a job: a tick every [`crate::jobs::CELLS_PER_TICK`] cells.
+pub async fn basin_labels_in(
+    outlet: &[u32],
+    area: &[f64],
+    first: &[u32],
+    min_area: f64,
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, Cancelled> {
+    const WHAT: &str = "the basin map";
     let mut order: Vec<u32> = Vec::new();
     for o in first {
         if *o != u32::MAX && !order.contains(o) {
             order.push(*o);
         }
     }
-    let mut others: Vec<u32> = outlet
-        .iter()
-        .enumerate()
-        .filter(|&(i, o)| *o == i as u32 && area[i] >= min_area && !order.contains(o))
-        .map(|(_, o)| *o)
-        .collect();
+    let mut others: Vec<u32> = Vec::new();
+    ctx.for_cells(outlet.len(), WHAT, |cells| {
+        let own = cells.filter(|&i| outlet[i] == i as u32 && area[i] >= min_area);
+        others.extend(own.map(|i| i as u32).filter(|o| !order.contains(o)));
+    })
+    .await?;
     others.sort_by(|a, b| {
         area[*b as usize]
             .total_cmp(&area[*a as usize])
@@ -203,10 +297,10 @@ pub fn basin_labels(outlet: &[u32], area: &[f64], first: &[u32], min_area: f64) 
     for (k, o) in order.iter().enumerate() {
         label.insert(*o, k as u8 + 1);
     }
-    outlet
-        .iter()
-        .map(|o| label.get(o).copied().unwrap_or(0))
-        .collect()
+    ctx.map_cells(outlet.len(), WHAT, |i| {
+        label.get(&outlet[i]).copied().unwrap_or(0)
+    })
+    .await
 }
 
 /// Where each material starts (the scene's `textures`; see `crate::scene::TextureRules`).
@@ -269,25 +363,30 @@ pub fn splat_weights(
 
 /// The splat map, RGBA interleaved (rock, grass, sediment, snow), each vertex's four bytes
 /// summing to exactly 255.
-pub fn splat_map(
+pub async fn splat_map(
     field: &Heightfield,
     slopes: &[f64],
     area_m2: &[f64],
     rules: &SplatRules,
-) -> Vec<u8> {
-    let (lo, hi) = field.finite_range().unwrap_or((0.0, 1.0));
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, Cancelled> {
+    let (lo, hi) = field.finite_range_in(ctx).await?.unwrap_or((0.0, 1.0));
     let span = f64::from(hi - lo).max(1e-9);
     let mut out = Vec::with_capacity(slopes.len() * 4);
-    for (i, z) in field.data().iter().enumerate() {
-        let relative = (f64::from(*z) - f64::from(lo)) / span;
-        let w = if z.is_finite() {
-            splat_weights(slopes[i], relative, area_m2[i], rules)
-        } else {
-            [0.0, 1.0, 0.0, 0.0]
-        };
-        out.extend(to_bytes_summing_255(w));
-    }
-    out
+    ctx.for_cells(field.data().len(), "the splat map", |cells| {
+        for i in cells {
+            let z = field.data()[i];
+            let relative = (f64::from(z) - f64::from(lo)) / span;
+            let w = if z.is_finite() {
+                splat_weights(slopes[i], relative, area_m2[i], rules)
+            } else {
+                [0.0, 1.0, 0.0, 0.0]
+            };
+            out.extend(to_bytes_summing_255(w));
+        }
+    })
+    .await?;
+    Ok(out)
 }
 
 /// Weights summing to 1 as bytes summing to 255 (largest remainder rounding).
@@ -388,9 +487,45 @@ mod tests {
         let field = Heightfield::filled(5, 5, 3.0).unwrap();
         let (bytes, _) = curvature_map(&field, 1.0);
         assert!(bytes.iter().all(|b| *b == 128));
-        let (bytes, per_step) = erosion_map(&[2.0, -1.0, 0.0]);
+        let (bytes, per_step) =
+            finish_inline(|ctx| async move { erosion_map(&[2.0, -1.0, 0.0], &ctx).await });
         assert_eq!(bytes, vec![255, 65, 128]);
         assert!((per_step - 2.0 / 127.0).abs() < 1e-12);
-        assert_eq!(log_map(&[1.0, 10.0, 100.0, 0.0]), vec![0, 128, 255, 0]);
+        let logs =
+            finish_inline(|ctx| async move { log_map(&[1.0, 10.0, 100.0, 0.0], &ctx).await });
+        assert_eq!(logs, vec![0, 128, 255, 0]);
+    }
+
+    /// The curvature's scale found by a histogram of the bits is the value a sort finds,
+    /// with ties, no-data, signs and values across many octaves.
+    #[test]
+    fn the_percentile_by_histogram_is_the_sorted_ones() {
+        let mut values: Vec<f64> = (0..20_000u64)
+            .map(|i| {
+                let r = crate::noise::splitmix64(i) as f64 / u64::MAX as f64;
+                let v = (r * 40.0 - 20.0).exp2() * if i % 3 == 0 { -1.0 } else { 1.0 };
+                if i % 7 == 0 { 0.25 } else { v }
+            })
+            .collect();
+        values.extend([f64::NAN, f64::INFINITY, 0.0, -0.0]);
+        for percent in [0, 1, 50, 99, 100] {
+            let mut sorted: Vec<f64> = values
+                .iter()
+                .filter(|v| v.is_finite())
+                .map(|v| v.abs())
+                .collect();
+            sorted.sort_by(f64::total_cmp);
+            let want = sorted[(sorted.len() - 1) * percent / 100];
+            let values = &values;
+            let got = finish_inline(|ctx| async move {
+                percentile_of_magnitudes(values, percent, &ctx).await
+            });
+            assert_eq!(got, Some(want), "{percent}%");
+        }
+        let none =
+            finish_inline(
+                |ctx| async move { percentile_of_magnitudes(&[f64::NAN], 99, &ctx).await },
+            );
+        assert_eq!(none, None);
     }
 }

@@ -14,6 +14,8 @@ pub mod network;
 pub mod preset;
 pub mod tiles;
 
+use std::borrow::Cow;
+
 use crate::dem::format::{self, ExportOptions, Format};
 use crate::dem::{GeoRef, resize};
 use crate::heightfield::Heightfield;
@@ -348,24 +350,40 @@ pub fn plan(
     })
 }
 
-/// Every file of `request`, encoded (nothing is written: the caller saves them). Between
-/// files `ctx` reports the progress by file and may cancel; on the web it lets the page
-/// paint there.
+/// Every file of `request`, encoded (nothing is written: the caller saves them). Each file
+/// fills its share of `ctx`'s bar, and every pass over the cells (resampling, the maps'
+/// measures and routing, the encoders' rows) ticks, so the page paints and the bar moves
+/// within a file; a cancelled job stops at the next tick.
 pub async fn files(
     inputs: &Inputs<'_>,
     request: &Request,
     ctx: &JobCtx,
 ) -> Result<Vec<File>, String> {
     let native = inputs.field.width();
-    let range = inputs.field.finite_range().unwrap_or((0.0, 0.0));
+    let range = inputs
+        .field
+        .finite_range_in(ctx)
+        .await
+        .map_err(cancelled)?
+        .unwrap_or((0.0, 0.0));
     let mut plan = plan(request, native, inputs.cell_m, range)?;
-    let sized = if plan.size == native {
-        inputs.field.clone()
+    let total = plan.names.len().max(1) as f32;
+    // The resampling, when there is one, counts as half a file of the bar.
+    let (resizing, rest) = if plan.size == native {
+        (0.0, 1.0 / total)
     } else {
-        resize::resample_filtered(inputs.field, plan.size, plan.size)
+        (0.5 / (total + 0.5), 1.0 / (total + 0.5))
     };
+    let sized = if plan.size == native {
+        Cow::Borrowed(inputs.field)
+    } else {
+        let part = ctx.part(0.0, resizing);
+        let sized = resize::resample_filtered_in(inputs.field, plan.size, plan.size, &part);
+        Cow::Owned(sized.await.map_err(cancelled)?)
+    };
+    let sized_range = sized.finite_range_in(ctx).await.map_err(cancelled)?;
     // The numbers follow the heights written: resampling narrows the range a little.
-    if let (Some(engine), Some((lo, hi))) = (request.engine, sized.finite_range()) {
+    if let (Some(engine), Some((lo, hi))) = (request.engine, sized_range) {
         let z = f64::from(request.z_scale);
         let (lo, hi) = (f64::from(lo) * z, f64::from(hi) * z);
         plan.numbers = Some(EngineNumbers::new(
@@ -378,25 +396,29 @@ pub async fn files(
     }
     let spacing = plan.extent_m / (plan.size.max(2) - 1) as f64;
     let stem = &request.stem;
-    let total = plan.names.len().max(1) as f32;
+    // The part of the bar of the files from the `out.len()`th, `count` of them.
+    let files_part = |done: usize, count: usize| {
+        let from = resizing + done as f32 * rest;
+        ctx.part(from, from + count as f32 * rest)
+    };
     let step = |out: &Vec<File>, what: &str| {
-        let done = out.len() as f32 / total;
         let message = format!(
             "exporting {what} ({} of {} files)",
-            out.len(),
+            out.len() + 1,
             plan.names.len()
         );
-        async move {
-            ctx.checkpoint(done, &message)
-                .await
-                .map_err(|_| "cancelled".to_owned())
-        }
+        let part = files_part(out.len(), 1);
+        async move { part.checkpoint(0.0, &message).await.map_err(cancelled) }
     };
     let mut out = Vec::new();
     step(&out, "the heightmap").await?;
     let own = (plan.size == native && plan.grid.is_none())
         .then_some(inputs.georef)
         .flatten();
+    let heightmap_files = plan.names.len()
+        - request.maps.len()
+        - usize::from(request.rivers)
+        - if plan.numbers.is_some() { 2 } else { 0 };
     heightmaps(
         &sized,
         spacing,
@@ -405,7 +427,9 @@ pub async fn files(
         request,
         &plan,
         &mut out,
-    )?;
+        &files_part(0, heightmap_files),
+    )
+    .await?;
     let placed = inputs.centre_lonlat.map(Placed::at);
     if let Some(numbers) = &plan.numbers {
         let json = serde_json::to_string_pretty(numbers).map_err(|e| e.to_string())?;
@@ -422,7 +446,8 @@ pub async fn files(
     }
     for map in &request.maps {
         step(&out, &format!("the {} map", map.key())).await?;
-        let png = texture(*map, &sized, spacing, inputs, request.normals)?;
+        let part = files_part(out.len(), 1);
+        let png = texture(*map, &sized, spacing, inputs, request.normals, &part).await?;
         out.push(File {
             name: format!("{stem}-{}.png", map.key()),
             mime: "image/png",
@@ -468,7 +493,8 @@ pub async fn files(
 }
 
 /// The heightmap, or its tiles and their index, with their sidecars.
-fn heightmaps(
+#[allow(clippy::too_many_arguments)]
+async fn heightmaps(
     sized: &Heightfield,
     spacing: f64,
     own: Option<&GeoRef>,
@@ -476,10 +502,13 @@ fn heightmaps(
     request: &Request,
     plan: &Plan,
     out: &mut Vec<File>,
+    ctx: &JobCtx,
 ) -> Result<(), String> {
     let z = request.z_scale;
     let range = sized
-        .finite_range()
+        .finite_range_in(ctx)
+        .await
+        .map_err(cancelled)?
         .map(|(a, b)| ((a * z).min(b * z), (a * z).max(b * z)));
     let options = ExportOptions {
         size: None,
@@ -495,34 +524,38 @@ fn heightmaps(
     };
     let ext = request.format.extension();
     let stem = &request.stem;
-    let mut push =
-        |name: String, field: &Heightfield, x0: usize, y0: usize| -> Result<(), String> {
-            let written = format::write(
-                request.format,
-                field,
-                &own.cloned().unwrap_or_else(|| local(x0, y0)),
-                &options,
-            )
+    let tiles = plan.grid.map_or(1, |g| g.columns * g.rows);
+    let push = async |out: &mut Vec<File>,
+                      name: String,
+                      field: &Heightfield,
+                      (x0, y0): (usize, usize),
+                      tile: usize|
+           -> Result<(), String> {
+        let georef = own.cloned().unwrap_or_else(|| local(x0, y0));
+        let share = 1.0 / tiles as f32;
+        let part = ctx.part(tile as f32 * share, (tile + 1) as f32 * share);
+        let written = format::write_in(request.format, field, &georef, &options, &part)
+            .await
             .map_err(|e| e.to_string())?;
+        out.push(File {
+            name: format!("{name}.{ext}"),
+            mime: request.format.mime(),
+            bytes: written.bytes,
+        });
+        if let Some(json) = written.sidecar {
             out.push(File {
-                name: format!("{name}.{ext}"),
-                mime: request.format.mime(),
-                bytes: written.bytes,
+                name: format!("{name}.json"),
+                mime: "application/json",
+                bytes: json.into_bytes(),
             });
-            if let Some(json) = written.sidecar {
-                out.push(File {
-                    name: format!("{name}.json"),
-                    mime: "application/json",
-                    bytes: json.into_bytes(),
-                });
-            }
-            Ok(())
-        };
+        }
+        Ok(())
+    };
     let Some(grid) = plan.grid else {
-        return push(stem.clone(), sized, 0, 0);
+        return push(out, stem.clone(), sized, (0, 0), 0).await;
     };
     let mut index = Vec::new();
-    for (column, row, tile) in grid.split(sized) {
+    for (k, (column, row, tile)) in grid.split(sized).into_iter().enumerate() {
         let name = format!("{stem}{}", TileGrid::suffix(column, row));
         let (x0, y0) = grid.origin(column, row);
         index.push(serde_json::json!({
@@ -534,7 +567,7 @@ fn heightmaps(
             "width": tile.width(),
             "height": tile.height(),
         }));
-        push(name, &tile, x0, y0)?;
+        push(out, name, &tile, (x0, y0), k).await?;
     }
     let (zmin, zmax) = range.unwrap_or((0.0, 0.0));
     let json = serde_json::json!({
@@ -558,51 +591,87 @@ fn heightmaps(
     Ok(())
 }
 
-/// One texture map of `sized` as PNG bytes.
-fn texture(
+/// One texture map of `sized` as PNG bytes: its measures fill the first half of `ctx`'s
+/// part, the encoding the second.
+async fn texture(
     map: MapKind,
     sized: &Heightfield,
     spacing: f64,
-    inputs: &Inputs,
+    inputs: &Inputs<'_>,
     normals: NormalConvention,
+    ctx: &JobCtx,
 ) -> Result<Vec<u8>, String> {
-    use crate::dem::png16::{write_colour8, write_grey8};
+    use crate::dem::png16::{write_colour8_in, write_grey8_in};
     let (w, h) = (sized.width(), sized.height());
+    let (measure, encode) = (&ctx.part(0.0, 0.5), &ctx.part(0.5, 1.0));
+    let grey = async |bytes: Vec<u8>| write_grey8_in(w, h, &bytes, encode).await;
     let encoded = match map {
-        MapKind::Normal => write_colour8(w, h, 3, &maps::normal_map(sized, spacing, normals)),
-        MapKind::Slope => write_grey8(w, h, &maps::slope_map(&maps::slope_degrees(sized, spacing))),
-        MapKind::Curvature => write_grey8(w, h, &maps::curvature_map(sized, spacing).0),
-        MapKind::Flow => write_grey8(w, h, &maps::log_map(&area_of(sized, spacing, inputs)?)),
+        MapKind::Normal => {
+            let rgb = maps::normal_map_in(sized, spacing, normals, measure).await;
+            write_colour8_in(w, h, 3, &rgb.map_err(cancelled)?, encode).await
+        }
+        MapKind::Slope => {
+            let slopes = maps::slope_degrees_in(sized, spacing, measure).await;
+            grey(
+                maps::slope_map(&slopes.map_err(cancelled)?, measure)
+                    .await
+                    .map_err(cancelled)?,
+            )
+            .await
+        }
+        MapKind::Curvature => {
+            let (bytes, _) = maps::curvature_map_in(sized, spacing, measure)
+                .await
+                .map_err(cancelled)?;
+            grey(bytes).await
+        }
+        MapKind::Flow => {
+            let area = area_of(sized, spacing, inputs, &measure.part(0.0, 0.8)).await?;
+            let bytes = maps::log_map(&area, &measure.part(0.8, 1.0)).await;
+            grey(bytes.map_err(cancelled)?).await
+        }
         MapKind::Erosion => {
             let lowered = inputs
                 .lowered
                 .ok_or("the erosion map needs an eroded terrain (a scene with erosion on)")?;
             let n = inputs.skeleton_cells;
             let field = Heightfield::from_vec(n, n, lowered.to_vec()).map_err(|e| e.to_string())?;
-            let sized = resize::resample_filtered(&field, w, h);
-            write_grey8(w, h, &maps::erosion_map(sized.data()).0)
+            let sized = resize::resample_filtered_in(&field, w, h, &measure.part(0.0, 0.7))
+                .await
+                .map_err(cancelled)?;
+            let (bytes, _) = maps::erosion_map(sized.data(), &measure.part(0.7, 1.0))
+                .await
+                .map_err(cancelled)?;
+            grey(bytes).await
         }
         MapKind::Water => {
             let n = inputs.skeleton_cells;
             let skeleton_cell =
                 inputs.cell_m * (inputs.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
             let mask = crate::view3d::maps::water_mask(inputs.river_order, n, skeleton_cell as f32);
-            write_grey8(w, h, &nearest(&mask, n, w, h))
+            grey(nearest(&mask, n, w, h, measure).await.map_err(cancelled)?).await
         }
         MapKind::Splat => {
-            let slopes = maps::slope_degrees(sized, spacing);
-            let area = area_of(sized, spacing, inputs)?;
-            write_colour8(
-                w,
-                h,
-                4,
-                &maps::splat_map(sized, &slopes, &area, &inputs.splat),
+            let slopes = maps::slope_degrees_in(sized, spacing, &measure.part(0.0, 0.2))
+                .await
+                .map_err(cancelled)?;
+            let area = area_of(sized, spacing, inputs, &measure.part(0.2, 0.9)).await?;
+            let rgba = maps::splat_map(
+                sized,
+                &slopes,
+                &area,
+                &inputs.splat,
+                &measure.part(0.9, 1.0),
             )
+            .await
+            .map_err(cancelled)?;
+            write_colour8_in(w, h, 4, &rgba, encode).await
         }
         MapKind::Basins => {
-            let (outlet, area) =
-                crate::realism::outlets(sized.data(), w, h, spacing, &mouths(inputs, w, h))
-                    .ok_or(NO_CELLS)?;
+            let sinks = mouths(inputs, w, h);
+            let part = measure.part(0.0, 0.9);
+            let routed = crate::realism::outlets_in(sized.data(), w, h, spacing, &sinks, &part);
+            let (outlet, area) = routed.await.map_err(cancelled)?.ok_or(NO_CELLS)?;
             let cell = |p: glam::DVec2| {
                 let x = (p.x * (w - 1) as f64).round().clamp(0.0, (w - 1) as f64) as usize;
                 let y = (p.y * (h - 1) as f64).round().clamp(0.0, (h - 1) as f64) as usize;
@@ -615,11 +684,9 @@ fn texture(
                 .map(|p| outlet[cell(*p)])
                 .collect();
             let min_area = 0.005 * (w * h) as f64 * spacing * spacing;
-            write_grey8(
-                w,
-                h,
-                &maps::basin_labels(&outlet, &area, &estuaries, min_area),
-            )
+            let part = measure.part(0.9, 1.0);
+            let labels = maps::basin_labels_in(&outlet, &area, &estuaries, min_area, &part);
+            grey(labels.await.map_err(cancelled)?).await
         }
     };
     encoded.map_err(|e| e.to_string())
@@ -627,11 +694,23 @@ fn texture(
 
 /// Drainage area (m^2) of the exported terrain itself, so flow lines up with its slopes;
 /// water leaves at the border and at the rivers' mouths inside the map.
-fn area_of(sized: &Heightfield, spacing: f64, inputs: &Inputs) -> Result<Vec<f64>, String> {
+async fn area_of(
+    sized: &Heightfield,
+    spacing: f64,
+    inputs: &Inputs<'_>,
+    ctx: &JobCtx,
+) -> Result<Vec<f64>, String> {
     let (w, h) = (sized.width(), sized.height());
     let sinks = mouths(inputs, w, h);
-    crate::realism::drainage_area_m2_with_sinks(sized.data(), w, h, spacing, &sinks)
+    crate::realism::drainage_area_m2_with_sinks_in(sized.data(), w, h, spacing, &sinks, ctx)
+        .await
+        .map_err(cancelled)?
         .ok_or_else(|| NO_CELLS.to_owned())
+}
+
+/// A cancelled job's error, as the app recognises it (it says nothing then).
+fn cancelled(_: crate::jobs::Cancelled) -> String {
+    "cancelled".to_owned()
 }
 
 /// The cells of the rivers' mouths (their estuary nodes) that lie inside a `w` x `h` export,
@@ -658,7 +737,13 @@ fn mouths(inputs: &Inputs, w: usize, h: usize) -> Vec<u32> {
 const NO_CELLS: &str = "the terrain has no valid cells to route water over";
 
 /// A square `n`-cell mask at `w` x `h` by nearest cell (vertex-registered).
-fn nearest(mask: &[u8], n: usize, w: usize, h: usize) -> Vec<u8> {
+async fn nearest(
+    mask: &[u8],
+    n: usize,
+    w: usize,
+    h: usize,
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, crate::jobs::Cancelled> {
     let pick = |i: usize, len: usize| {
         if len <= 1 {
             0
@@ -666,7 +751,47 @@ fn nearest(mask: &[u8], n: usize, w: usize, h: usize) -> Vec<u8> {
             ((i as f64 * (n - 1) as f64 / (len - 1) as f64).round() as usize).min(n - 1)
         }
     };
-    (0..w * h)
-        .map(|k| mask[pick(k / w, h) * n + pick(k % w, w)])
-        .collect()
+    ctx.map_cells(w * h, "the water map", |k| {
+        mask[pick(k / w, h) * n + pick(k % w, w)]
+    })
+    .await
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An export gives the page a chance to paint after every row it encodes and every
+    /// slice of cells its maps measure, not only between files: a 200-row heightmap and
+    /// three maps tick at least once a row for each file (so the bar can move within a file:
+    /// a tick records the progress once the job's slice is due).
+    #[test]
+    fn an_export_ticks_within_each_file() {
+        let n = 200;
+        let data: Vec<f32> = (0..n * n)
+            .map(|i| ((i % n) as f32 * 0.3).sin() * 40.0 + (i / n) as f32)
+            .collect();
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let order = vec![0u8; n * n];
+        let inputs = Inputs {
+            field: &field,
+            cell_m: 10.0,
+            networks: &[],
+            ridges: &[],
+            skeleton_cells: n,
+            river_order: &order,
+            area_m2: &[],
+            lowered: None,
+            splat: SplatRules::default(),
+            georef: None,
+            centre_lonlat: None,
+        };
+        let mut request = Request::heightmap(Format::Png);
+        request.maps = vec![MapKind::Normal, MapKind::Flow, MapKind::Basins];
+        let ctx = JobCtx::detached();
+        let files = pollster::block_on(files(&inputs, &request, &ctx)).unwrap();
+        assert_eq!(files.len(), 5);
+        let encoded_rows = 4 * n as u64;
+        assert!(ctx.ticks() >= encoded_rows, "{} ticks", ctx.ticks());
+    }
 }

@@ -28,6 +28,10 @@ use thiserror::Error;
 
 pub use yield_now::yield_now;
 
+/// Cells a pass of [`JobCtx::for_cells`] takes between two ticks: about a millisecond of
+/// simple per-cell work.
+pub const CELLS_PER_TICK: usize = 1 << 16;
+
 /// Longest run of work between two yields of [`JobCtx::tick`].
 pub const TICK_SLICE: std::time::Duration = std::time::Duration::from_millis(25);
 
@@ -49,6 +53,10 @@ struct Control {
     last_yield: Mutex<Option<web_time::Instant>>,
     /// The work between ticks, timed only for contexts made by [`JobCtx::timed`].
     slices: Mutex<Option<SliceClock>>,
+    /// Never yields: a context of [`run_inline`].
+    inline: bool,
+    /// Calls of [`JobCtx::tick`] and [`JobCtx::checkpoint`] so far.
+    ticks: std::sync::atomic::AtomicU64,
 }
 
 impl Control {
@@ -72,6 +80,8 @@ struct SliceClock {
     /// When the last call returned (or the clock started).
     since: web_time::Instant,
     longest: std::time::Duration,
+    /// The message of the tick that ended the longest stretch (what it led up to).
+    longest_before: String,
 }
 
 /// Handed to a job body: report progress, notice cancellation, yield.
@@ -93,6 +103,43 @@ impl JobCtx {
         }
     }
 
+    /// The fraction `done / total` of this context's part (for loops over rows or cells),
+    /// as [`Self::tick`]: yields once the slice is due.
+    pub async fn tick_of(&self, done: usize, total: usize, message: &str) -> Result<(), Cancelled> {
+        self.tick(done as f32 / total.max(1) as f32, message).await
+    }
+
+    /// `cell(i)` of every `i` in `0..n`, with a tick every [`CELLS_PER_TICK`] cells: for
+    /// passes over every cell of a large grid.
+    pub async fn map_cells<T>(
+        &self,
+        n: usize,
+        message: &str,
+        mut cell: impl FnMut(usize) -> T,
+    ) -> Result<Vec<T>, Cancelled> {
+        let mut out = Vec::with_capacity(n);
+        self.for_cells(n, message, |cells| out.extend(cells.map(&mut cell)))
+            .await?;
+        Ok(out)
+    }
+
+    /// `work` over `0..n` in ranges of [`CELLS_PER_TICK`], with a tick before each.
+    pub async fn for_cells(
+        &self,
+        n: usize,
+        message: &str,
+        mut work: impl FnMut(std::ops::Range<usize>),
+    ) -> Result<(), Cancelled> {
+        let mut start = 0;
+        while start < n {
+            self.tick_of(start, n, message).await?;
+            let end = start.saturating_add(CELLS_PER_TICK).min(n);
+            work(start..end);
+            start = end;
+        }
+        Ok(())
+    }
+
     /// The context of one part of the job, which fills `from..to` of this context's span
     /// (both in 0..=1, `from <= to`): its fraction 0 is `from`, 1 is `to`. Cancelling and
     /// yielding are shared with the whole job.
@@ -110,6 +157,12 @@ impl JobCtx {
         self.control.progress()
     }
 
+    /// How many times the job has ticked (or passed a checkpoint) so far: the chances it
+    /// gave the page to paint, were they due.
+    pub fn ticks(&self) -> u64 {
+        self.control.ticks.load(Ordering::Relaxed)
+    }
+
     /// The job's last reported activity, in words.
     pub fn message(&self) -> String {
         self.control.message()
@@ -123,6 +176,7 @@ impl JobCtx {
         *ctx.slices() = Some(SliceClock {
             since: web_time::Instant::now(),
             longest: std::time::Duration::ZERO,
+            longest_before: String::new(),
         });
         ctx
     }
@@ -144,10 +198,23 @@ impl JobCtx {
     }
 
     /// Ends the current stretch of work (timed contexts only).
-    fn end_slice(&self) {
+    fn end_slice(&self, message: &str) {
         if let Some(clock) = self.slices().as_mut() {
-            clock.longest = clock.longest.max(clock.since.elapsed());
+            let elapsed = clock.since.elapsed();
+            if elapsed > clock.longest {
+                clock.longest = elapsed;
+                message.clone_into(&mut clock.longest_before);
+            }
         }
+    }
+
+    /// The message of the tick that ended the longest stretch so far ([`Self::timed`]
+    /// contexts; empty before the first tick): where a benchmark looks first.
+    pub fn longest_slice_before(&self) -> String {
+        self.slices()
+            .as_ref()
+            .map(|clock| clock.longest_before.clone())
+            .unwrap_or_default()
     }
 
     /// Starts the next stretch of work (timed contexts only).
@@ -160,9 +227,12 @@ impl JobCtx {
     /// Records `fraction` (clamped to [0, 1]) and `message`, yields to the event loop on the
     /// web, and returns `Err(Cancelled)` if the owner cancelled the job.
     pub async fn checkpoint(&self, fraction: f32, message: &str) -> Result<(), Cancelled> {
-        self.end_slice();
+        self.control.ticks.fetch_add(1, Ordering::Relaxed);
+        self.end_slice(message);
         self.set_progress(fraction, message);
-        yield_now().await;
+        if !self.control.inline {
+            yield_now().await;
+        }
         *self
             .control
             .last_yield
@@ -186,7 +256,8 @@ impl JobCtx {
         if due {
             self.checkpoint(fraction, message).await
         } else {
-            self.end_slice();
+            self.control.ticks.fetch_add(1, Ordering::Relaxed);
+            self.end_slice(message);
             self.start_slice();
             self.check()
         }
@@ -293,6 +364,43 @@ pub fn time_words(d: std::time::Duration) -> String {
         2..60 => format!("{s} s"),
         60..3600 => format!("{} min {} s", s / 60, s % 60),
         _ => format!("{} h {} min", s / 3600, (s % 3600) / 60),
+    }
+}
+
+/// Runs `body` to completion here and now, on a context that never yields and is never
+/// cancelled: for synchronous callers (the command line, tests, small inputs) of work a
+/// job steps through with ticks (an export's encoders and maps). The body may await only
+/// its context (CPU work), so it finishes in one poll.
+///
+/// # Panics
+/// If the body awaits anything else (a GPU readback): that is a programming error.
+pub fn run_inline<T, Fut>(body: impl FnOnce(JobCtx) -> Fut) -> T
+where
+    Fut: Future<Output = T>,
+{
+    let ctx = JobCtx {
+        control: Arc::new(Control {
+            inline: true,
+            ..Control::default()
+        }),
+        span: (0.0, 1.0),
+    };
+    let mut future = std::pin::pin!(body(ctx));
+    let mut waker = std::task::Context::from_waker(std::task::Waker::noop());
+    match future.as_mut().poll(&mut waker) {
+        std::task::Poll::Ready(value) => value,
+        std::task::Poll::Pending => panic!("an inline run awaited more than its context"),
+    }
+}
+
+/// [`run_inline`] of a body that can only fail by being cancelled, which nothing does there.
+pub fn finish_inline<T, Fut>(body: impl FnOnce(JobCtx) -> Fut) -> T
+where
+    Fut: Future<Output = Result<T, Cancelled>>,
+{
+    match run_inline(body) {
+        Ok(value) => value,
+        Err(Cancelled) => unreachable!("nothing cancels an inline run"),
     }
 }
 

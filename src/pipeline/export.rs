@@ -35,6 +35,18 @@ pub fn encode_heightmap(
     cell: f64,
     export: &HeightmapExport,
 ) -> Result<Exported, String> {
+    crate::jobs::run_inline(
+        |ctx| async move { encode_heightmap_in(field, cell, export, &ctx).await },
+    )
+}
+
+/// [`encode_heightmap`] in a job: every row ticks (`format::write_in`).
+pub async fn encode_heightmap_in(
+    field: &Heightfield,
+    cell: f64,
+    export: &HeightmapExport,
+    ctx: &JobCtx,
+) -> Result<Exported, String> {
     let width_m = cell * field.width() as f64;
     let georef = crate::export::map_georef(export.centre_lonlat, width_m, cell, 0.0, 0.0);
     let options = ExportOptions {
@@ -44,7 +56,9 @@ pub fn encode_heightmap(
         cell_size: cell,
         z_range: None,
     };
-    format::write(export.format, field, &georef, &options).map_err(|e| e.to_string())
+    format::write_in(export.format, field, &georef, &options, ctx)
+        .await
+        .map_err(|e| e.to_string())
 }
 
 impl Output {
@@ -122,7 +136,11 @@ impl ExportSource {
             ctx.checkpoint(0.0, "exporting: routing water")
                 .await
                 .map_err(|_| "cancelled".to_owned())?;
-            crate::realism::drainage_area_m2(self.base.data(), n, n, skeleton_cell)
+            let part = ctx.part(0.0, RIVERS_SHARE);
+            let base = self.base.data();
+            crate::realism::drainage_area_m2_with_sinks_in(base, n, n, skeleton_cell, &[], &part)
+                .await
+                .map_err(|_| "cancelled".to_owned())?
                 .map(|a| a.into_iter().map(|v| v as f32).collect())
                 .unwrap_or_else(|| vec![0.0; n * n])
         } else {
@@ -141,6 +159,14 @@ impl ExportSource {
             georef: None,
             centre_lonlat: self.centre_lonlat,
         };
-        crate::export::files(&inputs, request, ctx).await
+        let rest = if request.rivers {
+            ctx.part(RIVERS_SHARE, 1.0)
+        } else {
+            ctx.clone()
+        };
+        crate::export::files(&inputs, request, &rest).await
     }
 }
+
+/// The share of an export's bar the rivers' routing takes, when asked for.
+const RIVERS_SHARE: f32 = 0.1;

@@ -51,7 +51,7 @@ use crate::wavelet::{self, AmplifyFailure, synthesis};
 
 pub use cache::StageKey;
 use cache::Stages;
-pub use export::{ExportSource, HeightmapExport, LayerPng, encode_heightmap};
+pub use export::{ExportSource, HeightmapExport, LayerPng, encode_heightmap, encode_heightmap_in};
 pub use report::{BlendReport, DetailReport, Report};
 
 /// Why a run failed; every message names the stage.

@@ -15,6 +15,7 @@
 //!   the finite cells.
 
 use super::grid::{DIRS8, Grid};
+use crate::jobs::{CELLS_PER_TICK, Cancelled, JobCtx, finish_inline};
 use crate::radix_heap::{RadixHeap, ordered_key_f64};
 
 /// Result of the drainage analysis.
@@ -59,13 +60,26 @@ fn is_outlet(g: &Grid, r: usize, c: usize) -> bool {
 /// lower finite neighbour, as the pipeline's conditioned terrains do) is that least surface
 /// itself and skips the flood: one O(cells) scan. O(cells) memory.
 pub(super) fn priority_flood_epsilon(g: &Grid) -> (Vec<f64>, Vec<bool>) {
+    finish_inline(|ctx| async move { priority_flood_in(g, &ctx).await })
+}
+
+/// [`priority_flood_epsilon`] in a job: a tick after each row of the seeding and every
+/// [`CELLS_PER_TICK`] cells the flood takes.
+pub(super) async fn priority_flood_in(
+    g: &Grid,
+    ctx: &JobCtx,
+) -> Result<(Vec<f64>, Vec<bool>), Cancelled> {
+    const WHAT: &str = "filling depressions";
     let (w, h) = (g.w, g.h);
-    let mut z = g.z.clone();
-    let mut closed: Vec<bool> = z.iter().map(|v| !v.is_finite()).collect();
+    let mut z = Vec::with_capacity(w * h);
+    ctx.for_cells(w * h, WHAT, |cells| z.extend_from_slice(&g.z[cells]))
+        .await?;
+    let mut closed = ctx.map_cells(w * h, WHAT, |i| !z[i].is_finite()).await?;
     let mut outlet = vec![false; w * h];
     let mut heap = RadixHeap::<u64>::new();
     let mut drains = true;
     for r in 0..h {
+        ctx.tick_of(r, 2 * h, WHAT).await?;
         for c in 0..w {
             let i = r * w + c;
             if closed[i] {
@@ -83,9 +97,14 @@ pub(super) fn priority_flood_epsilon(g: &Grid) -> (Vec<f64>, Vec<bool>) {
         }
     }
     if drains {
-        return (z, outlet);
+        return Ok((z, outlet));
     }
+    let mut taken = 0;
     while let Some((_, i)) = heap.pop() {
+        taken += 1;
+        if taken % CELLS_PER_TICK == 0 {
+            ctx.tick_of(w * h + taken, 2 * w * h, WHAT).await?;
+        }
         let i = i as usize;
         let zc = z[i];
         let (r, c) = (i / w, i % w);
@@ -103,7 +122,7 @@ pub(super) fn priority_flood_epsilon(g: &Grid) -> (Vec<f64>, Vec<bool>) {
             heap.push(ordered_key_f64(z[n]), n as u32);
         }
     }
-    (z, outlet)
+    Ok((z, outlet))
 }
 
 /// The D8 receivers of a grid's cells: for each cell the direction of its step ([`DIRS8`]
@@ -141,44 +160,83 @@ impl Receivers {
 /// D8 receiver of every cell (`None` for outlets and no-data) with the length of the step.
 /// Non-outlet cells are never on the border, so all their 8 neighbours exist.
 pub(super) fn d8_receivers(g: &Grid, z: &[f64], outlet: &[bool]) -> Receivers {
+    finish_inline(|ctx| async move { d8_receivers_in(g, z, outlet, &ctx).await })
+}
+
+/// [`d8_receivers`] in a job: a tick every [`CELLS_PER_TICK`] cells.
+pub(super) async fn d8_receivers_in(
+    g: &Grid,
+    z: &[f64],
+    outlet: &[bool],
+    ctx: &JobCtx,
+) -> Result<Receivers, Cancelled> {
     let w = g.w as isize;
     let steps = DIRS8.map(|(dr, dc)| (dr * w + dc, g.step_length(dr, dc)));
-    let mut dir = vec![Receivers::NONE; z.len()];
-    for (i, (&zi, &out)) in z.iter().zip(outlet).enumerate() {
-        if out || !zi.is_finite() {
-            continue;
-        }
-        let mut best = 0.0;
-        for (k, &(off, len)) in steps.iter().enumerate() {
-            let Some(n) = i.checked_add_signed(off).filter(|&n| n < z.len()) else {
-                continue;
-            };
-            let drop = (zi - z[n]) / len;
-            if drop > best {
-                best = drop;
-                dir[i] = k as u8;
+    let dir = ctx
+        .map_cells(z.len(), "routing water", |i| {
+            let zi = z[i];
+            let mut dir = Receivers::NONE;
+            if outlet[i] || !zi.is_finite() {
+                return dir;
             }
-        }
-    }
-    Receivers { dir, steps }
+            let mut best = 0.0;
+            for (k, &(off, len)) in steps.iter().enumerate() {
+                let Some(n) = i.checked_add_signed(off).filter(|&n| n < z.len()) else {
+                    continue;
+                };
+                let drop = (zi - z[n]) / len;
+                if drop > best {
+                    best = drop;
+                    dir = k as u8;
+                }
+            }
+            dir
+        })
+        .await?;
+    Ok(Receivers { dir, steps })
 }
 
 /// Upstream area (m²) of every cell: its own area plus that of all cells draining to it.
 pub(super) fn flow_accumulation(g: &Grid, rcv: &Receivers) -> Vec<f64> {
+    finish_inline(|ctx| async move { flow_accumulation_in(g, rcv, &ctx).await })
+}
+
+/// [`flow_accumulation`] in a job: a tick every [`CELLS_PER_TICK`] cells of each pass.
+pub(super) async fn flow_accumulation_in(
+    g: &Grid,
+    rcv: &Receivers,
+    ctx: &JobCtx,
+) -> Result<Vec<f64>, Cancelled> {
+    const WHAT: &str = "gathering the flow";
     let cell_area = g.cx * g.cy;
-    let mut area: Vec<f64> =
-        g.z.iter()
-            .map(|v| if v.is_finite() { cell_area } else { 0.0 })
-            .collect();
-    let mut indegree = vec![0u8; rcv.len()];
-    for (j, _) in rcv.iter().flatten() {
-        indegree[j] += 1;
-    }
+    let n = rcv.len();
+    let mut area = ctx
+        .map_cells(g.z.len(), WHAT, |i| {
+            if g.z[i].is_finite() { cell_area } else { 0.0 }
+        })
+        .await?;
+    let mut indegree = vec![0u8; n];
+    ctx.for_cells(n, WHAT, |cells| {
+        for i in cells {
+            if let Some((j, _)) = rcv.get(i) {
+                indegree[j] += 1;
+            }
+        }
+    })
+    .await?;
     // Kahn's topological order: a cell is passed on once all its donors are done.
-    let mut ready: Vec<u32> = (0..rcv.len() as u32)
-        .filter(|&i| indegree[i as usize] == 0)
-        .collect();
+    // Room for every cell at once, so growing it never copies millions of cells in one go.
+    let mut ready: Vec<u32> = Vec::with_capacity(n);
+    ctx.for_cells(n, WHAT, |cells| {
+        ready.extend(cells.filter(|&i| indegree[i] == 0).map(|i| i as u32));
+    })
+    .await?;
+    let mut taken = 0;
     while let Some(i) = ready.pop() {
+        taken += 1;
+        if taken % CELLS_PER_TICK == 0 {
+            ctx.tick_of(taken, n, WHAT).await?;
+        }
         if let Some((j, _)) = rcv.get(i as usize) {
             area[j] += area[i as usize];
             indegree[j] -= 1;
@@ -187,7 +245,7 @@ pub(super) fn flow_accumulation(g: &Grid, rcv: &Receivers) -> Vec<f64> {
             }
         }
     }
-    area
+    Ok(area)
 }
 
 /// Upstream area (m²) of every cell of `heights` (`w` x `h`, cells `cell_m` wide) by D8 on
@@ -206,9 +264,30 @@ pub fn drainage_area_m2_with_sinks(
     cell_m: f64,
     sinks: &[u32],
 ) -> Option<Vec<f64>> {
-    let (g, outlet) = filled_grid(heights, w, h, cell_m, sinks)?;
-    let rcv = d8_receivers(&g, &g.z, &outlet);
-    Some(flow_accumulation(&g, &rcv))
+    finish_inline(|ctx| async move {
+        drainage_area_m2_with_sinks_in(heights, w, h, cell_m, sinks, &ctx).await
+    })
+}
+
+/// [`drainage_area_m2_with_sinks`] in a job (an export's flow and splat maps): every pass
+/// ticks.
+pub async fn drainage_area_m2_with_sinks_in(
+    heights: &[f32],
+    w: usize,
+    h: usize,
+    cell_m: f64,
+    sinks: &[u32],
+    ctx: &JobCtx,
+) -> Result<Option<Vec<f64>>, Cancelled> {
+    let Some((g, outlet)) =
+        filled_grid_in(heights, w, h, cell_m, sinks, &ctx.part(0.0, 0.6)).await?
+    else {
+        return Ok(None);
+    };
+    let rcv = d8_receivers_in(&g, &g.z, &outlet, &ctx.part(0.6, 0.8)).await?;
+    Ok(Some(
+        flow_accumulation_in(&g, &rcv, &ctx.part(0.8, 1.0)).await?,
+    ))
 }
 
 /// Where each cell of `heights` (`w` x `h`, cells `cell_x_m` x `cell_y_m`) drains by the
@@ -237,17 +316,21 @@ pub fn descent(
 /// The grid of `heights` with its heights replaced by the Priority-Flood+epsilon surface
 /// (no data where the input had none, so the routing reads the same), and the outlet flags:
 /// the input's `f64` copy is let go before the routing allocates its own fields.
-fn filled_grid(
+async fn filled_grid_in(
     heights: &[f32],
     w: usize,
     h: usize,
     cell_m: f64,
     sinks: &[u32],
-) -> Option<(Grid, Vec<bool>)> {
-    let mut g = Grid::new(heights, w, h, cell_m, cell_m)?.with_sinks(sinks);
-    let (z, outlet) = priority_flood_epsilon(&g);
+    ctx: &JobCtx,
+) -> Result<Option<(Grid, Vec<bool>)>, Cancelled> {
+    let Some(g) = Grid::new_in(heights, w, h, cell_m, cell_m, &ctx.part(0.0, 0.2)).await? else {
+        return Ok(None);
+    };
+    let mut g = g.with_sinks(sinks);
+    let (z, outlet) = priority_flood_in(&g, &ctx.part(0.2, 1.0)).await?;
     g.z = z;
-    Some((g, outlet))
+    Ok(Some((g, outlet)))
 }
 
 /// The outlet (a cell index) every cell of `heights` drains to by the same D8 routing as
@@ -261,12 +344,32 @@ pub fn outlets(
     cell_m: f64,
     sinks: &[u32],
 ) -> Option<(Vec<u32>, Vec<f64>)> {
-    let (g, outlet) = filled_grid(heights, w, h, cell_m, sinks)?;
-    let rcv = d8_receivers(&g, &g.z, &outlet);
-    let area = flow_accumulation(&g, &rcv);
+    finish_inline(|ctx| async move { outlets_in(heights, w, h, cell_m, sinks, &ctx).await })
+}
+
+/// [`outlets`] in a job (an export's basin map): every pass ticks.
+pub async fn outlets_in(
+    heights: &[f32],
+    w: usize,
+    h: usize,
+    cell_m: f64,
+    sinks: &[u32],
+    ctx: &JobCtx,
+) -> Result<Option<(Vec<u32>, Vec<f64>)>, Cancelled> {
+    let Some((g, outlet)) =
+        filled_grid_in(heights, w, h, cell_m, sinks, &ctx.part(0.0, 0.5)).await?
+    else {
+        return Ok(None);
+    };
+    let rcv = d8_receivers_in(&g, &g.z, &outlet, &ctx.part(0.5, 0.7)).await?;
+    let area = flow_accumulation_in(&g, &rcv, &ctx.part(0.7, 0.9)).await?;
+    let ctx = ctx.part(0.9, 1.0);
     let mut out = vec![u32::MAX; rcv.len()];
     let mut path = Vec::new();
     for start in 0..rcv.len() {
+        if start % CELLS_PER_TICK == 0 {
+            ctx.tick_of(start, rcv.len(), "finding the basins").await?;
+        }
         if out[start] != u32::MAX || !g.z[start].is_finite() {
             continue;
         }
@@ -286,7 +389,7 @@ pub fn outlets(
             out[cell] = end;
         }
     }
-    Some((out, area))
+    Ok(Some((out, area)))
 }
 
 /// Drainage density (km/km²) for channels of upstream area ≥ `threshold_m2`.

@@ -1,5 +1,7 @@
 //! The internal raster shared by every metric: heights as `f64`, non-finite input mapped to NaN.
 
+use crate::jobs::{Cancelled, JobCtx, finish_inline};
+
 /// A row-major height raster (row 0 first), `f64` heights, NaN = no data.
 pub(super) struct Grid {
     /// Heights, `w * h` values, NaN where the input was not finite.
@@ -33,30 +35,44 @@ impl Grid {
     /// Builds a grid, or `None` when the shape does not match `heights` or a cell size is
     /// zero / not finite. Negative cell sizes (north-up geotransforms) are taken by magnitude.
     pub(super) fn new(heights: &[f32], w: usize, h: usize, cx: f64, cy: f64) -> Option<Self> {
-        let n = w.checked_mul(h)?;
+        finish_inline(|ctx| async move { Self::new_in(heights, w, h, cx, cy, &ctx).await })
+    }
+
+    /// [`Self::new`] in a job: a tick every [`crate::jobs::CELLS_PER_TICK`] cells.
+    pub(super) async fn new_in(
+        heights: &[f32],
+        w: usize,
+        h: usize,
+        cx: f64,
+        cy: f64,
+        ctx: &JobCtx,
+    ) -> Result<Option<Self>, Cancelled> {
+        let Some(n) = w.checked_mul(h) else {
+            return Ok(None);
+        };
         let (cx, cy) = (cx.abs(), cy.abs());
         let size_ok = |s: f64| s.is_finite() && s > 0.0;
         if n == 0 || heights.len() != n || !size_ok(cx) || !size_ok(cy) {
-            return None;
+            return Ok(None);
         }
-        let z = heights
-            .iter()
-            .map(|&v| {
+        let z = ctx
+            .map_cells(n, "reading the heights", |i| {
+                let v = heights[i];
                 if v.is_finite() {
                     f64::from(v)
                 } else {
                     f64::NAN
                 }
             })
-            .collect();
-        Some(Self {
+            .await?;
+        Ok(Some(Self {
             z,
             w,
             h,
             cx,
             cy,
             sinks: Vec::new(),
-        })
+        }))
     }
 
     /// The grid with water leaving it at `sinks` too (cell indices, any order).

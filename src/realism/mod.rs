@@ -19,7 +19,10 @@
 //! everywhere. Computation is in `f64`. Only `std` is used.
 
 mod drainage;
-pub use drainage::{descent, drainage_area_m2, drainage_area_m2_with_sinks, outlets};
+pub use drainage::{
+    descent, drainage_area_m2, drainage_area_m2_with_sinks, drainage_area_m2_with_sinks_in,
+    outlets, outlets_in,
+};
 mod geomorphon;
 mod grid;
 mod harmonic;

@@ -271,7 +271,9 @@ fn install_outputs(api: &js_sys::Object, automation: &Automation) {
                         .await
                         .map(JsValue::from);
                 }
-                export_bytes(&automation, &format, &o).map(JsValue::from)
+                export_bytes(&automation, &format, &o)
+                    .await
+                    .map(JsValue::from)
             })
         },
     );
@@ -500,8 +502,9 @@ async fn package_bytes(
     }
 }
 
-/// `exportHeightmap`'s work: the terrain on the map encoded as `format`.
-fn export_bytes(
+/// `exportHeightmap`'s work: the terrain on the map encoded as `format`, yielding to the
+/// page after each slice of rows.
+async fn export_bytes(
     export_source: &Automation,
     format: &str,
     o: &ExportOptions,
@@ -524,12 +527,16 @@ fn export_bytes(
             .and_then(|s| s.location)
             .map(|l| [l.lon, l.lat]),
     };
-    let out = crate::pipeline::encode_heightmap(&field, cell, &export).map_err(error)?;
+    let ctx = JobCtx::detached();
+    let out = crate::pipeline::encode_heightmap_in(&field, cell, &export, &ctx)
+        .await
+        .map_err(error)?;
     Ok(js_sys::Uint8Array::from(out.bytes.as_slice()))
 }
 
 /// Queues `command` and returns a promise that resolves once the app has applied it and
-/// published the scene, so `scene()` shows the change (scripts never poll).
+/// published the scene, so `scene()` shows the change (scripts never poll); it rejects with
+/// the app's message when the app refused the command (an edit out of range, say).
 fn applied(automation: &Automation, command: Command) -> js_sys::Promise {
     let number = automation.push(command);
     let automation = automation.clone();
@@ -537,21 +544,30 @@ fn applied(automation: &Automation, command: Command) -> js_sys::Promise {
         while automation.applied() < number {
             sleep(10).await;
         }
-        Ok(JsValue::UNDEFINED)
+        outcome(&automation, number)
     })
 }
 
 /// A promise of `command` that resolves once it is applied and the jobs it started are
 /// done (a command that runs as a job: its result is in the scene or the DEM panel, and
-/// the terrain of the scene it made is computed).
+/// the terrain of the scene it made is computed); it rejects with the app's message when
+/// the app refused the command (`extractFeatures()` with no DEM, say).
 fn finished(automation: &Automation, command: Command) -> js_sys::Promise {
-    automation.push(command);
+    let number = automation.push(command);
     let automation = automation.clone();
     wasm_bindgen_futures::future_to_promise(async move {
         // Every command queued so far, this one included, applied and no job running.
         settled(&automation).await;
-        Ok(JsValue::UNDEFINED)
+        outcome(&automation, number)
     })
+}
+
+/// What an applied command's promise settles with: nothing, or the app's refusal.
+fn outcome(automation: &Automation, number: u64) -> Result<JsValue, JsValue> {
+    match automation.take_refusal(number) {
+        Some(message) => Err(error(message)),
+        None => Ok(JsValue::UNDEFINED),
+    }
 }
 
 /// Waits until every queued command is applied and no job is computing the terrain, so an

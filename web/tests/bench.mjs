@@ -11,11 +11,16 @@
 //                  median, 95th percentile and longest, and how long the generation took;
 //                  main-thread tasks over 50 ms meanwhile (PerformanceObserver 'longtask':
 //                  the page's own work, without the browser's compositing) and the longest
+//   exports        an Unreal export at 4033^2 from the map's terrain, alone and with the
+//                  normal and splat maps and the rivers (one zip): its time, the frame gaps
+//                  and the main-thread tasks over 50 ms meanwhile (both paths;
+//                  BENCH_EXPORT=0 skips it, BENCH_EXPORT=only measures nothing else)
 //   hydrology      the stages before diffusion at 2048^2 on the scene of `strahler bench
 //                  --pipeline` (four rivers, phi 2 to 4), median of 3 generations on the CPU
 //                  path (the wasm build is single-threaded; these stages never use the GPU)
 //
-// Usage: node web/tests/bench.mjs [DIST_DIR]   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE)
+// Usage: node web/tests/bench.mjs [DIST_DIR]
+//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT)
 
 import { existsSync } from 'node:fs';
 import { join, resolve } from 'node:path';
@@ -69,6 +74,46 @@ async function hydrologyStages() {
   return { nodes: runs[0].nodes, ms: names.map((_, k) => median(k)), total: median(names.length) };
 }
 
+// Runs in the page (installed as `window.watched`): `work()` timed with the animation-frame gaps and the main-thread tasks
+// over 50 ms while it runs.
+async function watched(work) {
+  const tasks = [];
+  const observer = new PerformanceObserver((list) => {
+    for (const entry of list.getEntries()) tasks.push(entry.duration);
+  });
+  observer.observe({ type: 'longtask' });
+  const gaps = [];
+  let last = performance.now();
+  let running = true;
+  const tick = (now) => {
+    gaps.push(now - last);
+    last = now;
+    if (running) requestAnimationFrame(tick);
+  };
+  requestAnimationFrame(tick);
+  const start = performance.now();
+  const result = await work();
+  const total = performance.now() - start;
+  running = false;
+  // Long-task entries arrive asynchronously: give the last ones time to land.
+  await new Promise((done) => setTimeout(done, 500));
+  observer.disconnect();
+  return { gaps, total, tasks, result };
+}
+
+// Runs in the page: two Unreal exports at 4033^2 of the terrain on the map, watched.
+async function exports() {
+  const watch = window.watched;
+  const plain = await watch(() => window.strahler.exportHeightmap('png', { preset: 'unreal', size: 4033 }));
+  const full = await watch(() => window.strahler.exportHeightmap('png',
+    { preset: 'unreal', size: 4033, maps: ['normal', 'splat'], rivers: true }));
+  const row = (name, w) => ({
+    name, ms: w.total, bytes: w.result.length, frames: w.gaps.length,
+    longestGap: Math.max(0, ...w.gaps), tasks: w.tasks.length, longestTask: Math.max(0, ...w.tasks),
+  });
+  return [row('unreal 4033^2 PNG', plain), row('+ normal, splat, rivers (zip)', full)];
+}
+
 async function measure(url, mode) {
   const browser = await chromium.launch({
     executablePath: chromiumPath,
@@ -87,6 +132,12 @@ async function measure(url, mode) {
     // CPU beside SwiftShader; BENCH_COMPUTE=gpu measures the GPU path there.
     if (process.env.BENCH_COMPUTE) {
       await page.evaluate((choice) => window.strahler.setCompute(choice), process.env.BENCH_COMPUTE);
+    }
+    const exportRows = process.env.BENCH_EXPORT !== '0'
+      ? await page.evaluate(`window.watched = ${watched}`).then(() => page.evaluate(exports))
+      : null;
+    if (process.env.BENCH_EXPORT === 'only') {
+      return { mode, exportRows };
     }
 
     const edits = await page.evaluate(async () => {
@@ -176,6 +227,7 @@ async function measure(url, mode) {
       longestTask: Math.max(0, ...frames.tasks),
       hydrology,
       big,
+      exportRows,
     };
   } finally {
     await browser.close();
@@ -197,6 +249,17 @@ try {
   server.close();
 }
 const f = (v) => v.toFixed(0).padStart(7);
+for (const r of rows.filter((row) => row.exportRows)) {
+  console.log(`exports in the page (${r.mode}), milliseconds`);
+  console.log('export                          time      bytes  frames  longest gap | tasks > 50 ms  longest');
+  for (const e of r.exportRows) {
+    console.log(`${e.name.padEnd(30)} ${f(e.ms)} ${String(e.bytes).padStart(10)} ${String(e.frames).padStart(7)}`
+      + `      ${f(e.ms && e.longestGap)} | ${String(e.tasks).padStart(13)} ${f(e.longestTask)}`);
+  }
+}
+if (process.env.BENCH_EXPORT === 'only') {
+  process.exit(0);
+}
 console.log('editor in headless Chromium, milliseconds');
 console.log('path    first terrain  edit->coarse  edit->map (max) diffuse | 2048^2: generate  frames  median    p95  longest'
   + ' | tasks > 50 ms  longest');

@@ -231,6 +231,12 @@ async function runMode(url, mode, expectedChecksum) {
     });
     check('paintMask refuses an unknown target, naming the choices',
       refusedTarget !== null && refusedTarget.includes('hard-rock'), String(refusedTarget));
+    // No DEM is uploaded yet: the app refuses the command, and its promise says why.
+    const noDem = await page.evaluate(async () => {
+      try { await window.strahler.extractFeatures(); return null; } catch (e) { return String(e); }
+    });
+    check('a command the app refuses rejects its promise with the app\'s message (extractFeatures before any DEM)',
+      noDem !== null && noDem.includes('Upload a DEM first'), String(noDem));
     await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
     if (mode === 'webgpu') {
       // Every stage on the GPU (generate's backend option): the wavelet statistics run in

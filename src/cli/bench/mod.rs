@@ -6,11 +6,13 @@
 //! - `wavelet`: the wavelet levels of detail;
 //! - `blend`: Poisson blending of a block;
 //! - `erosion`: a preset's full erosion run;
-//! - `view3d`: the 3D view's texture preparation, chunk selection and frames.
+//! - `view3d`: the 3D view's texture preparation, chunk selection and frames;
+//! - `export`: the exports a user downloads, with the longest stretch between ticks.
 
 mod blend;
 mod diffusion;
 mod erosion;
+mod export;
 mod pipeline;
 mod view3d;
 mod wavelet;
@@ -45,6 +47,9 @@ pub enum Table {
     /// The 3D view: texture preparation, chunk selection and GPU frames at four camera
     /// distances (needs a GPU).
     View3d(view3d::View3dArgs),
+    /// The exports a user downloads (plain heightmaps, an Unreal preset with every map),
+    /// timed as the page runs them, with the longest stretch of work between two ticks.
+    Export(export::ExportArgs),
 }
 
 /// Runs the chosen table.
@@ -56,6 +61,7 @@ pub fn run(args: &BenchArgs) -> Result<(), Box<dyn std::error::Error>> {
         Table::Blend(args) => blend::run(args),
         Table::Erosion(args) => erosion::run(args),
         Table::View3d(args) => view3d::run(args),
+        Table::Export(args) => export::run(args),
     }
 }
 
