@@ -340,6 +340,14 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
         err.contains("ESRI ASCII") && err.contains("truncated"),
         "{err}"
     );
+    assert_eq!(harness.state().terrain(), Some(&before));
+    // The error is shown where the upload was made, beside the DEM panel's buttons, as
+    // well as at the top of the panel.
+    assert_eq!(
+        harness.get_all_by_label(&err).count(),
+        2,
+        "at the top and in the DEM panel"
+    );
     // The script's promise gets the same message (once), and a command applied without
     // complaint has none.
     assert_eq!(automation.take_refusal(number), Some(err.clone()));
@@ -349,14 +357,18 @@ fn uploading_a_dem_and_placing_a_block_blends_it_and_moving_it_re_solves() {
     ));
     harness.run_steps(1);
     assert_eq!(automation.take_refusal(view), None);
-    assert_eq!(harness.state().terrain(), Some(&before));
-    // The error is shown where the upload was made, beside the DEM panel's buttons, as
-    // well as at the top of the panel.
-    assert_eq!(
-        harness.get_all_by_label(&err).count(),
-        2,
-        "at the top and in the DEM panel"
+    // Where nothing computes on a GPU, asking for it is refused as it is applied (a script
+    // may ask before the app has started, when the page cannot check it yet).
+    assert!(
+        harness.state().compute_path().gpu().is_none(),
+        "a CPU harness"
     );
+    let gpu = automation.push(strahler::app::Command::Compute(
+        strahler::compute::BackendChoice::Gpu,
+    ));
+    harness.run_steps(1);
+    let refusal = automation.take_refusal(gpu).unwrap_or_default();
+    assert!(refusal.contains("GPU"), "{refusal}");
 
     let path =
         std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/volcano_maungawhau.tif");

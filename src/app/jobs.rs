@@ -238,9 +238,13 @@ impl StrahlerApp {
             Command::Undo => self.undo(),
             Command::Redo => self.redo(),
             Command::SetView(view) => self.set_view(view),
-            Command::Compute(choice) => {
-                self.session.settings_mut().solver.backend = choice;
-            }
+            // Refused as the Advanced section would refuse it: 'gpu' where nothing computes
+            // on a GPU (a script may ask before the app has started, when the page could not
+            // check it yet).
+            Command::Compute(choice) => match choice.resolve(&self.path) {
+                Ok(_) => self.session.settings_mut().solver.backend = choice,
+                Err(err) => self.set_error(err.to_string()),
+            },
             Command::View3dMaps(maps) => {
                 self.set_view(ViewKind::ThreeD);
                 self.view3d.set_maps(maps);

@@ -225,8 +225,14 @@ pub(super) async fn flow_accumulation_in(
     })
     .await?;
     // Kahn's topological order: a cell is passed on once all its donors are done.
-    // Room for every cell at once, so growing it never copies millions of cells in one go.
-    let mut ready: Vec<u32> = Vec::with_capacity(n);
+    // Counted first, so the stack is made once at its size: growing it would copy millions
+    // of cells in one go.
+    let mut sources = 0;
+    ctx.for_cells(n, WHAT, |cells| {
+        sources += indegree[cells].iter().filter(|&&d| d == 0).count();
+    })
+    .await?;
+    let mut ready: Vec<u32> = Vec::with_capacity(sources);
     ctx.for_cells(n, WHAT, |cells| {
         ready.extend(cells.filter(|&i| indegree[i] == 0).map(|i| i as u32));
     })
@@ -279,15 +285,8 @@ pub async fn drainage_area_m2_with_sinks_in(
     sinks: &[u32],
     ctx: &JobCtx,
 ) -> Result<Option<Vec<f64>>, Cancelled> {
-    let Some((g, outlet)) =
-        filled_grid_in(heights, w, h, cell_m, sinks, &ctx.part(0.0, 0.6)).await?
-    else {
-        return Ok(None);
-    };
-    let rcv = d8_receivers_in(&g, &g.z, &outlet, &ctx.part(0.6, 0.8)).await?;
-    Ok(Some(
-        flow_accumulation_in(&g, &rcv, &ctx.part(0.8, 1.0)).await?,
-    ))
+    let routed = routed_in(heights, w, h, cell_m, sinks, ctx).await?;
+    Ok(routed.map(|r| r.area))
 }
 
 /// Where each cell of `heights` (`w` x `h`, cells `cell_x_m` x `cell_y_m`) drains by the
@@ -313,24 +312,34 @@ pub fn descent(
     Some((to, g.z))
 }
 
-/// The grid of `heights` with its heights replaced by the Priority-Flood+epsilon surface
-/// (no data where the input had none, so the routing reads the same), and the outlet flags:
-/// the input's `f64` copy is let go before the routing allocates its own fields.
-async fn filled_grid_in(
+/// The measures' routing of `heights` with water also leaving at `sinks`: the grid with its
+/// heights replaced by the Priority-Flood+epsilon surface (no data where the input had
+/// none), the D8 receivers and the upstream areas. The input's `f64` copy is let go before
+/// the routing allocates its own fields. `None` when the shape or cell size is not valid.
+async fn routed_in(
     heights: &[f32],
     w: usize,
     h: usize,
     cell_m: f64,
     sinks: &[u32],
     ctx: &JobCtx,
-) -> Result<Option<(Grid, Vec<bool>)>, Cancelled> {
-    let Some(g) = Grid::new_in(heights, w, h, cell_m, cell_m, &ctx.part(0.0, 0.2)).await? else {
+) -> Result<Option<Routed>, Cancelled> {
+    let Some(g) = Grid::new_in(heights, w, h, cell_m, cell_m, &ctx.part(0.0, 0.1)).await? else {
         return Ok(None);
     };
     let mut g = g.with_sinks(sinks);
-    let (z, outlet) = priority_flood_in(&g, &ctx.part(0.2, 1.0)).await?;
+    let (z, outlet) = priority_flood_in(&g, &ctx.part(0.1, 0.6)).await?;
     g.z = z;
-    Ok(Some((g, outlet)))
+    let rcv = d8_receivers_in(&g, &g.z, &outlet, &ctx.part(0.6, 0.8)).await?;
+    let area = flow_accumulation_in(&g, &rcv, &ctx.part(0.8, 1.0)).await?;
+    Ok(Some(Routed { g, rcv, area }))
+}
+
+/// What [`routed_in`] gives.
+struct Routed {
+    g: Grid,
+    rcv: Receivers,
+    area: Vec<f64>,
 }
 
 /// The outlet (a cell index) every cell of `heights` drains to by the same D8 routing as
@@ -356,13 +365,10 @@ pub async fn outlets_in(
     sinks: &[u32],
     ctx: &JobCtx,
 ) -> Result<Option<(Vec<u32>, Vec<f64>)>, Cancelled> {
-    let Some((g, outlet)) =
-        filled_grid_in(heights, w, h, cell_m, sinks, &ctx.part(0.0, 0.5)).await?
-    else {
+    let routing = routed_in(heights, w, h, cell_m, sinks, &ctx.part(0.0, 0.9)).await?;
+    let Some(Routed { g, rcv, area }) = routing else {
         return Ok(None);
     };
-    let rcv = d8_receivers_in(&g, &g.z, &outlet, &ctx.part(0.5, 0.7)).await?;
-    let area = flow_accumulation_in(&g, &rcv, &ctx.part(0.7, 0.9)).await?;
     let ctx = ctx.part(0.9, 1.0);
     let mut out = vec![u32::MAX; rcv.len()];
     let mut path = Vec::new();

@@ -345,7 +345,8 @@ fn install_outputs(api: &js_sys::Object, automation: &Automation) {
     let set_compute =
         Closure::<dyn Fn(String) -> Result<js_sys::Promise, JsValue>>::new(move |name: String| {
             // As the Advanced section's "Compute on": 'auto', 'cpu' or 'gpu'; 'gpu' is an
-            // error where the page has no GPU that computes.
+            // error where the page has no GPU that computes (thrown at once once the app has
+            // started; before, the app refuses it as it applies it and the promise rejects).
             let choice: crate::compute::BackendChoice = name.parse().map_err(error)?;
             if let Some(path) = compute_target.compute_path() {
                 choice.resolve(&path).map_err(error)?;

@@ -104,10 +104,15 @@ async function watched(work) {
 // Runs in the page: two Unreal exports at 4033^2 of the terrain on the map, watched.
 async function exports() {
   const watch = window.watched;
+  const memory = () => window.strahler.status().memoryBytes;
+  const before = memory();
   const plain = await watch(() => window.strahler.exportHeightmap('png', { preset: 'unreal', size: 4033 }));
+  plain.memory = memory();
   const full = await watch(() => window.strahler.exportHeightmap('png',
     { preset: 'unreal', size: 4033, maps: ['normal', 'splat'], rivers: true }));
+  full.memory = memory();
   const row = (name, w) => ({
+    before, after: w.memory,
     name, ms: w.total, bytes: w.result.length, frames: w.gaps.length,
     longestGap: Math.max(0, ...w.gaps), tasks: w.tasks.length, longestTask: Math.max(0, ...w.tasks),
   });
@@ -133,11 +138,9 @@ async function measure(url, mode) {
     if (process.env.BENCH_COMPUTE) {
       await page.evaluate((choice) => window.strahler.setCompute(choice), process.env.BENCH_COMPUTE);
     }
-    const exportRows = process.env.BENCH_EXPORT !== '0'
-      ? await page.evaluate(`window.watched = ${watched}`).then(() => page.evaluate(exports))
-      : null;
+    await page.evaluate(`window.watched = ${watched}`);
     if (process.env.BENCH_EXPORT === 'only') {
-      return { mode, exportRows };
+      return { mode, exportRows: await page.evaluate(exports) };
     }
 
     const edits = await page.evaluate(async () => {
@@ -170,32 +173,9 @@ async function measure(url, mode) {
     const firsts = edits.map((e) => e.first).sort((a, b) => a - b);
     const jobs = edits.map((e) => e.job).sort((a, b) => a - b);
 
-    const frames = await page.evaluate(async () => {
-      // Main-thread tasks over 50 ms (what the page's own work blocks), beside the frame gaps
-      // (which also hold the browser's painting).
-      const tasks = [];
-      const observer = new PerformanceObserver((list) => {
-        for (const entry of list.getEntries()) tasks.push(entry.duration);
-      });
-      observer.observe({ type: 'longtask' });
-      const gaps = [];
-      let last = performance.now();
-      let running = true;
-      const tick = (now) => {
-        gaps.push(now - last);
-        last = now;
-        if (running) requestAnimationFrame(tick);
-      };
-      requestAnimationFrame(tick);
-      const start = performance.now();
-      await window.strahler.generate({ size: 2048 });
-      const total = performance.now() - start;
-      running = false;
-      // Long-task entries arrive asynchronously: give the last ones time to land.
-      await new Promise((done) => setTimeout(done, 500));
-      observer.disconnect();
-      return { gaps, total, tasks };
-    });
+    // Main-thread tasks over 50 ms (what the page's own work blocks), beside the frame gaps
+    // (which also hold the browser's painting).
+    const frames = await page.evaluate(() => window.watched(() => window.strahler.generate({ size: 2048 })));
     const hydrology = mode === 'cpu' ? await page.evaluate(hydrologyStages) : null;
     // Peak memory of a 4096^2 generation of the default scene (the page's WebAssembly memory
     // only grows, so its size afterwards is the peak), on the CPU path only (SwiftShader
@@ -209,6 +189,8 @@ async function measure(url, mode) {
           stages: report.stages.map((s) => `${s.name} ${s.ms.toFixed(0)}`).join(', ') };
       })
       : null;
+    // Last: WebAssembly memory only grows, so the exports' peak would hide the 4096^2 one.
+    const exportRows = process.env.BENCH_EXPORT !== '0' ? await page.evaluate(exports) : null;
     const gaps = frames.gaps.slice(1).sort((a, b) => a - b);
     const pick = (q) => gaps[Math.min(gaps.length - 1, Math.floor(q * gaps.length))];
     return {
@@ -251,10 +233,13 @@ try {
 const f = (v) => v.toFixed(0).padStart(7);
 for (const r of rows.filter((row) => row.exportRows)) {
   console.log(`exports in the page (${r.mode}), milliseconds`);
-  console.log('export                          time      bytes  frames  longest gap | tasks > 50 ms  longest');
+  console.log('export                          time      bytes  frames  longest gap | tasks > 50 ms  longest'
+    + ' | wasm memory MiB before, after (the peak so far)');
+  const mib = (b) => (b / 2 ** 20).toFixed(0);
   for (const e of r.exportRows) {
     console.log(`${e.name.padEnd(30)} ${f(e.ms)} ${String(e.bytes).padStart(10)} ${String(e.frames).padStart(7)}`
-      + `      ${f(e.ms && e.longestGap)} | ${String(e.tasks).padStart(13)} ${f(e.longestTask)}`);
+      + `      ${f(e.ms && e.longestGap)} | ${String(e.tasks).padStart(13)} ${f(e.longestTask)}`
+      + ` | ${mib(e.before)}, ${mib(e.after)}`);
   }
 }
 if (process.env.BENCH_EXPORT === 'only') {
