@@ -1,10 +1,15 @@
-//! The main crate's DEM readers and writers, compiled from its own files.
+//! The main crate's DEM readers and writers, compiled from its own files (with the job
+//! context their writers tick).
 
 #[path = "../../src/heightfield.rs"]
 pub mod heightfield;
 
 #[path = "../../src/dem/mod.rs"]
 pub mod dem;
+
+/// The writers step through their rows on a job's context (`run_inline` when called alone).
+#[path = "../../src/jobs/mod.rs"]
+pub mod jobs;
 
 /// The limits the fuzzers read with: 1 Mi cells (4 MiB as `f32`), so every input stays cheap.
 pub const LIMITS: dem::ReadLimits = dem::ReadLimits { max_cells: 1 << 20 };

@@ -131,7 +131,8 @@ pub async fn curvature_map_in(
     let (w, h) = (field.width(), field.height());
     let d = field.data();
     let at = |x: usize, y: usize| f64::from(d[y * w + x]);
-    let lap = ctx
+    let [laplacian, scale, mapping] = ctx.parts();
+    let lap = laplacian
         .map_cells(w * h, WHAT, |i| {
             let (x, y) = (i % w, i / w);
             let (xa, xb) = (x.saturating_sub(1), (x + 1).min(w - 1));
@@ -139,12 +140,12 @@ pub async fn curvature_map_in(
             (at(xa, y) + at(xb, y) + at(x, ya) + at(x, yb) - 4.0 * at(x, y)) / (spacing * spacing)
         })
         .await?;
-    let p99 = percentile_of_magnitudes(&lap, 99, ctx)
+    let p99 = percentile_of_magnitudes(&lap, 99, &scale)
         .await?
         .filter(|v| *v > 0.0)
         .unwrap_or(1.0);
     let per_step = p99 / 127.0;
-    let bytes = ctx
+    let bytes = mapping
         .map_cells(lap.len(), WHAT, |i| {
             let v = lap[i];
             if v.is_finite() {
@@ -168,13 +169,15 @@ async fn percentile_of_magnitudes(
 ) -> Result<Option<f64>, Cancelled> {
     const WHAT: &str = "the curvature's scale";
     let bucket = |v: f64| (v.abs().to_bits() >> 48) as usize;
+    let [counting, picking] = ctx.parts();
     let mut counts = vec![0usize; 1 << 16];
-    ctx.for_cells(values.len(), WHAT, |cells| {
-        for &v in values[cells].iter().filter(|v| v.is_finite()) {
-            counts[bucket(v)] += 1;
-        }
-    })
-    .await?;
+    counting
+        .for_cells(values.len(), WHAT, |cells| {
+            for &v in values[cells].iter().filter(|v| v.is_finite()) {
+                counts[bucket(v)] += 1;
+            }
+        })
+        .await?;
     let total: usize = counts.iter().sum();
     if total == 0 {
         return Ok(None);
@@ -191,13 +194,14 @@ async fn percentile_of_magnitudes(
         return Ok(None);
     };
     let mut inside = Vec::new();
-    ctx.for_cells(values.len(), WHAT, |cells| {
-        let picked = values[cells]
-            .iter()
-            .filter(|v| v.is_finite() && bucket(**v) == chosen);
-        inside.extend(picked.map(|v| v.abs()));
-    })
-    .await?;
+    picking
+        .for_cells(values.len(), WHAT, |cells| {
+            let picked = values[cells]
+                .iter()
+                .filter(|v| v.is_finite() && bucket(**v) == chosen);
+            inside.extend(picked.map(|v| v.abs()));
+        })
+        .await?;
     inside.sort_by(f64::total_cmp);
     Ok(inside.get(rank).copied())
 }
@@ -208,27 +212,30 @@ pub async fn log_map(values: &[f64], ctx: &JobCtx) -> Result<Vec<u8>, Cancelled>
     const WHAT: &str = "the flow map";
     let log = |v: f64| if v > 0.0 { v.log10() } else { f64::NAN };
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-    ctx.for_cells(values.len(), WHAT, |cells| {
-        for v in values[cells]
-            .iter()
-            .map(|v| log(*v))
-            .filter(|v| v.is_finite())
-        {
-            lo = lo.min(v);
-            hi = hi.max(v);
-        }
-    })
-    .await?;
+    let [ranging, mapping] = ctx.parts();
+    ranging
+        .for_cells(values.len(), WHAT, |cells| {
+            for v in values[cells]
+                .iter()
+                .map(|v| log(*v))
+                .filter(|v| v.is_finite())
+            {
+                lo = lo.min(v);
+                hi = hi.max(v);
+            }
+        })
+        .await?;
     let span = (hi - lo).max(1e-12);
-    ctx.map_cells(values.len(), WHAT, |i| {
-        let v = log(values[i]);
-        if v.is_finite() {
-            ((v - lo) / span * 255.0).round() as u8
-        } else {
-            0
-        }
-    })
-    .await
+    mapping
+        .map_cells(values.len(), WHAT, |i| {
+            let v = log(values[i]);
+            if v.is_finite() {
+                ((v - lo) / span * 255.0).round() as u8
+            } else {
+                0
+            }
+        })
+        .await
 }
 
 /// Erosion (positive: lowered) and deposition (negative) in metres as 8 bits: 128 = unchanged,
@@ -237,14 +244,16 @@ pub async fn log_map(values: &[f64], ctx: &JobCtx) -> Result<Vec<u8>, Cancelled>
 pub async fn erosion_map(lowered: &[f32], ctx: &JobCtx) -> Result<(Vec<u8>, f64), Cancelled> {
     const WHAT: &str = "the erosion map";
     let mut max = 0.0f64;
-    ctx.for_cells(lowered.len(), WHAT, |cells| {
-        for v in lowered[cells].iter().filter(|v| v.is_finite()) {
-            max = max.max(f64::from(v.abs()));
-        }
-    })
-    .await?;
+    let [ranging, mapping] = ctx.parts();
+    ranging
+        .for_cells(lowered.len(), WHAT, |cells| {
+            for v in lowered[cells].iter().filter(|v| v.is_finite()) {
+                max = max.max(f64::from(v.abs()));
+            }
+        })
+        .await?;
     let per_step = max.max(1e-6) / 127.0;
-    let bytes = ctx
+    let bytes = mapping
         .map_cells(lowered.len(), WHAT, |i| {
             let v = lowered[i];
             if v.is_finite() {
@@ -281,11 +290,13 @@ pub async fn basin_labels_in(
         }
     }
     let mut others: Vec<u32> = Vec::new();
-    ctx.for_cells(outlet.len(), WHAT, |cells| {
-        let own = cells.filter(|&i| outlet[i] == i as u32 && area[i] >= min_area);
-        others.extend(own.map(|i| i as u32).filter(|o| !order.contains(o)));
-    })
-    .await?;
+    let [finding, labelling] = ctx.parts();
+    finding
+        .for_cells(outlet.len(), WHAT, |cells| {
+            let own = cells.filter(|&i| outlet[i] == i as u32 && area[i] >= min_area);
+            others.extend(own.map(|i| i as u32).filter(|o| !order.contains(o)));
+        })
+        .await?;
     others.sort_by(|a, b| {
         area[*b as usize]
             .total_cmp(&area[*a as usize])
@@ -297,10 +308,11 @@ pub async fn basin_labels_in(
     for (k, o) in order.iter().enumerate() {
         label.insert(*o, k as u8 + 1);
     }
-    ctx.map_cells(outlet.len(), WHAT, |i| {
-        label.get(&outlet[i]).copied().unwrap_or(0)
-    })
-    .await
+    labelling
+        .map_cells(outlet.len(), WHAT, |i| {
+            label.get(&outlet[i]).copied().unwrap_or(0)
+        })
+        .await
 }
 
 /// Where each material starts (the scene's `textures`; see `crate::scene::TextureRules`).
@@ -370,22 +382,24 @@ pub async fn splat_map(
     rules: &SplatRules,
     ctx: &JobCtx,
 ) -> Result<Vec<u8>, Cancelled> {
-    let (lo, hi) = field.finite_range_in(ctx).await?.unwrap_or((0.0, 1.0));
+    let [ranging, weighing] = ctx.parts();
+    let (lo, hi) = field.finite_range_in(&ranging).await?.unwrap_or((0.0, 1.0));
     let span = f64::from(hi - lo).max(1e-9);
     let mut out = Vec::with_capacity(slopes.len() * 4);
-    ctx.for_cells(field.data().len(), "the splat map", |cells| {
-        for i in cells {
-            let z = field.data()[i];
-            let relative = (f64::from(z) - f64::from(lo)) / span;
-            let w = if z.is_finite() {
-                splat_weights(slopes[i], relative, area_m2[i], rules)
-            } else {
-                [0.0, 1.0, 0.0, 0.0]
-            };
-            out.extend(to_bytes_summing_255(w));
-        }
-    })
-    .await?;
+    weighing
+        .for_cells(field.data().len(), "the splat map", |cells| {
+            for i in cells {
+                let z = field.data()[i];
+                let relative = (f64::from(z) - f64::from(lo)) / span;
+                let w = if z.is_finite() {
+                    splat_weights(slopes[i], relative, area_m2[i], rules)
+                } else {
+                    [0.0, 1.0, 0.0, 0.0]
+                };
+                out.extend(to_bytes_summing_255(w));
+            }
+        })
+        .await?;
     Ok(out)
 }
 

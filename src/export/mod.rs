@@ -360,9 +360,11 @@ pub async fn files(
     ctx: &JobCtx,
 ) -> Result<Vec<File>, String> {
     let native = inputs.field.width();
+    // The scans of the heights before the files tick without moving the bar (a part of no
+    // width): the files share the bar.
     let range = inputs
         .field
-        .finite_range_in(ctx)
+        .finite_range_in(&ctx.part(0.0, 0.0))
         .await
         .map_err(cancelled)?
         .unwrap_or((0.0, 0.0));
@@ -381,7 +383,8 @@ pub async fn files(
         let sized = resize::resample_filtered_in(inputs.field, plan.size, plan.size, &part);
         Cow::Owned(sized.await.map_err(cancelled)?)
     };
-    let sized_range = sized.finite_range_in(ctx).await.map_err(cancelled)?;
+    let scan = ctx.part(resizing, resizing);
+    let sized_range = sized.finite_range_in(&scan).await.map_err(cancelled)?;
     // The numbers follow the heights written: resampling narrows the range a little.
     if let (Some(engine), Some((lo, hi))) = (request.engine, sized_range) {
         let z = f64::from(request.z_scale);
@@ -505,8 +508,9 @@ async fn heightmaps(
     ctx: &JobCtx,
 ) -> Result<(), String> {
     let z = request.z_scale;
+    let [ranging, writing] = [ctx.part(0.0, 0.05), ctx.part(0.05, 1.0)];
     let range = sized
-        .finite_range_in(ctx)
+        .finite_range_in(&ranging)
         .await
         .map_err(cancelled)?
         .map(|(a, b)| ((a * z).min(b * z), (a * z).max(b * z)));
@@ -533,7 +537,7 @@ async fn heightmaps(
            -> Result<(), String> {
         let georef = own.cloned().unwrap_or_else(|| local(x0, y0));
         let share = 1.0 / tiles as f32;
-        let part = ctx.part(tile as f32 * share, (tile + 1) as f32 * share);
+        let part = writing.part(tile as f32 * share, (tile + 1) as f32 * share);
         let written = format::write_in(request.format, field, &georef, &options, &part)
             .await
             .map_err(|e| e.to_string())?;
@@ -611,13 +615,10 @@ async fn texture(
             write_colour8_in(w, h, 3, &rgb.map_err(cancelled)?, encode).await
         }
         MapKind::Slope => {
-            let slopes = maps::slope_degrees_in(sized, spacing, measure).await;
-            grey(
-                maps::slope_map(&slopes.map_err(cancelled)?, measure)
-                    .await
-                    .map_err(cancelled)?,
-            )
-            .await
+            let [measuring, mapping] = measure.parts();
+            let slopes = maps::slope_degrees_in(sized, spacing, &measuring).await;
+            let bytes = maps::slope_map(&slopes.map_err(cancelled)?, &mapping).await;
+            grey(bytes.map_err(cancelled)?).await
         }
         MapKind::Curvature => {
             let (bytes, _) = maps::curvature_map_in(sized, spacing, measure)
@@ -793,5 +794,51 @@ mod tests {
         assert_eq!(files.len(), 5);
         let encoded_rows = 4 * n as u64;
         assert!(ctx.ticks() >= encoded_rows, "{} ticks", ctx.ticks());
+    }
+
+    /// Each pass of an export fills its own share of the bar, in order: the place of every
+    /// tick on the bar never goes back (a pass that reported over the whole of its file's
+    /// share would leave the passes after it stuck under the bar it had filled), through a
+    /// resampling, every map and tiles, and the bar reaches its end.
+    #[test]
+    fn an_exports_passes_fill_the_bar_in_order() {
+        let n = 97;
+        let data: Vec<f32> = (0..n * n)
+            .map(|i| ((i % n) as f32 * 0.21).sin() * 30.0 + ((i / n) as f32 * 0.17).cos() * 20.0)
+            .collect();
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let order = vec![1u8; n * n];
+        let lowered = vec![0.25f32; n * n];
+        let inputs = Inputs {
+            field: &field,
+            cell_m: 10.0,
+            networks: &[],
+            ridges: &[],
+            skeleton_cells: n,
+            river_order: &order,
+            area_m2: &[],
+            lowered: Some(&lowered),
+            splat: SplatRules::default(),
+            georef: None,
+            centre_lonlat: None,
+        };
+        let mut request = Request::heightmap(Format::Png);
+        request.maps = MapKind::ALL.to_vec();
+        request.size = Some(129);
+        request.tiles = Some((2, 2));
+        let ctx = JobCtx::traced();
+        let files = pollster::block_on(files(&inputs, &request, &ctx)).unwrap();
+        assert_eq!(files.len(), request.names().len());
+        let trace = ctx.trace();
+        assert!(trace.len() > 100, "{} ticks", trace.len());
+        for (k, pair) in trace.windows(2).enumerate() {
+            assert!(
+                pair[1] >= pair[0] - 1e-6,
+                "tick {k}: {} then {}",
+                pair[0],
+                pair[1]
+            );
+        }
+        assert!(trace[trace.len() - 1] > 0.95, "{}", trace[trace.len() - 1]);
     }
 }

@@ -57,6 +57,8 @@ struct Control {
     inline: bool,
     /// Calls of [`JobCtx::tick`] and [`JobCtx::checkpoint`] so far.
     ticks: std::sync::atomic::AtomicU64,
+    /// Every tick's place on the bar, in order, for contexts made by [`JobCtx::traced`].
+    trace: Mutex<Option<Vec<f32>>>,
 }
 
 impl Control {
@@ -138,6 +140,13 @@ impl JobCtx {
             start = end;
         }
         Ok(())
+    }
+
+    /// This context's part cut into `N` equal parts, in order: for the passes of one
+    /// function (`let [scan, write] = ctx.parts();`), so each moves the bar over its own
+    /// share instead of the first filling it all.
+    pub fn parts<const N: usize>(&self) -> [Self; N] {
+        std::array::from_fn(|k| self.part(k as f32 / N as f32, (k + 1) as f32 / N as f32))
     }
 
     /// The context of one part of the job, which fills `from..to` of this context's span
@@ -227,7 +236,7 @@ impl JobCtx {
     /// Records `fraction` (clamped to [0, 1]) and `message`, yields to the event loop on the
     /// web, and returns `Err(Cancelled)` if the owner cancelled the job.
     pub async fn checkpoint(&self, fraction: f32, message: &str) -> Result<(), Cancelled> {
-        self.control.ticks.fetch_add(1, Ordering::Relaxed);
+        self.count_tick(fraction);
         self.end_slice(message);
         self.set_progress(fraction, message);
         if !self.control.inline {
@@ -256,7 +265,7 @@ impl JobCtx {
         if due {
             self.checkpoint(fraction, message).await
         } else {
-            self.control.ticks.fetch_add(1, Ordering::Relaxed);
+            self.count_tick(fraction);
             self.end_slice(message);
             self.start_slice();
             self.check()
@@ -271,8 +280,7 @@ impl JobCtx {
         } else {
             0.0
         };
-        let (a, b) = self.span;
-        let global = (a + (b - a) * fraction).clamp(0.0, 1.0);
+        let global = self.on_bar(fraction);
         self.control
             .progress
             .fetch_max(global.to_bits(), Ordering::Relaxed);
@@ -283,6 +291,49 @@ impl JobCtx {
             .unwrap_or_else(PoisonError::into_inner);
         text.clear();
         text.push_str(message);
+    }
+
+    /// Where `fraction` (finite, of this context's part) lies on the job's bar.
+    fn on_bar(&self, fraction: f32) -> f32 {
+        let (a, b) = self.span;
+        (a + (b - a) * fraction.clamp(0.0, 1.0)).clamp(0.0, 1.0)
+    }
+
+    /// Counts a tick, and traces its place on the bar ([`Self::traced`] contexts).
+    fn count_tick(&self, fraction: f32) {
+        self.control.ticks.fetch_add(1, Ordering::Relaxed);
+        let mut trace = self
+            .control
+            .trace
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner);
+        if let Some(trace) = trace.as_mut() {
+            trace.push(self.on_bar(if fraction.is_finite() { fraction } else { 0.0 }));
+        }
+    }
+
+    /// A context that never yields and records where every tick lies on the bar, before the
+    /// bar keeps the largest ([`Self::trace`]): for tests that a job's parts report in
+    /// order, each over its own share.
+    pub fn traced() -> Self {
+        Self {
+            control: Arc::new(Control {
+                inline: true,
+                trace: Mutex::new(Some(Vec::new())),
+                ..Control::default()
+            }),
+            span: (0.0, 1.0),
+        }
+    }
+
+    /// Where each tick so far lay on the bar, in order (empty unless [`Self::traced`]).
+    pub fn trace(&self) -> Vec<f32> {
+        self.control
+            .trace
+            .lock()
+            .unwrap_or_else(PoisonError::into_inner)
+            .clone()
+            .unwrap_or_default()
     }
 
     /// `Err(Cancelled)` once the owner cancelled.

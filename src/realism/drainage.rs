@@ -72,14 +72,19 @@ pub(super) async fn priority_flood_in(
     const WHAT: &str = "filling depressions";
     let (w, h) = (g.w, g.h);
     let mut z = Vec::with_capacity(w * h);
-    ctx.for_cells(w * h, WHAT, |cells| z.extend_from_slice(&g.z[cells]))
+    ctx.part(0.0, 0.05)
+        .for_cells(w * h, WHAT, |cells| z.extend_from_slice(&g.z[cells]))
         .await?;
-    let mut closed = ctx.map_cells(w * h, WHAT, |i| !z[i].is_finite()).await?;
+    let mut closed = ctx
+        .part(0.05, 0.1)
+        .map_cells(w * h, WHAT, |i| !z[i].is_finite())
+        .await?;
+    let (seeding, flooding) = (ctx.part(0.1, 0.5), ctx.part(0.5, 1.0));
     let mut outlet = vec![false; w * h];
     let mut heap = RadixHeap::<u64>::new();
     let mut drains = true;
     for r in 0..h {
-        ctx.tick_of(r, 2 * h, WHAT).await?;
+        seeding.tick_of(r, h, WHAT).await?;
         for c in 0..w {
             let i = r * w + c;
             if closed[i] {
@@ -103,7 +108,7 @@ pub(super) async fn priority_flood_in(
     while let Some((_, i)) = heap.pop() {
         taken += 1;
         if taken % CELLS_PER_TICK == 0 {
-            ctx.tick_of(w * h + taken, 2 * w * h, WHAT).await?;
+            flooding.tick_of(taken, w * h, WHAT).await?;
         }
         let i = i as usize;
         let zc = z[i];
@@ -211,37 +216,41 @@ pub(super) async fn flow_accumulation_in(
     let cell_area = g.cx * g.cy;
     let n = rcv.len();
     let mut area = ctx
+        .part(0.0, 0.2)
         .map_cells(g.z.len(), WHAT, |i| {
             if g.z[i].is_finite() { cell_area } else { 0.0 }
         })
         .await?;
     let mut indegree = vec![0u8; n];
-    ctx.for_cells(n, WHAT, |cells| {
-        for i in cells {
-            if let Some((j, _)) = rcv.get(i) {
-                indegree[j] += 1;
+    ctx.part(0.2, 0.4)
+        .for_cells(n, WHAT, |cells| {
+            for i in cells {
+                if let Some((j, _)) = rcv.get(i) {
+                    indegree[j] += 1;
+                }
             }
-        }
-    })
-    .await?;
+        })
+        .await?;
     // Kahn's topological order: a cell is passed on once all its donors are done.
     // Counted first, so the stack is made once at its size: growing it would copy millions
     // of cells in one go.
     let mut sources = 0;
-    ctx.for_cells(n, WHAT, |cells| {
-        sources += indegree[cells].iter().filter(|&&d| d == 0).count();
-    })
-    .await?;
+    ctx.part(0.4, 0.5)
+        .for_cells(n, WHAT, |cells| {
+            sources += indegree[cells].iter().filter(|&&d| d == 0).count();
+        })
+        .await?;
     let mut ready: Vec<u32> = Vec::with_capacity(sources);
-    ctx.for_cells(n, WHAT, |cells| {
-        ready.extend(cells.filter(|&i| indegree[i] == 0).map(|i| i as u32));
-    })
-    .await?;
-    let mut taken = 0;
+    ctx.part(0.5, 0.6)
+        .for_cells(n, WHAT, |cells| {
+            ready.extend(cells.filter(|&i| indegree[i] == 0).map(|i| i as u32));
+        })
+        .await?;
+    let (mut taken, passing) = (0, ctx.part(0.6, 1.0));
     while let Some(i) = ready.pop() {
         taken += 1;
         if taken % CELLS_PER_TICK == 0 {
-            ctx.tick_of(taken, n, WHAT).await?;
+            passing.tick_of(taken, n, WHAT).await?;
         }
         if let Some((j, _)) = rcv.get(i as usize) {
             area[j] += area[i as usize];
