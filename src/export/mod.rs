@@ -369,7 +369,21 @@ pub async fn files(
         .map_err(cancelled)?
         .unwrap_or((0.0, 0.0));
     let mut plan = plan(request, native, inputs.cell_m, range)?;
-    let total = plan.names.len().max(1) as f32;
+    // Each heightmap, tile, map and GeoJSON weighs one on the bar; the JSON and text beside
+    // them are written at once and weigh nothing.
+    let weights: Vec<f32> = plan
+        .names
+        .iter()
+        .map(|n| {
+            if n.ends_with(".json") || n.ends_with(".txt") {
+                0.0
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let before = |k: usize| weights[..k.min(weights.len())].iter().sum::<f32>();
+    let total = before(weights.len()).max(1.0);
     // The resampling, when there is one, counts as half a file of the bar.
     let (resizing, rest) = if plan.size == native {
         (0.0, 1.0 / total)
@@ -401,8 +415,10 @@ pub async fn files(
     let stem = &request.stem;
     // The part of the bar of the files from the `out.len()`th, `count` of them.
     let files_part = |done: usize, count: usize| {
-        let from = resizing + done as f32 * rest;
-        ctx.part(from, from + count as f32 * rest)
+        ctx.part(
+            resizing + before(done) * rest,
+            resizing + before(done + count) * rest,
+        )
     };
     let step = |out: &Vec<File>, what: &str| {
         let message = format!(
