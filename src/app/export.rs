@@ -167,9 +167,10 @@ impl StrahlerApp {
             let done = self.export.running.remove(k);
             match done.to {
                 Destination::Script(number) => {
-                    let bytes = result.and_then(|files| match files.as_slice() {
-                        [file] => Ok(file.bytes.clone()),
-                        _ => Err(format!(
+                    // Moved, not copied: a 4033^2 export with maps is tens of megabytes.
+                    let bytes = result.and_then(|files| match <[File; 1]>::try_from(files) {
+                        Ok([file]) => Ok(file.bytes),
+                        Err(files) => Err(format!(
                             "{} files where one (or its zip) was due",
                             files.len()
                         )),

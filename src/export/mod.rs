@@ -420,17 +420,21 @@ pub async fn files(
             resizing + before(done + count) * rest,
         )
     };
-    let step = |out: &Vec<File>, what: &str| {
-        let message = format!(
+    // The part of the bar of the next `count` files, titled with what they are, after a
+    // checkpoint at its start.
+    let step = |out: &Vec<File>, count: usize, what: &str| {
+        let title = format!(
             "exporting {what} ({} of {} files)",
             out.len() + 1,
             plan.names.len()
         );
-        let part = files_part(out.len(), 1);
-        async move { part.checkpoint(0.0, &message).await.map_err(cancelled) }
+        let part = files_part(out.len(), count).titled(&title);
+        async move {
+            part.checkpoint(0.0, &title).await.map_err(cancelled)?;
+            Ok::<_, String>(part)
+        }
     };
     let mut out = Vec::new();
-    step(&out, "the heightmap").await?;
     let own = (plan.size == native && plan.grid.is_none())
         .then_some(inputs.georef)
         .flatten();
@@ -438,6 +442,7 @@ pub async fn files(
         - request.maps.len()
         - usize::from(request.rivers)
         - if plan.numbers.is_some() { 2 } else { 0 };
+    let part = step(&out, heightmap_files, "the heightmap").await?;
     heightmaps(
         &sized,
         spacing,
@@ -446,7 +451,7 @@ pub async fn files(
         request,
         &plan,
         &mut out,
-        &files_part(0, heightmap_files),
+        &part,
     )
     .await?;
     let placed = inputs.centre_lonlat.map(Placed::at);
@@ -464,8 +469,7 @@ pub async fn files(
         });
     }
     for map in &request.maps {
-        step(&out, &format!("the {} map", map.key())).await?;
-        let part = files_part(out.len(), 1);
+        let part = step(&out, 1, &format!("the {} map", map.key())).await?;
         let png = texture(*map, &sized, spacing, inputs, request.normals, &part).await?;
         out.push(File {
             name: format!("{stem}-{}.png", map.key()),
@@ -474,7 +478,7 @@ pub async fn files(
         });
     }
     if request.rivers {
-        step(&out, "the rivers").await?;
+        step(&out, 1, "the rivers").await?;
         let cells = inputs.skeleton_cells * inputs.skeleton_cells;
         if inputs.area_m2.len() != cells {
             return Err(format!(

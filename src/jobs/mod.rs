@@ -92,6 +92,8 @@ pub struct JobCtx {
     control: Arc<Control>,
     /// The span of the job's bar this context's fractions 0..1 fill (see [`Self::part`]).
     span: (f32, f32),
+    /// What this part of the job is about, put before its messages (see [`Self::titled`]).
+    title: Option<Arc<str>>,
 }
 
 impl JobCtx {
@@ -102,6 +104,7 @@ impl JobCtx {
         Self {
             control: Arc::default(),
             span: (0.0, 1.0),
+            title: None,
         }
     }
 
@@ -158,6 +161,17 @@ impl JobCtx {
         Self {
             control: Arc::clone(&self.control),
             span: (at(from), at(to.max(from))),
+            title: self.title.clone(),
+        }
+    }
+
+    /// This context with its messages (and its parts') read as `"{title}: {message}"`: a
+    /// job of several files says which file a pass is working on ("exporting the normal
+    /// map (5 of 6 files): encoding the PNG").
+    pub fn titled(&self, title: &str) -> Self {
+        Self {
+            title: Some(title.into()),
+            ..self.clone()
         }
     }
 
@@ -290,6 +304,12 @@ impl JobCtx {
             .lock()
             .unwrap_or_else(PoisonError::into_inner);
         text.clear();
+        if let Some(title) = &self.title
+            && title.as_ref() != message
+        {
+            text.push_str(title);
+            text.push_str(": ");
+        }
         text.push_str(message);
     }
 
@@ -323,6 +343,7 @@ impl JobCtx {
                 ..Control::default()
             }),
             span: (0.0, 1.0),
+            title: None,
         }
     }
 
@@ -435,6 +456,7 @@ where
             ..Control::default()
         }),
         span: (0.0, 1.0),
+        title: None,
     };
     let mut future = std::pin::pin!(body(ctx));
     let mut waker = std::task::Context::from_waker(std::task::Waker::noop());
@@ -482,6 +504,7 @@ where
     let ctx = JobCtx {
         control: Arc::clone(&control),
         span: (0.0, 1.0),
+        title: None,
     };
     let slot = Arc::clone(&result);
     // The future is built where it runs: natively inside the worker thread, so only the
@@ -608,6 +631,26 @@ mod tests {
     }
 
     /// Only a timed context times its slices; a slice ends at every tick, due or not.
+    /// A titled part's messages say what they are about, its own parts' too; the title is
+    /// not said twice.
+    #[test]
+    fn a_titled_part_puts_its_title_before_its_messages() {
+        let ctx = JobCtx::detached();
+        let file = ctx
+            .part(0.5, 1.0)
+            .titled("exporting the normal map (5 of 6 files)");
+        file.set_progress(0.0, "exporting the normal map (5 of 6 files)");
+        assert_eq!(ctx.message(), "exporting the normal map (5 of 6 files)");
+        file.part(0.5, 1.0).set_progress(0.5, "encoding the PNG");
+        assert_eq!(
+            ctx.message(),
+            "exporting the normal map (5 of 6 files): encoding the PNG"
+        );
+        assert_eq!(ctx.progress(), 0.875);
+        ctx.set_progress(0.9, "zipping the files");
+        assert_eq!(ctx.message(), "zipping the files");
+    }
+
     #[test]
     fn a_timed_context_keeps_its_longest_slice() {
         assert_eq!(JobCtx::detached().longest_slice(), None);
