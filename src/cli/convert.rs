@@ -137,17 +137,8 @@ fn package(
     // No rivers to describe: the maps route their own water.
     let order = vec![0u8; w * h];
     let inputs = crate::export::Inputs {
-        centre_lonlat: None,
-        field,
-        cell_m,
-        networks: &[],
-        ridges: &[],
-        skeleton_cells: w,
-        river_order: &order,
-        area_m2: &[],
-        lowered: None,
-        splat: crate::export::SplatRules::default(),
         georef: Some(&dem.georef),
+        ..crate::export::Inputs::bare(field, cell_m, &order)
     };
     let files = super::progress::with_bar(args.progress, |ctx| {
         pollster::block_on(crate::export::files(&inputs, &request, ctx))

@@ -208,6 +208,27 @@ pub struct Inputs<'a> {
     pub centre_lonlat: Option<[f64; 2]>,
 }
 
+impl<'a> Inputs<'a> {
+    /// A terrain with nothing drawn on it (a DEM being converted, a benchmark's field):
+    /// no rivers or ridges, no erosion, the default splat rules, a local grid. The maps
+    /// route their own water; `river_order` (the water map's, one per cell) may be zeros.
+    pub fn bare(field: &'a Heightfield, cell_m: f64, river_order: &'a [u8]) -> Self {
+        Self {
+            field,
+            cell_m,
+            networks: &[],
+            ridges: &[],
+            skeleton_cells: field.width(),
+            river_order,
+            area_m2: &[],
+            lowered: None,
+            splat: SplatRules::default(),
+            georef: None,
+            centre_lonlat: None,
+        }
+    }
+}
+
 /// The georeferencing of a square raster `width_m` wide (its outer edges) with cells of
 /// `spacing` metres, whose first column and row are `x0_m` east and `y0_m` south of the
 /// map's north-west corner (a tile's, or 0 for the whole map): in the UTM zone of the map's
@@ -443,9 +464,13 @@ pub async fn files(
         - usize::from(request.rivers)
         - if plan.numbers.is_some() { 2 } else { 0 };
     let part = step(&out, heightmap_files, "the heightmap").await?;
-    heightmaps(
-        &sized,
+    let terrain = Sized {
+        field: &sized,
+        range: sized_range,
         spacing,
+    };
+    heightmaps(
+        &terrain,
         own,
         inputs.centre_lonlat,
         request,
@@ -515,11 +540,17 @@ pub async fn files(
     Ok(out)
 }
 
-/// The heightmap, or its tiles and their index, with their sidecars.
-#[allow(clippy::too_many_arguments)]
-async fn heightmaps(
-    sized: &Heightfield,
+/// The terrain at the export's size, its finite height range (measured once) and the
+/// metres between its vertices.
+struct Sized<'a> {
+    field: &'a Heightfield,
+    range: Option<(f32, f32)>,
     spacing: f64,
+}
+
+/// The heightmap, or its tiles and their index, with their sidecars.
+async fn heightmaps(
+    terrain: &Sized<'_>,
     own: Option<&GeoRef>,
     centre_lonlat: Option<[f64; 2]>,
     request: &Request,
@@ -527,13 +558,13 @@ async fn heightmaps(
     out: &mut Vec<File>,
     ctx: &JobCtx,
 ) -> Result<(), String> {
+    let Sized {
+        field: sized,
+        range,
+        spacing,
+    } = *terrain;
     let z = request.z_scale;
-    let [ranging, writing] = [ctx.part(0.0, 0.05), ctx.part(0.05, 1.0)];
-    let range = sized
-        .finite_range_in(&ranging)
-        .await
-        .map_err(cancelled)?
-        .map(|(a, b)| ((a * z).min(b * z), (a * z).max(b * z)));
+    let range = range.map(|(a, b)| ((a * z).min(b * z), (a * z).max(b * z)));
     let options = ExportOptions {
         size: None,
         flip_y: request.flip_y,
@@ -557,7 +588,7 @@ async fn heightmaps(
            -> Result<(), String> {
         let georef = own.cloned().unwrap_or_else(|| local(x0, y0));
         let share = 1.0 / tiles as f32;
-        let part = writing.part(tile as f32 * share, (tile + 1) as f32 * share);
+        let part = ctx.part(tile as f32 * share, (tile + 1) as f32 * share);
         let written = format::write_in(request.format, field, &georef, &options, &part)
             .await
             .map_err(|e| e.to_string())?;
@@ -794,19 +825,7 @@ mod tests {
             .collect();
         let field = Heightfield::from_vec(n, n, data).unwrap();
         let order = vec![0u8; n * n];
-        let inputs = Inputs {
-            field: &field,
-            cell_m: 10.0,
-            networks: &[],
-            ridges: &[],
-            skeleton_cells: n,
-            river_order: &order,
-            area_m2: &[],
-            lowered: None,
-            splat: SplatRules::default(),
-            georef: None,
-            centre_lonlat: None,
-        };
+        let inputs = Inputs::bare(&field, 10.0, &order);
         let mut request = Request::heightmap(Format::Png);
         request.maps = vec![MapKind::Normal, MapKind::Flow, MapKind::Basins];
         let ctx = JobCtx::detached();
@@ -830,17 +849,8 @@ mod tests {
         let order = vec![1u8; n * n];
         let lowered = vec![0.25f32; n * n];
         let inputs = Inputs {
-            field: &field,
-            cell_m: 10.0,
-            networks: &[],
-            ridges: &[],
-            skeleton_cells: n,
-            river_order: &order,
-            area_m2: &[],
             lowered: Some(&lowered),
-            splat: SplatRules::default(),
-            georef: None,
-            centre_lonlat: None,
+            ..Inputs::bare(&field, 10.0, &order)
         };
         let mut request = Request::heightmap(Format::Png);
         request.maps = MapKind::ALL.to_vec();

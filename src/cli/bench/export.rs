@@ -3,7 +3,7 @@
 //! held that long: about 2-3 times as long in wasm, plus up to the job's tick slice).
 
 use crate::dem::format::Format;
-use crate::export::{self, Engine, Inputs, MapKind, Request, SplatRules};
+use crate::export::{self, Engine, Inputs, MapKind, Request};
 use crate::jobs::JobCtx;
 use crate::wavelet::fbm;
 
@@ -28,17 +28,8 @@ pub fn run(args: &ExportArgs) -> Result<(), Box<dyn std::error::Error>> {
         let lowered = vec![0.5f32; n * n];
         let order = vec![0u8; n * n];
         let inputs = Inputs {
-            field: &field,
-            cell_m: 10.0,
-            networks: &[],
-            ridges: &[],
-            skeleton_cells: n,
-            river_order: &order,
-            area_m2: &[],
             lowered: Some(&lowered),
-            splat: SplatRules::default(),
-            georef: None,
-            centre_lonlat: None,
+            ..Inputs::bare(&field, 10.0, &order)
         };
         for (name, request) in requests(n) {
             let (ms, (slice, before), files) = timed(&inputs, &request)?;
