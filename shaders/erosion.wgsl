@@ -7,7 +7,8 @@
 // 1. `receivers`: the CPU's rule in `flow.rs`: D8 steepest descent, ties to the first
 //    direction in D8 order, or (params.random) one lower neighbour drawn in proportion to
 //    the slopes (Freeman 1991's weights) from lowbias32(cell ^ route_key), the step's key;
-//    base-level cells and pits get NONE.
+//    base-level cells and pits get NONE; a guided cell (a grown branch, `guide`) its guided
+//    neighbour.
 // 2. Lakes (Planchon & Darboux 2001): `root_init` + `root_jump` (pointer jumping) find the
 //    terminal cell of every flow path; cells whose path ends in a pit start at BIG, the rest
 //    at their height, and `lake_pass` lowers the water level W_i towards
@@ -48,7 +49,8 @@ struct Params {
     // the logarithm of the soft beds' erodibility over the hard beds'.
     strata_period: f32,
     strata_ln_contrast: f32,
-    _pad0: u32,
+    // Whether `guide` holds guided receivers (1) or nothing (0).
+    guided: u32,
     _pad1: u32,
 }
 
@@ -87,6 +89,9 @@ fn diagonal(d: u32) -> bool {
 @group(0) @binding(1) var<storage, read> base_bits: array<u32>;
 @group(0) @binding(2) var<storage, read> heights: array<f32>;
 @group(0) @binding(3) var<storage, read_write> receivers_out: array<u32>;
+// Guided receivers (`src/erosion/guide.rs`): a D8 code per cell in 4 bits, 8 cells a word,
+// 8 where the cell picks its own; read only when params.guided is 1.
+@group(0) @binding(4) var<storage, read> guide: array<u32>;
 
 fn is_base(i: u32) -> bool {
     return ((base_bits[i >> 5u] >> (i & 31u)) & 1u) == 1u;
@@ -101,6 +106,13 @@ fn receivers(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (is_base(i)) {
         receivers_out[i] = NONE;
         return;
+    }
+    if (params.guided != 0u) {
+        let code = (guide[i >> 3u] >> ((i & 7u) * 4u)) & 15u;
+        if (code < 8u) {
+            receivers_out[i] = neighbour(gid.x, gid.y, code);
+            return;
+        }
     }
     let hi = heights[i];
     var best = NONE;

@@ -3,12 +3,12 @@
 //! eroded terrain measures like real land (few harmonic cells, a real spectral slope).
 
 use strahler::compute::Backend;
-use strahler::erosion::{ErosionSettings, PRESETS};
+use strahler::erosion::{ErosionSettings, PRESETS, Relief};
 use strahler::heightfield::Heightfield;
 use strahler::jobs::JobCtx;
 use strahler::pipeline::{Pipeline, RunOptions};
 use strahler::scene::{RiverStroke, Scene};
-use strahler::skeleton::CellKind;
+use strahler::skeleton::{CellKind, Skeleton};
 
 fn river(estuary: [f64; 2], toward: [f64; 2], phi: u32, depth: u32) -> RiverStroke {
     RiverStroke {
@@ -44,11 +44,20 @@ fn run(scene: &Scene) -> strahler::pipeline::Output {
         .expect("the pipeline runs")
 }
 
-/// The rivers are the base level: their heights are kept to the bit (the drainage
+/// The drawn rivers are the base level: their heights are kept to the bit (the drainage
 /// conditioning after erosion only raises pits, never a river cell), and no river hangs
-/// above the land right beside it.
-fn assert_rivers_kept(before: &Heightfield, eroded: &Heightfield, kinds: &[CellKind], what: &str) {
-    for (i, kind) in kinds.iter().enumerate() {
+/// above the land right beside it. The branches the L-system grew are the law's to shape
+/// ([`strahler::erosion::shaped_kinds`]): only the rivers the erosion holds are checked, and
+/// only against land (not against another river's cells).
+fn assert_rivers_kept(
+    before: &Heightfield,
+    eroded: &Heightfield,
+    skeleton: &Skeleton,
+    relief: Relief,
+    what: &str,
+) {
+    let held = strahler::erosion::shaped_kinds(skeleton, relief);
+    for (i, kind) in held.iter().enumerate() {
         if *kind == CellKind::River {
             assert_eq!(
                 eroded.data()[i],
@@ -58,7 +67,7 @@ fn assert_rivers_kept(before: &Heightfield, eroded: &Heightfield, kinds: &[CellK
         }
     }
     let n = before.width();
-    for (i, kind) in kinds.iter().enumerate() {
+    for (i, kind) in held.iter().enumerate() {
         if *kind != CellKind::River {
             continue;
         }
@@ -66,7 +75,7 @@ fn assert_rivers_kept(before: &Heightfield, eroded: &Heightfield, kinds: &[CellK
         for yy in y.saturating_sub(1)..(y + 2).min(n) {
             for xx in x.saturating_sub(1)..(x + 2).min(n) {
                 let j = yy * n + xx;
-                if kinds[j] == CellKind::Free {
+                if skeleton.kinds[j] == CellKind::Free {
                     assert!(
                         eroded.data()[j] >= eroded.data()[i] - 1e-3,
                         "{what}: land at {j} below the river at {i}"
@@ -91,13 +100,24 @@ fn eroded_terrains_keep_their_rivers_and_drain_along_them() {
             let out = run(&scene);
             let eroded = out.erosion.as_ref().expect("the erosion stage ran");
             let before = &out.hydrology.terrain;
-            let kinds = &out.hydrology.skeleton.kinds;
             let d = &eroded.report.drainage;
             let what = format!("layout {k}, {preset}");
             assert!(d.river_fraction >= 0.99, "{what}: {d:?}");
+            // The branches the law shapes keep their course in the solver; on the finished
+            // surface the steepest descent leaves a steep branch's line for a slope beside it
+            // at some cells (73% of the branches' cells follow it on the densest layout here,
+            // 84-99% on the default scene at 512^2): measured, reported, not promised exact.
+            assert!(d.branch_fraction >= 0.7, "{what}: {d:?}");
             assert!(d.outlet_fraction >= 0.99, "{what}: {d:?}");
             assert_eq!(d.pit_cells, 0, "{what}: {d:?}");
-            assert_rivers_kept(before, &eroded.field, kinds, &what);
+            let relief = scene.erosion.as_ref().expect("a preset").relief;
+            assert_rivers_kept(
+                before,
+                &eroded.field,
+                &out.hydrology.skeleton,
+                relief,
+                &what,
+            );
             // And the land changed: erosion carved it.
             assert!(
                 eroded.report.max_depth_m > 1.0,
@@ -169,7 +189,14 @@ fn maps_larger_than_the_solver_grid_are_refined_at_full_resolution() {
     assert!(d.river_fraction >= 0.99, "{d:?}");
     assert!(d.outlet_fraction >= 0.99, "{d:?}");
     assert_eq!(d.pit_cells, 0, "{d:?}");
-    assert_rivers_kept(design, &eroded.field, kinds, "refined");
+    let relief = settings.relief;
+    assert_rivers_kept(
+        design,
+        &eroded.field,
+        &out.hydrology.skeleton,
+        relief,
+        "refined",
+    );
     let cell = scene.cell_size;
     let realism = strahler::realism::RealismReport::of(&eroded.field, cell, cell);
     let m = &realism.measures;
@@ -328,7 +355,8 @@ fn a_river_ending_inside_the_map_flows_out_at_its_mouth() {
         let m = &out.report.realism.as_ref().expect("measured").measures;
         assert!(m.flat_fraction <= 0.03, "{what}: flats {}", m.flat_fraction);
         if eroded {
-            assert_rivers_kept(&out.hydrology.terrain, &out.field, &skeleton.kinds, what);
+            let relief = ErosionSettings::default().relief;
+            assert_rivers_kept(&out.hydrology.terrain, &out.field, skeleton, relief, what);
             assert!(m.straight_channel_fraction <= 0.15, "{m:?}");
         }
     }

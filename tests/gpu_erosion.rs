@@ -9,7 +9,7 @@ use std::sync::Arc;
 
 use strahler::compute::Backend;
 use strahler::erosion::gpu::{self, GpuInput};
-use strahler::erosion::{ErosionParams, ErosionSettings, PRESETS, Prepared};
+use strahler::erosion::{ErosionParams, ErosionSettings, PRESETS, Prepared, Relief};
 use strahler::gpu::GpuContext;
 use strahler::jobs::JobCtx;
 use strahler::pipeline::{Output, Pipeline, RunOptions};
@@ -53,8 +53,12 @@ fn gpu_erode(gpu: &GpuContext, input: GpuInput<'_>) -> gpu::GpuEroded {
 }
 
 /// (a) CPU and GPU solvers from the same prepared input (a real 192^2 scene after hydrology,
-/// each preset): the mean |dh| over the free cells is at most 1% of the relief (0.01-0.21% measured on lavapipe), and the
-/// mean erosion depth agrees within 10%.
+/// each preset, as the stage shapes its kinds): the mean |dh| over the free cells is at most
+/// 2% of the relief, and the mean erosion depth agrees within 10%. Measured on lavapipe:
+/// 0.01-0.21% with the relief from the design; 1.1% on young-mountains, whose relief comes
+/// from the physics: land rising evenly stands at the threshold slope over more of the map,
+/// where the GPU's limit in Jacobi passes (16 cells a step) and the CPU's raster scans (the
+/// whole map) part most (0.7% with 32 passes a step).
 ///
 /// Not bit-exact (see `src/erosion/gpu.rs`): `f32` on the GPU where the CPU's incision works
 /// in `f64`, the receiver tree solved in another order, talus in Jacobi form and lakes by
@@ -79,7 +83,14 @@ fn gpu_matches_cpu_on_a_real_terrain() {
         let field = &hydrology.terrain;
         let n = field.width();
         let cell = scene.map_width() / n as f64;
-        let prepared = Prepared::new(field, &hydrology.skeleton.kinds, &settings, cell, 5);
+        // As the stage erodes it: the grown branches guided, their heights the law's.
+        let kinds = strahler::erosion::shaped_kinds(&hydrology.skeleton, settings.relief);
+        let prepared = Prepared::new(field, &kinds, &settings, cell, 5);
+        assert_eq!(
+            prepared.guide.iter().any(|c| *c < 8),
+            settings.relief == Relief::Physics,
+            "{preset}: guided receivers where the physics sets the relief"
+        );
         // The stage's CPU solver: drawn receivers, rock, and the threshold-slope limit where
         // the preset has a talus angle (the GPU runs it in Jacobi passes).
         let mut cpu = prepared
@@ -114,7 +125,7 @@ fn gpu_matches_cpu_on_a_real_terrain() {
             100.0 * mean_abs / relief
         );
         assert!(
-            mean_abs <= 0.01 * relief,
+            mean_abs <= 0.02 * relief,
             "{preset}: mean |dh| {mean_abs} vs relief {relief}"
         );
         if k == 0 {
@@ -149,6 +160,103 @@ fn gpu_matches_cpu_on_a_real_terrain() {
             }
         }
     }
+}
+
+/// A guided row runs across a slope that falls towards the south edge: without the guide its
+/// water runs south, each cell on its own; guided west along the row, the GPU routes it as the
+/// CPU does (the row's last cell drains the whole row), and after a few steps of uplift the
+/// row falls westwards, its heights set by the law along the course it was given.
+#[test]
+fn gpu_follows_guided_receivers_as_the_cpu_does() {
+    let Some(gpu) = common::gpu() else { return };
+    let (w, h, row) = (64usize, 32usize, 8usize);
+    let cell = 10.0;
+    let heights: Vec<f32> = (0..w * h)
+        .map(|i| (i % w) as f32 * 0.5 + (h - 1 - i / w) as f32 * 3.0)
+        .collect();
+    let base: Vec<bool> = (0..w * h).map(|i| i % w == 0 || i / w == h - 1).collect();
+    let west = 3u8; // D8 order of `src/erosion/grid.rs`: (-1, 0)
+    let guide: Vec<u8> = (0..w * h)
+        .map(|i| if i / w == row && i % w > 0 { west } else { 8 })
+        .collect();
+    let params = ErosionParams {
+        years: 1e5,
+        steps: 5,
+        erodibility: 1e-5,
+        m: 0.5,
+        n: 1.0,
+        diffusivity: 0.0,
+        talus_deg: None,
+    };
+    let uplift = vec![1e-3f32; w * h];
+    let guided = GpuInput {
+        heights: &heights,
+        width: w,
+        height: h,
+        cell_m: cell,
+        base_level: &base,
+        uplift: &uplift,
+        floor: None,
+        params,
+        seed: Some(3),
+        erodibility: &[],
+        strata: None,
+        strength: &[],
+        fill_pits: true,
+        guide: &guide,
+    };
+    let last = |area: &[f32]| f64::from(area[row * w + 1]) / (cell * cell);
+    let gpu_guided = gpu_erode(&gpu, guided);
+    let gpu_free = gpu_erode(
+        &gpu,
+        GpuInput {
+            guide: &[],
+            ..guided
+        },
+    );
+    let mut cpu = strahler::erosion::Eroder::new(
+        heights.clone(),
+        w,
+        h,
+        cell,
+        base.clone(),
+        uplift.clone(),
+        params,
+    )
+    .and_then(|e| e.with_guide(guide.clone()))
+    .expect("valid input")
+    .with_seed(3);
+    while cpu.step() {}
+    let row_cells = (w - 1) as f64;
+    assert!(
+        last(&gpu_guided.area) >= row_cells,
+        "{}",
+        last(&gpu_guided.area)
+    );
+    assert!(last(cpu.drainage_area()) >= row_cells);
+    assert!(
+        last(&gpu_free.area) < row_cells / 4.0,
+        "{}",
+        last(&gpu_free.area)
+    );
+    for (name, z) in [
+        ("gpu", &gpu_guided.heights),
+        ("cpu", &cpu.heights().to_vec()),
+    ] {
+        let profile = &z[row * w..(row + 1) * w];
+        assert!(
+            profile.windows(2).skip(1).all(|p| p[1] > p[0]),
+            "{name}: the row falls west: {profile:?}"
+        );
+    }
+    let (g, c) = (&gpu_guided.heights, cpu.heights());
+    let worst = (row * w + 1..(row + 1) * w)
+        .map(|i| (g[i] - c[i]).abs())
+        .fold(0.0f32, f32::max);
+    assert!(
+        worst < 0.01 * c[(row + 1) * w - 1],
+        "gpu and cpu differ by {worst} m"
+    );
 }
 
 /// (b) A 1-D river (3 x 200 strip, the middle row free and draining to its left end) reaches
@@ -191,6 +299,7 @@ fn gpu_reaches_the_analytic_steady_state() {
             strata: None,
             strength: &[],
             fill_pits: true,
+            guide: &[],
         },
     );
     let z = &out.heights;
@@ -244,7 +353,9 @@ fn gpu_stage_keeps_rivers_and_drainage() {
         assert!(d.outlet_fraction >= 0.99, "{preset}: {d:?}");
         assert_eq!(d.pit_cells, 0, "{preset}: {d:?}");
         let before = &out.hydrology.terrain;
-        for (i, kind) in out.hydrology.skeleton.kinds.iter().enumerate() {
+        let relief = scene.erosion.as_ref().expect("a preset").relief;
+        let shaped = strahler::erosion::shaped_kinds(&out.hydrology.skeleton, relief);
+        for (i, kind) in shaped.iter().enumerate() {
             if *kind == CellKind::River {
                 assert_eq!(
                     eroded.field.data()[i].to_bits(),
@@ -351,7 +462,9 @@ fn gpu_refines_maps_larger_than_the_solver_grid() {
     assert!(d.river_fraction >= 0.99, "{d:?}");
     assert!(d.outlet_fraction >= 0.99, "{d:?}");
     assert_eq!(d.pit_cells, 0, "{d:?}");
-    for (i, kind) in kinds.iter().enumerate() {
+    let relief = ErosionSettings::default().relief;
+    let shaped = strahler::erosion::shaped_kinds(&out.hydrology.skeleton, relief);
+    for (i, kind) in shaped.iter().enumerate() {
         if *kind == CellKind::River {
             assert_eq!(eroded.field.data()[i].to_bits(), design.data()[i].to_bits());
         }

@@ -229,6 +229,28 @@ fn erosion_panel_keeps_its_toggle_and_turns_erosion_off() {
     assert_eq!(h.state().actions, [Action::Edit(Edit::SetErosion(None))]);
 }
 
+/// The relief's choice is one click in the folded parameters, and an edit like any other.
+#[test]
+fn erosion_panel_chooses_where_the_relief_comes_from() {
+    let report = erosion_report();
+    let mut h = harness(
+        Bench::new(ErosionPanel::default(), Scene::default()),
+        move |p, ui, scene, _| p.show(ui, scene, Some(&report)),
+    );
+    h.run();
+    h.get_by_label("Parameters (young-mountains)").click();
+    h.run();
+    h.get_by_label("design").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::Edit(Edit::SetErosion(Some(e)))] => {
+            assert_eq!(e.relief, strahler::erosion::Relief::Design);
+            assert_eq!(e.preset, "custom", "an edited preset is the user's own");
+        }
+        other => panic!("{other:?}"),
+    }
+}
+
 #[test]
 fn style_panel_picks_a_bundled_style() {
     let mut h = harness(

@@ -116,7 +116,7 @@ pub fn constraints_image(kinds: &[CellKind], width: usize, height: usize) -> Col
         .iter()
         .map(|k| match k {
             CellKind::Free => Color32::TRANSPARENT,
-            CellKind::River => Color32::from_rgb(30, 90, 255),
+            CellKind::River | CellKind::Grown => Color32::from_rgb(30, 90, 255),
             CellKind::Ridge => Color32::from_rgb(220, 40, 30),
             CellKind::Valley => Color32::from_rgb(30, 200, 210),
             CellKind::Enriched => Color32::from_rgb(255, 150, 20),

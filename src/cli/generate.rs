@@ -401,7 +401,7 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         .collect();
     let r = &report.terrain;
     println!(
-        "{0} x {0} terrain, heights {1:.0} to {2:.0} m; {3} river nodes, Strahler order {4}, {5} ridges; drainage: {6:.1}% of river cells, {7:.2}% of cells reach an outlet, {8} pits",
+        "{0} x {0} terrain, heights {1:.0} to {2:.0} m; {3} river nodes, Strahler order {4}, {5} ridges; drainage: {6:.1}% of river cells{9}, {7:.2}% of cells reach an outlet, {8} pits",
         r.size,
         r.height_range[0],
         r.height_range[1],
@@ -410,7 +410,8 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         r.ridges.edges,
         r.drainage.river_fraction * 100.0,
         r.drainage.outlet_fraction * 100.0,
-        r.drainage.pit_cells
+        r.drainage.pit_cells,
+        r.drainage.branches_note()
     );
     println!("stages: {}", stages.join(", "));
     println!("checksum: {}", r.checksum);

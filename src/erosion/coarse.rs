@@ -25,7 +25,8 @@ pub const MAX_SOLVER_SIDE: usize = 1024;
 
 /// The design of a large map reduced to the solver's grid by blocks of `f` x `f` cells: the
 /// mean height of each block, and a block is a channel where any of its cells is (holding
-/// the lowest channel height of the block, so rivers still fall towards their mouths).
+/// the lowest channel height of the block, so rivers still fall towards their mouths): a
+/// river where one of its cells is a held river, else a valley, else a grown branch.
 /// O(cells), in bands of block rows with the job's ticks between them.
 async fn reduce(
     field: &Heightfield,
@@ -66,9 +67,15 @@ fn reduce_blocks(
                     let i = y * n + x;
                     sum += f64::from(z[i]);
                     count += 1;
-                    if matches!(kinds[i], CellKind::River | CellKind::Valley) {
+                    let rank = |k: CellKind| match k {
+                        CellKind::River => 3,
+                        CellKind::Valley => 2,
+                        CellKind::Grown => 1,
+                        _ => 0,
+                    };
+                    if rank(kinds[i]) > 0 {
                         channel = channel.min(z[i]);
-                        if kind != CellKind::River {
+                        if rank(kinds[i]) > rank(kind) {
                             kind = kinds[i];
                         }
                     }
@@ -227,6 +234,9 @@ pub(super) async fn erode_coarse_to_fine(
     let coarse_anchors = Anchors {
         held: &coarse_held,
         mouths: &coarse_mouths,
+        // The kinds already tell the grown branches.
+        trunk: &[],
+        order: &[],
         painted: anchors.painted,
     };
     let eroded = solve(
@@ -264,6 +274,7 @@ pub(super) async fn erode_coarse_to_fine(
     .await?;
     drop(up);
     let fine = Refinement {
+        guide: super::guide::guided_receivers(field.data(), kinds, n),
         heights,
         base,
         floor,
@@ -302,6 +313,8 @@ struct Refinement {
     strength: Vec<f32>,
     /// Whether the GPU may fill the step's pits from the border (no river mouth inside).
     fill_on_gpu: bool,
+    /// The grown branches' guided receivers at full resolution (empty: none).
+    guide: Vec<u8>,
 }
 
 /// The refinement at full resolution of a map eroded on a coarser grid: one more step of
@@ -334,6 +347,7 @@ async fn refine(
         erodibility,
         strength,
         fill_on_gpu,
+        guide,
     } = fine;
     let roughness_m = settings.roughness_m * cell_m / coarse_cell_m;
     in_row_bands(ctx, FINISHING, &mut heights, n, |rows, h| {
@@ -358,6 +372,7 @@ async fn refine(
         erodibility,
         strata: settings.strata(),
         strength,
+        guide,
     };
     run_solver(prepared, n, cell_m, params, fill_on_gpu, backend, ctx).await
 }

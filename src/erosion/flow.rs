@@ -76,6 +76,9 @@ pub(super) struct Network {
     pub(super) off: [isize; 9],
     /// How the next routing picks receivers.
     pub(super) pick: Pick,
+    /// Guided receivers ([`super::guide`]): a cell with a code here drains that way whatever
+    /// the heights ([`NONE`]: picked as above); empty: none.
+    pub(super) guide: Vec<u8>,
 }
 
 impl Network {
@@ -88,6 +91,17 @@ impl Network {
             stack: Vec::with_capacity(n),
             off: std::array::from_fn(|k| if k < 8 { off[k] } else { 0 }),
             pick: Pick::Steepest,
+            guide: Vec::new(),
+        }
+    }
+
+    /// The receiver code of free cell `(x, y)`: its guided one if it has one, else the one
+    /// [`Pick`] chooses among its lower neighbours.
+    #[inline]
+    fn receiver_of(&self, grid: Grid, h: &[f32], x: usize, y: usize) -> u8 {
+        match self.guide.get(y * grid.width + x) {
+            Some(&code) if code != NONE => code,
+            _ => receiver(grid, h, x, y, &self.off, self.pick),
         }
     }
 
@@ -228,7 +242,7 @@ impl Network {
                 let code = if base[i] {
                     NONE
                 } else {
-                    receiver(grid, h, x, y, &off, self.pick)
+                    self.receiver_of(grid, h, x, y)
                 };
                 self.dir[i] = code;
                 if code != NONE {
@@ -256,7 +270,7 @@ impl Network {
         let off = self.off;
         let (x, y) = grid.xy(i);
         let old = usize::from(self.dir[i]);
-        let new = receiver(grid, h, x, y, &off, self.pick);
+        let new = self.receiver_of(grid, h, x, y);
         if old != NONE as usize {
             self.donors[i.wrapping_add_signed(off[old])] &= !(1 << (7 - old));
         }

@@ -156,6 +156,9 @@ pub struct GpuInput<'a> {
     /// water also leaves the map inside it (a river mouth): the border-seeded flood would
     /// fill that catchment, so the caller's conditioning fills the pits instead.
     pub fill_pits: bool,
+    /// Guided receivers ([`Eroder::with_guide`](super::Eroder::with_guide)): a D8 code per
+    /// cell, 8 where the cell picks its own; empty: none.
+    pub guide: &'a [u8],
 }
 
 /// The GPU solver's result: the heights after the last step with the pits it left (lakes
@@ -197,8 +200,27 @@ struct Params {
     /// logarithm of their contrast.
     strata_period: f32,
     strata_ln_contrast: f32,
+    /// Whether the guide buffer holds guided receivers (1) or nothing (0).
+    guided: u32,
     /// Uniform buffers are read in 16-byte rows.
-    _pad: [u32; 2],
+    _pad: u32,
+}
+
+/// The guided receivers' codes packed for the `receivers` kernel: 4 bits a cell, 8 cells a
+/// word, cell `i` in bits `4 (i % 8)..`; one word of nothing when there is no guide.
+fn pack_guide(guide: &[u8]) -> Vec<u32> {
+    if guide.is_empty() {
+        return vec![0];
+    }
+    guide
+        .chunks(8)
+        .map(|codes| {
+            codes
+                .iter()
+                .enumerate()
+                .fold(0u32, |w, (k, c)| w | u32::from(*c & 15) << (4 * k))
+        })
+        .collect()
 }
 
 /// Whether `gpu` can hold the solver's fields for a `width` x `height` grid: its widest
@@ -306,6 +328,7 @@ async fn erode_with(
         strata,
         strength,
         fill_pits,
+        guide,
     } = input;
     let grid = check_grid(w, h, cell_m)?;
     let n = grid.len();
@@ -322,6 +345,9 @@ async fn erode_with(
     }
     super::check_factors("erodibility", erodibility, n)?;
     super::check_factors("slope strength", strength, n)?;
+    if !guide.is_empty() {
+        check_len("guide", guide.len(), n)?;
+    }
     p.validate()
         .map_err(|(field, problem)| ErosionError::InvalidParam { field, problem })?;
     if !base_level.contains(&true) {
@@ -361,7 +387,8 @@ async fn erode_with(
         m: p.m as f32,
         strata_period: strata.map_or(0.0, |s| s.period_m),
         strata_ln_contrast: strata.map_or(0.0, |s| s.ln_contrast),
-        _pad: [0; 2],
+        guided: u32::from(!guide.is_empty()),
+        _pad: 0,
     };
     let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -417,6 +444,11 @@ async fn erode_with(
     let erodibility_buf = init("erodibility", bytemuck::cast_slice(erodibility), rw);
     let strength = if strength.is_empty() { &ones } else { strength };
     let strength_buf = init("slope strength", bytemuck::cast_slice(strength), rw);
+    let guide_buf = init(
+        "guide",
+        bytemuck::cast_slice(&pack_guide(guide)),
+        wgpu::BufferUsages::STORAGE,
+    );
     let rcv = empty("receivers", 4);
     let ptr = [empty("jump a", 4), empty("jump b", 4)];
     let cells = [empty("cells a", 4), empty("cells b", 4)];
@@ -434,7 +466,10 @@ async fn erode_with(
         crate::gpu::bind_buffers(device, &k[pipe], ENTRIES[pipe], &all)
     };
     // Bind groups, built once for the whole run.
-    let g_receivers = b(0, &[(1, &base), (2, &heights_buf), (3, &rcv)]);
+    let g_receivers = b(
+        0,
+        &[(1, &base), (2, &heights_buf), (3, &rcv), (4, &guide_buf)],
+    );
     let g_root_init = b(1, &[(1, &rcv), (2, &ptr[0])]);
     let g_root_jump = [0, 1].map(|s| b(2, &[(1, &ptr[s]), (2, &ptr[1 - s])]));
     let levels = levels(n);

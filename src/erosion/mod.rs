@@ -59,6 +59,7 @@ pub mod floodplain;
 mod flow;
 pub mod gpu;
 mod grid;
+mod guide;
 mod hold;
 mod layers;
 mod nearest;
@@ -76,6 +77,7 @@ mod tests;
 
 pub use self::coarse::MAX_SOLVER_SIDE;
 pub use self::error::ErosionError;
+pub use self::guide::{grown_kinds, shaped_kinds};
 pub use self::hold::Held;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::nearest::NearestChannel;
@@ -84,8 +86,9 @@ pub use self::params::{ErosionParams, PRESETS, describe, preset};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::slope_limit::Strength as SlopeStrength;
 pub use self::stage::{
-    Anchors, Eroded, ErosionReport, ErosionSettings, Prepared, StageError, base_level, erode_field,
-    erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
+    Anchors, Eroded, ErosionReport, ErosionSettings, Prepared, Relief, StageError, base_level,
+    erode_field, erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
+    uplift_map,
 };
 pub use self::strata::Strata;
 
@@ -305,6 +308,20 @@ impl Eroder {
             Some(seed) => flow::Pick::Random(flow::step_key(seed, self.steps_done)),
             None => flow::Pick::Steepest,
         }
+    }
+
+    /// Guides the receivers of some cells (`guide`: a D8 code per cell, 8 = none; empty:
+    /// none): each such cell drains that way whatever the heights, as the branches the
+    /// L-system grew drain down their course while the law sets their heights
+    /// (`guide.rs`). A guided cell's receiver must lie inside the grid and the guided cells
+    /// must not form a cycle (the stack would miss them): [`Prepared`] guides each one to a
+    /// lower cell of the design.
+    pub fn with_guide(mut self, guide: Vec<u8>) -> Result<Self, ErosionError> {
+        if !guide.is_empty() {
+            check_len("guide", guide.len(), self.grid.len())?;
+        }
+        self.net.guide = guide;
+        Ok(self)
     }
 
     /// Sets heights below which no cell is lowered (applied after every step). The pipeline

@@ -32,6 +32,15 @@ impl GpuField {
         self.device == gpu.device && (self.width, self.height) == (width, height)
     }
 
+    /// Replaces the field's values with `data` (one upload, queued before any later work on
+    /// `gpu`): for a stage that changed a few cells on the CPU after reading the field, so the
+    /// next stage still finds the terrain on the GPU. Only for a field no cache holds yet.
+    pub fn write(&self, gpu: &GpuContext, data: &[f32]) {
+        debug_assert_eq!(data.len(), self.width * self.height);
+        gpu.queue
+            .write_buffer(&self.buffer, 0, bytemuck::cast_slice(data));
+    }
+
     /// Reads the field back to the CPU (one readback).
     pub async fn read(&self, gpu: &GpuContext) -> Result<Heightfield, GpuError> {
         let data = read_f32_buffer(gpu, &self.buffer, self.width * self.height).await?;

@@ -544,9 +544,14 @@ async fn style(
             *v = original;
         }
     }
+    // Measured as the erosion measured it: the branches it shaped drain as branches.
+    let shaped = match &scene.erosion {
+        Some(e) => erosion::shaped_kinds(&hydrology.skeleton, e.relief),
+        None => std::borrow::Cow::Borrowed(kinds.as_slice()),
+    };
     let (_, drainage) = crate::terrain::drainage::condition_and_measure(
         &mut out,
-        kinds,
+        &shaped,
         &hydrology.skeleton.mouths,
         ctx,
     )

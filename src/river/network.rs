@@ -199,7 +199,7 @@ pub fn admit(
             nodes: vec![d.nodes[0]],
             parent: vec![None],
             exterior: vec![false],
-            trunk: Vec::new(),
+            trunk: vec![false],
             height: vec![0.0],
             link_length: d.link_length,
         })
@@ -239,6 +239,7 @@ pub fn admit(
         net.nodes.push(to);
         net.parent.push(Some(new_id[k][parent]));
         net.exterior.push(d.exterior[node]);
+        net.trunk.push(trunk);
         net.height.push((slope * dist * map_width_m) as f32);
         for &c in &children[k][node] {
             let closeness = Reverse(((dist + d.link_length) * 1e9) as u64);

@@ -72,6 +72,9 @@ pub mod erosion {
         strata_m: f64,
         strata_contrast: f64,
         strength_spread: f64,
+        /// Missing from older files: the design's relief, as they eroded then.
+        #[serde(default)]
+        relief: crate::erosion::Relief,
     }
 
     impl Default for Erosion {
@@ -99,6 +102,7 @@ pub mod erosion {
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
+                relief: e.relief,
             }
         }
     }
@@ -122,6 +126,7 @@ pub mod erosion {
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
+                relief: e.relief,
             }
         }
     }

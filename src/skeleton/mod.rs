@@ -31,6 +31,18 @@ pub enum CellKind {
     /// A valley floor beside a river, set by the erosion stage on its own copy of the kinds
     /// (`erosion::floodplain`): base level with the river, not a channel.
     Floor = 5,
+    /// A branch the L-system grew, not a stroke's trunk, set by the erosion stage on its own
+    /// copy of the kinds (`erosion::guide`): a channel whose course the solver keeps (each cell
+    /// drains to the next one down the branch) while the stream-power law sets its heights.
+    Grown = 6,
+}
+
+impl CellKind {
+    /// Whether the cell is on a river: a drawn one, or a branch the erosion lets the law
+    /// shape ([`CellKind::Grown`]).
+    pub fn is_river(self) -> bool {
+        matches!(self, CellKind::River | CellKind::Grown)
+    }
 }
 
 /// Noise of eq. 5 on ridges.
@@ -73,6 +85,10 @@ pub struct Skeleton {
     /// river drawn to a point inside the map flows out at its mouth rather than filling its
     /// catchment into a lake.
     pub mouths: Vec<u32>,
+    /// The cells of the rivers' trunks, the strokes the user drew (ascending, each once); the
+    /// other river cells are the branches the L-system grew. The erosion holds the trunks at
+    /// their drawn heights and lets the law set the branches' (`erosion::guide`).
+    pub trunk: Vec<u32>,
 }
 
 impl Skeleton {
@@ -154,6 +170,7 @@ impl Skeleton {
             river_order: vec![0; n * n],
             held: Vec::new(),
             mouths: Vec::new(),
+            trunk: Vec::new(),
         }
     }
 }
@@ -188,7 +205,32 @@ pub async fn rasterise_rivers(
         .collect();
     in_bands(sk, &lines, bands, ctx, |band, line| band.river(line)).await?;
     sk.mouths = interior_mouths(rivers, n);
+    sk.trunk = trunk_cells(rivers, n);
     Ok(())
+}
+
+/// The cells of the links that lie on a trunk ([`RiverNetwork::trunk`]), on the same
+/// wandering course as they were drawn: [`Skeleton::trunk`]. O(length of the trunks in cells).
+fn trunk_cells(rivers: &[RiverNetwork], n: usize) -> Vec<u32> {
+    let mut cells = Vec::new();
+    for net in rivers {
+        for (p, c) in net.link_pairs() {
+            if !net.trunk.get(c).copied().unwrap_or(false) {
+                continue;
+            }
+            let heights = (f64::from(net.height[p]), f64::from(net.height[c]));
+            for line in wandering_link(net.nodes[p], net.nodes[c], heights, n, 0) {
+                raster::river_cells(&line, |x, y| {
+                    if (0..n as i64).contains(&x) && (0..n as i64).contains(&y) {
+                        cells.push((y * n as i64 + x) as u32);
+                    }
+                });
+            }
+        }
+    }
+    cells.sort_unstable();
+    cells.dedup();
+    cells
 }
 
 /// The cells of the estuaries (the nodes with no parent) that lie inside the map, not on its
@@ -395,6 +437,7 @@ mod tests {
             river_order: vec![0; n * n],
             held: Vec::new(),
             mouths: Vec::new(),
+            trunk: Vec::new(),
         };
         let err = skeleton.constraints().unwrap_err();
         assert!(err.to_string().contains("(5, 0)"), "{err}");

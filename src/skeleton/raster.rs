@@ -138,11 +138,10 @@ impl Band<'_> {
         });
     }
 
-    /// A river link, 4-connected (a diagonal Bresenham step gets its corner cell too, so water
-    /// cannot leak between two diagonal river cells): the lowest river wins a cell.
+    /// A river link, 4-connected ([`river_cells`]): the lowest river wins a cell.
     pub fn river(&mut self, line: &Line) {
         let length = line.length();
-        let mut put = |x: i64, y: i64| {
+        river_cells(line, |x, y| {
             let Some(i) = self.index(x, y) else { return };
             let h = line.height(line.t(x, y, length)) as f32;
             if self.kinds[i] != CellKind::River || h < self.heights[i] {
@@ -150,19 +149,24 @@ impl Band<'_> {
             }
             self.kinds[i] = CellKind::River;
             self.river_order[i] = self.river_order[i].max(line.order);
-        };
-        let mut previous: Option<(i64, i64)> = None;
-        bresenham(line.a, line.b, |x, y| {
-            if let Some((px, py)) = previous
-                && px != x
-                && py != y
-            {
-                put(x, py);
-            }
-            put(x, y);
-            previous = Some((x, y));
         });
     }
+}
+
+/// The cells of a river link, 4-connected: Bresenham's line, where a diagonal step also
+/// visits its corner cell first, so that water cannot leak between two diagonal river cells.
+pub(super) fn river_cells(line: &Line, mut visit: impl FnMut(i64, i64)) {
+    let mut previous: Option<(i64, i64)> = None;
+    bresenham(line.a, line.b, |x, y| {
+        if let Some((px, py)) = previous
+            && px != x
+            && py != y
+        {
+            visit(x, py);
+        }
+        visit(x, y);
+        previous = Some((x, y));
+    });
 }
 
 #[cfg(test)]

@@ -120,7 +120,7 @@ pub fn rasterise(
         }
         let i = y as usize * n + x as usize;
         let rank = |k: CellKind| match k {
-            CellKind::River => 3,
+            CellKind::River | CellKind::Grown => 3,
             CellKind::Valley => 2,
             CellKind::Ridge | CellKind::Enriched | CellKind::Floor => 1,
             CellKind::Free => 0,

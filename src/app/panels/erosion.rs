@@ -5,7 +5,7 @@
 use egui::{DragValue, RichText};
 
 use super::Action;
-use crate::erosion::{ErosionReport, ErosionSettings};
+use crate::erosion::{ErosionReport, ErosionSettings, Relief};
 use crate::scene::{Edit, Scene};
 
 /// The Erosion section; it owns the before/after toggle.
@@ -57,11 +57,12 @@ impl ErosionPanel {
         if let Some(report) = report {
             ui.label(format!(
                 "Eroded in {:.0} ms: {}, up to {:.0} m lowered; {:.1}% of river cells drain \
-                 along the river",
+                 along the river{}",
                 report.millis,
                 net_change(report.mean_depth_m),
                 report.max_depth_m,
-                report.drainage.river_fraction * 100.0
+                report.drainage.river_fraction * 100.0,
+                report.drainage.branches_note()
             ));
         }
         if edited == *before {
@@ -93,7 +94,16 @@ fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
                     .labelled_by(label.id);
                 ui.end_row();
             };
-            row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years where the design stands highest above its rivers; 15% of it beside the rivers, levelling off towards the highest ground.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
+            let label = ui.label("Relief from").on_hover_text("Physics: the rock rises evenly and the stream-power law sets the heights of the branches the rivers grew (their courses kept), so the relief follows uplift against erodibility. Design: every river stays at its drawn heights and the uplift follows the design. A sketch of peaks or ridges always holds the design's heights.");
+            ui.horizontal(|ui| {
+                for relief in [Relief::Physics, Relief::Design] {
+                    ui.selectable_value(&mut e.relief, relief, relief.name());
+                }
+            })
+            .response
+            .labelled_by(label.id);
+            ui.end_row();
+            row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years: everywhere alike with the relief from the physics; from the design, where the design stands highest above its rivers, 15% of it beside the rivers, levelling off towards the highest ground.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
             row(ui, "Erodibility K", "K of the stream-power law, in m^(1-2m) per year: how fast water cuts rock. Larger K carves deeper valleys.", &mut e.erodibility, 0.0..=1.0, 1e-6);
             row(ui, "m", "Drainage-area exponent m (m/n is the concavity of river profiles, 0.3 to 0.7 in real rivers).", &mut e.m, 0.1..=1.0, 0.01);
             row(ui, "n", "Slope exponent n (1 for most bedrock rivers).", &mut e.n, 0.5..=2.0, 0.01);
