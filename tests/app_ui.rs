@@ -733,6 +733,46 @@ fn kernels_are_built_at_start_so_the_first_edit_creates_none() {
     assert!(work.submissions > 0, "{work:?}");
 }
 
+/// Issue 35: "Compute on: auto" beside a software adapter (lavapipe here, SwiftShader in the
+/// page) computes every stage on the CPU, so the app builds no GPU kernel at start (building
+/// them only held the page); choosing "gpu" builds them then, and the first run on the GPU
+/// finds them ready.
+#[test]
+fn auto_beside_a_software_adapter_builds_kernels_only_once_gpu_is_chosen() {
+    let Some(adapter) = common::gpu() else { return };
+    if !adapter.is_software() {
+        return;
+    }
+    let mut harness = Harness::builder()
+        .with_size(egui::vec2(1200.0, 900.0))
+        .wgpu()
+        .build_eframe(|cc| StrahlerApp::new(cc, strahler::app::Automation::default()));
+    wait_idle(&mut harness);
+    assert!(
+        harness.state().kernels_ready(),
+        "nothing to build for the CPU"
+    );
+    let gpu = harness
+        .state()
+        .compute_path()
+        .gpu()
+        .cloned()
+        .expect("the GPU path");
+    assert_eq!(gpu.stats().pipelines_created, 0, "{:?}", gpu.stats());
+    harness
+        .state()
+        .automation()
+        .push(strahler::app::Command::Compute(
+            strahler::compute::BackendChoice::Gpu,
+        ));
+    harness.run_steps(2);
+    common::app::wait_until(&mut harness, "the kernels built", |h| {
+        h.state().kernels_ready()
+    });
+    wait_idle(&mut harness);
+    assert!(gpu.stats().pipelines_created > 0, "{:?}", gpu.stats());
+}
+
 /// Issue 32, point 5: the Realism section, once turned on, measures each terrain and shows the
 /// marks of a synthetic one (grid-direction index, flats, hypsometry, spectral bump), and
 /// `window.strahler.status()` carries the same report.

@@ -111,14 +111,17 @@ pub struct RunSummaries {
     pub detail: Option<String>,
 }
 
-/// The Compute check: the CPU/GPU self-test, and the GPU kernels built at start.
+/// The Compute check: the CPU/GPU self-test, and the GPU kernels built ahead of the runs.
 #[derive(Default)]
 pub struct ComputeCheck {
     pub job: Option<
         JobHandle<Result<crate::diffusion::selftest::SelfTest, crate::diffusion::DiffusionError>>,
     >,
     pub result: Option<Result<crate::diffusion::selftest::SelfTest, String>>,
-    /// Builds the GPU kernels at start (see [`crate::pipeline::warm_kernels`]); `None` once
-    /// done, or on the CPU path.
+    /// Builds the GPU kernels of the chosen backend (see [`crate::pipeline::warm_kernels`]);
+    /// `None` once done, or where the runs compute on the CPU.
     pub kernels: Option<JobHandle<Result<(), crate::pipeline::WarmError>>>,
+    /// The "Compute on" choice the kernels were last built (or found unneeded) for: another
+    /// choice builds its own.
+    pub warmed_for: Option<crate::compute::BackendChoice>,
 }

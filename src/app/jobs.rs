@@ -57,11 +57,16 @@ impl StrahlerApp {
             .is_some_and(|o| o.hydrology.terrain.width() < self.session.scene().size)
     }
 
-    /// Builds the GPU stages' kernels in the background, beside the first terrain, so the
-    /// first edit finds them ready (in the browser, pipeline creation would otherwise fall in
-    /// that edit's job).
+    /// Builds the kernels of the GPU stages the chosen "Compute on" runs in the background,
+    /// beside the first terrain, so the first edit finds them ready (in the browser, pipeline
+    /// creation would otherwise fall in that edit's job). Nothing where the choice computes on
+    /// the CPU: "auto" beside a software adapter (SwiftShader, lavapipe) runs every stage on
+    /// the CPU, and building the kernels there only held the page at start. A later choice of
+    /// "gpu" builds them then ([`Self::warm_kernels_for_the_choice`]).
     pub(super) fn start_warming_kernels(&mut self, ctx: &egui::Context) {
-        let Some(gpu) = self.path.gpu().cloned() else {
+        let choice = self.session.settings().solver.backend;
+        self.check.warmed_for = Some(choice);
+        let Ok(crate::compute::Backend::Gpu(gpu)) = choice.resolve(&self.path) else {
             return;
         };
         let repaint = ctx.clone();
@@ -82,7 +87,16 @@ impl StrahlerApp {
         }
     }
 
-    /// Whether the GPU kernels are built (or there is no GPU path to build them for).
+    /// Builds the kernels of a "Compute on" choice made since the last were built (a script's
+    /// `setCompute('gpu')`, the Advanced section), once the last build is done.
+    fn warm_kernels_for_the_choice(&mut self, ctx: &egui::Context) {
+        let choice = self.session.settings().solver.backend;
+        if self.check.kernels.is_none() && self.check.warmed_for != Some(choice) {
+            self.start_warming_kernels(ctx);
+        }
+    }
+
+    /// Whether the GPU kernels are built (or the chosen backend needs none).
     pub fn kernels_ready(&self) -> bool {
         self.check.kernels.is_none()
     }
@@ -318,6 +332,7 @@ impl StrahlerApp {
                 log::warn!("{err}; each stage builds its kernels when it first runs");
             }
         }
+        self.warm_kernels_for_the_choice(ctx);
         if let Some(result) = self.check.job.as_ref().and_then(JobHandle::try_take) {
             self.check.job = None;
             self.check.result = Some(result.map_err(|err| err.to_string()));

@@ -1,4 +1,5 @@
-//! The branches the L-system grew, as channels whose heights the law sets.
+//! The branches the L-system grew, as channels whose heights the law sets (the erosion's
+//! relief from the physics, [`Relief::Physics`]).
 //!
 //! A drawn river's trunk (the stroke) is base level: it keeps the heights the design gave it.
 //! Its branches, grown by the L-system, used to be base level too, at the design's gentle
@@ -8,16 +9,17 @@
 //! large-scale structure (the spectral bump of issue 32).
 //!
 //! Here a branch is a channel the solver routes along its course, each of its cells draining
-//! to the next one down the branch (a guided receiver), while the stream-power law sets its
-//! heights like any other channel's: at steady state `S = (U / K)^(1/n) A^(-m/n)` (Braun &
-//! Willett 2013, eq. 2), so headwater branches, draining little, stand steep and high, and
-//! ranges of faster uplift or harder rock stand higher. The branches still drain exactly
-//! along the design; only their long profiles come from the physics.
+//! to the next one down the branch (a guided receiver, [`guided_receivers`]), while the
+//! stream-power law sets its heights like any other channel's: at steady state
+//! `S = (U / K)^(1/n) A^(-m/n)` (Braun & Willett 2013), so headwater branches, draining
+//! little, stand steep and high, and ranges of faster uplift or harder rock stand higher.
+//! First-order links are left to the land ([`grown_kinds`]), and the finished surface has the
+//! branches burnt in ([`burn`]) so that its steepest descent follows them too.
+
+use std::borrow::Cow;
 
 use super::flow::NONE;
 use super::grid::{D8, D8_DIST};
-use std::borrow::Cow;
-
 use super::{Anchors, Relief};
 use crate::skeleton::{CellKind, Skeleton};
 

@@ -12,7 +12,9 @@
 //! One [`Eroder::step`] (all O(cells), single-threaded, deterministic):
 //! 1. receivers (`flow.rs`): D8 steepest descent, or with [`Eroder::with_seed`] (as the
 //!    pipeline runs it) one lower neighbour drawn in proportion to the slopes, anew each
-//!    step, so that channels do not lock onto the grid's 8 directions; free cells without a
+//!    step, so that channels do not lock onto the grid's 8 directions; a guided cell (a branch
+//!    the L-system grew, with [`Eroder::with_guide`]: `guide.rs`) drains to the next cell of
+//!    its branch whatever the heights; free cells without a
 //!    lower neighbour (pits) are detected in the same pass, and only if there are any, their
 //!    depressions are filled to the sill (Priority-Flood + epsilon, `fill.rs`);
 //! 2. the depth-first stack from the base-level cells and the drainage area along
