@@ -273,8 +273,9 @@ pub(super) async fn erode_coarse_to_fine(
     })
     .await?;
     drop(up);
+    let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
     let fine = Refinement {
-        guide: super::guide::guided_receivers(field.data(), kinds, n),
+        guide,
         heights,
         base,
         floor,

@@ -17,10 +17,13 @@
 //! branches burnt in ([`burn`]) so that its steepest descent follows them too.
 
 use std::borrow::Cow;
+use std::ops::Range;
 
 use super::flow::NONE;
 use super::grid::{D8, D8_DIST};
+use super::stage::{PREPARING, in_row_bands};
 use super::{Anchors, Relief};
+use crate::jobs::{Cancelled, JobCtx};
 use crate::skeleton::{CellKind, Skeleton};
 
 /// The erosion's own kinds with every river cell off the trunks (`trunk`: ascending cells of
@@ -108,7 +111,37 @@ pub(super) fn guided_receivers(heights: &[f32], kinds: &[CellKind], n: usize) ->
         return Vec::new();
     }
     let mut guide = vec![NONE; n * n];
-    for (i, code) in guide.iter_mut().enumerate() {
+    guide_rows(heights, kinds, n, 0..n, &mut guide);
+    keep_ways_to_held_channels(&mut guide, kinds, n);
+    guide
+}
+
+/// [`guided_receivers`] in bands of rows with the job's ticks between them (the stage's way
+/// on large maps: the same codes).
+pub(super) async fn guided_receivers_in(
+    heights: &[f32],
+    kinds: &[CellKind],
+    n: usize,
+    ctx: &JobCtx,
+) -> Result<Vec<u8>, Cancelled> {
+    if !kinds.contains(&CellKind::Grown) {
+        return Ok(Vec::new());
+    }
+    let mut guide = vec![NONE; n * n];
+    in_row_bands(ctx, PREPARING, &mut guide, n, |rows, part| {
+        guide_rows(heights, kinds, n, rows, part)
+    })
+    .await?;
+    ctx.tick(PREPARING.0, PREPARING.1).await?;
+    keep_ways_to_held_channels(&mut guide, kinds, n);
+    Ok(guide)
+}
+
+/// The codes of the rows `rows` of [`guided_receivers`] into `out`, those rows.
+fn guide_rows(heights: &[f32], kinds: &[CellKind], n: usize, rows: Range<usize>, out: &mut [u8]) {
+    let first = rows.start * n;
+    for (k, code) in out.iter_mut().enumerate() {
+        let i = first + k;
         if kinds[i] != CellKind::Grown {
             continue;
         }
@@ -130,8 +163,6 @@ pub(super) fn guided_receivers(heights: &[f32], kinds: &[CellKind], n: usize) ->
             }
         }
     }
-    keep_ways_to_held_channels(&mut guide, kinds, n);
-    guide
 }
 
 /// Sets [`NONE`] on every guided cell whose way down the guides ends anywhere but on a held

@@ -27,10 +27,10 @@ use crate::terrain::{Generated, drainage};
 pub struct ErosionSettings {
     /// The preset these values came from ("custom" once edited); for the user only.
     pub preset: String,
-    /// Uplift rate U in metres per thousand years: everywhere alike where the L-system grew
-    /// branches; else where the design stands highest above its nearest river, with
-    /// [`RIVERSIDE_UPLIFT`] of it beside the rivers, levelling off towards the highest ground
-    /// ([`uplift_map`]).
+    /// Uplift rate U in metres per thousand years: everywhere alike where the erosion shapes
+    /// the grown branches (the relief from the physics, [`Relief::Physics`]); else where the
+    /// design stands highest above its nearest river, with [`RIVERSIDE_UPLIFT`] of it beside
+    /// the rivers, levelling off towards the highest ground ([`uplift_map`]).
     pub uplift_m_per_kyr: f64,
     /// Erodibility K of the stream-power law, in m^(1-2m) per year.
     pub erodibility: f64,
@@ -790,8 +790,7 @@ impl Prepared {
         .await?;
         let erodibility = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
         let strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
-        ctx.tick(PREPARING.0, PREPARING.1).await?;
-        let guide = super::guide::guided_receivers(field.data(), kinds, n);
+        let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
         Ok(Self {
             guide,
             heights,
@@ -1171,8 +1170,8 @@ pub async fn erode_field_within(
     )
     .await?;
     // The grown branches' water runs down the branches on the finished surface too.
+    let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
     ctx.tick(0.95, "eroding: the branches' beds").await?;
-    let guide = super::guide::guided_receivers(field.data(), kinds, n);
     let burnt = super::guide::burn(
         &mut heights,
         field.data(),
