@@ -499,7 +499,11 @@ fn select_tool_moves_and_deletes_a_river() {
     harness.key_press(egui::Key::S);
     harness.run_steps(2);
     assert_eq!(harness.state().tool(), strahler::app::Tool::Select);
-    let middle = a + (b - a) * 0.5;
+    // The middle of the river as the map draws it: the stroke bent by the scene's wander
+    // (map units to the screen by the drag that drew it).
+    let scale = (b - a).length() / drawn.estuary.distance(drawn.toward) as f32;
+    let course = harness.state().scene().river_course(1, 2)[1] - drawn.estuary;
+    let middle = a + egui::vec2(course.x as f32, course.y as f32) * scale;
     drag(&mut harness, middle, middle + egui::vec2(0.0, 120.0));
     wait_idle(&mut harness);
     let moved = harness.state().strokes()[1];
@@ -589,6 +593,7 @@ fn every_scene_field_round_trips_through_the_app() {
     assert_ne!(scene.seed, defaults.seed);
     assert_ne!(scene.params.theta, defaults.params.theta);
     assert_ne!(scene.params.river_slope, defaults.params.river_slope);
+    assert_ne!(scene.params.wander, defaults.params.wander);
     assert_ne!(scene.params.alpha, defaults.params.alpha);
     assert_ne!(scene.params.noise, defaults.params.noise);
     assert_ne!(scene.params.enrich, defaults.params.enrich);

@@ -22,6 +22,7 @@ const FIELDS: &[&str] = &[
     "rivers.0.depth",
     "params.theta",
     "params.river_slope",
+    "params.wander",
     "params.alpha",
     "params.noise.amplitude",
     "params.noise.octaves",
@@ -179,6 +180,7 @@ const FLAGS: &[&str] = &[
     "--seed",
     "--theta",
     "--slope",
+    "--wander",
     "--alpha",
 ];
 

@@ -212,12 +212,15 @@ impl StrahlerApp {
             })
             .collect();
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
-        self.canvas.overlay.strokes = self
-            .session
-            .scene()
-            .rivers
-            .iter()
-            .map(|s| (p(&s.estuary), p(&s.toward)))
+        let scene = self.session.scene();
+        self.canvas.overlay.strokes = (0..scene.rivers.len())
+            .map(|i| {
+                scene
+                    .river_course(i, super::select::COURSE_POINTS)
+                    .iter()
+                    .map(|c| pos2(c.x as f32, c.y as f32))
+                    .collect()
+            })
             .collect();
         let segments = |lines: &[crate::scene::SketchLine]| {
             lines

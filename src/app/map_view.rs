@@ -49,8 +49,9 @@ pub struct Overlay {
     /// River links with their Strahler order.
     pub rivers: Vec<(Pos2, Pos2, u32)>,
     pub ridges: Vec<(Pos2, Pos2)>,
-    /// The user's strokes (estuary, flow point).
-    pub strokes: Vec<(Pos2, Pos2)>,
+    /// The user's strokes: each river's course from its estuary to its flow point (the
+    /// stroke bent as the terrain draws its trunk).
+    pub strokes: Vec<Vec<Pos2>>,
     /// Sketched ridge and valley segments, and peaks.
     pub sketch_ridges: Vec<(Pos2, Pos2)>,
     pub sketch_valleys: Vec<(Pos2, Pos2)>,
@@ -441,7 +442,7 @@ impl MapView {
     ) {
         let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
         if let (Some(a), Some(pointer)) = (self.stroke_start, response.interact_pointer_pos()) {
-            arrow(painter, at.to_screen(a), pointer, stroke_style);
+            arrow(painter, &[at.to_screen(a), pointer], stroke_style);
         }
         if let (true, Some(radius), Some(pointer)) = (
             tool == Tool::Mask,
@@ -466,10 +467,15 @@ impl MapView {
     }
 }
 
-/// A stroke from the estuary `a` to the flow point `b`, with a small fixed-size head at `b`.
-fn arrow(painter: &egui::Painter, a: Pos2, b: Pos2, stroke: Stroke) {
-    painter.line_segment([a, b], stroke);
-    let dir = (b - a).normalized();
+/// A river's course from the estuary (its first point, a dot) to the flow point (its last,
+/// with a small fixed-size head pointing along the course's last piece).
+fn arrow(painter: &egui::Painter, course: &[Pos2], stroke: Stroke) {
+    let (Some(&a), Some(&b)) = (course.first(), course.last()) else {
+        return;
+    };
+    painter.add(egui::Shape::line(course.to_vec(), stroke));
+    let before = course.iter().rev().nth(1).copied().unwrap_or(a);
+    let dir = (b - before).normalized();
     if dir.is_finite() {
         let back = -dir * 10.0;
         let side = egui::vec2(-dir.y, dir.x) * 5.0;
@@ -584,7 +590,8 @@ fn draw_vectors(painter: &egui::Painter, at: Placement, overlay: &Overlay) {
         }
     }
     let stroke_style = Stroke::new(2.0, Color32::from_rgb(255, 200, 40));
-    for (a, b) in &overlay.strokes {
-        arrow(painter, at.to_screen(*a), at.to_screen(*b), stroke_style);
+    for course in &overlay.strokes {
+        let screen: Vec<Pos2> = course.iter().map(|p| at.to_screen(*p)).collect();
+        arrow(painter, &screen, stroke_style);
     }
 }

@@ -1,7 +1,8 @@
 //! The network comparison of seed paper 000 (Sec. VII, Fig. 8) in the DEM panel: the
 //! uploaded DEM's channel network (D8 flow accumulation on the filled DEM, channels from the
 //! realism report's initiation area) beside the river networks the scene grew, with the
-//! same statistics (Strahler orders, streams per order, bifurcation ratio, Tokunaga T_k);
+//! same statistics (Strahler orders, streams per order, bifurcation and length ratios,
+//! Tokunaga T_k);
 //! `strahler analyze --network` prints the same table.
 
 use super::StrahlerApp;

@@ -10,6 +10,10 @@ use super::canvas::Item;
 use super::map_view::BlockDrag;
 use crate::scene::{Edit, LineKind, Scene};
 
+/// Points of a river's course for picking and the highlight (bends down to an eighth of the
+/// stroke, [`crate::river::course`]).
+pub(super) const COURSE_POINTS: usize = 48;
+
 /// Distance from `p` to the segment `a`-`b`.
 fn to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     let ab = b - a;
@@ -55,8 +59,9 @@ impl StrahlerApp {
             // Peaks are small targets: they win ties with the lines under them.
             consider(p.distance(v(&peak.at)) * 0.5, Item::Peak(i));
         }
-        for (i, s) in scene.rivers.iter().enumerate() {
-            consider(to_segment(p, v(&s.estuary), v(&s.toward)), Item::River(i));
+        for i in 0..scene.rivers.len() {
+            let course = scene.river_course(i, COURSE_POINTS);
+            consider(to_polyline(p, &course), Item::River(i));
         }
         for (i, l) in sketch.ridges.iter().enumerate() {
             consider(to_polyline(p, &line(&l.points)), Item::Ridge(i));
@@ -74,10 +79,10 @@ impl StrahlerApp {
         let sketch = &scene.sketch;
         match self.canvas.selected {
             Some(Item::River(i)) => scene
-                .rivers
-                .get(i)
-                .map(|s| vec![p(&s.estuary), p(&s.toward)])
-                .unwrap_or_default(),
+                .river_course(i, COURSE_POINTS)
+                .iter()
+                .map(|c| pos2(c.x as f32, c.y as f32))
+                .collect(),
             Some(Item::Ridge(i)) => sketch
                 .ridges
                 .get(i)

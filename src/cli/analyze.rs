@@ -3,8 +3,8 @@
 //! harmonic cells, geomorphons, drainage density, spectral slope) that `strahler generate`
 //! gives too, so a generated terrain compares with a real one. With `--network`, the DEM's
 //! channel network (D8 on the filled DEM) beside the networks a scene grows (seed paper
-//! 000, Sec. VII, Fig. 8): Strahler orders, streams per order, Horton's bifurcation ratio,
-//! Tokunaga's T_k and their fit.
+//! 000, Sec. VII, Fig. 8): Strahler orders, streams per order, Horton's bifurcation and
+//! length ratios, Tokunaga's T_k and their fit.
 
 use std::path::PathBuf;
 

@@ -42,6 +42,10 @@ pub struct GenerateArgs {
     /// River slope (metres per metre of channel) [default: 0.01].
     #[arg(allow_hyphen_values = true, long)]
     pub slope: Option<f64>,
+    /// How far each river's course wanders from its straight stroke: the standard deviation
+    /// of its sideways offset in stroke lengths, 0 to 0.2 (0: straight) [default: 0.05].
+    #[arg(allow_hyphen_values = true, long)]
+    pub wander: Option<f64>,
     /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
     #[arg(allow_hyphen_values = true, long)]
     pub alpha: Option<f64>,
@@ -158,6 +162,9 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.slope {
         scene.params.river_slope = v;
+    }
+    if let Some(v) = args.wander {
+        scene.params.wander = v;
     }
     if let Some(v) = args.alpha {
         scene.params.alpha = v;

@@ -238,6 +238,7 @@ pub(super) async fn erode_coarse_to_fine(
         trunk: &[],
         order: &[],
         painted: anchors.painted,
+        heights: &[],
     };
     let eroded = solve(
         &coarse,

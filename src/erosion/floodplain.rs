@@ -15,6 +15,13 @@
 //! design's heights beside the rivers and erosion (Braun & Willett 2013) cuts only by stream
 //! power, which leaves every valley V-shaped, a flat groove one river wide.
 //!
+//! **The channel in its floor** follows hydraulic geometry: within half the bankfull width
+//! of the river ([`channel_width_m`], `~ A^0.5`) the floor is the channel's bed, at the river's
+//! height plus the cross rise; beyond it the floodplain stands a bankfull depth higher
+//! ([`bankfull_depth_m`], `~ A^0.4`), so a large river runs in a channel as wide and deep as
+//! its water asks, cut into its floodplain. Where the channel is narrower than a cell, the
+//! river cell is the channel and the floodplain beside it stands the depth above it.
+//!
 //! The area is the design's D8 drainage area towards the map's edge and the river mouths
 //! inside it (Priority-Flood routing, as the solver's), gathered along the rivers to their
 //! estuaries, so the floor is set before the solver runs and both backends start from it.
@@ -31,6 +38,27 @@ pub const HALF_WIDTH_PER_SQRT_AREA: f64 = 0.012;
 
 /// How much a floor rises per metre away from its channel (0.4%).
 pub const CROSS_RISE: f64 = 0.004;
+
+/// Bankfull channel width per square root of drainage area, metres per km (hydraulic
+/// geometry: width grows as discharge^0.5, Leopold and Maddock 1953, and bankfull discharge
+/// about as drainage area, so width ~ A^0.5; 2.5 m gives 25 m at 100 km^2 and 80 m at
+/// 1000 km^2, within the regional curves of Dunne and Leopold 1978).
+pub const CHANNEL_WIDTH_PER_SQRT_KM2: f64 = 2.5;
+
+/// Bankfull depth at 1 km^2 of drainage area, metres; it grows as `A^0.4` (Leopold and
+/// Maddock's depth exponent): 1 m at 100 km^2, 4 m at 1000 km^2.
+pub const BANKFULL_DEPTH_AT_KM2: f64 = 0.25;
+
+/// The bankfull width in metres of a channel draining `area_m2`.
+pub fn channel_width_m(area_m2: f64) -> f64 {
+    CHANNEL_WIDTH_PER_SQRT_KM2 * (area_m2.max(0.0) / 1e6).sqrt()
+}
+
+/// The bankfull depth in metres of a channel draining `area_m2`: how far its floodplain
+/// stands above its bed.
+pub fn bankfull_depth_m(area_m2: f64) -> f64 {
+    BANKFULL_DEPTH_AT_KM2 * (area_m2.max(0.0) / 1e6).powf(0.4)
+}
 
 /// The widest half-floor, in cells.
 const MAX_HALF_WIDTH_CELLS: f64 = 32.0;
@@ -83,7 +111,15 @@ pub fn valley_floors(
         if channel[i] {
             continue;
         }
-        let floor = z[*source as usize] + (CROSS_RISE * f64::from(*distance) * cell_m) as f32;
+        // The channel's bed beside the river cell, the floodplain a bankfull depth above it.
+        let area = f64::from(routing.area[*source as usize]);
+        let across = f64::from(*distance) * cell_m;
+        let bank = if across > channel_width_m(area) / 2.0 {
+            bankfull_depth_m(area)
+        } else {
+            0.0
+        };
+        let floor = z[*source as usize] + (CROSS_RISE * across + bank) as f32;
         // Never below a river beside it: each river cell keeps its steepest way down along
         // its own river (a floor cell of a lower reach nearby would take the water across).
         let banks = highest_channel_beside(z, &channel, n, i)
@@ -100,6 +136,50 @@ pub fn valley_floors(
         problem: "the floors changed the grid's size (a bug)".into(),
     })?;
     Ok(Some((field, floored)))
+}
+
+/// The land beside each river raised, where it is lower, a floor's cross rise above the
+/// highest river cell it touches; `None` where no cell needed it. A river that wanders at the
+/// cell scale rasterises with coves: a bank cell with river on three sides, which the design
+/// fills near the lowest of them, so the river cell upstream of the cove drained across the
+/// bank instead of along its course. Raised so, each river cell's steepest way down stays
+/// on its river (as [`valley_floors`] holds its floors). A cell beside a river cell with no
+/// lower river cell around it (its only way down) is left as it is: raised, it would dam
+/// that river. O(river cells).
+pub fn lift_coves(field: &Heightfield, kinds: &[CellKind], cell_m: f64) -> Option<Heightfield> {
+    let n = field.width();
+    let channel: Vec<bool> = kinds
+        .iter()
+        .map(|k| matches!(k, CellKind::River | CellKind::Valley))
+        .collect();
+    let z = field.data();
+    let rise = (CROSS_RISE * cell_m) as f32;
+    let around = |i: usize| {
+        let (x, y) = (i % n, i / n);
+        (y.saturating_sub(1)..(y + 2).min(n))
+            .flat_map(move |yy| (x.saturating_sub(1)..(x + 2).min(n)).map(move |xx| yy * n + xx))
+            .filter(move |&j| j != i)
+    };
+    let on_border = |i: usize| {
+        let (x, y) = (i % n, i / n);
+        x == 0 || y == 0 || x + 1 == n || y + 1 == n
+    };
+    // Whether a river cell has a way down along its river (or leaves the map).
+    let drains_along = |i: usize| on_border(i) || around(i).any(|j| channel[j] && z[j] < z[i]);
+    let mut lifted: Option<Vec<f32>> = None;
+    for i in (0..n * n).filter(|&i| channel[i]) {
+        for j in around(i).filter(|&j| !channel[j]) {
+            let rivers = || around(j).filter(|&k| channel[k]);
+            let Some(highest) = rivers().map(|k| z[k]).reduce(f32::max) else {
+                continue;
+            };
+            let want = highest + rise;
+            if z[j] < want && rivers().all(drains_along) {
+                lifted.get_or_insert_with(|| z.to_vec())[j] = want;
+            }
+        }
+    }
+    lifted.and_then(|h| Heightfield::from_vec(n, n, h).ok())
 }
 
 /// The highest channel cell among the 8 neighbours of cell `i`, if any.
@@ -160,6 +240,65 @@ fn nearest_within(
 mod tests {
     use super::*;
 
+    /// A river that steps up a row and back (a cove of two bank cells under the bump): the
+    /// design leaves the cove near the lowest river cell beside it, so the river cell
+    /// upstream of it drained across the cove. Lifted, every river cell's steepest way down
+    /// is a river cell; land already above is untouched.
+    #[test]
+    fn coves_of_a_wandering_river_are_lifted_above_it() {
+        let n = 8;
+        let cell = 100.0;
+        // The river flows west along row 4, stepping up to row 3 for x = 3..=5.
+        let course = [
+            (7, 4),
+            (6, 4),
+            (5, 4),
+            (5, 3),
+            (4, 3),
+            (3, 3),
+            (3, 4),
+            (2, 4),
+            (1, 4),
+            (0, 4),
+        ];
+        let mut kinds = vec![CellKind::Free; n * n];
+        let mut data = vec![50.0f32; n * n];
+        for (k, &(x, y)) in course.iter().rev().enumerate() {
+            kinds[y * n + x] = CellKind::River;
+            data[y * n + x] = 10.0 + 0.1 * k as f32;
+        }
+        // The cove under the bump, filled near the river cells west of it.
+        data[4 * n + 4] = 10.25;
+        let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
+        let lifted = lift_coves(&field, &kinds, cell).expect("the cove is lifted");
+        let z = lifted.data();
+        for (i, kind) in kinds.iter().enumerate() {
+            if *kind != CellKind::River || i % n == 0 {
+                continue;
+            }
+            let (x, y) = (i % n, i / n);
+            let mut best = (0.0f32, usize::MAX);
+            for yy in y - 1..=y + 1 {
+                for xx in x.saturating_sub(1)..(x + 2).min(n) {
+                    let j = yy * n + xx;
+                    let d = if xx != x && yy != y { 2f32.sqrt() } else { 1.0 };
+                    let drop = (z[i] - z[j]) / d;
+                    if j != i && drop > best.0 {
+                        best = (drop, j);
+                    }
+                }
+            }
+            assert_eq!(kinds[best.1], CellKind::River, "cell ({x}, {y})");
+        }
+        assert!(z[4 * n + 4] > data[4 * n + 4]);
+        // Far from the river and already high: the same bits.
+        assert_eq!(z[7 * n + 7], data[7 * n + 7]);
+        assert!(
+            lift_coves(&lifted, &kinds, cell).is_none(),
+            "nothing left to lift"
+        );
+    }
+
     /// A river down a tilted valley: the floor is wider downstream (more area), flat across
     /// within the rise, never above the design, and its cells drain to the river.
     #[test]
@@ -185,6 +324,7 @@ mod tests {
         let (floored, marked) = valley_floors(&field, &kinds, &[], cell)
             .unwrap()
             .expect("a floor");
+        let area = routed_area(&data, n, cell);
         let width = |y: usize| {
             (0..n)
                 .filter(|x| marked[y * n + x] == CellKind::Floor)
@@ -205,8 +345,11 @@ mod tests {
                 let river = z[y * n + mid];
                 let d = (x as f64 - mid as f64).abs();
                 if d >= 2.0 {
-                    let rise = f64::from(z[i] - river);
-                    assert!((rise - CROSS_RISE * d * cell).abs() < 1e-2, "{i}: {rise}");
+                    // The floodplain: the cross rise over the bank of the channel (all
+                    // narrower than a cell here), as deep as the law asks for its area.
+                    let rise = f64::from(z[i] - river) - CROSS_RISE * d * cell;
+                    let bank = bankfull_depth_m(f64::from(area[y * n + mid]));
+                    assert!((rise - bank).abs() < 1e-2, "{i}: {rise} vs {bank}");
                 } else {
                     // Beside the river: above every river cell it touches.
                     let upstream = z[y.saturating_sub(1) * n + mid];
@@ -214,6 +357,66 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The design's drainage area as [`valley_floors`] routes it (to the map's edge).
+    fn routed_area(data: &[f32], n: usize, cell: f64) -> Vec<f32> {
+        let edge = crate::erosion::stage::border_cells(n);
+        receivers_and_area(data, n, n, cell, &edge).unwrap().area
+    }
+
+    /// Hydraulic geometry along a drawn river: the floodplain stands the bankfull depth
+    /// above the river, growing downstream as `A^0.4`, and the channel's bed is as wide as
+    /// `A^0.5` asks: one cell in the headwaters, three downstream (1 m cells, 1 km^2 at the
+    /// outlet: a channel 2.5 m wide and 0.25 m deep).
+    #[test]
+    fn the_channel_widens_and_deepens_downstream_as_hydraulic_geometry_asks() {
+        let n = 1024;
+        let cell = 1.0;
+        let mid = n / 2;
+        let data: Vec<f32> = (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n, i / n);
+                let across = (x as f32 - mid as f32).abs() * 0.3;
+                (n - y) as f32 * 0.01 + across
+            })
+            .collect();
+        let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
+        let mut kinds = vec![CellKind::Free; n * n];
+        for y in 0..n {
+            kinds[y * n + mid] = CellKind::River;
+        }
+        let (floored, _) = valley_floors(&field, &kinds, &[], cell)
+            .unwrap()
+            .expect("a floor");
+        let area = routed_area(&data, n, cell);
+        let z = floored.data();
+        // The bed: the cells beside the river standing less than half the bank above it.
+        let bed_width = |y: usize| {
+            let river = z[y * n + mid];
+            let half = 0.5 * bankfull_depth_m(f64::from(area[y * n + mid])) as f32;
+            1 + (1..8)
+                .take_while(|d| z[y * n + mid + d] - river < half)
+                .count()
+                * 2
+        };
+        let expected = |y: usize| {
+            let w = channel_width_m(f64::from(area[y * n + mid]));
+            1 + 2 * (w / 2.0 / cell).floor() as usize
+        };
+        for y in [n / 8, n / 2, n - 8] {
+            assert_eq!(bed_width(y), expected(y), "row {y}");
+        }
+        assert!(bed_width(n - 8) > bed_width(n / 8));
+        let step = |y: usize| f64::from(z[y * n + mid + 4] - z[y * n + mid]) - CROSS_RISE * 4.0;
+        let (a_up, a_down) = (area[n / 8 * n + mid], area[(n - 8) * n + mid]);
+        let law = (f64::from(a_down) / f64::from(a_up)).powf(0.4);
+        assert!(
+            (step(n - 8) / step(n / 8) - law).abs() < 0.02,
+            "depths {} and {} for areas {a_up} and {a_down}",
+            step(n / 8),
+            step(n - 8)
+        );
     }
 
     /// Distances are Euclidean from the source, not counted in grid steps: the floor of a

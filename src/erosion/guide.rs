@@ -87,7 +87,51 @@ pub(super) fn shape(
     if relief == Relief::Design || !anchors.held.is_empty() {
         return None;
     }
-    grown_kinds(kinds, anchors.order, anchors.trunk)
+    let mut grown = grown_kinds(kinds, anchors.order, anchors.trunk)?;
+    keep_ways_down(&mut grown, kinds, anchors.heights);
+    Some(grown)
+}
+
+/// Holds again, as [`CellKind::River`], the grown or freed river cells a held river cell
+/// needs to drain: where a branch runs right beside a trunk (a bend brings them together), a
+/// trunk cell may have no lower trunk cell around it, only the branch's; left to the law,
+/// that cell rose and dammed the trunk. Each held river cell off the map's edge with no
+/// lower held channel beside it keeps its lowest lower river neighbour held, and so on
+/// downstream (heights fall at each step, so it ends). `heights`: the design's, by cell
+/// (empty: nothing to do). O(river cells).
+fn keep_ways_down(grown: &mut [CellKind], kinds: &[CellKind], heights: &[f32]) {
+    let cells = grown.len();
+    if heights.len() != cells {
+        return;
+    }
+    let n = (cells as f64).sqrt().round() as usize;
+    if n * n != cells || n < 3 {
+        return;
+    }
+    let held = |k: CellKind| matches!(k, CellKind::River | CellKind::Valley);
+    let around = |i: usize| {
+        let (x, y) = (i % n, i / n);
+        (y - 1..=y + 1).flat_map(move |yy| (x - 1..=x + 1).map(move |xx| yy * n + xx))
+    };
+    let interior = |i: usize| {
+        let (x, y) = (i % n, i / n);
+        x > 0 && y > 0 && x + 1 < n && y + 1 < n
+    };
+    let mut todo: Vec<usize> = (0..cells)
+        .filter(|&i| grown[i] == CellKind::River)
+        .collect();
+    while let Some(i) = todo.pop() {
+        if !interior(i) || around(i).any(|j| held(grown[j]) && heights[j] < heights[i]) {
+            continue;
+        }
+        let lowest = around(i)
+            .filter(|&j| kinds[j] == CellKind::River && heights[j] < heights[i])
+            .min_by(|&a, &b| heights[a].total_cmp(&heights[b]));
+        if let Some(j) = lowest {
+            grown[j] = CellKind::River;
+            todo.push(j);
+        }
+    }
 }
 
 /// Whether water in a cell of this kind runs in a channel of the design.
@@ -270,6 +314,46 @@ const BURN_TALUS_DEG: f64 = 35.0;
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A first-order branch right beside a trunk, a trunk cell lower than the next one down
+    /// its own course: the branch cell it drains to stays held (the trunk would be dammed),
+    /// the rest of the branch is let go, and nothing changes without the design's heights.
+    #[test]
+    fn a_trunk_keeps_the_branch_cell_it_drains_through() {
+        let n = 6;
+        let mut kinds = vec![CellKind::Free; n * n];
+        let mut heights = vec![50.0f32; n * n];
+        let mut trunk = Vec::new();
+        for y in 0..n {
+            let i = y * n + 2;
+            kinds[i] = CellKind::River;
+            heights[i] = 2.0 * (n - 1 - y) as f32;
+            trunk.push(i as u32);
+        }
+        // Trunk cell (2, 2) stands below (2, 3), the next one down: it drains only through
+        // the branch beside it.
+        heights[3 * n + 2] = 5.2;
+        heights[2 * n + 2] = 5.0;
+        for (y, h) in [(2, 5.5), (3, 4.5), (4, 3.5), (5, 2.5)] {
+            kinds[y * n + 3] = CellKind::River;
+            heights[y * n + 3] = h;
+        }
+        let order: Vec<u8> = kinds
+            .iter()
+            .enumerate()
+            .map(|(i, k)| u8::from(*k == CellKind::River && i % n == 3))
+            .collect();
+        let mut grown = grown_kinds(&kinds, &order, &trunk).expect("a branch");
+        assert_eq!(grown[3 * n + 3], CellKind::Free);
+        let untouched = grown.clone();
+        keep_ways_down(&mut grown, &kinds, &[]);
+        assert_eq!(grown, untouched);
+        keep_ways_down(&mut grown, &kinds, &heights);
+        assert_eq!(grown[3 * n + 3], CellKind::River, "the trunk's way down");
+        for y in [2, 4, 5] {
+            assert_eq!(grown[y * n + 3], CellKind::Free, "row {y}");
+        }
+    }
 
     /// A branch joining a trunk: the trunk's cells stay rivers, the branch's become grown,
     /// and each grown cell is guided to the next one down the branch, the last to the trunk.

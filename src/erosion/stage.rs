@@ -905,6 +905,9 @@ pub struct Anchors<'a> {
     pub order: &'a [u8],
     /// What the user painted over the design: faster uplift, harder rock.
     pub painted: super::Painted<'a>,
+    /// The design's heights of the skeleton's cells ([`crate::skeleton::Skeleton::heights`]),
+    /// which tell a river's way down where branches are let go (`guide.rs`); empty: none.
+    pub heights: &'a [f32],
 }
 
 impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
@@ -915,6 +918,7 @@ impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
             trunk: &skeleton.trunk,
             order: &skeleton.river_order,
             painted: super::Painted::default(),
+            heights: &skeleton.heights,
         }
     }
 }
@@ -1122,6 +1126,8 @@ pub async fn erode_field_within(
         Some((floored, floor_kinds)) => (floored, floor_kinds.as_slice()),
         None => (design, kinds),
     };
+    let coves = super::floodplain::lift_coves(field, kinds, cell_m);
+    let field = coves.as_ref().unwrap_or(field);
     let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
     let base_level_cells = base.iter().filter(|b| **b).count();
     let factor = n.div_ceil(max_side.max(1));

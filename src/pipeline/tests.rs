@@ -292,6 +292,7 @@ fn every_field_scene() -> Scene {
     scene.sketch = sketch_scene().sketch;
     scene.params.theta = 35.0;
     scene.params.river_slope = 0.02;
+    scene.params.wander = 0.12;
     scene.params.alpha = 0.2;
     scene.params.noise.amplitude = 30.0;
     scene.params.noise.octaves = 5;

@@ -127,6 +127,7 @@ pub fn comparison_rows(
         );
     }
     row("bifurcation ratio R_b", each(&|s| opt(s.bifurcation_ratio)));
+    row("length ratio R_L", each(&|s| opt(s.length_ratio)));
     let tk = columns.iter().map(|s| s.tokunaga.len()).max().unwrap_or(0);
     for m in 1..=tk {
         row(

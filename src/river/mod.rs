@@ -4,10 +4,12 @@
 //!
 //! - [`generator`]: generators, `P` and `R` (eq. 1), link lengths (eq. 2), rule set Omega.
 //! - [`lsystem`]: rewriting with a seeded generator choice and a link budget.
+//! - [`course`]: the stroke bent into a wandering course, the network with it.
 //! - [`network`]: turtle interpretation, clipping to the map, no crossings, heights.
 //! - [`keepout`]: the sketch's peaks and ridges, which grown tributaries keep clear of.
 //! - [`stats`]: Strahler orders, Horton bifurcation ratio, Tokunaga side-branch counts.
 
+pub mod course;
 pub mod generator;
 pub mod keepout;
 pub mod lsystem;
@@ -47,7 +49,14 @@ pub struct RiverParams {
     pub map_width_m: f64,
     /// Most links a single network may have; growth stops before exceeding it.
     pub link_budget: usize,
+    /// How far each trunk wanders from the straight stroke: the standard deviation of its
+    /// sideways offset in stroke lengths (0: the paper's straight trunk; see [`course`]).
+    pub wander: f64,
 }
+
+/// The wander of a new scene's rivers ([`RiverParams::wander`]): bends of a few hundred
+/// metres on a trunk of 6 km.
+pub const DEFAULT_WANDER: f64 = 0.08;
 
 impl Default for RiverParams {
     fn default() -> Self {
@@ -56,6 +65,7 @@ impl Default for RiverParams {
             slope: 0.01,
             map_width_m: 10_000.0,
             link_budget: 60_000,
+            wander: DEFAULT_WANDER,
         }
     }
 }
@@ -93,6 +103,13 @@ pub fn depth_for(stroke: &Stroke) -> u32 {
     ((length * f64::from(stroke.max_depth)).round() as u32).max(1)
 }
 
+/// The course of stroke number `index` of a scene ([`course::Course`]) as [`grow_all`] bends
+/// it with the same `seed`.
+pub fn course_of(stroke: &Stroke, index: usize, wander: f64, seed: u64) -> course::Course {
+    let key = crate::noise::splitmix64(seed ^ (index as u64).wrapping_mul(0xa076_1d64_78bd_642f));
+    course::Course::new(stroke, wander, key)
+}
+
 /// Grows one network per stroke, in order; later networks never cross earlier ones, and
 /// none leaves the map, and grown tributaries keep off `keepout`. Deterministic in `seed`
 /// (each stroke gets its own stream).
@@ -118,13 +135,18 @@ pub fn grow_all(
     let drawings: Vec<RiverNetwork> = strokes
         .iter()
         .zip(&grown)
-        .map(|(s, (_, g))| {
-            network::turtle(
+        .enumerate()
+        .map(|(i, (s, (_, g)))| {
+            let mut drawing = network::turtle(
                 &g.symbols,
                 s.estuary,
                 s.toward,
                 params.theta_deg.to_radians(),
-            )
+            );
+            if params.wander > 0.0 {
+                course_of(s, i, params.wander, seed).bend_network(&mut drawing);
+            }
+            drawing
         })
         .collect();
     let networks = network::admit(&drawings, params.slope, params.map_width_m, keepout);
@@ -218,6 +240,36 @@ mod tests {
                 );
             }
         }
+    }
+
+    /// With wander the trunk bends away from the drawn segment (by more than a few cells of a
+    /// 512 map) yet starts at the estuary and ends at the stroke's end; without, it is the
+    /// paper's straight trunk.
+    #[test]
+    fn a_wandering_trunk_keeps_the_strokes_ends() {
+        let s = stroke((0.5, 1.0), (0.5, 0.35), 3, 6);
+        let trunk_of = |wander: f64| {
+            let params = RiverParams {
+                wander,
+                ..RiverParams::default()
+            };
+            let net = grow_all(&[s], &params, &Keepout::default(), 9)
+                .remove(0)
+                .network;
+            (1..net.nodes.len())
+                .filter(|&i| net.trunk[i])
+                .map(|i| net.nodes[i])
+                .collect::<Vec<_>>()
+        };
+        let straight = trunk_of(0.0);
+        assert!(straight.iter().all(|p| (p.x - 0.5).abs() < 1e-9));
+        let bent = trunk_of(0.1);
+        let last = bent.last().copied().unwrap();
+        assert!(last.distance(s.toward) < 1e-9, "ends at {last}");
+        let widest = bent.iter().map(|p| (p.x - 0.5).abs()).fold(0.0, f64::max);
+        assert!(widest > 0.02, "the trunk strays at most {widest}");
+        // Along the stroke the nodes keep their order: the shear moves them only sideways.
+        assert!(bent.windows(2).all(|w| w[1].y < w[0].y));
     }
 
     #[test]

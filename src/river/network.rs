@@ -19,8 +19,8 @@ pub struct RiverNetwork {
     pub height: Vec<f32>,
     /// Length of every link in map units.
     pub link_length: f64,
-    /// Whether the link from the parent lies on the trunk (the straight line the user drew).
-    /// Filled by [`turtle`]; empty on admitted networks.
+    /// Whether the link from the parent lies on the trunk (the line the user drew, bent by
+    /// [`super::course`] where the scene wanders). Filled by [`turtle`] and kept by [`admit`].
     pub trunk: Vec<bool>,
 }
 

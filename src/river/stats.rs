@@ -15,6 +15,12 @@ pub struct NetworkStats {
     pub streams_per_order: Vec<usize>,
     /// Horton's bifurcation ratio `R_b`: `N_k ~ R_b^-k`, fitted by least squares in log.
     pub bifurcation_ratio: Option<f64>,
+    /// `mean_stream_length[k - 1]`: the mean length of the streams of order k (the links
+    /// of order k end to end, over their number), in the nodes' units.
+    pub mean_stream_length: Vec<f64>,
+    /// Horton's length ratio `R_L` (Horton 1945's law of stream lengths): `L_k ~ R_L^k`,
+    /// fitted by least squares in log; real networks 1.5-3.
+    pub length_ratio: Option<f64>,
     /// Tokunaga's side-branch counts `T_m` (m = 1, 2, ...): average number of tributaries of
     /// order `k - m` joining a stream of order `k`, averaged over k.
     pub tokunaga: Vec<f64>,
@@ -120,6 +126,28 @@ pub fn analyse(net: &RiverNetwork) -> NetworkStats {
             .collect::<Vec<_>>(),
     )
     .map(|(_, slope)| (-slope).exp());
+    // Horton's law of stream lengths: every link of order k lies on one stream of order k.
+    let mut length_of_order = vec![0.0f64; k_max];
+    for node in (0..n).filter(|&i| has_link(i)) {
+        if let Some(p) = net.parent[node] {
+            length_of_order[order[node] as usize - 1] +=
+                net.nodes[node].distance(net.nodes[p as usize]);
+        }
+    }
+    let mean_stream_length: Vec<f64> = length_of_order
+        .iter()
+        .zip(&streams)
+        .map(|(l, &s)| if s > 0 { l / s as f64 } else { 0.0 })
+        .collect();
+    let length_ratio = log_fit(
+        &mean_stream_length
+            .iter()
+            .enumerate()
+            .filter(|(_, l)| **l > 0.0)
+            .map(|(k, &l)| (k as f64, l.ln()))
+            .collect::<Vec<_>>(),
+    )
+    .map(|(_, slope)| slope.exp());
     let tok_fit = log_fit(
         &tokunaga
             .iter()
@@ -134,6 +162,8 @@ pub fn analyse(net: &RiverNetwork) -> NetworkStats {
         max_order,
         streams_per_order: streams,
         bifurcation_ratio,
+        mean_stream_length,
+        length_ratio,
         tokunaga,
         tokunaga_a: tok_fit.map(|(a, _)| a.exp()),
         tokunaga_c: tok_fit.map(|(_, c)| c.exp()),
@@ -178,8 +208,19 @@ mod tests {
             Some(3),
             Some(3),
         ];
-        for p in parents {
-            net.nodes.push(DVec2::ZERO);
+        // Links of order 1 one unit long, of order 2 two, the order-3 link four.
+        let at = [
+            (0.0, 0.0),
+            (0.0, 4.0),
+            (-2.0, 4.0),
+            (2.0, 4.0),
+            (-3.0, 4.0),
+            (-2.0, 5.0),
+            (3.0, 4.0),
+            (2.0, 5.0),
+        ];
+        for (p, (x, y)) in parents.into_iter().zip(at) {
+            net.nodes.push(DVec2::new(x, y));
             net.parent.push(p);
             net.exterior.push(false);
             net.height.push(0.0);
@@ -190,6 +231,9 @@ mod tests {
         assert_eq!(stats.max_order, 3);
         assert_eq!(stats.streams_per_order, vec![4, 2, 1]);
         assert!((stats.bifurcation_ratio.unwrap() - 2.0).abs() < 1e-9);
+        // Streams twice as long at each order: R_L = 2.
+        assert_eq!(stats.mean_stream_length, vec![1.0, 2.0, 4.0]);
+        assert!((stats.length_ratio.unwrap() - 2.0).abs() < 1e-9);
         // No side tributaries in a perfect binary tree.
         assert!(stats.tokunaga.iter().all(|&t| t == 0.0));
 

@@ -162,6 +162,11 @@ pub struct Params {
     pub theta: f64,
     /// River slope in metres per metre of channel.
     pub river_slope: f64,
+    /// How far each drawn river's course wanders from the straight stroke: the standard
+    /// deviation of its sideways offset, in stroke lengths (0 to 0.2; 0 is the paper's
+    /// straight trunk, and a file without the field). See `river::course`.
+    #[serde(default = "straight_course")]
+    pub wander: f64,
     /// alpha of eq. 4.
     pub alpha: f64,
     pub noise: NoiseSettings,
@@ -177,11 +182,26 @@ impl Default for Params {
         Self {
             theta: t.rivers.theta_deg,
             river_slope: t.rivers.slope,
+            wander: t.rivers.wander,
             alpha: t.ridges.alpha,
             noise: NoiseSettings::default(),
             enrich: EnrichSettings::default(),
             post: Default::default(),
         }
+    }
+}
+
+/// The wander of a scene file that does not name one: the straight trunks it was made with.
+fn straight_course() -> f64 {
+    0.0
+}
+
+/// The parameters of a scene file without a `params` section: the defaults, the trunks
+/// straight as in [`straight_course`].
+fn params_of_a_file() -> Params {
+    Params {
+        wander: straight_course(),
+        ..Params::default()
     }
 }
 
@@ -335,6 +355,8 @@ pub struct Scene {
     pub vertical_scale: f64,
     pub seed: u64,
     pub rivers: Vec<RiverStroke>,
+    /// Absent: the defaults, with the straight trunks of files written before `wander`.
+    #[serde(default = "params_of_a_file")]
     pub params: Params,
     pub sketch: SketchSettings,
     pub detail: DetailSettings,
@@ -737,6 +759,21 @@ impl Scene {
         self.rivers.iter().copied().map(Stroke::from).collect()
     }
 
+    /// The course of river `index` as the terrain draws its trunk (the stroke bent by the
+    /// scene's wander, [`crate::river::course`]): `points + 1` points from the estuary to the
+    /// stroke's end, map units; empty for no such river.
+    pub fn river_course(&self, index: usize, points: usize) -> Vec<DVec2> {
+        let Some(stroke) = self.rivers.get(index).copied().map(Stroke::from) else {
+            return Vec::new();
+        };
+        let seed = crate::terrain::stage_seed(self.seed, "rivers");
+        let course = crate::river::course_of(&stroke, index, self.params.wander, seed);
+        let points = points.max(1);
+        (0..=points)
+            .map(|k| course.bend(stroke.estuary.lerp(stroke.toward, k as f64 / points as f64)))
+            .collect()
+    }
+
     /// The pipeline parameters at the scene's own size.
     pub fn terrain_params(&self) -> TerrainParams {
         let mut t = TerrainParams {
@@ -746,6 +783,7 @@ impl Scene {
         };
         t.rivers.theta_deg = self.params.theta;
         t.rivers.slope = self.params.river_slope;
+        t.rivers.wander = self.params.wander;
         t.ridges.alpha = self.params.alpha;
         t.ridges.map_width_m = self.cell_size * self.size as f64;
         t.rivers.map_width_m = t.ridges.map_width_m;

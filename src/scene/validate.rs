@@ -287,6 +287,13 @@ impl Scene {
                 format!("must be 0 to 1, got {}", p.river_slope),
             );
         }
+        let most = crate::river::course::MAX_WANDER;
+        if !(p.wander.is_finite() && (0.0..=most).contains(&p.wander)) {
+            return bad(
+                "params.wander",
+                format!("must be 0 to {most} stroke lengths, got {}", p.wander),
+            );
+        }
         if !(p.alpha.is_finite() && (0.0..=10.0).contains(&p.alpha)) {
             return bad("params.alpha", format!("must be 0 to 10, got {}", p.alpha));
         }

@@ -364,8 +364,8 @@ fn networks(ui: &mut egui::Ui, view: &NetworksView<'_>) -> bool {
         .add_enabled(view.can_start, egui::Button::new("Compare river networks"))
         .on_hover_text(
             "The DEM's channel network (D8 flow accumulation, seed paper 000 Sec. VII) beside \
-             the rivers of the terrain on the map: Strahler orders, bifurcation ratio, \
-             Tokunaga T_k",
+             the rivers of the terrain on the map: Strahler orders, bifurcation and length \
+             ratios, Tokunaga T_k",
         )
         .clicked();
     progress(ui, view.progress.as_ref());

@@ -51,6 +51,18 @@ fn edit_params(ui: &mut egui::Ui, params: &mut Params) {
             )
             .labelled_by(label.id);
             ui.end_row();
+            let label = ui.label("Wander").on_hover_text(
+                "How far each drawn river's course bends away from the straight stroke: the \
+                 standard deviation of its sideways offset, in stroke lengths (0: straight). \
+                 The estuary and the stroke's end stay where drawn.",
+            );
+            ui.add(
+                DragValue::new(&mut params.wander)
+                    .range(0.0..=crate::river::course::MAX_WANDER)
+                    .speed(0.002),
+            )
+            .labelled_by(label.id);
+            ui.end_row();
             let label = ui.label("α").on_hover_text(
                 "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
             );
