@@ -308,19 +308,8 @@ mod tests {
         let n = 256;
         let cell = 50.0;
         let mid = n / 2;
-        // A V valley along x = mid, falling towards y = n - 1 at 1%.
-        let data: Vec<f32> = (0..n * n)
-            .map(|i| {
-                let (x, y) = (i % n, i / n);
-                let across = (x as f32 - mid as f32).abs() * cell as f32 * 0.3;
-                (n - y) as f32 * cell as f32 * 0.01 + across
-            })
-            .collect();
+        let (data, kinds) = v_valley(n, cell);
         let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
-        let mut kinds = vec![CellKind::Free; n * n];
-        for y in 0..n {
-            kinds[y * n + mid] = CellKind::River;
-        }
         let (floored, marked) = valley_floors(&field, &kinds, &[], cell)
             .unwrap()
             .expect("a floor");
@@ -359,6 +348,24 @@ mod tests {
         }
     }
 
+    /// A V valley of sides at 0.3 along a river down column `n / 2`, falling towards the
+    /// last row at 1%: its heights and kinds.
+    fn v_valley(n: usize, cell: f64) -> (Vec<f32>, Vec<CellKind>) {
+        let mid = n / 2;
+        let data = (0..n * n)
+            .map(|i| {
+                let (x, y) = (i % n, i / n);
+                let across = (x as f32 - mid as f32).abs() * cell as f32 * 0.3;
+                (n - y) as f32 * cell as f32 * 0.01 + across
+            })
+            .collect();
+        let mut kinds = vec![CellKind::Free; n * n];
+        for y in 0..n {
+            kinds[y * n + mid] = CellKind::River;
+        }
+        (data, kinds)
+    }
+
     /// The design's drainage area as [`valley_floors`] routes it (to the map's edge).
     fn routed_area(data: &[f32], n: usize, cell: f64) -> Vec<f32> {
         let edge = crate::erosion::stage::border_cells(n);
@@ -374,18 +381,8 @@ mod tests {
         let n = 1024;
         let cell = 1.0;
         let mid = n / 2;
-        let data: Vec<f32> = (0..n * n)
-            .map(|i| {
-                let (x, y) = (i % n, i / n);
-                let across = (x as f32 - mid as f32).abs() * 0.3;
-                (n - y) as f32 * 0.01 + across
-            })
-            .collect();
+        let (data, kinds) = v_valley(n, cell);
         let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
-        let mut kinds = vec![CellKind::Free; n * n];
-        for y in 0..n {
-            kinds[y * n + mid] = CellKind::River;
-        }
         let (floored, _) = valley_floors(&field, &kinds, &[], cell)
             .unwrap()
             .expect("a floor");
