@@ -502,7 +502,7 @@ fn select_tool_moves_and_deletes_a_river() {
     // The middle of the river as the map draws it: the stroke bent by the scene's wander
     // (map units to the screen by the drag that drew it).
     let scale = (b - a).length() / drawn.estuary.distance(drawn.toward) as f32;
-    let course = harness.state().scene().river_course(1, 2)[1] - drawn.estuary;
+    let course = harness.state().scene().river_courses(2)[1][1] - drawn.estuary;
     let middle = a + egui::vec2(course.x as f32, course.y as f32) * scale;
     drag(&mut harness, middle, middle + egui::vec2(0.0, 120.0));
     wait_idle(&mut harness);

@@ -212,11 +212,13 @@ impl StrahlerApp {
             })
             .collect();
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
-        let scene = self.session.scene();
-        self.canvas.overlay.strokes = (0..scene.rivers.len())
-            .map(|i| {
-                scene
-                    .river_course(i, super::select::COURSE_POINTS)
+        self.canvas.overlay.strokes = self
+            .session
+            .scene()
+            .river_courses(super::select::COURSE_POINTS)
+            .iter()
+            .map(|course| {
+                course
                     .iter()
                     .map(|c| pos2(c.x as f32, c.y as f32))
                     .collect()

@@ -59,9 +59,8 @@ impl StrahlerApp {
             // Peaks are small targets: they win ties with the lines under them.
             consider(p.distance(v(&peak.at)) * 0.5, Item::Peak(i));
         }
-        for i in 0..scene.rivers.len() {
-            let course = scene.river_course(i, COURSE_POINTS);
-            consider(to_polyline(p, &course), Item::River(i));
+        for (i, course) in scene.river_courses(COURSE_POINTS).iter().enumerate() {
+            consider(to_polyline(p, course), Item::River(i));
         }
         for (i, l) in sketch.ridges.iter().enumerate() {
             consider(to_polyline(p, &line(&l.points)), Item::Ridge(i));
@@ -79,10 +78,15 @@ impl StrahlerApp {
         let sketch = &scene.sketch;
         match self.canvas.selected {
             Some(Item::River(i)) => scene
-                .river_course(i, COURSE_POINTS)
-                .iter()
-                .map(|c| pos2(c.x as f32, c.y as f32))
-                .collect(),
+                .river_courses(COURSE_POINTS)
+                .get(i)
+                .map(|course| {
+                    course
+                        .iter()
+                        .map(|c| pos2(c.x as f32, c.y as f32))
+                        .collect()
+                })
+                .unwrap_or_default(),
             Some(Item::Ridge(i)) => sketch
                 .ridges
                 .get(i)

@@ -129,12 +129,74 @@ impl Course {
         p + side * (self.offset(s) * self.length)
     }
 
+    /// `points + 1` points of the bent trunk of `stroke` (this course's stroke), from the
+    /// estuary to the stroke's end.
+    pub fn trunk(&self, stroke: &Stroke, points: usize) -> Vec<DVec2> {
+        let points = points.max(1);
+        (0..=points)
+            .map(|k| self.bend(stroke.estuary.lerp(stroke.toward, k as f64 / points as f64)))
+            .collect()
+    }
+
     /// Bends every node of `network` (the turtle's drawing of this stroke).
     pub fn bend_network(&self, network: &mut RiverNetwork) {
+        if self.amplitudes.iter().all(|a| *a == 0.0) {
+            return;
+        }
         for node in &mut network.nodes {
             *node = self.bend(*node);
         }
     }
+}
+
+/// Points along a trunk for the checks of [`courses`].
+const CHECK_POINTS: usize = 48;
+
+/// How many times a stroke's wander is halved before its trunk is drawn straight.
+const HALVINGS: u32 = 4;
+
+/// The courses of a scene's strokes, in order, each drawn from `key(index)` with `wander`,
+/// halved (at most [`HALVINGS`] times, then straight) while its bent trunk would leave the map
+/// or cross the trunk of an earlier stroke that its straight stroke does not cross: the
+/// network's admission drops a trunk link that does either, with everything upstream of it,
+/// so a river drawn along the map's edge or beside another would lose its upper course.
+/// O(strokes^2 x CHECK_POINTS^2).
+pub fn courses(strokes: &[Stroke], wander: f64, key: impl Fn(usize) -> u64) -> Vec<Course> {
+    let mut kept: Vec<(Vec<DVec2>, Vec<DVec2>)> = Vec::new();
+    let mut out = Vec::with_capacity(strokes.len());
+    for (i, stroke) in strokes.iter().enumerate() {
+        let straight = Course::new(stroke, 0.0, key(i)).trunk(stroke, CHECK_POINTS);
+        let fits = |line: &[DVec2]| {
+            line.iter()
+                .all(|p| (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y))
+                && kept
+                    .iter()
+                    .all(|(bent, drawn)| !cross(line, bent) || cross(&straight, drawn))
+        };
+        let mut asked = wander;
+        let course = loop {
+            let course = Course::new(stroke, asked, key(i));
+            if asked <= 0.0 || fits(&course.trunk(stroke, CHECK_POINTS)) {
+                break course;
+            }
+            asked = if asked > wander / f64::from(1 << HALVINGS) {
+                asked / 2.0
+            } else {
+                0.0
+            };
+        };
+        kept.push((course.trunk(stroke, CHECK_POINTS), straight));
+        out.push(course);
+    }
+    out
+}
+
+/// Whether two polylines cross or touch anywhere.
+fn cross(a: &[DVec2], b: &[DVec2]) -> bool {
+    a.windows(2).any(|u| {
+        b.windows(2)
+            .any(|v| super::network::segments_intersect(u[0], u[1], v[0], v[1]))
+    })
 }
 
 /// A uniform number in [-1, 1] from a hash's top 53 bits.
@@ -192,6 +254,44 @@ mod tests {
             let (ba, bb) = (c.bend(a), c.bend(b));
             assert!(bb.x > ba.x);
             assert!((ba.y - bb.y).abs() < 1e-12);
+        }
+    }
+
+    fn drawn(a: (f64, f64), b: (f64, f64)) -> Stroke {
+        Stroke {
+            estuary: DVec2::new(a.0, a.1),
+            toward: DVec2::new(b.0, b.1),
+            phi: 3,
+            max_depth: 5,
+        }
+    }
+
+    /// A river drawn along the map's edge keeps its whole course inside the map, two drawn
+    /// side by side do not cross, and two drawn from one estuary still wander.
+    #[test]
+    fn courses_stay_inside_and_apart() {
+        let key = |i: usize| splitmix64(5 + i as u64);
+        for wander in [0.08, MAX_WANDER] {
+            let edge = [drawn((0.01, 1.0), (0.01, 0.2))];
+            let c = courses(&edge, wander, key);
+            let inside = |p: &DVec2| (0.0..=1.0).contains(&p.x) && (0.0..=1.0).contains(&p.y);
+            assert!(c[0].trunk(&edge[0], 200).iter().all(inside));
+
+            let pair = [
+                drawn((0.45, 1.0), (0.45, 0.3)),
+                drawn((0.5, 1.0), (0.5, 0.3)),
+            ];
+            let c = courses(&pair, wander, key);
+            let (a, b) = (c[0].trunk(&pair[0], 200), c[1].trunk(&pair[1], 200));
+            assert!(!cross(&a, &b), "wander {wander}");
+            assert!(
+                a.iter().any(|p| (p.x - 0.45).abs() > 0.005),
+                "the first still wanders"
+            );
+
+            let fork = [drawn((0.5, 1.0), (0.3, 0.3)), drawn((0.5, 1.0), (0.7, 0.3))];
+            let c = courses(&fork, wander, key);
+            assert_eq!(c[1], Course::new(&fork[1], wander, key(1)));
         }
     }
 

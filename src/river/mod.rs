@@ -103,11 +103,12 @@ pub fn depth_for(stroke: &Stroke) -> u32 {
     ((length * f64::from(stroke.max_depth)).round() as u32).max(1)
 }
 
-/// The course of stroke number `index` of a scene ([`course::Course`]) as [`grow_all`] bends
-/// it with the same `seed`.
-pub fn course_of(stroke: &Stroke, index: usize, wander: f64, seed: u64) -> course::Course {
-    let key = crate::noise::splitmix64(seed ^ (index as u64).wrapping_mul(0xa076_1d64_78bd_642f));
-    course::Course::new(stroke, wander, key)
+/// The courses of a scene's strokes ([`course::courses`]) as [`grow_all`] bends them with the
+/// same `seed`.
+pub fn courses_of(strokes: &[Stroke], wander: f64, seed: u64) -> Vec<course::Course> {
+    course::courses(strokes, wander, |index| {
+        crate::noise::splitmix64(seed ^ (index as u64).wrapping_mul(0xa076_1d64_78bd_642f))
+    })
 }
 
 /// Grows one network per stroke, in order; later networks never cross earlier ones, and
@@ -132,20 +133,19 @@ pub fn grow_all(
             )
         })
         .collect();
+    let courses = courses_of(strokes, params.wander, seed);
     let drawings: Vec<RiverNetwork> = strokes
         .iter()
         .zip(&grown)
-        .enumerate()
-        .map(|(i, (s, (_, g)))| {
+        .zip(&courses)
+        .map(|((s, (_, g)), course)| {
             let mut drawing = network::turtle(
                 &g.symbols,
                 s.estuary,
                 s.toward,
                 params.theta_deg.to_radians(),
             );
-            if params.wander > 0.0 {
-                course_of(s, i, params.wander, seed).bend_network(&mut drawing);
-            }
+            course.bend_network(&mut drawing);
             drawing
         })
         .collect();

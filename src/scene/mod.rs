@@ -759,18 +759,16 @@ impl Scene {
         self.rivers.iter().copied().map(Stroke::from).collect()
     }
 
-    /// The course of river `index` as the terrain draws its trunk (the stroke bent by the
+    /// The course of each river as the terrain draws its trunk (its stroke bent by the
     /// scene's wander, [`crate::river::course`]): `points + 1` points from the estuary to the
-    /// stroke's end, map units; empty for no such river.
-    pub fn river_course(&self, index: usize, points: usize) -> Vec<DVec2> {
-        let Some(stroke) = self.rivers.get(index).copied().map(Stroke::from) else {
-            return Vec::new();
-        };
+    /// stroke's end, map units, in the rivers' order.
+    pub fn river_courses(&self, points: usize) -> Vec<Vec<DVec2>> {
+        let strokes = self.strokes();
         let seed = crate::terrain::stage_seed(self.seed, "rivers");
-        let course = crate::river::course_of(&stroke, index, self.params.wander, seed);
-        let points = points.max(1);
-        (0..=points)
-            .map(|k| course.bend(stroke.estuary.lerp(stroke.toward, k as f64 / points as f64)))
+        crate::river::courses_of(&strokes, self.params.wander, seed)
+            .iter()
+            .zip(&strokes)
+            .map(|(course, stroke)| course.trunk(stroke, points))
             .collect()
     }
 
