@@ -25,12 +25,12 @@ use super::Stroke;
 use super::network::RiverNetwork;
 use crate::noise::splitmix64;
 
-/// Sine terms of the offset: bends down to an eighth of the stroke's length (finer wandering
+/// Sine terms of the offset: bends down to a sixth of the stroke's length (finer wandering
 /// comes from each link's own course, [`crate::skeleton::meander`]).
 const TERMS: usize = 6;
 
 /// Decay of the terms' amplitudes with their wavenumber `k` (`k^-1` is a random walk's
-/// bridge, rough at every scale; 1.5 keeps the long bends and a smoother course).
+/// bridge, rough at every scale; `k^-2` keeps the long bends, the turns falling as `k^-1`).
 const SMOOTHNESS: f64 = 2.0;
 
 /// The steepest the course may turn from the stroke's direction, as the offset's slope
@@ -67,7 +67,8 @@ impl Course {
             // The sum of two uniforms: a draw in [-1, 1] peaked at 0, standard deviation 0.41.
             let u = unit(splitmix64(key ^ (2 * k as u64 + 1)))
                 + unit(splitmix64(key ^ (2 * k as u64 + 2)));
-            *a = 0.5 * u / ((k + 1) as f64).powf(SMOOTHNESS);
+            // `libm`: the same bits natively and in wasm.
+            *a = 0.5 * u / libm::pow((k + 1) as f64, SMOOTHNESS);
         }
         let mut course = Self {
             estuary: stroke.estuary,
