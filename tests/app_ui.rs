@@ -703,6 +703,16 @@ fn the_dem_panel_compares_the_dem_channel_network_with_the_generated_one() {
     assert_eq!(harness.state().scene(), generated);
 }
 
+/// The GPU of the app's compute path (a test that calls this has checked there is one).
+fn gpu_of(harness: &Harness<'static, StrahlerApp>) -> std::sync::Arc<strahler::gpu::GpuContext> {
+    harness
+        .state()
+        .compute_path()
+        .gpu()
+        .cloned()
+        .expect("the GPU path")
+}
+
 /// On the GPU path the app builds every GPU stage's kernels at start, beside the first
 /// terrain: an edit that then turns on a GPU stage not run yet (wavelet detail) creates no
 /// pipeline.
@@ -716,12 +726,7 @@ fn kernels_are_built_at_start_so_the_first_edit_creates_none() {
         h.state().kernels_ready()
     });
     wait_idle(&mut harness);
-    let gpu = harness
-        .state()
-        .compute_path()
-        .gpu()
-        .cloned()
-        .expect("the GPU path");
+    let gpu = gpu_of(&harness);
     let before = gpu.stats();
     assert!(before.pipelines_created > 0, "{before:?}");
     let mut scene = harness.state().scene();
@@ -757,12 +762,7 @@ fn auto_beside_a_software_adapter_builds_kernels_only_once_gpu_is_chosen() {
         harness.state().kernels_ready(),
         "nothing to build for the CPU"
     );
-    let gpu = harness
-        .state()
-        .compute_path()
-        .gpu()
-        .cloned()
-        .expect("the GPU path");
+    let gpu = gpu_of(&harness);
     assert_eq!(gpu.stats().pipelines_created, 0, "{:?}", gpu.stats());
     harness
         .state()
