@@ -2,7 +2,12 @@
 //! selection, the mask being painted, the pictures before and after erosion,
 //! and a dropped file being read.
 
+use std::borrow::Cow;
+
+use glam::DVec2;
+
 use crate::jobs::JobHandle;
+use crate::scene::{RiverStroke, Scene};
 use crate::wavelet::Mask;
 
 use super::map_view::{Hover, MapView, Overlay, Tool};
@@ -54,6 +59,47 @@ pub struct Canvas {
     pub showing_before: bool,
     /// A dropped file being read (the browser reads files asynchronously).
     pub import_job: Option<JobHandle<Dropped>>,
+    /// The rivers' courses as the map draws and picks them.
+    pub courses: Courses,
+}
+
+/// The rivers' courses as the map draws and picks them ([`Scene::river_courses`]), computed
+/// again only when the rivers, their wander or the seed change, not every frame.
+#[derive(Default)]
+pub struct Courses {
+    /// What the courses were computed for: the rivers, the wander, the seed.
+    key: Option<(Vec<RiverStroke>, f64, u64)>,
+    courses: Vec<Vec<DVec2>>,
+}
+
+impl Courses {
+    /// Points along each course (bends down to a sixth of the stroke,
+    /// [`crate::river::course`]).
+    const POINTS: usize = 48;
+
+    fn fresh_for(&self, scene: &Scene) -> bool {
+        self.key.as_ref().is_some_and(|(rivers, wander, seed)| {
+            *rivers == scene.rivers && *wander == scene.params.wander && *seed == scene.seed
+        })
+    }
+
+    /// Brings the courses up to date with `scene` (once a frame).
+    pub fn refresh(&mut self, scene: &Scene) {
+        if !self.fresh_for(scene) {
+            self.courses = scene.river_courses(Self::POINTS);
+            self.key = Some((scene.rivers.clone(), scene.params.wander, scene.seed));
+        }
+    }
+
+    /// The courses of `scene`'s rivers, in their order: the kept ones where they are up to
+    /// date, else computed now.
+    pub fn of(&self, scene: &Scene) -> Cow<'_, [Vec<DVec2>]> {
+        if self.fresh_for(scene) {
+            Cow::Borrowed(&self.courses)
+        } else {
+            Cow::Owned(scene.river_courses(Self::POINTS))
+        }
+    }
 }
 
 impl Default for Canvas {
@@ -72,6 +118,7 @@ impl Default for Canvas {
             pictures: None,
             showing_before: false,
             import_job: None,
+            courses: Courses::default(),
         }
     }
 }

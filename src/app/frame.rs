@@ -192,6 +192,7 @@ impl StrahlerApp {
         self.canvas.overlay.building = self.session.job().map(|j| (j.progress(), j.message()));
         self.canvas.overlay.brush_radius =
             Some(self.panels.mask.brush.radius / self.canvas.mask.width().max(2) as f32);
+        self.canvas.courses.refresh(self.session.scene());
         self.canvas.overlay.selected = if self.canvas.tool == Tool::Select {
             self.selected_points()
         } else {
@@ -213,9 +214,9 @@ impl StrahlerApp {
             .collect();
         let p = |v: &[f64; 2]| pos2(v[0] as f32, v[1] as f32);
         self.canvas.overlay.strokes = self
-            .session
-            .scene()
-            .river_courses(super::select::COURSE_POINTS)
+            .canvas
+            .courses
+            .of(self.session.scene())
             .iter()
             .map(|course| {
                 course

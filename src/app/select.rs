@@ -10,10 +10,6 @@ use super::canvas::Item;
 use super::map_view::BlockDrag;
 use crate::scene::{Edit, LineKind, Scene};
 
-/// Points of a river's course for picking and the highlight (bends down to an eighth of the
-/// stroke, [`crate::river::course`]).
-pub(super) const COURSE_POINTS: usize = 48;
-
 /// Distance from `p` to the segment `a`-`b`.
 fn to_segment(p: DVec2, a: DVec2, b: DVec2) -> f64 {
     let ab = b - a;
@@ -59,7 +55,7 @@ impl StrahlerApp {
             // Peaks are small targets: they win ties with the lines under them.
             consider(p.distance(v(&peak.at)) * 0.5, Item::Peak(i));
         }
-        for (i, course) in scene.river_courses(COURSE_POINTS).iter().enumerate() {
+        for (i, course) in self.canvas.courses.of(scene).iter().enumerate() {
             consider(to_polyline(p, course), Item::River(i));
         }
         for (i, l) in sketch.ridges.iter().enumerate() {
@@ -77,8 +73,10 @@ impl StrahlerApp {
         let scene = self.session.scene();
         let sketch = &scene.sketch;
         match self.canvas.selected {
-            Some(Item::River(i)) => scene
-                .river_courses(COURSE_POINTS)
+            Some(Item::River(i)) => self
+                .canvas
+                .courses
+                .of(scene)
                 .get(i)
                 .map(|course| {
                     course
