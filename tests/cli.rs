@@ -1733,6 +1733,7 @@ fn analyze_compares_two_dems_measure_by_measure() {
         "straight channel runs",
         "flats (< 0.5 deg)",
         "hypsometric integral",
+        "high ground on the frame",
         "spectral bump",
         "olinda.tif",
     ] {

@@ -156,6 +156,11 @@ impl RealismReport {
             m.flat_fraction * 100.0,
             m.hypsometric_integral
         ));
+        lines.push(format!(
+            "high ground on the frame {:.0}% (the top 5% of cells within a tenth of the side of \
+             the edge; real 10-50 km windows 45 to 55%, spread evenly 36%)",
+            m.frame_share * 100.0
+        ));
         lines
     }
 }
@@ -214,6 +219,11 @@ pub fn comparison_table(
             "hypsometric integral",
             row(&|r| format!("{:.2}", r.measures.hypsometric_integral)),
             "0.15-0.36",
+        ),
+        (
+            "high ground on the frame",
+            row(&|r| percent(r.measures.frame_share)),
+            "45-55% (10-50 km)",
         ),
         (
             "spectral slope gamma",
