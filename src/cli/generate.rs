@@ -43,7 +43,7 @@ pub struct GenerateArgs {
     #[arg(allow_hyphen_values = true, long)]
     pub slope: Option<f64>,
     /// How far each river's course wanders from its straight stroke: the standard deviation
-    /// of its sideways offset in stroke lengths, 0 to 0.2 (0: straight) [default: 0.05].
+    /// of its sideways offset in stroke lengths, 0 to 0.2 (0: straight) [default: 0.08].
     #[arg(allow_hyphen_values = true, long)]
     pub wander: Option<f64>,
     /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
