@@ -85,7 +85,7 @@ fn gpu_matches_cpu_on_a_real_terrain() {
         let cell = scene.map_width() / n as f64;
         // As the stage erodes it: the grown branches guided, their heights the law's.
         let kinds = strahler::erosion::shaped_kinds(&hydrology.skeleton, settings.relief);
-        let prepared = Prepared::new(field, &kinds, &settings, cell, 5);
+        let prepared = Prepared::new(field, &kinds, &settings, cell, 5, &hydrology.skeleton.held);
         assert_eq!(
             prepared.guide.iter().any(|c| *c < 8),
             settings.relief == Relief::Physics,

@@ -217,7 +217,7 @@ pub(super) async fn erode_coarse_to_fine(
     field: &Heightfield,
     kinds: &[CellKind],
     anchors: Anchors<'_>,
-    base: Vec<bool>,
+    mut base: Vec<bool>,
     settings: &ErosionSettings,
     cell_m: f64,
     seed: u64,
@@ -240,7 +240,7 @@ pub(super) async fn erode_coarse_to_fine(
         painted: anchors.painted,
         heights: &[],
     };
-    let eroded = solve(
+    let coarse_run = solve(
         &coarse,
         &coarse_kinds,
         coarse_anchors,
@@ -250,8 +250,8 @@ pub(super) async fn erode_coarse_to_fine(
         backend,
         ctx,
     )
-    .await?
-    .heights;
+    .await?;
+    let eroded = coarse_run.heights;
     ctx.tick(FINISHING.0, FINISHING.1).await?;
     let up = expand(&eroded, m, factor, n, ctx).await?;
     // The floor only needs the cells near a river (the walk's fields go before the
@@ -274,6 +274,13 @@ pub(super) async fn erode_coarse_to_fine(
     })
     .await?;
     drop(up);
+    open_blocks(
+        &coarse_run.outlets,
+        (&eroded, m, factor),
+        n,
+        &mut base,
+        &mut heights,
+    );
     let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
     let fine = Refinement {
         guide,
@@ -301,6 +308,32 @@ pub(super) async fn erode_coarse_to_fine(
         ctx,
     )
     .await
+}
+
+/// The coarse run's border outlets (cells of an `m` x `m` grid of `factor` x `factor`
+/// blocks, [`super::outlets`]) at full resolution: the border cells of their blocks become
+/// base level, held at their block's height in the coarse run (`eroded`, the outlet's own), so
+/// the valleys the coarse run cut to them still leave the map. O(n).
+fn open_blocks(
+    outlets: &[usize],
+    (eroded, m, factor): (&[f32], usize, usize),
+    n: usize,
+    base: &mut [bool],
+    heights: &mut [f32],
+) {
+    for &block in outlets {
+        let (bx, by) = (block % m, block / m);
+        let xs = bx * factor..((bx + 1) * factor).min(n);
+        let ys = by * factor..((by + 1) * factor).min(n);
+        for y in ys {
+            for x in xs.clone() {
+                if x == 0 || y == 0 || x == n - 1 || y == n - 1 {
+                    base[y * n + x] = true;
+                    heights[y * n + x] = eroded[block];
+                }
+            }
+        }
+    }
 }
 
 /// A map eroded on a coarser grid and brought back to full resolution: the interpolated
@@ -375,6 +408,8 @@ async fn refine(
         strata: settings.strata(),
         strength,
         guide,
+        // The coarse run's outlets are in `base` already.
+        outlets: Vec::new(),
     };
     run_solver(prepared, n, cell_m, params, fill_on_gpu, backend, ctx).await
 }

@@ -11,6 +11,7 @@ use thiserror::Error;
 use super::coarse::{self, MAX_SOLVER_SIDE};
 use super::gpu::{self, GpuErosionError, GpuInput};
 use super::nearest::{NearestChannel, Transform};
+use super::outlets::{Keep, border_outlets, border_outlets_in_steps};
 use super::{CHUNK_CELLS, Eroder, ErosionError, ErosionParams};
 use crate::compute::Backend;
 use crate::gpu::GpuField;
@@ -397,9 +398,10 @@ pub enum StageError {
 }
 
 /// Base level: river and valley cells and `band` cells around them, and the valley floors
-/// ([`super::floodplain`]; no band around a floor: its edge meets the hillslope). The map border is not
-/// base level: the land drains to the drawn rivers (which leave the map at their estuaries),
-/// as in a closed catchment, rather than off every edge. A scene with no river or valley at
+/// ([`super::floodplain`]; no band around a floor: its edge meets the hillslope). The map
+/// border is not base level as a whole: the land drains to the drawn rivers (which leave the
+/// map at their estuaries) and to a few outlets on the border that [`Prepared`] adds
+/// ([`super::outlets`]), rather than off every edge. A scene with no river or valley at
 /// all (a sketch of peaks and ridges) drains off the map's border instead. O(cells x band).
 pub fn base_level(kinds: &[CellKind], n: usize, band: u32) -> Vec<bool> {
     let mut base = channel_cells(kinds);
@@ -686,6 +688,8 @@ pub struct Prepared {
     /// The grown branches' guided receivers ([`super::Eroder::with_guide`]): a D8 code per
     /// cell, 8 where the solver picks; empty: none.
     pub guide: Vec<u8>,
+    /// The border's outlets ([`super::outlets`]), already base level in `base`.
+    pub outlets: Vec<usize>,
 }
 
 impl Prepared {
@@ -731,20 +735,30 @@ impl Prepared {
         }
     }
 
-    /// The inputs for `field`, cells `cell_m` wide. O(cells x band).
+    /// The inputs for `field`, cells `cell_m` wide, the border's outlets leaving the sketch's
+    /// `held` cells standing (`&[]`: none). O(cells x band).
     pub fn new(
         field: &Heightfield,
         kinds: &[CellKind],
         settings: &ErosionSettings,
         cell_m: f64,
         seed: u64,
+        held: &[u32],
     ) -> Self {
         let n = field.width();
-        let base = base_level(kinds, n, settings.river_band);
+        let mut base = base_level(kinds, n, settings.river_band);
         let near = nearest_channel(field, kinds);
         let uplift = uplift_map(field, kinds, &near.base, settings.uplift_m_per_kyr / 1000.0);
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
+        let keep = Keep {
+            held,
+            channel: &near.base,
+            cell_m,
+            talus_deg: settings.talus_deg,
+        };
+        let outlets = border_outlets(field, kinds, &base, keep);
+        super::outlets::open(&outlets, &mut base, &mut heights, &near.base);
         roughen(&mut heights, &base, settings.roughness_m, seed);
         Self {
             guide: super::guide::guided_receivers(field.data(), kinds, n),
@@ -756,6 +770,7 @@ impl Prepared {
             erodibility: rock_of(settings, n, cell_m, seed),
             strata: settings.strata(),
             strength: strength_of(settings, n, cell_m, seed),
+            outlets,
         }
     }
 
@@ -767,16 +782,25 @@ impl Prepared {
         settings: &ErosionSettings,
         cell_m: f64,
         seed: u64,
+        held: &[u32],
         ctx: &JobCtx,
     ) -> Result<Self, Cancelled> {
         let n = field.width();
-        let base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
+        let mut base = base_level_in_bands(kinds, n, settings.river_band, ctx).await?;
         let near = nearest_channel_in_steps(field, kinds, ctx, PREPARING).await?;
         ctx.tick(PREPARING.0, PREPARING.1).await?;
         let uplift = uplift_map(field, kinds, &near.base, settings.uplift_m_per_kyr / 1000.0);
         ctx.tick(PREPARING.0, PREPARING.1).await?;
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
+        let keep = Keep {
+            held,
+            channel: &near.base,
+            cell_m,
+            talus_deg: settings.talus_deg,
+        };
+        let outlets = border_outlets_in_steps(field, kinds, &base, keep, ctx, PREPARING).await?;
+        super::outlets::open(&outlets, &mut base, &mut heights, &near.base);
         in_row_bands(ctx, PREPARING, &mut heights, n, |rows, h| {
             let cells = rows.start * n..rows.end * n;
             roughen_from(
@@ -801,6 +825,7 @@ impl Prepared {
             erodibility,
             strata: settings.strata(),
             strength,
+            outlets,
         })
     }
 }
@@ -937,13 +962,15 @@ pub(super) async fn solve(
     backend: &Backend,
     ctx: &JobCtx,
 ) -> Result<Solved, StageError> {
-    let mut prepared = Prepared::prepare(field, kinds, settings, cell_m, seed, ctx).await?;
+    let mut prepared =
+        Prepared::prepare(field, kinds, settings, cell_m, seed, anchors.held, ctx).await?;
     let n = field.width();
     anchors.painted.raise(&mut prepared.uplift, n);
     anchors.painted.harden(&mut prepared.erodibility, n);
     super::hold::pin(&mut prepared.floor, field.data(), anchors.held);
     let fill_on_gpu = anchors.mouths.is_empty();
-    run_solver(
+    let outlets = std::mem::take(&mut prepared.outlets);
+    let solved = run_solver(
         prepared,
         field.width(),
         cell_m,
@@ -952,7 +979,8 @@ pub(super) async fn solve(
         backend,
         ctx,
     )
-    .await
+    .await?;
+    Ok(Solved { outlets, ..solved })
 }
 
 /// What a solver run gives back.
@@ -967,6 +995,9 @@ pub(super) struct Solved {
     pub conditioning: Option<drainage::Conditioning>,
     /// `heights` on the GPU that solved them, if one did.
     pub gpu: Option<GpuField>,
+    /// The border's outlets the run drained to ([`Prepared::outlets`]); empty from
+    /// [`run_solver`] alone.
+    pub outlets: Vec<usize>,
 }
 
 /// Runs `params` on the `n` x `n` fields of `prepared` (cells `cell_m` wide) on the GPU
@@ -999,6 +1030,7 @@ pub(super) async fn run_solver(
                         ran_on: "gpu",
                         conditioning: out.conditioning,
                         gpu: Some(out.on_gpu),
+                        outlets: Vec::new(),
                     });
                 }
                 Err(GpuErosionError::Gpu(err)) => {
@@ -1031,6 +1063,7 @@ pub(super) async fn run_solver(
         ran_on: "cpu",
         conditioning: None,
         gpu: None,
+        outlets: Vec::new(),
     })
 }
 

@@ -91,7 +91,7 @@ fn table(
     for &n in sizes {
         let (field, kinds) = terrain(n)?;
         let cell = MAP_M / n as f64;
-        let prepared = Prepared::new(&field, &kinds, &settings, cell, 1);
+        let prepared = Prepared::new(&field, &kinds, &settings, cell, 1, &[]);
         let mut cpu_heights: Option<Vec<f32>> = None;
         for backend in backends {
             let mut best = (f64::INFINITY, 0.0);
@@ -210,7 +210,7 @@ fn phase_table(
     for &n in sizes {
         let (field, kinds) = terrain(n)?;
         let cell = MAP_M / n as f64;
-        let prepared = Prepared::new(&field, &kinds, settings, cell, 1);
+        let prepared = Prepared::new(&field, &kinds, settings, cell, 1, &[]);
         let input = prepared.gpu_input(n, cell, settings.params());
         let (_, times) = pollster::block_on(gpu::profile(context, input))?;
         println!(
