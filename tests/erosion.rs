@@ -230,7 +230,7 @@ fn maps_larger_than_the_solver_grid_are_refined_at_full_resolution() {
 ///
 /// The issue asks 0.15-0.4 of the integral; with the border closed it was 0.33-0.38, held
 /// down by the corners standing highest. With the border's outlets
-/// ([`strahler::erosion`]'s `outlets.rs`) it is 0.40-0.42, where the SRTM windows of these
+/// ([`strahler::erosion`]'s `outlets.rs`) it is 0.42 at each width, where the SRTM windows of these
 /// widths beside it (`tests/data/scales`) measure 0.55, 0.42 and 0.29 (at 10 km the two
 /// hypsometric curves agree within 0.04 at every quantile from 5% to 99%) and random 2-50 km
 /// windows of the tile N44E005 a median of 0.35-0.39 and a 90th percentile of 0.38-0.53:
