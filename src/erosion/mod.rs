@@ -43,7 +43,8 @@
 //! floor and raises their flanks after the last step (`hold.rs`).
 //!
 //! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
-//! them, the border's outlets or the whole border) keep their heights exactly and are the roots of the stack.
+//! them, the border's outlets or the whole border) keep their heights exactly and are the
+//! roots of the stack.
 //!
 //! Memory besides the caller's heights (`f32`), mask (`bool`), uplift (`f32`) and
 //! erodibility factors (`f32`, when the rock varies): receiver codes (`u8`), donor bitmasks

@@ -51,7 +51,17 @@ pub struct Keep<'a> {
     pub talus_deg: Option<f64>,
 }
 
-impl Keep<'_> {
+impl<'a> Keep<'a> {
+    /// The fields' names in [`Keep`]'s order.
+    pub fn of(held: &'a [u32], channel: &'a [f32], cell_m: f64, talus_deg: Option<f64>) -> Self {
+        Self {
+            held,
+            channel,
+            cell_m,
+            talus_deg,
+        }
+    }
+
     /// Whether an outlet at `cell` of the `n` x `n` `design` leaves every held cell standing:
     /// each no higher above the outlet than the talus slope climbs over the distance between
     /// them (the threshold-slope limit would cut it down to that, as it did a ridge drawn at

@@ -751,12 +751,7 @@ impl Prepared {
         let uplift = uplift_map(field, kinds, &near.base, settings.uplift_m_per_kyr / 1000.0);
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
-        let keep = Keep {
-            held,
-            channel: &near.base,
-            cell_m,
-            talus_deg: settings.talus_deg,
-        };
+        let keep = Keep::of(held, &near.base, cell_m, settings.talus_deg);
         let outlets = border_outlets(field, kinds, &base, keep);
         super::outlets::open(&outlets, &mut base, &mut heights, &near.base);
         roughen(&mut heights, &base, settings.roughness_m, seed);
@@ -793,12 +788,7 @@ impl Prepared {
         ctx.tick(PREPARING.0, PREPARING.1).await?;
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
-        let keep = Keep {
-            held,
-            channel: &near.base,
-            cell_m,
-            talus_deg: settings.talus_deg,
-        };
+        let keep = Keep::of(held, &near.base, cell_m, settings.talus_deg);
         let outlets = border_outlets_in_steps(field, kinds, &base, keep, ctx, PREPARING).await?;
         super::outlets::open(&outlets, &mut base, &mut heights, &near.base);
         in_row_bands(ctx, PREPARING, &mut heights, n, |rows, h| {
