@@ -594,6 +594,7 @@ fn every_scene_field_round_trips_through_the_app() {
     assert_ne!(scene.params.theta, defaults.params.theta);
     assert_ne!(scene.params.river_slope, defaults.params.river_slope);
     assert_ne!(scene.params.wander, defaults.params.wander);
+    assert_ne!(scene.params.meanders, defaults.params.meanders);
     assert_ne!(scene.params.alpha, defaults.params.alpha);
     assert_ne!(scene.params.noise, defaults.params.noise);
     assert_ne!(scene.params.enrich, defaults.params.enrich);

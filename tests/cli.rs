@@ -828,7 +828,7 @@ fn generate_builds_every_stage_of_a_scene_with_the_pinned_checksum() {
         serde_json::from_slice(&std::fs::read(data.join("checksums.json")).unwrap()).unwrap();
     let dir = out_dir();
     let mut sums = std::collections::BTreeMap::new();
-    for name in ["sketch", "detail", "block", "mesas"] {
+    for name in ["sketch", "detail", "block", "mesas", "meanders"] {
         let report = dir.join(format!("golden-{name}.json"));
         let scene = data.join(format!("{name}.json"));
         let result = strahler(&[

@@ -128,6 +128,47 @@ fn eroded_terrains_keep_their_rivers_and_drain_along_them() {
     }
 }
 
+/// Meanders (issue 32, item 2): the default scene with its channels looping at 90 degrees
+/// and 20 channel widths a wave (the trunk's loops resolved at 512^2) drains along its loops
+/// as designed, keeps its rivers, and its trunk is longer than the wandering course by its
+/// loops.
+#[test]
+fn meandering_rivers_drain_along_their_loops() {
+    let mut scene = Scene {
+        rivers: layouts()[0].clone(),
+        ..Scene::default()
+    };
+    let trunk_cells = |out: &strahler::pipeline::Output| out.hydrology.skeleton.trunk.len();
+    let wandering = trunk_cells(&run(&scene));
+    scene.params.meanders = strahler::river::hydraulic::Meanders {
+        angle_deg: 90.0,
+        wavelength_widths: 20.0,
+    };
+    let out = run(&scene);
+    assert!(
+        trunk_cells(&out) as f64 > 1.2 * wandering as f64,
+        "{} trunk cells against {wandering}",
+        trunk_cells(&out)
+    );
+    assert!(!out.hydrology.skeleton.belt.is_empty());
+    let eroded = out.erosion.as_ref().expect("the erosion stage ran");
+    let d = &eroded.report.drainage;
+    assert!(d.river_fraction >= 0.99, "{d:?}");
+    assert!(d.outlet_fraction >= 0.99, "{d:?}");
+    assert_eq!(d.pit_cells, 0, "{d:?}");
+    let relief = scene.erosion.as_ref().expect("a preset").relief;
+    let before = &out.hydrology.terrain;
+    assert_rivers_kept(
+        before,
+        &eroded.field,
+        &out.hydrology.skeleton,
+        relief,
+        "meanders",
+    );
+    let design = &out.report.terrain.drainage;
+    assert!(design.river_fraction >= 0.95, "{design:?}");
+}
+
 /// The issue's realism targets on the default scene (one river from the south edge, the
 /// default erosion): at most 5% harmonic cells (diffusion alone leaves 17-78%), a spectral
 /// slope between 2.5 and 4.5 and a median slope between 4 and 35 degrees, as on real land.

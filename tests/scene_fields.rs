@@ -23,6 +23,8 @@ const FIELDS: &[&str] = &[
     "params.theta",
     "params.river_slope",
     "params.wander",
+    "params.meanders.angle_deg",
+    "params.meanders.wavelength_widths",
     "params.alpha",
     "params.noise.amplitude",
     "params.noise.octaves",
@@ -181,6 +183,8 @@ const FLAGS: &[&str] = &[
     "--theta",
     "--slope",
     "--wander",
+    "--meander",
+    "--meander-wavelength",
     "--alpha",
 ];
 

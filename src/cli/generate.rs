@@ -46,6 +46,15 @@ pub struct GenerateArgs {
     /// of its sideways offset in stroke lengths, 0 to 0.2 (0: straight) [default: 0.08].
     #[arg(allow_hyphen_values = true, long)]
     pub wander: Option<f64>,
+    /// Meanders of the rivers' channels on their floodplains: the largest angle between the
+    /// channel and its valley, 0 to 100 degrees (0: none; 40 is gently sinuous, 70 about 1.5
+    /// times the valley's length, 90 twice) [default: 0].
+    #[arg(allow_hyphen_values = true, long)]
+    pub meander: Option<f64>,
+    /// The meanders' wavelength along the valley in channel widths (6 to 20; widths follow
+    /// the drainage area, so loops grow downstream) [default: 11].
+    #[arg(allow_hyphen_values = true, long)]
+    pub meander_wavelength: Option<f64>,
     /// alpha of eq. 4 (ridge metres per metre from the nearest river node) [default: 0.12].
     #[arg(allow_hyphen_values = true, long)]
     pub alpha: Option<f64>,
@@ -165,6 +174,12 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(v) = args.wander {
         scene.params.wander = v;
+    }
+    if let Some(v) = args.meander {
+        scene.params.meanders.angle_deg = v;
+    }
+    if let Some(v) = args.meander_wavelength {
+        scene.params.meanders.wavelength_widths = v;
     }
     if let Some(v) = args.alpha {
         scene.params.alpha = v;

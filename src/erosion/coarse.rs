@@ -239,6 +239,8 @@ pub(super) async fn erode_coarse_to_fine(
         order: &[],
         painted: anchors.painted,
         heights: &[],
+        // The floors are cut at full resolution, before the coarse run.
+        belt: &[],
     };
     let coarse_run = solve(
         &coarse,

@@ -16,7 +16,8 @@
 //! power, which leaves every valley V-shaped, a flat groove one river wide.
 //!
 //! **The channel in its floor** follows hydraulic geometry: within half the bankfull width
-//! of the river ([`channel_width_m`], `~ A^0.5`) the floor is the channel's bed, at the river's
+//! of the river ([`channel_width_m`], `~ A^0.5`, the law the drawn rivers' meanders take their
+//! wavelength from: [`crate::river::hydraulic`]) the floor is the channel's bed, at the river's
 //! height plus the cross rise; beyond it the floodplain stands a bankfull depth higher
 //! ([`bankfull_depth_m`], `~ A^0.4`), so a large river runs in a channel as wide and deep as
 //! its water asks, cut into its floodplain. Where the channel is narrower than a cell, the
@@ -31,6 +32,7 @@ use std::collections::BinaryHeap;
 
 use super::{ErosionError, receivers_and_area};
 use crate::heightfield::Heightfield;
+pub use crate::river::hydraulic::channel_width_m;
 use crate::skeleton::CellKind;
 
 /// `k` of the floor's half-width `W = k sqrt(A)` (metres per metre of sqrt(area)).
@@ -39,20 +41,9 @@ pub const HALF_WIDTH_PER_SQRT_AREA: f64 = 0.012;
 /// How much a floor rises per metre away from its channel (0.4%).
 pub const CROSS_RISE: f64 = 0.004;
 
-/// Bankfull channel width per square root of drainage area, metres per km (hydraulic
-/// geometry: width grows as discharge^0.5, Leopold and Maddock 1953, and bankfull discharge
-/// about as drainage area, so width ~ A^0.5; 2.5 m gives 25 m at 100 km^2 and 80 m at
-/// 1000 km^2, within the regional curves of Dunne and Leopold 1978).
-pub const CHANNEL_WIDTH_PER_SQRT_KM2: f64 = 2.5;
-
 /// Bankfull depth at 1 km^2 of drainage area, metres; it grows as `A^0.4` (Leopold and
 /// Maddock's depth exponent): 1 m at 100 km^2, 4 m at 1000 km^2.
 pub const BANKFULL_DEPTH_AT_KM2: f64 = 0.25;
-
-/// The bankfull width in metres of a channel draining `area_m2`.
-pub fn channel_width_m(area_m2: f64) -> f64 {
-    CHANNEL_WIDTH_PER_SQRT_KM2 * (area_m2.max(0.0) / 1e6).sqrt()
-}
 
 /// The bankfull depth in metres of a channel draining `area_m2`: how far its floodplain
 /// stands above its bed.
@@ -67,12 +58,17 @@ const MAX_HALF_WIDTH_CELLS: f64 = 32.0;
 /// The design with its valley floors cut in, and the floor cells marked
 /// [`CellKind::Floor`] in a copy of `kinds` (`None` where no river is large enough for a
 /// floor). `field` is square, cells `cell_m` wide; `mouths` are the river mouths inside the
-/// map ([`crate::skeleton::Skeleton::mouths`]). O(cells log cells) for the routing, plus
+/// map ([`crate::skeleton::Skeleton::mouths`]); `belt` the meandering river cells with how
+/// far inside their meander belt each lies, in cells ([`crate::skeleton::Skeleton::belt`]),
+/// which widens the floor beside them by as much: a meander's floor spans its belt with
+/// straight edges, its loops swinging from one side to the other (a floor as wide around the
+/// loops themselves would wave with them). O(cells log cells) for the routing, plus
 /// O(floor cells log floor cells).
 pub fn valley_floors(
     field: &Heightfield,
     kinds: &[CellKind],
     mouths: &[u32],
+    belt: &[(u32, f32)],
     cell_m: f64,
 ) -> Result<Option<(Heightfield, Vec<CellKind>)>, ErosionError> {
     let n = field.width();
@@ -91,7 +87,7 @@ pub fn valley_floors(
         edge[i as usize] = true;
     }
     let routing = receivers_and_area(field.data(), n, n, cell_m, &edge)?;
-    let half_width: Vec<f32> = routing
+    let mut half_width: Vec<f32> = routing
         .area
         .iter()
         .map(|a| {
@@ -99,8 +95,17 @@ pub fn valley_floors(
             cells.min(MAX_HALF_WIDTH_CELLS) as f32
         })
         .collect();
-    let sources = (0..n * n).filter(|&i| channel[i] && half_width[i] >= 1.0);
-    let nearest = nearest_within(n, sources, &half_width);
+    let sources: Vec<usize> = (0..n * n)
+        .filter(|&i| channel[i] && half_width[i] >= 1.0)
+        .collect();
+    for &(cell, slack) in belt {
+        if let Some(w) = half_width.get_mut(cell as usize)
+            && *w >= 1.0
+        {
+            *w += slack.max(0.0);
+        }
+    }
+    let nearest = nearest_within(n, sources.into_iter(), &half_width);
     let z = field.data();
     let mut heights = z.to_vec();
     let mut floored = kinds.to_vec();
@@ -311,7 +316,7 @@ mod tests {
         let mid = n / 2;
         let (data, kinds) = v_valley(n, cell);
         let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
-        let (floored, marked) = valley_floors(&field, &kinds, &[], cell)
+        let (floored, marked) = valley_floors(&field, &kinds, &[], &[], cell)
             .unwrap()
             .expect("a floor");
         let area = routed_area(&data, n, cell);
@@ -349,6 +354,53 @@ mod tests {
         }
     }
 
+    /// A meandering river down a tilted valley, loops 40 cells long swinging 8 cells either
+    /// side on a floor 6 to 9 cells wide either side (the proportions of the default scene's
+    /// trunk at 70 degrees): given how far inside its belt each river cell lies, the floor
+    /// spans the belt with nearly straight edges (they move 6 cells over the lower half of
+    /// the map, most of it the floor widening downstream); without, they swing with the loops
+    /// (20 cells).
+    #[test]
+    fn a_meander_belt_gives_the_floor_straight_edges() {
+        let (n, cell, amplitude, period) = (1024, 10.0, 8.0, 40.0);
+        let mid = n / 2;
+        let (mut data, _) = v_valley(n, cell);
+        let mut kinds = vec![CellKind::Free; n * n];
+        let mut belt = Vec::new();
+        let loop_x = |y: usize| {
+            let phase = std::f64::consts::TAU * y as f64 / period;
+            (mid as f64 + amplitude * phase.sin()).round() as usize
+        };
+        for y in 0..n {
+            // 4-connected: the row's cells from the previous row's column to this one's.
+            let (from, to) = (loop_x(y.saturating_sub(1)), loop_x(y));
+            for x in from.min(to)..=from.max(to) {
+                let i = y * n + x;
+                kinds[i] = CellKind::River;
+                data[i] = (n - y) as f32 * cell as f32 * 0.01;
+                let inside = amplitude - (x as f64 - mid as f64).abs();
+                belt.push((i as u32, inside.max(0.0) as f32));
+            }
+        }
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let west_edge = |belt: &[(u32, f32)]| {
+            let (_, marked) = valley_floors(&field, &kinds, &[], belt, cell)
+                .unwrap()
+                .expect("a floor");
+            let edges: Vec<usize> = (n / 2..n - 8)
+                .map(|y| {
+                    (0..n)
+                        .find(|&x| matches!(marked[y * n + x], CellKind::Floor | CellKind::River))
+                        .expect("a floor on every row")
+                })
+                .collect();
+            edges.iter().max().unwrap() - edges.iter().min().unwrap()
+        };
+        let (straight, swinging) = (west_edge(&belt), west_edge(&[]));
+        assert!(swinging >= 10, "{swinging}");
+        assert!(straight * 3 <= swinging, "{straight} against {swinging}");
+    }
+
     /// A V valley of sides at 0.3 along a river down column `n / 2`, falling towards the
     /// last row at 1%: its heights and kinds.
     fn v_valley(n: usize, cell: f64) -> (Vec<f32>, Vec<CellKind>) {
@@ -384,7 +436,7 @@ mod tests {
         let mid = n / 2;
         let (data, kinds) = v_valley(n, cell);
         let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
-        let (floored, _) = valley_floors(&field, &kinds, &[], cell)
+        let (floored, _) = valley_floors(&field, &kinds, &[], &[], cell)
             .unwrap()
             .expect("a floor");
         let area = routed_area(&data, n, cell);

@@ -923,6 +923,10 @@ pub struct Anchors<'a> {
     /// The design's heights of the skeleton's cells ([`crate::skeleton::Skeleton::heights`]),
     /// which tell a river's way down where branches are let go (`guide.rs`); empty: none.
     pub heights: &'a [f32],
+    /// Meandering river cells and how far inside their belt each lies, in cells
+    /// ([`crate::skeleton::Skeleton::belt`]): the valley floor is that much wider beside
+    /// them (`floodplain.rs`); empty: no meanders.
+    pub belt: &'a [(u32, f32)],
 }
 
 impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
@@ -934,6 +938,7 @@ impl<'a> From<&'a crate::skeleton::Skeleton> for Anchors<'a> {
             order: &skeleton.river_order,
             painted: super::Painted::default(),
             heights: &skeleton.heights,
+            belt: &skeleton.belt,
         }
     }
 }
@@ -1144,7 +1149,8 @@ pub async fn erode_field_within(
     let grown = super::guide::shape(kinds, &anchors, settings.relief);
     let kinds = grown.as_deref().unwrap_or(kinds);
     ctx.tick(PREPARING.0, "eroding: valley floors").await?;
-    let floors = super::floodplain::valley_floors(design, kinds, anchors.mouths, cell_m)?;
+    let floors =
+        super::floodplain::valley_floors(design, kinds, anchors.mouths, anchors.belt, cell_m)?;
     let (field, kinds) = match &floors {
         Some((floored, floor_kinds)) => (floored, floor_kinds.as_slice()),
         None => (design, kinds),

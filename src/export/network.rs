@@ -93,8 +93,12 @@ pub fn geojson(
         let orders = crate::river::stats::strahler_orders(net);
         for (down, up) in net.link_pairs() {
             // Drawn from upstream to downstream, as water flows.
-            let course =
-                crate::skeleton::meander::course(net.nodes[down], net.nodes[up], skeleton_cells);
+            let course = crate::skeleton::meander::course(
+                net.nodes[down],
+                net.nodes[up],
+                skeleton_cells,
+                net.bends(up),
+            );
             let points: Vec<DVec2> = course.into_iter().rev().collect();
             let order = orders[up].min(255) as u8;
             features.push(json!({

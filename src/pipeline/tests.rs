@@ -89,6 +89,23 @@ pub fn block_scene() -> Scene {
 
 /// Plateau country: the mesas terrain type, its beds of hard and soft rock on a 6.4 km map
 /// (the beds are in metres; on a map this wide the land crosses several).
+/// The default river with meanders at 80 degrees, 20 channel widths a wave: large enough
+/// (384^2) that the trunk's lower links draw their loops (the sine-generated curve, `libm`'s
+/// Bessel function and trigonometry, the same bits in the browser).
+pub fn meanders_scene() -> Scene {
+    let mut scene = Scene {
+        size: 384,
+        seed: 13,
+        rivers: vec![river([0.5, 1.0], [0.5, 0.35], 3, 5)],
+        ..Scene::default()
+    };
+    scene.params.meanders = crate::river::hydraulic::Meanders {
+        angle_deg: 80.0,
+        wavelength_widths: 20.0,
+    };
+    scene
+}
+
 pub fn mesas_scene() -> Scene {
     Scene {
         size: 64,
@@ -224,7 +241,7 @@ fn preview_and_full_size_keep_their_own_stages() {
 }
 
 /// The golden scenes, as `tests/data/scenes/` holds them (made by [`write_golden_scenes`]).
-fn golden_scenes() -> [(&'static str, Scene); 4] {
+fn golden_scenes() -> [(&'static str, Scene); 5] {
     let read = |text: &str| Scene::from_json(text).unwrap();
     [
         (
@@ -242,6 +259,10 @@ fn golden_scenes() -> [(&'static str, Scene); 4] {
         (
             "mesas",
             read(include_str!("../../tests/data/scenes/mesas.json")),
+        ),
+        (
+            "meanders",
+            read(include_str!("../../tests/data/scenes/meanders.json")),
         ),
     ]
 }
@@ -293,6 +314,10 @@ fn every_field_scene() -> Scene {
     scene.params.theta = 35.0;
     scene.params.river_slope = 0.02;
     scene.params.wander = 0.12;
+    scene.params.meanders = crate::river::hydraulic::Meanders {
+        angle_deg: 60.0,
+        wavelength_widths: 14.0,
+    };
     scene.params.alpha = 0.2;
     scene.params.noise.amplitude = 30.0;
     scene.params.noise.octaves = 5;
@@ -385,6 +410,7 @@ fn write_golden_scenes() {
         ("detail", detail_scene()),
         ("block", block_scene()),
         ("mesas", mesas_scene()),
+        ("meanders", meanders_scene()),
     ] {
         std::fs::write(format!("{dir}/{name}.json"), scene.to_json()).unwrap();
         let out = run(&mut Pipeline::new(), &scene);

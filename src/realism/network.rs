@@ -69,6 +69,7 @@ impl ChannelNetwork {
             height: net.height[range].to_vec(),
             link_length: net.link_length,
             trunk: Vec::new(),
+            bends: Vec::new(),
         }
     }
 

@@ -5,12 +5,14 @@
 //! - [`generator`]: generators, `P` and `R` (eq. 1), link lengths (eq. 2), rule set Omega.
 //! - [`lsystem`]: rewriting with a seeded generator choice and a link budget.
 //! - [`course`]: the stroke bent into a wandering course, the network with it.
+//! - [`hydraulic`]: channel widths from drainage area, and the meanders they set.
 //! - [`network`]: turtle interpretation, clipping to the map, no crossings, heights.
 //! - [`keepout`]: the sketch's peaks and ridges, which grown tributaries keep clear of.
 //! - [`stats`]: Strahler orders, Horton bifurcation ratio, Tokunaga side-branch counts.
 
 pub mod course;
 pub mod generator;
+pub mod hydraulic;
 pub mod keepout;
 pub mod lsystem;
 pub mod network;
@@ -52,6 +54,8 @@ pub struct RiverParams {
     /// How far each trunk wanders from the straight stroke: the standard deviation of its
     /// sideways offset in stroke lengths (0: the paper's straight trunk; see [`course`]).
     pub wander: f64,
+    /// The meanders of every link's channel ([`hydraulic::bends_of`]; none by default).
+    pub meanders: hydraulic::Meanders,
 }
 
 /// The wander of a new scene's rivers ([`RiverParams::wander`]): bends of a few hundred
@@ -66,6 +70,7 @@ impl Default for RiverParams {
             map_width_m: 10_000.0,
             link_budget: 60_000,
             wander: DEFAULT_WANDER,
+            meanders: hydraulic::Meanders::default(),
         }
     }
 }
@@ -149,7 +154,10 @@ pub fn grow_all(
             drawing
         })
         .collect();
-    let networks = network::admit(&drawings, params.slope, params.map_width_m, keepout);
+    let mut networks = network::admit(&drawings, params.slope, params.map_width_m, keepout);
+    for net in &mut networks {
+        net.bends = hydraulic::bends_of(net, &params.meanders, params.map_width_m);
+    }
     networks
         .into_iter()
         .zip(grown)

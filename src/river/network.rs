@@ -4,6 +4,7 @@
 use glam::DVec2;
 
 use super::generator::Sym;
+use super::hydraulic::Bends;
 
 /// A river network as a tree rooted at its estuary. Node 0 is the estuary; every other node
 /// has a parent one link downstream (towards the estuary).
@@ -22,11 +23,19 @@ pub struct RiverNetwork {
     /// Whether the link from the parent lies on the trunk (the line the user drew, bent by
     /// [`super::course`] where the scene wanders). Filled by [`turtle`] and kept by [`admit`].
     pub trunk: Vec<bool>,
+    /// How the channel of the link from the parent meanders ([`super::hydraulic::bends_of`]);
+    /// empty or default for straight-bedded links. See [`Self::bends`].
+    pub bends: Vec<Bends>,
 }
 
 impl RiverNetwork {
     pub fn links(&self) -> usize {
         self.nodes.len().saturating_sub(1)
+    }
+
+    /// How the link from `node`'s parent meanders (none where the network has no bends).
+    pub fn bends(&self, node: usize) -> Bends {
+        self.bends.get(node).copied().unwrap_or_default()
     }
 
     /// Several networks as one forest (each keeps its own estuary, its nodes after those of
@@ -202,6 +211,7 @@ pub fn admit(
             trunk: vec![false],
             height: vec![0.0],
             link_length: d.link_length,
+            bends: Vec::new(),
         })
         .collect();
     let mut new_id: Vec<Vec<u32>> = drawings
@@ -263,6 +273,7 @@ pub fn turtle(symbols: &[Sym], estuary: DVec2, toward: DVec2, theta: f64) -> Riv
         trunk: vec![false],
         height: vec![0.0],
         link_length,
+        bends: Vec::new(),
     };
     // `libm` rather than the platform's trigonometry: the same bits natively and in wasm, so
     // the same scene grows the same network everywhere.

@@ -167,6 +167,10 @@ pub struct Params {
     /// straight trunk, and a file without the field). See `river::course`.
     #[serde(default = "straight_course")]
     pub wander: f64,
+    /// The drawn rivers' meanders: the largest angle to the valley and the wavelength in
+    /// channel widths (none by default; `river::hydraulic`).
+    #[serde(skip_serializing_if = "crate::river::hydraulic::Meanders::is_default")]
+    pub meanders: crate::river::hydraulic::Meanders,
     /// alpha of eq. 4.
     pub alpha: f64,
     pub noise: NoiseSettings,
@@ -183,6 +187,7 @@ impl Default for Params {
             theta: t.rivers.theta_deg,
             river_slope: t.rivers.slope,
             wander: t.rivers.wander,
+            meanders: t.rivers.meanders,
             alpha: t.ridges.alpha,
             noise: NoiseSettings::default(),
             enrich: EnrichSettings::default(),
@@ -782,6 +787,7 @@ impl Scene {
         t.rivers.theta_deg = self.params.theta;
         t.rivers.slope = self.params.river_slope;
         t.rivers.wander = self.params.wander;
+        t.rivers.meanders = self.params.meanders;
         t.ridges.alpha = self.params.alpha;
         t.ridges.map_width_m = self.cell_size * self.size as f64;
         t.rivers.map_width_m = t.ridges.map_width_m;

@@ -294,6 +294,26 @@ impl Scene {
                 format!("must be 0 to {most} stroke lengths, got {}", p.wander),
             );
         }
+        let widest = crate::river::hydraulic::MAX_ANGLE_DEG;
+        let angle = p.meanders.angle_deg;
+        if !(angle.is_finite() && (0.0..=widest).contains(&angle)) {
+            return bad(
+                "params.meanders.angle_deg",
+                format!("must be 0 to {widest} degrees, got {angle}"),
+            );
+        }
+        let widths = crate::river::hydraulic::WAVELENGTH_WIDTHS;
+        let wavelength = p.meanders.wavelength_widths;
+        if !(wavelength.is_finite() && widths.contains(&wavelength)) {
+            return bad(
+                "params.meanders.wavelength_widths",
+                format!(
+                    "must be {} to {} channel widths, got {wavelength}",
+                    widths.start(),
+                    widths.end()
+                ),
+            );
+        }
         if !(p.alpha.is_finite() && (0.0..=10.0).contains(&p.alpha)) {
             return bad("params.alpha", format!("must be 0 to 10, got {}", p.alpha));
         }

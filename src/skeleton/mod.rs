@@ -89,6 +89,10 @@ pub struct Skeleton {
     /// other river cells are the branches the L-system grew. The erosion holds the trunks at
     /// their drawn heights and lets the law set the branches' (`erosion::guide`).
     pub trunk: Vec<u32>,
+    /// The river cells of meandering links with how far inside their meander belt each lies,
+    /// in cells ([`meander::course_in_belt`]; ascending by cell, each once): the erosion
+    /// widens the valley floor beside them by that much, so the floor spans the belt.
+    pub belt: Vec<(u32, f32)>,
 }
 
 impl Skeleton {
@@ -171,6 +175,7 @@ impl Skeleton {
             held: Vec::new(),
             mouths: Vec::new(),
             trunk: Vec::new(),
+            belt: Vec::new(),
         }
     }
 }
@@ -199,14 +204,53 @@ pub async fn rasterise_rivers(
         .flat_map(|(net, order)| {
             net.link_pairs().flat_map(move |(p, c)| {
                 let (hp, hc) = (f64::from(net.height[p]), f64::from(net.height[c]));
-                wandering_link(net.nodes[p], net.nodes[c], (hp, hc), n, order[c])
+                let link = (net.nodes[p], net.nodes[c], net.bends(c));
+                wandering_link(link, (hp, hc), n, order[c])
             })
         })
         .collect();
     in_bands(sk, &lines, bands, ctx, |band, line| band.river(line)).await?;
     sk.mouths = interior_mouths(rivers, n);
     sk.trunk = trunk_cells(rivers, n);
+    sk.belt = belt_cells(rivers, n);
     Ok(())
+}
+
+/// The river cells of the meandering links with their slack inside the belt, in cells
+/// ([`Skeleton::belt`]; a cell on two links keeps the larger). O(length of the meandering
+/// links in cells).
+fn belt_cells(rivers: &[RiverNetwork], n: usize) -> Vec<(u32, f32)> {
+    let scale = (n.max(2) - 1) as f64;
+    let mut cells = Vec::new();
+    for net in rivers {
+        for (p, c) in net.link_pairs() {
+            let (points, slack) =
+                meander::course_in_belt(net.nodes[p], net.nodes[c], n, net.bends(c));
+            if slack.iter().all(|s| *s <= 0.0) {
+                continue;
+            }
+            for (w, s) in points.windows(2).zip(slack.windows(2)) {
+                let line = Line {
+                    a: to_cell(w[0], n),
+                    b: to_cell(w[1], n),
+                    start: 0.0,
+                    rise: 0.0,
+                    relief: [0.0; 2],
+                    order: 0,
+                };
+                let cells_inside = (0.5 * (s[0] + s[1]) * scale) as f32;
+                raster::river_cells(&line, |x, y| {
+                    if (0..n as i64).contains(&x) && (0..n as i64).contains(&y) {
+                        cells.push(((y * n as i64 + x) as u32, cells_inside));
+                    }
+                });
+            }
+        }
+    }
+    // Each cell once, with its largest slack.
+    cells.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(b.1.total_cmp(&a.1)));
+    cells.dedup_by_key(|c| c.0);
+    cells
 }
 
 /// The cells of the links that lie on a trunk ([`RiverNetwork::trunk`]), on the same
@@ -219,7 +263,8 @@ fn trunk_cells(rivers: &[RiverNetwork], n: usize) -> Vec<u32> {
                 continue;
             }
             let heights = (f64::from(net.height[p]), f64::from(net.height[c]));
-            for line in wandering_link(net.nodes[p], net.nodes[c], heights, n, 0) {
+            let link = (net.nodes[p], net.nodes[c], net.bends(c));
+            for line in wandering_link(link, heights, n, 0) {
                 raster::river_cells(&line, |x, y| {
                     if (0..n as i64).contains(&x) && (0..n as i64).contains(&y) {
                         cells.push((y * n as i64 + x) as u32);
@@ -251,10 +296,16 @@ fn interior_mouths(rivers: &[RiverNetwork], n: usize) -> Vec<u32> {
     mouths
 }
 
-/// The straight pieces of a link's wandering course ([`meander::course`]), with eq. 5's
-/// linear heights from `heights.0` at `a` to `heights.1` at `b` by length along the course.
-fn wandering_link(a: DVec2, b: DVec2, heights: (f64, f64), n: usize, order: u32) -> Vec<Line> {
-    let points = meander::course(a, b, n);
+/// The straight pieces of the wandering (or meandering) course of a link from `a` to `b`
+/// ([`meander::course`]), with eq. 5's linear heights from `heights.0` at `a` to `heights.1`
+/// at `b` by length along the course.
+fn wandering_link(
+    (a, b, bends): (DVec2, DVec2, crate::river::hydraulic::Bends),
+    heights: (f64, f64),
+    n: usize,
+    order: u32,
+) -> Vec<Line> {
+    let points = meander::course(a, b, n, bends);
     let total: f64 = points.windows(2).map(|w| (w[1] - w[0]).length()).sum();
     let height_at = |s: f64| heights.0 + (heights.1 - heights.0) * (s / total.max(1e-300));
     let mut along = 0.0;
@@ -438,6 +489,7 @@ mod tests {
             held: Vec::new(),
             mouths: Vec::new(),
             trunk: Vec::new(),
+            belt: Vec::new(),
         };
         let err = skeleton.constraints().unwrap_err();
         assert!(err.to_string().contains("(5, 0)"), "{err}");

@@ -488,7 +488,7 @@ async function runMode(url, mode, expectedChecksum) {
 async function goldenScenes(page, mode) {
   const dir = join(here, '..', '..', 'tests', 'data', 'scenes');
   const pinned = JSON.parse(readFileSync(join(dir, 'checksums.json'), 'utf8'));
-  for (const name of ['sketch', 'detail', 'block', 'mesas', 'every_field']) {
+  for (const name of ['sketch', 'detail', 'block', 'mesas', 'meanders', 'every_field']) {
     const scene = JSON.parse(readFileSync(join(dir, `${name}.json`), 'utf8'));
     // The promise resolves once the app applied the scene: no polling.
     await page.evaluate((s) => window.strahler.loadScene(s), scene);

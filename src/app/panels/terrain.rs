@@ -1,5 +1,5 @@
 //! The design's parameters (under Advanced): the hydrology paper's branching angle, river
-//! slope, ridge slope, noise and enrichment (with its symbols in tooltips). The grid, the
+//! slope, the courses' wander and meanders, ridge slope, noise and enrichment (with its symbols in tooltips). The grid, the
 //! seed and the terrain type are in the Start section ([`super::StartPanel`]).
 
 use egui::{DragValue, RichText};
@@ -63,6 +63,7 @@ fn edit_params(ui: &mut egui::Ui, params: &mut Params) {
             )
             .labelled_by(label.id);
             ui.end_row();
+            meander_rows(ui, &mut params.meanders);
             let label = ui.label("α").on_hover_text(
                 "alpha of eq. 4: ridge metres per metre of distance to the nearest river node.",
             );
@@ -124,4 +125,34 @@ fn edit_params(ui: &mut egui::Ui, params: &mut Params) {
             });
             ui.end_row();
         });
+}
+
+/// The meanders' two rows of the design grid: the largest angle and the wavelength.
+fn meander_rows(ui: &mut egui::Ui, meanders: &mut crate::river::hydraulic::Meanders) {
+    use crate::river::hydraulic::{MAX_ANGLE_DEG, WAVELENGTH_WIDTHS};
+    let label = ui.label("Meanders (°)").on_hover_text(
+        "Loops of the rivers' channels on their floodplains: the largest angle between the \
+         channel and its valley (0: none; 40 gently sinuous, 70 about 1.5 times the valley's \
+         length, 90 twice). Loops show where the map has at least 12 cells a wavelength: \
+         the larger rivers, and more of them on larger maps.",
+    );
+    ui.add(
+        DragValue::new(&mut meanders.angle_deg)
+            .range(0.0..=MAX_ANGLE_DEG)
+            .speed(0.5),
+    )
+    .labelled_by(label.id);
+    ui.end_row();
+    let label = ui.label("Meander wavelength").on_hover_text(
+        "Length of one loop along the valley, in channel widths (real rivers 10 to 14). \
+         Channel widths follow the drainage area, so loops grow downstream.",
+    );
+    ui.add(
+        DragValue::new(&mut meanders.wavelength_widths)
+            .range(WAVELENGTH_WIDTHS)
+            .speed(0.1)
+            .suffix(" widths"),
+    )
+    .labelled_by(label.id);
+    ui.end_row();
 }
