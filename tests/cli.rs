@@ -1980,6 +1980,59 @@ fn generate_takes_painted_masks() {
     }
 }
 
+/// `--border closed` closes the map's edge (no outlet: another terrain from the same
+/// design), `--meander` loops the rivers (another design: the trunk's loops are 14 cells
+/// long at 320^2, so the grid draws them); bad words and values are refused
+/// naming the flag, and a border without erosion is refused as meaningless.
+#[test]
+fn generate_takes_the_border_and_meanders() {
+    let dir = out_dir();
+    let report = |name: &str, extra: &[&str]| {
+        let path = dir.join(name);
+        let mut args = vec!["generate", "--size", "320", "--progress", "never"];
+        args.extend_from_slice(extra);
+        args.extend_from_slice(&["--report", path.to_str().unwrap()]);
+        let result = strahler(&args);
+        assert!(
+            result.status.success(),
+            "{}",
+            String::from_utf8_lossy(&result.stderr)
+        );
+        serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).unwrap()).unwrap()
+    };
+    let open = report("border-open.json", &[]);
+    let closed = report("border-closed.json", &["--border", "closed"]);
+    assert_ne!(open["checksum"], closed["checksum"]);
+    assert_eq!(open["hydrology_checksum"], closed["hydrology_checksum"]);
+    let looping = report(
+        "meanders.json",
+        &["--meander", "90", "--meander-wavelength", "20"],
+    );
+    assert_ne!(open["hydrology_checksum"], looping["hydrology_checksum"]);
+    for (args, words) in [
+        (
+            &["--border", "ajar"][..],
+            "--border: unknown border \"ajar\"",
+        ),
+        (
+            &["--erosion", "none", "--border", "closed"][..],
+            "--border: erosion is off",
+        ),
+        (&["--meander", "120"][..], "params.meanders.angle_deg"),
+        (
+            &["--meander-wavelength", "3"][..],
+            "params.meanders.wavelength_widths",
+        ),
+    ] {
+        let mut all = vec!["generate", "--size", "64"];
+        all.extend_from_slice(args);
+        let result = strahler(&all);
+        assert!(!result.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(stderr.contains(words), "{args:?}: {stderr}");
+    }
+}
+
 /// The three columns (DEM, rebuilt, baseline) of a row of the table `features --rebuild`
 /// prints, `%` dropped.
 fn rebuild_row(text: &str, label: &str) -> [f64; 3] {

@@ -81,6 +81,12 @@ pub struct GenerateArgs {
     /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
     #[arg(long)]
     pub erosion: Option<String>,
+    /// The map's edge to the erosion's water: "open" (where the rivers do not reach a
+    /// stretch of the edge, a stream leaves the map there, so the high ground stands inside
+    /// the map) or "closed" (a closed catchment: every drop reaches the drawn rivers, the
+    /// edge a divide, as for an island or a basin) [default: the scene's; open].
+    #[arg(long)]
+    pub border: Option<String>,
     /// A painted mask, a greyscale PNG (white = the full effect, any resolution) for one of:
     /// detail (calms the synthetic detail), uplift (ranges rise there, up to 3 times the
     /// uplift), hard-rock (up to 10 times harder rock). Repeat for several; replaces the
@@ -238,6 +244,17 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(name) = args.erosion.as_deref() {
         scene.erosion = erosion_named(name, &[])?;
+    }
+    if let Some(word) = args.border.as_deref() {
+        let border = border_named(word)?;
+        let Some(erosion) = scene.erosion.as_mut() else {
+            return Err(
+                "--border: erosion is off (--erosion none or the scene's erosion: \
+                        null), and only the erosion drains across the border"
+                    .into(),
+            );
+        };
+        erosion.border = border;
     }
     scene
         .rivers
@@ -453,6 +470,15 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
         println!("note: {note}");
     }
     Ok(())
+}
+
+/// The border `--border WORD` asks for.
+fn border_named(word: &str) -> Result<crate::erosion::Border, String> {
+    use crate::erosion::Border;
+    [Border::Open, Border::Closed]
+        .into_iter()
+        .find(|b| b.name() == word)
+        .ok_or_else(|| format!("--border: unknown border {word:?}; use open or closed"))
 }
 
 /// The erosion `--erosion NAME` asks for: a preset, or none for "none"; `more` names the

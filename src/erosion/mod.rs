@@ -90,9 +90,9 @@ pub use self::params::{ErosionParams, PRESETS, describe, preset};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::slope_limit::Strength as SlopeStrength;
 pub use self::stage::{
-    Anchors, Eroded, ErosionReport, ErosionSettings, Prepared, Relief, StageError, base_level,
-    erode_field, erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design,
-    uplift_map,
+    Anchors, Border, Eroded, ErosionReport, ErosionSettings, Prepared, Relief, StageError,
+    base_level, erode_field, erode_field_within, erode_terrain, nearest_channel, roughen,
+    uplift_from_design, uplift_map,
 };
 pub use self::strata::Strata;
 

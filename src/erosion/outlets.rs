@@ -22,6 +22,9 @@
 //! catchments, and the divides between the network and the outlets' valleys stand inside
 //! the map. A piece gets no outlet where one would stand too close below a sketched peak or
 //! ridge for the talus slope to carry it ([`Keep`]): the design holds.
+//!
+//! A scene whose map is a whole catchment (an island, a closed basin) closes its border
+//! (`erosion.border`: [`crate::erosion::Border::Closed`]): then no outlet is made.
 
 use super::CHUNK_CELLS;
 use super::nearest::Transform;
@@ -325,5 +328,23 @@ mod tests {
         ))
         .expect("not cancelled");
         assert_eq!(stepped, border_outlets(&field, &kinds, &base, none()));
+    }
+
+    /// A closed border (the scene's `erosion.border`) gets no outlet: every drop reaches the
+    /// rivers, the edge a divide. Open, the same map gets the outlets above.
+    #[test]
+    fn a_closed_border_gets_no_outlet() {
+        use crate::erosion::{Border, ErosionSettings, Prepared};
+        let n = 31;
+        let (field, kinds, _) = river_down_the_middle(n);
+        let outlets = |border| {
+            let settings = ErosionSettings {
+                border,
+                ..ErosionSettings::default()
+            };
+            Prepared::new(&field, &kinds, &settings, 10.0, 1, &[]).outlets
+        };
+        assert!(!outlets(Border::Open).is_empty());
+        assert!(outlets(Border::Closed).is_empty());
     }
 }

@@ -72,6 +72,33 @@ pub struct ErosionSettings {
     pub strength_spread: f64,
     /// Where the relief comes from ([`Relief`]).
     pub relief: Relief,
+    /// Whether land beyond the rivers' reach drains off the map's edge ([`Border`]).
+    pub border: Border,
+}
+
+/// What the map's edge is to the water.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Border {
+    /// A window on a larger land: where the network does not reach a stretch of the edge,
+    /// a stream leaves the map there ([`super::outlets`]), so the high ground stands on the
+    /// divides inside the map, not along its frame.
+    #[default]
+    Open,
+    /// A closed catchment (an island, a basin, a map whose every drop reaches the drawn
+    /// rivers): the edge is a divide, and the land farthest from the rivers, its corners
+    /// and edges, stands highest.
+    Closed,
+}
+
+impl Border {
+    /// The scene file's word for it.
+    pub fn name(self) -> &'static str {
+        match self {
+            Border::Open => "open",
+            Border::Closed => "closed",
+        }
+    }
 }
 
 /// Where an eroded terrain's relief comes from.
@@ -217,6 +244,7 @@ impl ErosionSettings {
             strata_contrast,
             strength_spread: super::slope_limit::SPREAD,
             relief: relief_of(name),
+            border: Border::Open,
         }
     }
 
@@ -752,7 +780,10 @@ impl Prepared {
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
         let keep = Keep::of(held, &near.base, cell_m, settings.talus_deg);
-        let outlets = border_outlets(field, kinds, &base, keep);
+        let outlets = match settings.border {
+            Border::Open => border_outlets(field, kinds, &base, keep),
+            Border::Closed => Vec::new(),
+        };
         super::outlets::open(&outlets, &mut base, &mut heights, &near.base);
         roughen(&mut heights, &base, settings.roughness_m, seed);
         Self {
@@ -789,7 +820,12 @@ impl Prepared {
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
         let keep = Keep::of(held, &near.base, cell_m, settings.talus_deg);
-        let outlets = border_outlets_in_steps(field, kinds, &base, keep, ctx, PREPARING).await?;
+        let outlets = match settings.border {
+            Border::Open => {
+                border_outlets_in_steps(field, kinds, &base, keep, ctx, PREPARING).await?
+            }
+            Border::Closed => Vec::new(),
+        };
         super::outlets::open(&outlets, &mut base, &mut heights, &near.base);
         in_row_bands(ctx, PREPARING, &mut heights, n, |rows, h| {
             let cells = rows.start * n..rows.end * n;

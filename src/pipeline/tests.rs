@@ -352,6 +352,7 @@ fn every_field_scene() -> Scene {
     erosion.strata_contrast = 5.0;
     erosion.strength_spread = 0.45;
     erosion.relief = crate::erosion::Relief::Physics;
+    erosion.border = crate::erosion::Border::Closed;
     scene.erosion = Some(erosion);
     let mut painted = Mask::new(16, 16).unwrap();
     painted.paint_segment(

@@ -75,6 +75,9 @@ pub mod erosion {
         /// Missing from older files: the design's relief, as they eroded then.
         #[serde(default)]
         relief: crate::erosion::Relief,
+        /// Missing from older files: open, as they have eroded since the outlets came.
+        #[serde(default)]
+        border: crate::erosion::Border,
     }
 
     impl Default for Erosion {
@@ -103,6 +106,7 @@ pub mod erosion {
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
                 relief: e.relief,
+                border: e.border,
             }
         }
     }
@@ -127,6 +131,7 @@ pub mod erosion {
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
                 relief: e.relief,
+                border: e.border,
             }
         }
     }

@@ -5,7 +5,7 @@
 use egui::{DragValue, RichText};
 
 use super::Action;
-use crate::erosion::{ErosionReport, ErosionSettings, Relief};
+use crate::erosion::{Border, ErosionReport, ErosionSettings, Relief};
 use crate::scene::{Edit, Scene};
 
 /// The Erosion section; it owns the before/after toggle.
@@ -98,6 +98,15 @@ fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
             ui.horizontal(|ui| {
                 for relief in [Relief::Physics, Relief::Design] {
                     ui.selectable_value(&mut e.relief, relief, relief.name());
+                }
+            })
+            .response
+            .labelled_by(label.id);
+            ui.end_row();
+            let label = ui.label("Border").on_hover_text("Open: the map is a window on a larger land; where the rivers do not reach a stretch of the edge, a stream leaves the map there, so the high ground stands on the divides inside the map. Closed: every drop reaches the drawn rivers (an island, a basin), the edge is a divide and the land farthest from the rivers, often the corners, stands highest.");
+            ui.horizontal(|ui| {
+                for border in [Border::Open, Border::Closed] {
+                    ui.selectable_value(&mut e.border, border, border.name());
                 }
             })
             .response
