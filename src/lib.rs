@@ -43,6 +43,7 @@ pub mod skeleton;
 pub mod terrain;
 pub mod view3d;
 pub mod wavelet;
+pub mod world;
 
 #[cfg(not(target_arch = "wasm32"))]
 pub mod cli;

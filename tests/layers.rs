@@ -19,6 +19,7 @@ const LAYERS: &[(&str, u8)] = &[
     ("web", 0),
     ("scene", 1),
     ("pipeline", 1),
+    ("world", 1),
     ("river", 2),
     ("ridge", 2),
     ("skeleton", 2),

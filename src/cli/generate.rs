@@ -185,6 +185,15 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
         scene.params.meanders.angle_deg = v;
     }
     if let Some(v) = args.meander_wavelength {
+        let widths = crate::river::hydraulic::WAVELENGTH_WIDTHS;
+        if !(v.is_finite() && widths.contains(&v)) {
+            return Err(format!(
+                "--meander-wavelength: must be {} to {} channel widths, got {v}",
+                widths.start(),
+                widths.end()
+            )
+            .into());
+        }
         scene.params.meanders.wavelength_widths = v;
     }
     if let Some(v) = args.alpha {

@@ -4,6 +4,7 @@ mod amplify;
 mod analyze;
 mod bench;
 mod blend;
+mod build;
 mod convert;
 mod features;
 mod fill;
@@ -45,6 +46,9 @@ pub enum Command {
     Convert(convert::ConvertArgs),
     /// Blend a window of a real DEM into a block of a terrain by the Poisson equation.
     Blend(blend::BlendArgs),
+    /// Build a world larger than one piece as tile tasks (a plan, a global build, tiles of
+    /// wavelet detail), assembled into one tiled GeoTIFF with overviews.
+    Build(build::BuildArgs),
     /// Extract ridge lines, valley lines and peaks of a DEM (seed 003) as an editable scene.
     Features(features::FeaturesArgs),
     /// Draw grey hillshades of DEMs side by side in one PNG (compare terrains by eye).
@@ -93,6 +97,7 @@ pub fn run(command: Command) -> ExitCode {
         Command::Amplify(args) => amplify::run(&args),
         Command::Convert(args) => convert::run(&args),
         Command::Blend(args) => blend::run(&args),
+        Command::Build(args) => build::run(&args),
         Command::Hillshade(args) => hillshade::run(&args),
         Command::Features(args) => features::run(&args),
     };

@@ -16,6 +16,7 @@
 //!   ([`clip`]).
 
 pub mod asc;
+pub mod cog;
 pub mod exr;
 pub mod format;
 pub mod geotiff;

@@ -71,7 +71,7 @@ pub fn max_levels(w: usize, h: usize) -> u32 {
 }
 
 /// Indices of the two neighbours of sample `i` (of `n`) under whole-sample symmetry.
-fn neighbours(i: usize, n: usize) -> (usize, usize) {
+pub fn neighbours(i: usize, n: usize) -> (usize, usize) {
     let left = if i == 0 { 1 } else { i - 1 };
     let right = if i + 1 < n { i + 1 } else { i - 1 };
     (left, right)

@@ -143,15 +143,15 @@ fn meander_rows(ui: &mut egui::Ui, meanders: &mut crate::river::hydraulic::Meand
     )
     .labelled_by(label.id);
     ui.end_row();
-    let label = ui.label("Meander wavelength").on_hover_text(
-        "Length of one loop along the valley, in channel widths (real rivers 10 to 14). \
-         Channel widths follow the drainage area, so loops grow downstream.",
+    let label = ui.label("λ (widths)").on_hover_text(
+        "The meanders' wavelength: one loop's length along the valley, in channel widths \
+         (real rivers 10 to 14). Channel widths follow the drainage area, so loops grow \
+         downstream.",
     );
     ui.add(
         DragValue::new(&mut meanders.wavelength_widths)
             .range(WAVELENGTH_WIDTHS)
-            .speed(0.1)
-            .suffix(" widths"),
+            .speed(0.1),
     )
     .labelled_by(label.id);
     ui.end_row();

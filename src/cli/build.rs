@@ -1,0 +1,141 @@
+//! `strahler build`: a world larger than one piece (issue 37), as a plan and tile tasks any
+//! batch engine can run ([`crate::world`]), assembled into one tiled BigTIFF with overviews.
+
+use std::path::PathBuf;
+
+use clap::Args;
+
+use crate::jobs::JobCtx;
+use crate::world::{BuildDir, Plan, task};
+
+#[derive(Debug, Args)]
+pub struct BuildArgs {
+    /// The scene file (JSON, see docs/scene-format.md).
+    pub scene: PathBuf,
+    /// Cells a side of the world (up to 65536).
+    #[arg(allow_hyphen_values = true, long)]
+    pub size: usize,
+    /// Cells a side of a tile, a multiple of 16 (64 to 8192) [default: 2048].
+    #[arg(allow_hyphen_values = true, long, default_value_t = 2048)]
+    pub tile: usize,
+    /// Cells a side of the global build, the scene through every stage in one piece, which
+    /// levels of wavelet detail take to --size [default: the largest up to 2049; 4097 for
+    /// 32768].
+    #[arg(allow_hyphen_values = true, long)]
+    pub world: Option<usize>,
+    /// The build's directory: its plan, the global build, the tiles and world.tif.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Run this task only and stop (0: the global build; 1 to N: tile N - 1, which needs
+    /// task 0 done): one task of a batch engine's array. A finished task is skipped.
+    #[arg(allow_hyphen_values = true, long)]
+    pub task: Option<usize>,
+    /// Write the plan and print its number of tasks, nothing else.
+    #[arg(long)]
+    pub plan: bool,
+    /// Assemble world.tif from the finished tiles, nothing else.
+    #[arg(long)]
+    pub assemble: bool,
+}
+
+pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
+    let scene = super::generate::read_scene(&args.scene)?;
+    let plan = Plan::new(&scene, args.size, args.tile, args.world)?;
+    let dir = BuildDir::new(&args.out);
+    task::write_plan(&dir, &plan)?;
+    let tasks = plan.tasks();
+    if args.plan {
+        println!(
+            "plan: {} tasks (0: the global build at {}^2; 1 to {}: the tiles), {}^2 cells \
+             in {} x {} tiles of {}, {} levels of detail",
+            tasks,
+            plan.world,
+            tasks - 1,
+            plan.size,
+            plan.tiles_per_side(),
+            plan.tiles_per_side(),
+            plan.tile,
+            plan.levels
+        );
+        return Ok(());
+    }
+    let ctx = JobCtx::detached();
+    if let Some(k) = args.task {
+        let started = web_time::Instant::now();
+        let ran = pollster::block_on(task::run(&dir, &plan, k, &ctx))?;
+        let how = if ran { "done" } else { "already done, skipped" };
+        println!(
+            "task {k} of {tasks}: {how} in {:.1} s",
+            started.elapsed().as_secs_f64()
+        );
+        return Ok(());
+    }
+    if !args.assemble {
+        run_all(&dir, &plan, &ctx)?;
+    }
+    assemble(&dir, &plan)
+}
+
+/// Every task not yet done, in order, with the count and the time left on stderr.
+fn run_all(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), Box<dyn std::error::Error>> {
+    let tasks = plan.tasks();
+    let started = web_time::Instant::now();
+    let mut ran = 0usize;
+    for k in 0..tasks {
+        if pollster::block_on(task::run(dir, plan, k, ctx))? {
+            ran += 1;
+        }
+        let seconds = started.elapsed().as_secs_f64();
+        let left = if ran > 0 && k + 1 < tasks {
+            format!(
+                ", about {:.0} s left",
+                seconds / ran as f64 * (tasks - k - 1) as f64
+            )
+        } else {
+            String::new()
+        };
+        eprintln!("tasks {} of {tasks} done{left}", k + 1);
+    }
+    Ok(())
+}
+
+/// `world.tif` in the build's directory from the finished tiles.
+fn assemble(dir: &BuildDir, plan: &Plan) -> Result<(), Box<dyn std::error::Error>> {
+    let missing: Vec<usize> = (1..plan.tasks()).filter(|&k| !dir.done(plan, k)).collect();
+    if let Some(first) = missing.first() {
+        return Err(format!(
+            "{} of {} tiles are not built yet (task {first} first): run their tasks, then \
+             --assemble",
+            missing.len(),
+            plan.tasks() - 1
+        )
+        .into());
+    }
+    let cell_m = plan.cell_m();
+    let width_m = plan.size as f64 * cell_m;
+    let centre = plan.scene.location.map(|l| [l.lon, l.lat]);
+    let georef = crate::export::map_georef(centre, width_m, cell_m, 0.0, 0.0);
+    let per = plan.tiles_per_side();
+    let path = dir.world_tif();
+    let written = crate::dem::cog::write(
+        &path,
+        plan.size,
+        plan.size,
+        plan.tile,
+        &georef,
+        |row, col| {
+            task::read_tile(dir, plan, row * per + col)
+                .map_err(|e| crate::dem::DemError::Write(e.to_string()))
+        },
+    )?;
+    println!(
+        "{}: {}^2 cells, tiled {} x {}, {} overviews, {:.1} MB",
+        path.display(),
+        plan.size,
+        plan.tile,
+        plan.tile,
+        written.images - 1,
+        written.bytes as f64 / 1e6
+    );
+    Ok(())
+}

@@ -1,0 +1,206 @@
+//! The plan of a tiled build: what the world is (the scene, its size), how it is cut (the
+//! tiles), and how it is made (the global build's size and the levels of detail above it).
+
+use serde::{Deserialize, Serialize};
+
+use super::WorldError;
+use super::window::Window;
+use crate::scene::Scene;
+use crate::wavelet::synthesis::output_len;
+
+/// The plan file's format version.
+pub const VERSION: u32 = 1;
+
+/// The largest global build a plan chooses by itself: 2049^2 (seconds natively, about 1 GiB).
+pub const DEFAULT_WORLD_MAX: usize = 2049;
+
+/// The largest global build a plan accepts (the pipeline's own limit).
+pub const WORLD_MAX: usize = 8192;
+
+/// The most levels of detail above the global build (each doubles the resolution).
+pub const MAX_LEVELS: u32 = crate::wavelet::synthesis::MAX_LEVELS;
+
+/// The largest world: 65536^2 cells.
+pub const MAX_SIZE: usize = 65_536;
+
+/// The smallest tile side, and the largest (a tile's task holds a few of them in memory).
+pub const TILE_SIDES: std::ops::RangeInclusive<usize> = 64..=8192;
+
+/// A tiled build: the world is the scene built in one piece at `world` cells a side, then
+/// `levels` levels of wavelet detail above it (the first `size` cells of each axis of the
+/// `(world - 1) 2^levels + 1` grid), cut into tiles of `tile` cells.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plan {
+    pub version: u32,
+    pub scene: Scene,
+    /// Cells a side of the world.
+    pub size: usize,
+    /// Cells a side of a tile (the last row and column of tiles may be smaller).
+    pub tile: usize,
+    /// Cells a side of the global build.
+    pub world: usize,
+    /// Levels of detail between the global build and the world.
+    pub levels: u32,
+}
+
+impl Plan {
+    /// The plan for `scene` at `size` cells a side in tiles of `tile`; `world` the global
+    /// build's size, or the largest up to [`DEFAULT_WORLD_MAX`] that the levels of detail
+    /// reach `size` from.
+    pub fn new(
+        scene: &Scene,
+        size: usize,
+        tile: usize,
+        world: Option<usize>,
+    ) -> Result<Self, WorldError> {
+        if !(2..=MAX_SIZE).contains(&size) {
+            return Err(WorldError::Plan(format!(
+                "--size must be 2 to {MAX_SIZE} cells, got {size}"
+            )));
+        }
+        if !TILE_SIDES.contains(&tile) || !tile.is_multiple_of(16) {
+            return Err(WorldError::Plan(format!(
+                "--tile must be a multiple of 16 from {} to {} cells, got {tile}",
+                TILE_SIDES.start(),
+                TILE_SIDES.end()
+            )));
+        }
+        let (world, levels) = match world {
+            Some(world) => (world, levels_from(world, size)?),
+            None => world_for(size)?,
+        };
+        if !(64..=WORLD_MAX).contains(&world) {
+            return Err(WorldError::Plan(format!(
+                "--world must be 64 to {WORLD_MAX} cells, got {world}"
+            )));
+        }
+        Ok(Self {
+            version: VERSION,
+            scene: scene.clone(),
+            size,
+            tile,
+            world,
+            levels,
+        })
+    }
+
+    /// Tiles along each axis.
+    pub fn tiles_per_side(&self) -> usize {
+        self.size.div_ceil(self.tile)
+    }
+
+    /// Tasks of the build: the global build (task 0), then one per tile.
+    pub fn tasks(&self) -> usize {
+        1 + self.tiles_per_side() * self.tiles_per_side()
+    }
+
+    /// Tile `k` (0-based, row by row): its row, column and cells.
+    pub fn tile(&self, k: usize) -> (usize, usize, Window) {
+        let per = self.tiles_per_side();
+        let (row, col) = (k / per, k % per);
+        let (x0, y0) = (col * self.tile, row * self.tile);
+        let window = Window {
+            x0,
+            y0,
+            width: self.tile.min(self.size - x0),
+            height: self.tile.min(self.size - y0),
+        };
+        (row, col, window)
+    }
+
+    /// Metres between the world's cells: the scene's map width over the detail's grid.
+    pub fn cell_m(&self) -> f64 {
+        let map_width = self.scene.cell_size * self.scene.size as f64;
+        map_width / ((self.world - 1) << self.levels) as f64
+    }
+
+    /// The plan as the file holds it.
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).unwrap_or_default()
+    }
+
+    /// A plan file's plan, checked.
+    pub fn from_json(text: &str) -> Result<Self, WorldError> {
+        let plan: Self = serde_json::from_str(text)
+            .map_err(|e| WorldError::Plan(format!("the plan file: {e}")))?;
+        if plan.version != VERSION {
+            return Err(WorldError::Plan(format!(
+                "the plan file is version {}, this build reads {VERSION}",
+                plan.version
+            )));
+        }
+        let again = Self::new(&plan.scene, plan.size, plan.tile, Some(plan.world))?;
+        if again.levels != plan.levels {
+            return Err(WorldError::Plan(format!(
+                "the plan file's levels ({}) do not take a {} world to {} cells",
+                plan.levels, plan.world, plan.size
+            )));
+        }
+        plan.scene
+            .validate()
+            .map_err(|e| WorldError::Plan(format!("the plan file's scene: {e}")))?;
+        Ok(plan)
+    }
+}
+
+/// The fewest levels that take a `world` build to at least `size` cells.
+fn levels_from(world: usize, size: usize) -> Result<u32, WorldError> {
+    (0..=MAX_LEVELS)
+        .find(|&k| world >= 2 && output_len(world, k) >= size)
+        .ok_or_else(|| {
+            WorldError::Plan(format!(
+                "a {world} world reaches {} cells with {MAX_LEVELS} levels of detail, not \
+                 {size}: ask for a larger --world",
+                output_len(world.max(2), MAX_LEVELS)
+            ))
+        })
+}
+
+/// The global build and levels for `size`: no detail up to [`DEFAULT_WORLD_MAX`], else the
+/// fewest levels whose world fits it, or the world [`MAX_LEVELS`] levels need.
+fn world_for(size: usize) -> Result<(usize, u32), WorldError> {
+    for levels in 0..=MAX_LEVELS {
+        let world = (size - 1).div_ceil(1 << levels) + 1;
+        if world <= DEFAULT_WORLD_MAX {
+            return Ok((world.max(64), levels));
+        }
+    }
+    let world = (size - 1).div_ceil(1 << MAX_LEVELS) + 1;
+    Ok((world, MAX_LEVELS))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn plans_cut_the_world_into_tiles_and_reach_its_size() {
+        let scene = Scene::default();
+        let plan = Plan::new(&scene, 32_768, 2048, None).unwrap();
+        assert_eq!((plan.world, plan.levels), (4097, 3));
+        assert!(output_len(plan.world, plan.levels) >= 32_768);
+        assert_eq!(plan.tasks(), 1 + 256);
+        let plan = Plan::new(&scene, 1000, 256, None).unwrap();
+        assert_eq!((plan.world, plan.levels), (1000, 0));
+        assert_eq!(plan.tiles_per_side(), 4);
+        let (row, col, last) = plan.tile(15);
+        assert_eq!((row, col), (3, 3));
+        assert_eq!((last.x0, last.width, last.height), (768, 232, 232));
+        let plan = Plan::new(&scene, 513, 128, Some(129)).unwrap();
+        assert_eq!(plan.levels, 2);
+        assert_eq!(Plan::from_json(&plan.to_json()).unwrap(), plan);
+        for (size, tile, world, words) in [
+            (1, 256, None, "--size"),
+            (4096, 8, None, "--tile"),
+            (4096, 100, None, "multiple of 16"),
+            (4096, 256, Some(100), "with 3 levels"),
+            (4096, 256, Some(9000), "--world"),
+        ] {
+            let err = Plan::new(&scene, size, tile, world)
+                .unwrap_err()
+                .to_string();
+            assert!(err.contains(words), "{err}");
+        }
+    }
+}

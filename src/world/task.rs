@@ -1,0 +1,276 @@
+//! The tasks of a tiled build, each a stateless, idempotent step that reads the plan and the
+//! files its inputs left, and writes its own file atomically (a temporary name, then a
+//! rename): a killed task leaves no half-written output, and running a task again is
+//! harmless (a finished one is skipped).
+//!
+//! - Task 0, the global build: the scene through the whole pipeline at the plan's `world`
+//!   size (`world.f32`, little-endian `f32`, row-major), and the standard deviations of its
+//!   levels of detail from its wavelet statistics (`world.json`).
+//! - Task `k` >= 1, tile `k - 1`: its cells of the world, the global build with the levels of
+//!   detail [`super::window::synthesize`] adds (`tiles/rRRR-cCCC.f32`).
+
+use std::path::{Path, PathBuf};
+
+use serde::{Deserialize, Serialize};
+
+use super::WorldError;
+use super::plan::Plan;
+use super::window::{Window, synthesize};
+use crate::compute::Backend;
+use crate::heightfield::Heightfield;
+use crate::jobs::JobCtx;
+use crate::pipeline::{Pipeline, RunOptions};
+use crate::wavelet::synthesis::SigmaTables;
+use crate::wavelet::{AnalysisParams, rng};
+
+/// What task 0 found: the global build's size and checksum, and the detail's standard
+/// deviations (as `f32` bits, `levels x 3`, band order H, V, D).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WorldInfo {
+    pub size: usize,
+    pub checksum: String,
+    pub sigma_bits: Vec<u32>,
+    pub min: f32,
+    pub max: f32,
+}
+
+/// Where a build's files are.
+#[derive(Clone, Debug)]
+pub struct BuildDir {
+    root: PathBuf,
+}
+
+impl BuildDir {
+    pub fn new(root: &Path) -> Self {
+        Self {
+            root: root.to_path_buf(),
+        }
+    }
+
+    pub fn plan(&self) -> PathBuf {
+        self.root.join("plan.json")
+    }
+
+    pub fn world(&self) -> PathBuf {
+        self.root.join("world.f32")
+    }
+
+    pub fn world_info(&self) -> PathBuf {
+        self.root.join("world.json")
+    }
+
+    /// The assembled world.
+    pub fn world_tif(&self) -> PathBuf {
+        self.root.join("world.tif")
+    }
+
+    /// Tile (`row`, `col`)'s file.
+    pub fn tile(&self, row: usize, col: usize) -> PathBuf {
+        self.root
+            .join("tiles")
+            .join(format!("r{row:03}-c{col:03}.f32"))
+    }
+
+    /// Whether task `k` of `plan` has its output.
+    pub fn done(&self, plan: &Plan, k: usize) -> bool {
+        if k == 0 {
+            return self.world_info().is_file() && self.world().is_file();
+        }
+        let (row, col, window) = plan.tile(k - 1);
+        let want = (window.width * window.height * 4) as u64;
+        std::fs::metadata(self.tile(row, col)).is_ok_and(|m| m.len() == want)
+    }
+}
+
+/// Writes `bytes` to `path` atomically: a temporary file beside it, then a rename.
+pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WorldError> {
+    let io = |e: std::io::Error| WorldError::Io(format!("{}: {e}", path.display()));
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(io)?;
+    }
+    let name = path
+        .file_name()
+        .map_or("out".into(), |n| n.to_string_lossy().into_owned());
+    let temporary = path.with_file_name(format!(".{name}.{}.part", std::process::id()));
+    std::fs::write(&temporary, bytes).map_err(io)?;
+    std::fs::rename(&temporary, path).map_err(io)
+}
+
+/// Writes the plan, or checks that the one already in `dir` is the same (a directory holds
+/// one build; resuming it must not change it).
+pub fn write_plan(dir: &BuildDir, plan: &Plan) -> Result<(), WorldError> {
+    if let Ok(text) = std::fs::read_to_string(dir.plan()) {
+        let existing = Plan::from_json(&text)?;
+        if existing != *plan {
+            return Err(WorldError::Plan(format!(
+                "{} holds another build's plan (size {}, tile {}, world {}): use another \
+                 --out, or remove it",
+                dir.plan().display(),
+                existing.size,
+                existing.tile,
+                existing.world
+            )));
+        }
+        return Ok(());
+    }
+    write_atomically(&dir.plan(), plan.to_json().as_bytes())
+}
+
+/// Runs task `k` of the plan in `dir` unless it is done; returns whether it ran.
+pub async fn run(dir: &BuildDir, plan: &Plan, k: usize, ctx: &JobCtx) -> Result<bool, WorldError> {
+    if k >= plan.tasks() {
+        return Err(WorldError::Plan(format!(
+            "--task {k}: the build has tasks 0 to {}",
+            plan.tasks() - 1
+        )));
+    }
+    if dir.done(plan, k) {
+        return Ok(false);
+    }
+    if k == 0 {
+        global_build(dir, plan, ctx).await?;
+    } else {
+        tile(dir, plan, k - 1)?;
+    }
+    Ok(true)
+}
+
+/// Task 0: the scene built in one piece at the plan's `world` size, and its detail's
+/// standard deviations (GSA of seed paper 001).
+async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), WorldError> {
+    let options = RunOptions {
+        size: plan.world,
+        ..RunOptions::for_scene(&plan.scene)
+    };
+    let out = Pipeline::new()
+        .run(&plan.scene, &options, &Backend::Cpu, ctx)
+        .await
+        .map_err(|e| WorldError::Build(e.to_string()))?;
+    let field = &out.field;
+    let sigma_bits = if plan.levels == 0 {
+        Vec::new()
+    } else {
+        let analysis = crate::wavelet::analyze(field, &AnalysisParams::default())
+            .map_err(|e| WorldError::Build(format!("the detail's statistics: {e}")))?;
+        let tables =
+            SigmaTables::build(&analysis, None, plan.levels, field.width(), field.height());
+        tables.tables.iter().map(|t| t[0].to_bits()).collect()
+    };
+    let (min, max) = field
+        .data()
+        .iter()
+        .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
+            (lo.min(*v), hi.max(*v))
+        });
+    let info = WorldInfo {
+        size: field.width(),
+        checksum: field.checksum(),
+        sigma_bits,
+        min,
+        max,
+    };
+    let bytes: Vec<u8> = field.data().iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_atomically(&dir.world(), &bytes)?;
+    let text = serde_json::to_string_pretty(&info).unwrap_or_default();
+    write_atomically(&dir.world_info(), text.as_bytes())
+}
+
+/// The global build and its detail's standard deviations, as task 0 left them.
+pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTables), WorldError> {
+    let missing = |what: &Path, e: std::io::Error| {
+        WorldError::Io(format!(
+            "{}: {e} (run task 0, the global build, first)",
+            what.display()
+        ))
+    };
+    let text =
+        std::fs::read_to_string(dir.world_info()).map_err(|e| missing(&dir.world_info(), e))?;
+    let info: WorldInfo = serde_json::from_str(&text)
+        .map_err(|e| WorldError::Io(format!("{}: {e}", dir.world_info().display())))?;
+    let bytes = std::fs::read(dir.world()).map_err(|e| missing(&dir.world(), e))?;
+    let n = plan.world;
+    if info.size != n
+        || bytes.len() != n * n * 4
+        || info.sigma_bits.len() != plan.levels as usize * 3
+    {
+        return Err(WorldError::Io(format!(
+            "{} is not this plan's {n}^2 global build: remove it and run task 0 again",
+            dir.world().display()
+        )));
+    }
+    let data = bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect();
+    let field = Heightfield::from_vec(n, n, data).map_err(|e| WorldError::Io(e.to_string()))?;
+    if field.checksum() != info.checksum {
+        return Err(WorldError::Io(format!(
+            "{} does not match its checksum in {}: remove both and run task 0 again",
+            dir.world().display(),
+            dir.world_info().display()
+        )));
+    }
+    let sigma = SigmaTables {
+        levels: plan.levels,
+        tables: info
+            .sigma_bits
+            .iter()
+            .map(|b| vec![f32::from_bits(*b)])
+            .collect(),
+        source_width: n,
+        source_height: n,
+    };
+    Ok((field, sigma))
+}
+
+/// The cells of `window` of the world of `plan` from its global build.
+pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Window) -> Vec<f32> {
+    if plan.levels == 0 {
+        let n = world.width();
+        let mut out = Vec::with_capacity(window.width * window.height);
+        for y in window.y0..window.y0 + window.height {
+            out.extend_from_slice(
+                &world.data()[y * n + window.x0..y * n + window.x0 + window.width],
+            );
+        }
+        return out;
+    }
+    let key = rng::seed_key(plan.scene.seed);
+    synthesize(world, sigma, plan.levels, key, window)
+}
+
+/// Task `k + 1`: tile `k`.
+fn tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
+    let (world, sigma) = read_world(dir, plan)?;
+    let (row, col, window) = plan.tile(k);
+    let heights = cells(&world, &sigma, plan, window);
+    let bytes: Vec<u8> = heights.iter().flat_map(|v| v.to_le_bytes()).collect();
+    write_atomically(&dir.tile(row, col), &bytes)
+}
+
+/// A finished tile's heights.
+pub fn read_tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Vec<f32>, WorldError> {
+    let (row, col, window) = plan.tile(k);
+    let path = dir.tile(row, col);
+    let bytes = std::fs::read(&path).map_err(|e| {
+        WorldError::Io(format!(
+            "{}: {e} (run task {} first)",
+            path.display(),
+            k + 1
+        ))
+    })?;
+    if bytes.len() != window.width * window.height * 4 {
+        return Err(WorldError::Io(format!(
+            "{} has {} bytes, not the {} of a {} x {} tile",
+            path.display(),
+            bytes.len(),
+            window.width * window.height * 4,
+            window.width,
+            window.height
+        )));
+    }
+    Ok(bytes
+        .chunks_exact(4)
+        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
+        .collect())
+}

@@ -1,0 +1,224 @@
+//! Worlds in tiles (issue 37) through `strahler build`: the same world whatever the tiling,
+//! tasks that can be killed and re-run, and one tiled GeoTIFF with overviews at the end.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+fn strahler(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_strahler"))
+        .args(args)
+        .output()
+        .expect("the binary runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = strahler(args);
+    assert!(
+        out.status.success(),
+        "{args:?}: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+fn dir(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("strahler-world-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// The full resolution of a GeoTIFF and how many images (overviews) follow it.
+fn read_world(path: &Path) -> (Vec<f32>, usize, usize) {
+    use tiff::decoder::{Decoder, DecodingResult};
+    let bytes = std::fs::read(path).unwrap();
+    let mut decoder = Decoder::new(std::io::Cursor::new(bytes)).unwrap();
+    let (w, _) = decoder.dimensions().unwrap();
+    let DecodingResult::F32(cells) = decoder.read_image().unwrap() else {
+        panic!("f32 cells");
+    };
+    let mut images = 1;
+    while decoder.more_images() {
+        decoder.next_image().unwrap();
+        images += 1;
+    }
+    (cells, w as usize, images)
+}
+
+fn scene(dir: &Path) -> PathBuf {
+    let path = dir.join("scene.json");
+    let text = r#"{"seed": 4, "size": 128, "cell_size": 20.0,
+        "rivers": [{"estuary": [0.5, 1.0], "toward": [0.45, 0.4], "phi": 3, "depth": 5}]}"#;
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// A 513^2 world from a 129^2 global build and two levels of detail: 5 x 5 tiles of 112 and
+/// one piece give the same bits; the global build is `strahler generate`'s terrain at that
+/// size; a killed tile (its file cut short, a temporary file left beside it) is built again
+/// by re-running, with the same bits; the GeoTIFF has its overviews.
+#[test]
+fn a_world_is_the_same_in_tiles_or_in_one_piece() {
+    let here = dir("tiles");
+    let scene = scene(&here);
+    let scene = scene.to_str().unwrap();
+    let tiled = here.join("tiled");
+    let whole = here.join("whole");
+    let common = ["--size", "513", "--world", "129"];
+    let plan = ok(&[
+        &[
+            "build",
+            scene,
+            "--tile",
+            "112",
+            "--plan",
+            "--out",
+            tiled.to_str().unwrap(),
+        ][..],
+        &common,
+    ]
+    .concat());
+    assert!(plan.contains("26 tasks"), "{plan}");
+    // A batch engine's way: each task on its own, the global build first.
+    for k in 0..26 {
+        let task = k.to_string();
+        ok(&[
+            &[
+                "build",
+                scene,
+                "--tile",
+                "112",
+                "--task",
+                &task,
+                "--out",
+                tiled.to_str().unwrap(),
+            ][..],
+            &common,
+        ]
+        .concat());
+    }
+    // Killed: one tile cut short and a temporary file left; re-running the build mends it.
+    let tile = tiled.join("tiles").join("r002-c003.f32");
+    let good = std::fs::read(&tile).unwrap();
+    std::fs::write(&tile, &good[..100]).unwrap();
+    std::fs::write(tiled.join("tiles").join(".r002-c003.f32.999.part"), b"half").unwrap();
+    let refused = strahler(&[
+        "build",
+        scene,
+        "--tile",
+        "112",
+        "--size",
+        "513",
+        "--world",
+        "129",
+        "--assemble",
+        "--out",
+        tiled.to_str().unwrap(),
+    ]);
+    assert!(!refused.status.success());
+    assert!(String::from_utf8_lossy(&refused.stderr).contains("1 of 25 tiles are not built yet"));
+    ok(&[
+        &[
+            "build",
+            scene,
+            "--tile",
+            "112",
+            "--out",
+            tiled.to_str().unwrap(),
+        ][..],
+        &common,
+    ]
+    .concat());
+    assert_eq!(std::fs::read(&tile).unwrap(), good, "the same bits again");
+    ok(&[
+        &[
+            "build",
+            scene,
+            "--tile",
+            "528",
+            "--out",
+            whole.to_str().unwrap(),
+        ][..],
+        &common,
+    ]
+    .concat());
+    let (a, width, images) = read_world(&tiled.join("world.tif"));
+    let (b, _, _) = read_world(&whole.join("world.tif"));
+    assert_eq!(width, 513);
+    assert_eq!(images, 4, "513, 257, 129 and 65 cells a side");
+    assert!(
+        a.iter().zip(&b).all(|(x, y)| x.to_bits() == y.to_bits()),
+        "tiles == one piece"
+    );
+    assert!(a.iter().all(|v| v.is_finite()));
+    // The global build is the one-piece pipeline at its size.
+    let info: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(tiled.join("world.json")).unwrap()).unwrap();
+    let report = here.join("report.json");
+    ok(&[
+        "generate",
+        scene,
+        "--size",
+        "129",
+        "--backend",
+        "cpu",
+        "--report",
+        report.to_str().unwrap(),
+        "--out",
+        here.join("g.tif").to_str().unwrap(),
+    ]);
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
+    assert_eq!(info["checksum"], report["checksum"]);
+    // Another plan in the same directory is refused, naming what is there.
+    let other = strahler(&[
+        "build",
+        scene,
+        "--size",
+        "600",
+        "--tile",
+        "112",
+        "--out",
+        tiled.to_str().unwrap(),
+    ]);
+    assert!(!other.status.success());
+    assert!(String::from_utf8_lossy(&other.stderr).contains("holds another build's plan"));
+    let _ = std::fs::remove_dir_all(&here);
+}
+
+/// Bad arguments are refused naming what is wrong; a tile before the global build says so.
+#[test]
+fn a_build_refuses_bad_plans_and_tasks_out_of_order() {
+    let here = dir("refused");
+    let scene = scene(&here);
+    let scene = scene.to_str().unwrap();
+    let out = here.join("b");
+    let out = out.to_str().unwrap();
+    for (args, words) in [
+        (vec!["--size", "513", "--tile", "100"], "multiple of 16"),
+        (vec!["--size", "100000"], "--size must be"),
+        (
+            vec!["--size", "4096", "--world", "100"],
+            "ask for a larger --world",
+        ),
+        (
+            vec![
+                "--size", "513", "--world", "129", "--tile", "112", "--task", "3",
+            ],
+            "run task 0, the global build, first",
+        ),
+        (
+            vec![
+                "--size", "513", "--world", "129", "--tile", "112", "--task", "99",
+            ],
+            "tasks 0 to 25",
+        ),
+    ] {
+        let all = [&["build", scene, "--out", out][..], &args].concat();
+        let result = strahler(&all);
+        assert!(!result.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&result.stderr);
+        assert!(stderr.contains(words), "{args:?}: {stderr}");
+    }
+    let _ = std::fs::remove_dir_all(&here);
+}
