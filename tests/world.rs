@@ -170,6 +170,9 @@ fn a_world_is_the_same_in_tiles_or_in_one_piece() {
     let report: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&report).unwrap()).unwrap();
     assert_eq!(info["checksum"], report["checksum"]);
+    let preview = std::fs::read(tiled.join("preview.tif")).unwrap();
+    let preview = strahler::dem::geotiff::read(&preview, Default::default()).unwrap();
+    assert_eq!(preview.field.checksum(), info["checksum"].as_str().unwrap());
     // Another plan in the same directory is refused, naming what is there.
     let other = strahler(&[
         "build",

@@ -4,8 +4,9 @@
 //! harmless (a finished one is skipped).
 //!
 //! - Task 0, the global build: the scene through the whole pipeline at the plan's `world`
-//!   size (`world.f32`, little-endian `f32`, row-major), and the standard deviations of its
-//!   levels of detail from its wavelet statistics (`world.json`).
+//!   size (`world.f32`, little-endian `f32`, row-major; `preview.tif`, the same as a
+//!   GeoTIFF: the whole world at low resolution before any tile), and the standard
+//!   deviations of its levels of detail from its wavelet statistics (`world.json`).
 //! - Task `k` >= 1, tile `k - 1`: its cells of the world, the global build with the levels of
 //!   detail [`super::window::synthesize`] adds (`tiles/rRRR-cCCC.f32`).
 
@@ -62,6 +63,11 @@ impl BuildDir {
     /// The assembled world.
     pub fn world_tif(&self) -> PathBuf {
         self.root.join("world.tif")
+    }
+
+    /// The global build as a GeoTIFF: the whole world at low resolution, first.
+    pub fn preview(&self) -> PathBuf {
+        self.root.join("preview.tif")
     }
 
     /// Tile (`row`, `col`)'s file.
@@ -169,6 +175,12 @@ async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), W
         min,
         max,
     };
+    let spacing = plan.cell_m() * f64::from(1u32 << plan.levels);
+    let centre = plan.scene.location.map(|l| [l.lon, l.lat]);
+    let georef = crate::export::map_georef(centre, spacing * plan.world as f64, spacing, 0.0, 0.0);
+    let preview = crate::dem::geotiff::write(field, &georef)
+        .map_err(|e| WorldError::Io(format!("the preview: {e}")))?;
+    write_atomically(&dir.preview(), &preview)?;
     let bytes: Vec<u8> = field.data().iter().flat_map(|v| v.to_le_bytes()).collect();
     write_atomically(&dir.world(), &bytes)?;
     let text = serde_json::to_string_pretty(&info).unwrap_or_default();
