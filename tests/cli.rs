@@ -2021,7 +2021,7 @@ fn generate_takes_the_border_and_meanders() {
         (&["--meander", "120"][..], "params.meanders.angle_deg"),
         (
             &["--meander-wavelength", "3"][..],
-            "params.meanders.wavelength_widths",
+            "--meander-wavelength: must be 6 to 20",
         ),
     ] {
         let mut all = vec!["generate", "--size", "64"];

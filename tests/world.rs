@@ -201,6 +201,14 @@ fn a_build_refuses_bad_plans_and_tasks_out_of_order() {
         (vec!["--size", "513", "--tile", "100"], "multiple of 16"),
         (vec!["--size", "100000"], "--size must be"),
         (
+            vec!["--size", "513", "--engine", "cryengine"],
+            "--engine: unknown engine \"cryengine\"",
+        ),
+        (
+            vec!["--size", "2017", "--tile", "112", "--engine", "unreal"],
+            "--engine unreal: a tile of 113 vertices",
+        ),
+        (
             vec!["--size", "4096", "--world", "100"],
             "ask for a larger --world",
         ),
@@ -223,5 +231,69 @@ fn a_build_refuses_bad_plans_and_tasks_out_of_order() {
         let stderr = String::from_utf8_lossy(&result.stderr);
         assert!(stderr.contains(words), "{args:?}: {stderr}");
     }
+    let _ = std::fs::remove_dir_all(&here);
+}
+
+/// Engine tiles (Unity's 129-vertex terrains here): a 513^2 world as 4 x 4 tiles that share
+/// their edges, bit for bit, on one height range, with the numbers to type beside them; a
+/// world that does not split into whole tiles is refused with the sizes that would.
+#[test]
+fn a_world_becomes_engine_tiles_that_share_their_edges() {
+    let here = dir("engine");
+    let scene = scene(&here);
+    let scene = scene.to_str().unwrap();
+    let out = here.join("w");
+    let out = out.to_str().unwrap();
+    let printed = ok(&[
+        "build", scene, "--size", "513", "--world", "129", "--tile", "128", "--engine", "unity",
+        "--out", out,
+    ]);
+    assert!(printed.contains("Terrain Width"), "{printed}");
+    let engine = here.join("w").join("engine");
+    let read = |c: usize, r: usize| -> Vec<u16> {
+        let bytes = std::fs::read(engine.join(format!("world_x{c}_y{r}.r16"))).unwrap();
+        assert_eq!(bytes.len(), 129 * 129 * 2);
+        bytes
+            .chunks_exact(2)
+            .map(|b| u16::from_le_bytes([b[0], b[1]]))
+            .collect()
+    };
+    for r in 0..4 {
+        for c in 0..3 {
+            let (west, east) = (read(c, r), read(c + 1, r));
+            for y in 0..129 {
+                assert_eq!(west[y * 129 + 128], east[y * 129], "x{c}_y{r} row {y}");
+            }
+        }
+    }
+    for c in 0..4 {
+        // Unity's rows run bottom-up: a tile's first row is its south edge, the last its north.
+        let (north, south) = (read(c, 0), read(c, 1));
+        assert_eq!(north[..129], south[128 * 129..]);
+    }
+    let all: Vec<u16> = (0..16).flat_map(|k| read(k % 4, k / 4)).collect();
+    assert_eq!(all.iter().min(), Some(&0));
+    assert_eq!(all.iter().max(), Some(&65535), "one range for the world");
+    assert!(engine.join("world.txt").is_file());
+    let refused = strahler(&[
+        "build",
+        scene,
+        "--size",
+        "512",
+        "--world",
+        "129",
+        "--tile",
+        "128",
+        "--engine",
+        "unity",
+        "--out",
+        here.join("x").to_str().unwrap(),
+    ]);
+    assert!(!refused.status.success());
+    let stderr = String::from_utf8_lossy(&refused.stderr);
+    assert!(
+        stderr.contains("--size 385 for tiles of 128 (or 513)"),
+        "{stderr}"
+    );
     let _ = std::fs::remove_dir_all(&here);
 }

@@ -5,6 +5,7 @@ use std::path::PathBuf;
 
 use clap::Args;
 
+use crate::export::preset::Engine;
 use crate::jobs::JobCtx;
 use crate::world::{BuildDir, Plan, task};
 
@@ -36,11 +37,31 @@ pub struct BuildArgs {
     /// Assemble world.tif from the finished tiles, nothing else.
     #[arg(long)]
     pub assemble: bool,
+    /// Also write the world as an engine's tiles sharing their edges, on one height range,
+    /// in DIR/engine with the numbers to type in: unreal, unity, godot, gaea-wm or gis. The
+    /// world must be a whole number of tiles plus one vertex, and the engine must take
+    /// tile + 1 vertices (--size 32257 --tile 2016: Unreal's tiles of 2017).
+    #[arg(long)]
+    pub engine: Option<String>,
 }
 
 pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
     let scene = super::generate::read_scene(&args.scene)?;
     let plan = Plan::new(&scene, args.size, args.tile, args.world)?;
+    let engine = match args.engine.as_deref() {
+        Some(key) => {
+            let engine = Engine::from_key(key).ok_or_else(|| {
+                let keys: Vec<&str> = Engine::ALL.iter().map(|e| e.key()).collect();
+                format!(
+                    "--engine: unknown engine {key:?}; use one of {}",
+                    keys.join(", ")
+                )
+            })?;
+            crate::world::engine::check(&plan, engine)?;
+            Some(engine)
+        }
+        None => None,
+    };
     let dir = BuildDir::new(&args.out);
     task::write_plan(&dir, &plan)?;
     let tasks = plan.tasks();
@@ -73,7 +94,20 @@ pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
     if !args.assemble {
         run_all(&dir, &plan, &ctx)?;
     }
-    assemble(&dir, &plan)
+    assemble(&dir, &plan)?;
+    if let Some(engine) = engine {
+        let tiles = pollster::block_on(crate::world::engine::write(&dir, &plan, engine, &ctx))?;
+        println!(
+            "{}: {} x {} {} tiles of {} vertices sharing their edges",
+            dir.engine().display(),
+            tiles.per_side,
+            tiles.per_side,
+            engine.label(),
+            tiles.side
+        );
+        print!("{}", tiles.numbers.text());
+    }
+    Ok(())
 }
 
 /// Every task not yet done, in order, with the count and the time left on stderr.

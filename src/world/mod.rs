@@ -17,6 +17,7 @@
 //!   at 2049^2); finer than that the land is the wavelet detail of their statistics. A
 //!   tiled diffusion and erosion refined per tile are the next step (docs/features.md).
 
+pub mod engine;
 pub mod plan;
 pub mod task;
 pub mod window;

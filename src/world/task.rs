@@ -65,6 +65,11 @@ impl BuildDir {
         self.root.join("world.tif")
     }
 
+    /// Where the engine's tiles go ([`super::engine`]).
+    pub fn engine(&self) -> PathBuf {
+        self.root.join("engine")
+    }
+
     /// The global build as a GeoTIFF: the whole world at low resolution, first.
     pub fn preview(&self) -> PathBuf {
         self.root.join("preview.tif")
