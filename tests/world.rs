@@ -275,6 +275,53 @@ fn a_world_becomes_engine_tiles_that_share_their_edges() {
     assert_eq!(all.iter().min(), Some(&0));
     assert_eq!(all.iter().max(), Some(&65535), "one range for the world");
     assert!(engine.join("world.txt").is_file());
+    let status = ok(&[
+        "build", scene, "--size", "513", "--world", "129", "--tile", "128", "--status", "--out",
+        out,
+    ]);
+    assert!(
+        status.contains("tasks done: 26 of 26; ") && status.contains("world.tif written"),
+        "{status}"
+    );
+    // The plan file alone (the page's `worldPlan()` writes the same) builds the same world.
+    let again = here.join("again");
+    let plan = here.join("w").join("plan.json");
+    ok(&[
+        "build",
+        plan.to_str().unwrap(),
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert_eq!(
+        std::fs::read(again.join("world.tif")).unwrap(),
+        std::fs::read(here.join("w").join("world.tif")).unwrap()
+    );
+    let half = ok(&[
+        "build",
+        scene,
+        "--size",
+        "513",
+        "--world",
+        "129",
+        "--tile",
+        "128",
+        "--status",
+        "--out",
+        here.join("none").to_str().unwrap(),
+    ]);
+    assert!(
+        half.contains("tasks done: 0 of 26; world.tif not yet"),
+        "{half}"
+    );
+    let contradicted = strahler(&[
+        "build",
+        plan.to_str().unwrap(),
+        "--size",
+        "600",
+        "--out",
+        again.to_str().unwrap(),
+    ]);
+    assert!(String::from_utf8_lossy(&contradicted.stderr).contains("may only repeat it"));
     let refused = strahler(&[
         "build",
         scene,

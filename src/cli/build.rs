@@ -11,14 +11,15 @@ use crate::world::{BuildDir, Plan, task};
 
 #[derive(Debug, Args)]
 pub struct BuildArgs {
-    /// The scene file (JSON, see docs/scene-format.md).
+    /// The scene file (JSON, see docs/scene-format.md), or a plan (plan.json: the page's
+    /// `worldPlan()`, or a build directory's own), which brings its size, tile and world.
     pub scene: PathBuf,
-    /// Cells a side of the world (up to 65536).
+    /// Cells a side of the world (up to 65536); required with a scene file.
     #[arg(allow_hyphen_values = true, long)]
-    pub size: usize,
+    pub size: Option<usize>,
     /// Cells a side of a tile, a multiple of 16 (64 to 8192) [default: 2048].
-    #[arg(allow_hyphen_values = true, long, default_value_t = 2048)]
-    pub tile: usize,
+    #[arg(allow_hyphen_values = true, long)]
+    pub tile: Option<usize>,
     /// Cells a side of the global build, the scene through every stage in one piece, which
     /// levels of wavelet detail take to --size [default: the largest up to 2049; 4097 for
     /// 32768].
@@ -37,6 +38,10 @@ pub struct BuildArgs {
     /// Assemble world.tif from the finished tiles, nothing else.
     #[arg(long)]
     pub assemble: bool,
+    /// Print how far the build in --out has come (tasks done of all, world.tif or not),
+    /// nothing else: for watching a batch engine's run.
+    #[arg(long)]
+    pub status: bool,
     /// Also write the world as an engine's tiles sharing their edges, on one height range,
     /// in DIR/engine with the numbers to type in: unreal, unity, godot, gaea-wm or gis. The
     /// world must be a whole number of tiles plus one vertex, and the engine must take
@@ -46,8 +51,7 @@ pub struct BuildArgs {
 }
 
 pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
-    let scene = super::generate::read_scene(&args.scene)?;
-    let plan = Plan::new(&scene, args.size, args.tile, args.world)?;
+    let plan = plan_of(args)?;
     let engine = match args.engine.as_deref() {
         Some(key) => {
             let engine = Engine::from_key(key).ok_or_else(|| {
@@ -63,21 +67,14 @@ pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
         None => None,
     };
     let dir = BuildDir::new(&args.out);
-    task::write_plan(&dir, &plan)?;
     let tasks = plan.tasks();
+    if args.status {
+        println!("{}", status_line(&dir, &plan));
+        return Ok(());
+    }
+    task::write_plan(&dir, &plan)?;
     if args.plan {
-        println!(
-            "plan: {} tasks (0: the global build at {}^2; 1 to {}: the tiles), {}^2 cells \
-             in {} x {} tiles of {}, {} levels of detail",
-            tasks,
-            plan.world,
-            tasks - 1,
-            plan.size,
-            plan.tiles_per_side(),
-            plan.tiles_per_side(),
-            plan.tile,
-            plan.levels
-        );
+        println!("{}", plan_line(&plan));
         return Ok(());
     }
     let ctx = JobCtx::detached();
@@ -108,6 +105,71 @@ pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
         print!("{}", tiles.numbers.text());
     }
     Ok(())
+}
+
+/// How far the build in `dir` has come.
+fn status_line(dir: &BuildDir, plan: &Plan) -> String {
+    let tasks = plan.tasks();
+    let done = (0..tasks).filter(|&k| dir.done(plan, k)).count();
+    let world = if dir.world_tif().is_file() {
+        format!("{} written", dir.world_tif().display())
+    } else {
+        "world.tif not yet".into()
+    };
+    format!("tasks done: {done} of {tasks}; {world}")
+}
+
+/// What the plan is, in a line: its tasks, world, tiles and levels.
+fn plan_line(plan: &Plan) -> String {
+    let tasks = plan.tasks();
+    let per = plan.tiles_per_side();
+    format!(
+        "plan: {tasks} tasks (0: the global build at {}^2; 1 to {}: the tiles), {}^2 cells in \
+         {per} x {per} tiles of {}, {} levels of detail",
+        plan.world,
+        tasks - 1,
+        plan.size,
+        plan.tile,
+        plan.levels
+    )
+}
+
+/// The plan the arguments ask for: from a plan file as it is (the flags may only repeat it),
+/// or for a scene file at `--size` in tiles of `--tile`.
+fn plan_of(args: &BuildArgs) -> Result<Plan, Box<dyn std::error::Error>> {
+    const DEFAULT_TILE: usize = 2048;
+    let text = std::fs::read_to_string(&args.scene)
+        .map_err(|e| format!("{}: {e}", args.scene.display()))?;
+    let looks_like_plan = serde_json::from_str::<serde_json::Value>(&text)
+        .is_ok_and(|v| v.get("tile").is_some() && v.get("world").is_some());
+    if looks_like_plan {
+        let plan = Plan::from_json(&text).map_err(|e| format!("{}: {e}", args.scene.display()))?;
+        let differs = args.size.is_some_and(|s| s != plan.size)
+            || args.tile.is_some_and(|t| t != plan.tile)
+            || args.world.is_some_and(|w| w != plan.world);
+        if differs {
+            return Err(format!(
+                "{} is a plan (size {}, tile {}, world {}): --size, --tile and --world may \
+                 only repeat it",
+                args.scene.display(),
+                plan.size,
+                plan.tile,
+                plan.world
+            )
+            .into());
+        }
+        return Ok(plan);
+    }
+    let scene = super::generate::read_scene(&args.scene)?;
+    let size = args
+        .size
+        .ok_or("--size: give the world's cells a side (a scene file has no world size)")?;
+    Ok(Plan::new(
+        &scene,
+        size,
+        args.tile.unwrap_or(DEFAULT_TILE),
+        args.world,
+    )?)
 }
 
 /// Every task not yet done, in order, with the count and the time left on stderr.

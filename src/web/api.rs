@@ -6,6 +6,8 @@
 //!   lastRun, lastError}`; `compute` is "webgpu" on the GPU path and "cpu" on the fallback.
 //! - `selfTest()`: a promise of the CPU/GPU comparison (`diffusion::selftest::SelfTest`).
 //! - `scene()`: the current scene (the document, see `crate::scene`).
+//! - `worldPlan({size, tile, world})`: the plan of a world in tiles of the current scene
+//!   (`crate::world::Plan`), the file `strahler build` takes; throws naming a bad option.
 //! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
 //! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
 //!   first); throws on invalid values. Both regenerate the terrain.
@@ -91,6 +93,32 @@ fn install_reports(api: &js_sys::Object, automation: &Automation) {
     });
     set(api, "scene", scene.as_ref());
     scene.forget();
+
+    let plan_source = automation.clone();
+    let world_plan =
+        Closure::<dyn Fn(JsValue) -> Result<JsValue, JsValue>>::new(move |options: JsValue| {
+            let scene = plan_source
+                .scene()
+                .ok_or_else(|| error("Strahler has not started yet"))?;
+            let number = |key: &str| -> Result<Option<usize>, JsValue> {
+                let value = js_sys::Reflect::get(&options, &JsValue::from_str(key))
+                    .map_err(|_| error("options must be an object like {size: 16384}"))?;
+                match value.as_f64() {
+                    None if value.is_undefined() => Ok(None),
+                    Some(v) if v.fract() == 0.0 && (1.0..=1e9).contains(&v) => Ok(Some(v as usize)),
+                    _ => Err(error(format!(
+                        "worldPlan: {key} must be a whole number of cells"
+                    ))),
+                }
+            };
+            let size = number("size")?.ok_or_else(|| error("worldPlan: give {size}"))?;
+            let tile = number("tile")?.unwrap_or(2048);
+            let plan = crate::world::Plan::new(&scene, size, tile, number("world")?)
+                .map_err(|e| error(format!("worldPlan: {e}")))?;
+            Ok(to_js(&plan))
+        });
+    set(api, "worldPlan", world_plan.as_ref());
+    world_plan.forget();
 }
 
 /// The scene's edits: `loadScene`, `addRiver`, `maskFromRivers` and `paintMask`.

@@ -175,6 +175,22 @@ async function runMode(url, mode, expectedChecksum) {
     }
     check('scene() returns the document', scene.version === 1 && scene.rivers.length === 1,
       JSON.stringify(scene));
+    // A world in tiles of this scene, planned in the page for `strahler build` (issue 37).
+    const plan = await page.evaluate(() => window.strahler.worldPlan({ size: 16384, tile: 2048 }));
+    check('worldPlan() plans a world in tiles of the scene',
+      plan.size === 16384 && plan.tile === 2048 && plan.world === 2049 && plan.levels === 3
+      && JSON.stringify(plan.scene) === JSON.stringify(scene), JSON.stringify(plan).slice(0, 200));
+    const badPlan = await page.evaluate(() => {
+      try { window.strahler.worldPlan({ size: 16384, tile: 100 }); return null; } catch (e) { return String(e.message); }
+    });
+    check('worldPlan() names a bad option', badPlan !== null && badPlan.includes('multiple of 16'), String(badPlan));
+    if (mode === 'cpu' && process.env.STRAHLER_BIN) {
+      const file = join(output, 'plan.json');
+      writeFileSync(file, JSON.stringify(plan));
+      const printed = execFileSync(process.env.STRAHLER_BIN,
+        ['build', file, '--plan', '--out', join(output, 'world')]).toString();
+      check('strahler build takes the page\'s plan', printed.includes('65 tasks'), printed);
+    }
     await goldenScenes(page, mode);
     // Back to the first scene for the edits below.
     await page.evaluate((s) => window.strahler.loadScene(s), scene);
