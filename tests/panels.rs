@@ -824,6 +824,41 @@ fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
     assert!(h.state().actions.is_empty(), "nothing is asked for");
 }
 
+/// Folded below the export: a world in tiles larger than the map, the tasks its plan makes,
+/// and the plan saved for `strahler build`.
+#[test]
+fn export_dialog_saves_the_plan_of_a_world_in_tiles() {
+    let info = ExportInfo {
+        native: 512,
+        cell_m: 10_000.0 / 511.0,
+        range: (0.0, 800.0),
+        preview_of: None,
+        vertical_scale: 1.0,
+        textures: Default::default(),
+    };
+    let dialog = ExportDialog {
+        open: true,
+        ..Default::default()
+    };
+    let mut h = harness(Bench::new(dialog, Scene::default()), move |p, ui, _, _| {
+        p.show(ui.ctx(), &info)
+    });
+    h.run();
+    h.get_by_label("A world in tiles").click();
+    h.run();
+    assert!(
+        h.query_by_label_contains("65 tasks: the global build at 2049^2, then 8 x 8 tiles")
+            .is_some(),
+        "the plan of a 16384^2 world in tiles of 2048"
+    );
+    h.get_by_label("Save the world plan").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::SaveWorldPlan { size, tile }] => assert_eq!((*size, *tile), (16_384, 2048)),
+        other => panic!("{other:?}"),
+    }
+}
+
 /// The status bar alone: the compute path, what the map shows, the running job's bar with
 /// its stage and the time left, the active tool's hint and the height under the pointer.
 #[test]

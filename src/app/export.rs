@@ -82,6 +82,28 @@ impl StrahlerApp {
         }
     }
 
+    /// Saves the plan of a world of the scene in tiles (`strahler build plan.json` builds
+    /// it on one machine or a batch engine).
+    pub(super) fn save_world_plan(&mut self, size: usize, tile: usize) {
+        let scene = self.session.scene().clone();
+        let saved = crate::world::Plan::new(&scene, size, tile, None)
+            .map_err(|e| e.to_string())
+            .and_then(|plan| {
+                let stem = super::files::free_stem("strahler-world-plan", &[".json"]);
+                let name = format!("{stem}.json");
+                super::files::save(&name, "application/json", plan.to_json().as_bytes())
+                    .map(|said| (said, name))
+            });
+        match saved {
+            Ok((said, name)) => {
+                self.messages.notice = Some(format!(
+                    "World plan {said}: build it with `strahler build {name} --out world`"
+                ))
+            }
+            Err(problem) => self.set_error(format!("The world plan: {problem}")),
+        }
+    }
+
     /// Starts exporting `request` for the dialog (and the skeleton's layers with `layers`).
     pub(super) fn download(&mut self, ctx: &egui::Context, mut request: Request, layers: bool) {
         let suffixes: Vec<String> = request

@@ -249,6 +249,7 @@ impl StrahlerApp {
             Action::Dem(action) => self.dem_action(ctx, action),
             Action::Document(action) => self.document_action(action),
             Action::Export { request, layers } => self.download(ctx, request, layers),
+            Action::SaveWorldPlan { size, tile } => self.save_world_plan(size, tile),
         }
     }
 

@@ -1,7 +1,8 @@
 //! The export dialog: the terrain for a game engine or a GIS. Pick an engine (or a plain
 //! file), its size and format, tiles, texture maps and the river network; the dialog shows
 //! the files it will write and the numbers to type into the engine before anything is
-//! written. In the browser a heightmap and its sidecar download as they are, more files as
+//! written. Folded below: the plan of a world in tiles larger than the map, for
+//! `strahler build`. In the browser a heightmap and its sidecar download as they are, more files as
 //! one zip; natively they are saved in the working directory.
 
 use egui::{ComboBox, DragValue, RichText};
@@ -42,6 +43,8 @@ pub struct ExportDialog {
     pub rivers: bool,
     /// Also the skeleton's layers (rivers, ridges, constraints) as PNGs.
     pub layers: bool,
+    /// A world in tiles of the scene: its cells a side and its tiles'.
+    pub world: (usize, usize),
 }
 
 impl Default for ExportDialog {
@@ -58,6 +61,7 @@ impl Default for ExportDialog {
             normals: NormalConvention::OpenGl,
             rivers: false,
             layers: false,
+            world: (16_384, 2048),
         }
     }
 }
@@ -158,6 +162,64 @@ impl ExportDialog {
                 layers: self.layers,
             });
         }
+        actions.extend(self.world_rows(ui));
+        actions
+    }
+
+    /// Larger than the map: the plan of a world in tiles, for `strahler build`.
+    fn world_rows(&mut self, ui: &mut egui::Ui) -> Vec<Action> {
+        let mut actions = Vec::new();
+        egui::CollapsingHeader::new("A world in tiles")
+            .default_open(false)
+            .show(ui, |ui| {
+                ui.label(
+                    RichText::new(
+                        "Larger than one piece (up to 65536 x 65536): the scene built at a \
+                         global size with levels of detail above it, in tiles, on your machine \
+                         or a batch engine, by `strahler build` from this plan.",
+                    )
+                    .weak(),
+                );
+                let (size, tile) = &mut self.world;
+                ui.horizontal(|ui| {
+                    let label = ui.label("Cells a side");
+                    ui.add(DragValue::new(size).range(1024..=65_536).speed(64))
+                        .labelled_by(label.id);
+                    let label = ui.label("Tile");
+                    ComboBox::from_id_salt("world tile")
+                        .selected_text(tile.to_string())
+                        .show_ui(ui, |ui| {
+                            for side in [1008, 1024, 2016, 2048, 4032, 4096] {
+                                ui.selectable_value(tile, side, side.to_string());
+                            }
+                        })
+                        .response
+                        .labelled_by(label.id);
+                });
+                let scene = crate::scene::Scene::default();
+                match crate::world::Plan::new(&scene, *size, *tile, None) {
+                    Ok(plan) => {
+                        ui.label(format!(
+                            "{} tasks: the global build at {}^2, then {} x {} tiles with {} \
+                             levels of detail",
+                            plan.tasks(),
+                            plan.world,
+                            plan.tiles_per_side(),
+                            plan.tiles_per_side(),
+                            plan.levels
+                        ));
+                        if ui.button("Save the world plan").clicked() {
+                            actions.push(Action::SaveWorldPlan {
+                                size: *size,
+                                tile: *tile,
+                            });
+                        }
+                    }
+                    Err(problem) => {
+                        ui.colored_label(ui.visuals().error_fg_color, problem.to_string());
+                    }
+                }
+            });
         actions
     }
 

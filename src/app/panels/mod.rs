@@ -70,6 +70,8 @@ pub enum Action {
         request: crate::export::Request,
         layers: bool,
     },
+    /// Save the plan of a world in tiles of the scene (`strahler build`'s input).
+    SaveWorldPlan { size: usize, tile: usize },
 }
 
 /// Every panel of the side panel, with its own state.
