@@ -46,8 +46,8 @@ pub struct GenerateArgs {
     /// of its sideways offset in stroke lengths, 0 to 0.2 (0: straight) [default: 0.08].
     #[arg(allow_hyphen_values = true, long)]
     pub wander: Option<f64>,
-    /// Meanders of the rivers' channels on their floodplains: the largest angle between the
-    /// channel and its valley, 0 to 100 degrees (0: none; 40 is gently sinuous, 70 about 1.5
+    /// Meanders of the drawn rivers' channels on their floodplains: the largest angle
+    /// between the channel and its valley, 0 to 100 degrees (0: none; 40 is gently sinuous, 70 about 1.5
     /// times the valley's length, 90 twice) [default: 0].
     #[arg(allow_hyphen_values = true, long)]
     pub meander: Option<f64>,

@@ -16,8 +16,8 @@
 //! Bulletin 71: `lambda = 10.9 w^1.01`), and whose direction follows the sine-generated curve
 //! of Langbein and Leopold 1966 ("River meanders: theory of minimum variance", USGS PP 422-H):
 //! `theta(s) = omega cos(2 pi s / M)`, `omega` the largest angle to the valley's axis. Each
-//! link gets its wavelength from its own width, so loops grow downstream; the skeleton draws
-//! them ([`crate::skeleton::meander`]).
+//! link of a drawn river (the trunk) gets its wavelength from its own width, so loops grow
+//! downstream; the skeleton draws them ([`crate::skeleton::meander`]).
 
 use super::RiverNetwork;
 
@@ -98,9 +98,14 @@ pub fn link_areas(net: &RiverNetwork, map_width_m: f64) -> Vec<f64> {
     upstream.iter().map(|u| u * strip).collect()
 }
 
-/// Every node's [`Bends`] for the link from its parent: the scene's angle, and a wavelength
-/// of `wavelength_widths` times the link's channel width ([`channel_width_m`] of
-/// [`link_areas`]). All default (straight) when `meanders.angle_deg` is 0. O(nodes).
+/// Every node's [`Bends`] for the link from its parent: on the trunk (the river the user
+/// drew), the scene's angle and a wavelength of `wavelength_widths` times the link's channel
+/// width ([`channel_width_m`] of [`link_areas`]); the grown branches stay as they wander.
+/// All default (straight) when `meanders.angle_deg` is 0. O(nodes).
+///
+/// Only the trunks: rivers meander on floodplains, and the drawn rivers are the ones the
+/// erosion gives a floor wide enough for their loops; a grown branch's loops, a dozen cells
+/// long where the grid first resolves them, were carved into the slopes as saw-tooth gullies.
 pub fn bends_of(net: &RiverNetwork, meanders: &Meanders, map_width_m: f64) -> Vec<Bends> {
     if meanders.angle_deg <= 0.0 || map_width_m <= 0.0 {
         return vec![Bends::default(); net.nodes.len()];
@@ -108,9 +113,13 @@ pub fn bends_of(net: &RiverNetwork, meanders: &Meanders, map_width_m: f64) -> Ve
     let angle = meanders.angle_deg.min(MAX_ANGLE_DEG).to_radians();
     link_areas(net, map_width_m)
         .into_iter()
-        .map(|area| Bends {
-            angle,
-            wavelength: meanders.wavelength_widths * channel_width_m(area) / map_width_m,
+        .enumerate()
+        .map(|(node, area)| match net.trunk.get(node) {
+            Some(true) => Bends {
+                angle,
+                wavelength: meanders.wavelength_widths * channel_width_m(area) / map_width_m,
+            },
+            _ => Bends::default(),
         })
         .collect()
 }
@@ -149,7 +158,7 @@ mod tests {
     }
 
     /// Widths follow hydraulic geometry (four times the area, twice the width), so meander
-    /// wavelengths grow downstream, in the asked number of channel widths.
+    /// wavelengths grow downstream along the trunk, in the asked number of channel widths.
     #[test]
     fn meander_wavelengths_grow_downstream_as_channel_widths() {
         assert!((channel_width_m(400e6) / channel_width_m(100e6) - 2.0).abs() < 1e-12);
@@ -161,13 +170,19 @@ mod tests {
         };
         let bends = bends_of(&net, &meanders, 10_000.0);
         let areas = link_areas(&net, 10_000.0);
-        for (b, a) in bends.iter().zip(&areas) {
+        for node in [1, 2, 4] {
+            let (b, a) = (bends[node], areas[node]);
             assert!((b.angle - 60f64.to_radians()).abs() < 1e-12);
-            let widths = b.wavelength * 10_000.0 / channel_width_m(*a);
+            let widths = b.wavelength * 10_000.0 / channel_width_m(a);
             assert!((widths - 11.0).abs() < 1e-9, "{widths}");
         }
         assert!(bends[1].wavelength > bends[2].wavelength);
         assert!(bends[2].wavelength > bends[4].wavelength);
+        assert_eq!(
+            bends[3],
+            Bends::default(),
+            "a grown branch stays as it wanders"
+        );
         let none = bends_of(&net, &Meanders::default(), 10_000.0);
         assert!(none.iter().all(|b| *b == Bends::default()));
     }

@@ -131,10 +131,10 @@ fn edit_params(ui: &mut egui::Ui, params: &mut Params) {
 fn meander_rows(ui: &mut egui::Ui, meanders: &mut crate::river::hydraulic::Meanders) {
     use crate::river::hydraulic::{MAX_ANGLE_DEG, WAVELENGTH_WIDTHS};
     let label = ui.label("Meanders (°)").on_hover_text(
-        "Loops of the rivers' channels on their floodplains: the largest angle between the \
-         channel and its valley (0: none; 40 gently sinuous, 70 about 1.5 times the valley's \
-         length, 90 twice). Loops show where the map has at least 12 cells a wavelength: \
-         the larger rivers, and more of them on larger maps.",
+        "Loops of the drawn rivers' channels on their floodplains: the largest angle between \
+         the channel and its valley (0: none; 40 gently sinuous, 70 about 1.5 times the \
+         valley's length, 90 twice). Loops show where the map has at least 12 cells a \
+         wavelength: the lower reaches, and more of them on larger maps.",
     );
     ui.add(
         DragValue::new(&mut meanders.angle_deg)
