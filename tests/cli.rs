@@ -1931,6 +1931,21 @@ fn generate_shows_one_bar_that_only_moves_forward() {
 
 /// `generate --mask KIND=PNG`: a painted uplift mask changes the eroded terrain (not the
 /// hydrology under it); an unknown kind or a missing file is refused naming the flag.
+/// `strahler` with `base`, then `extra`, writing its report to `path`: the report, once the
+/// run succeeded.
+fn generate_report(path: &std::path::Path, base: &[&str], extra: &[&str]) -> serde_json::Value {
+    let mut args = base.to_vec();
+    args.extend_from_slice(extra);
+    args.extend_from_slice(&["--report", path.to_str().unwrap()]);
+    let result = strahler(&args);
+    assert!(
+        result.status.success(),
+        "{}",
+        String::from_utf8_lossy(&result.stderr)
+    );
+    serde_json::from_slice::<serde_json::Value>(&std::fs::read(path).unwrap()).unwrap()
+}
+
 #[test]
 fn generate_takes_painted_masks() {
     let dir = out_dir();
@@ -1947,19 +1962,8 @@ fn generate_takes_painted_masks() {
     );
     let png = dir.join("uplift-mask.png");
     std::fs::write(&png, mask.to_png().unwrap()).unwrap();
-    let report = |name: &str, extra: &[&str]| {
-        let path = dir.join(name);
-        let mut args = vec!["generate", "--size", "64", "--map-width", "6400"];
-        args.extend_from_slice(extra);
-        args.extend_from_slice(&["--report", path.to_str().unwrap()]);
-        let result = strahler(&args);
-        assert!(
-            result.status.success(),
-            "{}",
-            String::from_utf8_lossy(&result.stderr)
-        );
-        serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).unwrap()).unwrap()
-    };
+    let base = ["generate", "--size", "64", "--map-width", "6400"];
+    let report = |name: &str, extra: &[&str]| generate_report(&dir.join(name), &base, extra);
     let plain = report("mask-plain.json", &[]);
     let given = format!("uplift={}", png.display());
     let raised = report("mask-uplift.json", &["--mask", &given]);
@@ -1987,19 +1991,8 @@ fn generate_takes_painted_masks() {
 #[test]
 fn generate_takes_the_border_and_meanders() {
     let dir = out_dir();
-    let report = |name: &str, extra: &[&str]| {
-        let path = dir.join(name);
-        let mut args = vec!["generate", "--size", "320", "--progress", "never"];
-        args.extend_from_slice(extra);
-        args.extend_from_slice(&["--report", path.to_str().unwrap()]);
-        let result = strahler(&args);
-        assert!(
-            result.status.success(),
-            "{}",
-            String::from_utf8_lossy(&result.stderr)
-        );
-        serde_json::from_slice::<serde_json::Value>(&std::fs::read(&path).unwrap()).unwrap()
-    };
+    let base = ["generate", "--size", "320", "--progress", "never"];
+    let report = |name: &str, extra: &[&str]| generate_report(&dir.join(name), &base, extra);
     let open = report("border-open.json", &[]);
     let closed = report("border-closed.json", &["--border", "closed"]);
     assert_ne!(open["checksum"], closed["checksum"]);
