@@ -52,20 +52,11 @@ pub struct BuildArgs {
 
 pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
     let plan = plan_of(args)?;
-    let engine = match args.engine.as_deref() {
-        Some(key) => {
-            let engine = Engine::from_key(key).ok_or_else(|| {
-                let keys: Vec<&str> = Engine::ALL.iter().map(|e| e.key()).collect();
-                format!(
-                    "--engine: unknown engine {key:?}; use one of {}",
-                    keys.join(", ")
-                )
-            })?;
-            crate::world::engine::check(&plan, engine)?;
-            Some(engine)
-        }
-        None => None,
-    };
+    let engine = args
+        .engine
+        .as_deref()
+        .map(|key| engine_for(key, &plan))
+        .transpose()?;
     let dir = BuildDir::new(&args.out);
     let tasks = plan.tasks();
     if args.status {
@@ -105,6 +96,19 @@ pub fn run(args: &BuildArgs) -> Result<(), Box<dyn std::error::Error>> {
         print!("{}", tiles.numbers.text());
     }
     Ok(())
+}
+
+/// The engine `--engine KEY` names, checked against the plan before any task runs.
+fn engine_for(key: &str, plan: &Plan) -> Result<Engine, Box<dyn std::error::Error>> {
+    let engine = Engine::from_key(key).ok_or_else(|| {
+        let keys: Vec<&str> = Engine::ALL.iter().map(|e| e.key()).collect();
+        format!(
+            "--engine: unknown engine {key:?}; use one of {}",
+            keys.join(", ")
+        )
+    })?;
+    crate::world::engine::check(plan, engine)?;
+    Ok(engine)
 }
 
 /// How far the build in `dir` has come.
