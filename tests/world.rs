@@ -130,6 +130,10 @@ fn a_world_is_the_same_in_tiles_or_in_one_piece() {
     ]
     .concat());
     assert_eq!(std::fs::read(&tile).unwrap(), good, "the same bits again");
+    assert!(
+        !tiled.join("tiles").join(".r002-c003.f32.999.part").exists(),
+        "the killed task's temporary file is gone once the world is assembled"
+    );
     ok(&[
         &[
             "build",

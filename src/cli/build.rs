@@ -211,6 +211,10 @@ fn assemble(dir: &BuildDir, plan: &Plan) -> Result<(), Box<dyn std::error::Error
         )
         .into());
     }
+    let leftovers = task::remove_leftovers(dir);
+    if leftovers > 0 {
+        eprintln!("removed {leftovers} temporary files that killed tasks left");
+    }
     let cell_m = plan.cell_m();
     let width_m = plan.size as f64 * cell_m;
     let centre = plan.scene.location.map(|l| [l.lon, l.lat]);

@@ -107,6 +107,26 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WorldError> {
     std::fs::rename(&temporary, path).map_err(io)
 }
 
+/// Removes what killed tasks left: their temporary files (`.NAME.PID.part`) in the build's
+/// directory and its tiles. Only once every task is done (no task is writing then); returns
+/// how many were removed.
+pub fn remove_leftovers(dir: &BuildDir) -> usize {
+    let mut removed = 0;
+    for folder in [dir.root.clone(), dir.root.join("tiles")] {
+        let Ok(entries) = std::fs::read_dir(&folder) else {
+            continue;
+        };
+        for entry in entries.flatten() {
+            let name = entry.file_name().to_string_lossy().into_owned();
+            let leftover = name.starts_with('.') && name.ends_with(".part");
+            if leftover && std::fs::remove_file(entry.path()).is_ok() {
+                removed += 1;
+            }
+        }
+    }
+    removed
+}
+
 /// Writes the plan, or checks that the one already in `dir` is the same (a directory holds
 /// one build; resuming it must not change it).
 pub fn write_plan(dir: &BuildDir, plan: &Plan) -> Result<(), WorldError> {
