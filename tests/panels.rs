@@ -769,19 +769,24 @@ fn document_row_asks_for_undo_save_open_and_dismissals() {
     );
 }
 
-/// The export dialog: an engine preset shows the numbers to type in and the files before
-/// anything is written, refuses tiles that do not share edges, and asks for the export.
-#[test]
-fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
-    use strahler::export::{Engine, MapKind};
-    let info = ExportInfo {
+/// What the export dialog knows of a 512^2 terrain of a 10 km map, 0 to 800 m.
+fn export_info() -> ExportInfo {
+    ExportInfo {
         native: 512,
         cell_m: 10_000.0 / 511.0,
         range: (0.0, 800.0),
         preview_of: None,
         vertical_scale: 1.0,
         textures: Default::default(),
-    };
+    }
+}
+
+/// The export dialog: an engine preset shows the numbers to type in and the files before
+/// anything is written, refuses tiles that do not share edges, and asks for the export.
+#[test]
+fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
+    use strahler::export::{Engine, MapKind};
+    let info = export_info();
     let mut dialog = ExportDialog {
         open: true,
         ..Default::default()
@@ -828,14 +833,7 @@ fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
 /// and the plan saved for `strahler build`.
 #[test]
 fn export_dialog_saves_the_plan_of_a_world_in_tiles() {
-    let info = ExportInfo {
-        native: 512,
-        cell_m: 10_000.0 / 511.0,
-        range: (0.0, 800.0),
-        preview_of: None,
-        vertical_scale: 1.0,
-        textures: Default::default(),
-    };
+    let info = export_info();
     let dialog = ExportDialog {
         open: true,
         ..Default::default()

@@ -4,7 +4,7 @@
 //! harmless (a finished one is skipped).
 //!
 //! - Task 0, the global build: the scene through the whole pipeline at the plan's `world`
-//!   size (`world.f32`, little-endian `f32`, row-major; `preview.tif`, the same as a
+//!   size (`world.f32`, RAW R32: little-endian `f32`, row-major; `preview.tif`, the same as a
 //!   GeoTIFF: the whole world at low resolution before any tile), and the standard
 //!   deviations of its levels of detail from its wavelet statistics (`world.json`).
 //! - Task `k` >= 1, tile `k - 1`: its cells of the world, the global build with the levels of
@@ -206,8 +206,7 @@ async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), W
     let preview = crate::dem::geotiff::write(field, &georef)
         .map_err(|e| WorldError::Io(format!("the preview: {e}")))?;
     write_atomically(&dir.preview(), &preview)?;
-    let bytes: Vec<u8> = field.data().iter().flat_map(|v| v.to_le_bytes()).collect();
-    write_atomically(&dir.world(), &bytes)?;
+    write_atomically(&dir.world(), &crate::dem::raw32::write(field, false))?;
     let text = serde_json::to_string_pretty(&info).unwrap_or_default();
     write_atomically(&dir.world_info(), text.as_bytes())
 }
@@ -235,11 +234,7 @@ pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTabl
             dir.world().display()
         )));
     }
-    let data = bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect();
-    let field = Heightfield::from_vec(n, n, data).map_err(|e| WorldError::Io(e.to_string()))?;
+    let field = raw32(&bytes, n, n)?;
     if field.checksum() != info.checksum {
         return Err(WorldError::Io(format!(
             "{} does not match its checksum in {}: remove both and run task 0 again",
@@ -281,8 +276,12 @@ fn tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
     let (world, sigma) = read_world(dir, plan)?;
     let (row, col, window) = plan.tile(k);
     let heights = cells(&world, &sigma, plan, window);
-    let bytes: Vec<u8> = heights.iter().flat_map(|v| v.to_le_bytes()).collect();
-    write_atomically(&dir.tile(row, col), &bytes)
+    let field = Heightfield::from_vec(window.width, window.height, heights)
+        .map_err(|e| WorldError::Io(e.to_string()))?;
+    write_atomically(
+        &dir.tile(row, col),
+        &crate::dem::raw32::write(&field, false),
+    )
 }
 
 /// A finished tile's heights.
@@ -306,8 +305,12 @@ pub fn read_tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Vec<f32>, Worl
             window.height
         )));
     }
-    Ok(bytes
-        .chunks_exact(4)
-        .map(|b| f32::from_le_bytes([b[0], b[1], b[2], b[3]]))
-        .collect())
+    Ok(raw32(&bytes, window.width, window.height)?.into_vec())
+}
+
+/// A `w x h` field from the RAW R32 bytes the tasks write (their length checked before).
+fn raw32(bytes: &[u8], w: usize, h: usize) -> Result<Heightfield, WorldError> {
+    crate::dem::raw32::read(bytes, false, Default::default(), Some((w, h)))
+        .map(|dem| dem.field)
+        .map_err(|e| WorldError::Io(e.to_string()))
 }
