@@ -845,7 +845,7 @@ fn export_dialog_saves_the_plan_of_a_world_in_tiles() {
     h.get_by_label("A world in tiles").click();
     h.run();
     assert!(
-        h.query_by_label_contains("65 tasks: the global build at 2049^2, then 8 x 8 tiles")
+        h.query_by_label_contains("129 tasks: the global build at 2049^2, then 8 x 8 tiles")
             .is_some(),
         "the plan of a 16384^2 world in tiles of 2048"
     );

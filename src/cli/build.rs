@@ -28,10 +28,15 @@ pub struct BuildArgs {
     /// The build's directory: its plan, the global build, the tiles and world.tif.
     #[arg(long)]
     pub out: PathBuf,
-    /// Run this task only and stop (0: the global build; 1 to N: tile N - 1, which needs
-    /// task 0 done): one task of a batch engine's array. A finished task is skipped.
+    /// Run this task only and stop: one task of a batch engine's array (--plan prints the
+    /// stages: task 0, the global build; with refinement one task per tile's window; then
+    /// one per tile; each stage needs the one before done). A finished task is skipped.
     #[arg(allow_hyphen_values = true, long)]
     pub task: Option<usize>,
+    /// Do not refine the erosion at the world's resolution: the tiles are the global build
+    /// and its levels of detail alone, every cell exact (half the tasks).
+    #[arg(long)]
+    pub no_refine: bool,
     /// Write the plan and print its number of tasks, nothing else.
     #[arg(long)]
     pub plan: bool,
@@ -123,19 +128,33 @@ fn status_line(dir: &BuildDir, plan: &Plan) -> String {
     format!("tasks done: {done} of {tasks}; {world}")
 }
 
-/// What the plan is, in a line: its tasks, world, tiles and levels.
+/// What the plan is: its tasks, world, tiles and levels in a line, then a line a stage
+/// (`stage S: tasks A-B, what they do`), in the order they must run.
 fn plan_line(plan: &Plan) -> String {
-    let tasks = plan.tasks();
     let per = plan.tiles_per_side();
-    format!(
-        "plan: {tasks} tasks (0: the global build at {}^2; 1 to {}: the tiles), {}^2 cells in \
-         {per} x {per} tiles of {}, {} levels of detail",
-        plan.world,
-        tasks - 1,
+    let stages = plan.stages();
+    let mut text = format!(
+        "plan: {} tasks in {} stages, {}^2 cells in {per} x {per} tiles of {}, {} levels of \
+         detail{}",
+        plan.tasks(),
+        stages.len(),
         plan.size,
         plan.tile,
-        plan.levels
-    )
+        plan.levels,
+        if plan.refine {
+            ", the erosion refined per tile"
+        } else {
+            ""
+        }
+    );
+    for (s, (tasks, what)) in stages.iter().enumerate() {
+        text.push_str(&format!(
+            "\nstage {s}: tasks {}-{}, {what}",
+            tasks.start(),
+            tasks.end()
+        ));
+    }
+    text
 }
 
 /// The plan the arguments ask for: from a plan file as it is (the flags may only repeat it),
@@ -147,7 +166,11 @@ fn plan_of(args: &BuildArgs) -> Result<Plan, Box<dyn std::error::Error>> {
     let looks_like_plan = serde_json::from_str::<serde_json::Value>(&text)
         .is_ok_and(|v| v.get("tile").is_some() && v.get("world").is_some());
     if looks_like_plan {
-        let plan = Plan::from_json(&text).map_err(|e| format!("{}: {e}", args.scene.display()))?;
+        let mut plan =
+            Plan::from_json(&text).map_err(|e| format!("{}: {e}", args.scene.display()))?;
+        if args.no_refine {
+            plan = plan.without_refinement();
+        }
         let differs = args.size.is_some_and(|s| s != plan.size)
             || args.tile.is_some_and(|t| t != plan.tile)
             || args.world.is_some_and(|w| w != plan.world);
@@ -168,12 +191,12 @@ fn plan_of(args: &BuildArgs) -> Result<Plan, Box<dyn std::error::Error>> {
     let size = args
         .size
         .ok_or("--size: give the world's cells a side (a scene file has no world size)")?;
-    Ok(Plan::new(
-        &scene,
-        size,
-        args.tile.unwrap_or(DEFAULT_TILE),
-        args.world,
-    )?)
+    let plan = Plan::new(&scene, size, args.tile.unwrap_or(DEFAULT_TILE), args.world)?;
+    Ok(if args.no_refine {
+        plan.without_refinement()
+    } else {
+        plan
+    })
 }
 
 /// Every task not yet done, in order, with the count and the time left on stderr.
@@ -201,13 +224,16 @@ fn run_all(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), Box<dyn std:
 
 /// `world.tif` in the build's directory from the finished tiles.
 fn assemble(dir: &BuildDir, plan: &Plan) -> Result<(), Box<dyn std::error::Error>> {
-    let missing: Vec<usize> = (1..plan.tasks()).filter(|&k| !dir.done(plan, k)).collect();
+    let missing: Vec<usize> = (0..plan.tile_count())
+        .map(|k| plan.tile_task(k))
+        .filter(|&k| !dir.done(plan, k))
+        .collect();
     if let Some(first) = missing.first() {
         return Err(format!(
             "{} of {} tiles are not built yet (task {first} first): run their tasks, then \
              --assemble",
             missing.len(),
-            plan.tasks() - 1
+            plan.tile_count()
         )
         .into());
     }
@@ -232,6 +258,7 @@ fn assemble(dir: &BuildDir, plan: &Plan) -> Result<(), Box<dyn std::error::Error
                 .map_err(|e| crate::dem::DemError::Write(e.to_string()))
         },
     )?;
+    task::remove_refined(dir);
     println!(
         "{}: {}^2 cells, tiled {} x {}, {} overviews, {:.1} MB",
         path.display(),

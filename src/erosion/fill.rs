@@ -303,7 +303,7 @@ impl Lakes {
             // that drained into the lake (their donors); other slopes did not get steeper.
             // A drawn receiver depends on every lower neighbour's slope, so there every
             // neighbour of the lake is drawn again (as the GPU redraws every cell).
-            let random = matches!(net.pick, super::flow::Pick::Random(_));
+            let random = matches!(net.pick, super::flow::Pick::Random(..));
             for &c in &s.lake_list {
                 let donors = net.donors[c];
                 let (x, y) = grid.xy(c);

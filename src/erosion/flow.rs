@@ -39,8 +39,37 @@ pub(super) const NONE: u8 = 8;
 pub(super) enum Pick {
     /// The steepest descent, ties to the first in D8 order.
     Steepest,
-    /// One drawn in proportion to the slopes, with this routing's key ([`step_key`]).
-    Random(u32),
+    /// One drawn in proportion to the slopes, with this routing's key ([`step_key`]), each
+    /// cell's draw keyed on its place in the [`Frame`].
+    Random(u32, Frame),
+}
+
+/// Where a grid lies in a larger one whose cells key the random draws: a window of a world
+/// built in tiles draws, at each cell, what the whole world would draw there.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct Frame {
+    /// The grid's first column and row in the larger grid.
+    pub(super) x0: usize,
+    pub(super) y0: usize,
+    /// The larger grid's width.
+    pub(super) stride: usize,
+}
+
+impl Frame {
+    /// The grid as its own frame (`width` cells a row).
+    pub(super) fn own(width: usize) -> Self {
+        Self {
+            x0: 0,
+            y0: 0,
+            stride: width,
+        }
+    }
+
+    /// Cell (`x`, `y`) of the grid's index in the larger grid.
+    #[inline(always)]
+    fn index(self, x: usize, y: usize) -> usize {
+        (y + self.y0) * self.stride + x + self.x0
+    }
 }
 
 /// The key of the random receivers of time step `step` of a run seeded with `seed`.
@@ -438,7 +467,7 @@ fn receiver(grid: Grid, h: &[f32], x: usize, y: usize, off: &[isize; 9], pick: P
     let s = slopes(grid, h, x, y, off);
     match pick {
         Pick::Steepest => steepest(&s),
-        Pick::Random(key) => drawn(&s, draw(key, y * grid.width + x)),
+        Pick::Random(key, frame) => drawn(&s, draw(key, frame.index(x, y))),
     }
 }
 
@@ -506,6 +535,58 @@ mod tests {
         assert_eq!(counts[usize::from(NONE)], 0);
         assert_eq!(drawn(&[0.0, -1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], 0.5), NONE);
         assert_eq!(steepest(&s), 5);
+    }
+
+    /// A window of a larger grid keyed on it ([`Frame`]) picks, at every cell whose
+    /// neighbours are all inside it, the receiver the whole grid picks there: overlapping
+    /// windows of a world draw alike.
+    #[test]
+    fn a_window_in_its_frame_draws_what_the_whole_grid_draws() {
+        let (n, x0, y0, w, h) = (40, 7, 11, 20, 16);
+        let heights: Vec<f32> = (0..n * n)
+            .map(|i| {
+                let (x, y) = ((i % n) as f32, (i / n) as f32);
+                0.3 * x + 0.2 * y + (x * 0.7).sin() * (y * 0.3).cos()
+            })
+            .collect();
+        let window: Vec<f32> = (0..w * h)
+            .map(|i| heights[(y0 + i / w) * n + x0 + i % w])
+            .collect();
+        let whole = Grid {
+            width: n,
+            height: n,
+            cell: 1.0,
+        };
+        let part = Grid {
+            width: w,
+            height: h,
+            cell: 1.0,
+        };
+        let key = step_key(5, 0);
+        let frame = Frame { x0, y0, stride: n };
+        let (a, b) = (Network::new(whole).off, Network::new(part).off);
+        let (mut same, mut other) = (0, 0);
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let full = receiver(
+                    whole,
+                    &heights,
+                    x0 + x,
+                    y0 + y,
+                    &a,
+                    Pick::Random(key, Frame::own(n)),
+                );
+                let windowed = receiver(part, &window, x, y, &b, Pick::Random(key, frame));
+                let own = receiver(part, &window, x, y, &b, Pick::Random(key, Frame::own(w)));
+                assert_eq!(full, windowed, "({x}, {y})");
+                same += usize::from(own == full);
+                other += 1;
+            }
+        }
+        assert!(
+            same < other,
+            "the window's own keys draw otherwise somewhere"
+        );
     }
 
     /// The draws change with the step and the seed, and are the same for the same ones.

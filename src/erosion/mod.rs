@@ -152,6 +152,8 @@ pub struct Eroder {
     chunk: usize,
     /// The seed of the random receivers ([`Eroder::with_seed`]); `None`: steepest descent.
     seed: Option<u64>,
+    /// Where the grid's cells key their draws ([`Eroder::with_seed_in`]; its own cells).
+    frame: flow::Frame,
     /// The threshold-slope limit after each step's incision ([`Eroder::with_slope_limit`]).
     limit: Option<slope_limit::Mask>,
     /// Each cell's factor on the erodibility ([`Eroder::with_erodibility`]); empty: 1.
@@ -258,6 +260,7 @@ impl Eroder {
             finishing: false,
             chunk: CHUNK_CELLS,
             seed: None,
+            frame: flow::Frame::own(width),
             limit: None,
             erodibility: Vec::new(),
         })
@@ -306,10 +309,37 @@ impl Eroder {
         self
     }
 
+    /// [`Eroder::with_seed`] for a window of a larger grid, `world_width` cells wide, whose
+    /// first cell is (`x0`, `y0`) there: each cell draws what the larger grid's cell draws,
+    /// so overlapping windows draw alike where they overlap (a world built in tiles,
+    /// `crate::world::refine`). The window must lie inside that width.
+    pub fn with_seed_in(
+        mut self,
+        seed: u64,
+        [x0, y0]: [usize; 2],
+        world_width: usize,
+    ) -> Result<Self, ErosionError> {
+        if x0 + self.grid.width > world_width {
+            return Err(ErosionError::InvalidParam {
+                field: "frame",
+                problem: format!(
+                    "a window {} cells wide from column {x0} is not inside {world_width}",
+                    self.grid.width
+                ),
+            });
+        }
+        self.frame = flow::Frame {
+            x0,
+            y0,
+            stride: world_width,
+        };
+        Ok(self.with_seed(seed))
+    }
+
     /// How the current step's routing picks receivers.
     fn pick(&self) -> flow::Pick {
         match self.seed {
-            Some(seed) => flow::Pick::Random(flow::step_key(seed, self.steps_done)),
+            Some(seed) => flow::Pick::Random(flow::step_key(seed, self.steps_done), self.frame),
             None => flow::Pick::Steepest,
         }
     }

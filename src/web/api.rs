@@ -6,8 +6,9 @@
 //!   lastRun, lastError}`; `compute` is "webgpu" on the GPU path and "cpu" on the fallback.
 //! - `selfTest()`: a promise of the CPU/GPU comparison (`diffusion::selftest::SelfTest`).
 //! - `scene()`: the current scene (the document, see `crate::scene`).
-//! - `worldPlan({size, tile, world})`: the plan of a world in tiles of the current scene
-//!   (`crate::world::Plan`), the file `strahler build` takes; throws naming a bad option.
+//! - `worldPlan({size, tile, world, refine})`: the plan of a world in tiles of the current
+//!   scene (`crate::world::Plan`, `refine: false` for no refinement of the erosion per
+//!   tile), the file `strahler build` takes; throws naming a bad option.
 //! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
 //! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
 //!   first); throws on invalid values. Both regenerate the terrain.
@@ -115,6 +116,14 @@ fn install_reports(api: &js_sys::Object, automation: &Automation) {
             let tile = number("tile")?.unwrap_or(2048);
             let plan = crate::world::Plan::new(&scene, size, tile, number("world")?)
                 .map_err(|e| error(format!("worldPlan: {e}")))?;
+            let refine = js_sys::Reflect::get(&options, &JsValue::from_str("refine"))
+                .map_err(|_| error("options must be an object like {size: 16384}"))?;
+            let plan = match refine.as_bool() {
+                None if refine.is_undefined() => plan,
+                Some(true) => plan,
+                Some(false) => plan.without_refinement(),
+                None => return Err(error("worldPlan: refine must be true or false")),
+            };
             Ok(to_js(&plan))
         });
     set(api, "worldPlan", world_plan.as_ref());

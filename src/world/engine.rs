@@ -5,9 +5,9 @@
 //! `world_x{column}_y{row}` as Unreal's tiled import expects, with the numbers to type into
 //! the engine beside them ([`crate::export::preset::EngineNumbers`]).
 //!
-//! A tile's cells come from the global build as the build's own tiles do
-//! ([`super::task::cells`]): the shared edge is the same cell computed twice, so the same
-//! bits. The range is measured over the finished tiles, one at a time.
+//! A tile's cells are read from the build's finished tiles ([`super::task::read_window`]):
+//! the shared edge is the same cell of the world read twice, so the same bits. The range is
+//! measured over the finished tiles, one at a time.
 
 use super::WorldError;
 use super::plan::Plan;
@@ -65,7 +65,6 @@ pub async fn write(
     let side = plan.tile + 1;
     let format = engine.formats()[0];
     let range = world_range(dir, plan)?;
-    let (world, sigma) = task::read_world(dir, plan)?;
     let per_side = (plan.size - 1) / plan.tile;
     let cell_m = plan.cell_m();
     let options = ExportOptions {
@@ -86,7 +85,7 @@ pub async fn write(
                 width: side,
                 height: side,
             };
-            let cells = task::cells(&world, &sigma, plan, window);
+            let cells = task::read_window(dir, plan, window)?;
             let field = Heightfield::from_vec(side, side, cells)
                 .map_err(|e| WorldError::Io(e.to_string()))?;
             let georef = crate::export::map_georef(
@@ -129,7 +128,7 @@ pub async fn write(
 /// The world's finite height range, over its finished tiles.
 fn world_range(dir: &BuildDir, plan: &Plan) -> Result<(f32, f32), WorldError> {
     let mut range = (f32::INFINITY, f32::NEG_INFINITY);
-    for k in 0..plan.tasks() - 1 {
+    for k in 0..plan.tile_count() {
         for v in task::read_tile(dir, plan, k)? {
             if v.is_finite() {
                 range = (range.0.min(v), range.1.max(v));

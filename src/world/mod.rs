@@ -4,21 +4,23 @@
 //! The plan ([`plan`]) builds the scene in one piece at a global size (2049^2 by default,
 //! every stage of the pipeline: rivers, ridges, diffusion, erosion...), then adds levels of
 //! wavelet detail above it (seed paper 001's GSA synthesis, each level doubling the
-//! resolution) up to the world's size, cut into tiles. Each tile task ([`task`]) computes its
-//! cells from the global build alone ([`window`]): every cell is a function of its global
-//! position, so the tiles are seamless by construction and equal, bit for bit, the whole
-//! world amplified in one piece.
+//! resolution) up to the world's size, refines the erosion there window by window
+//! ([`refine`]), and cuts it into tiles. The tasks ([`task`]) run in stages: the global
+//! build; each tile's window refined (the detail computed from the global build alone,
+//! [`window`]: every cell a function of its global position); each tile blended from the
+//! windows over it.
 //!
 //! What is exact and what is bounded:
 //! - the global build: exact, one piece (the same bits as `strahler generate` at its size);
-//! - the levels of detail: exact, each tile the bits of the whole map's synthesis;
-//! - the stages above the global build's resolution: not run per tile. Rivers, ridges,
-//!   diffusion and erosion shape the world at the global build's cells (4.9 m on a 10 km map
-//!   at 2049^2); finer than that the land is the wavelet detail of their statistics. A
-//!   tiled diffusion and erosion refined per tile are the next step (docs/features.md).
+//! - the levels of detail: exact, each tile the bits of the whole map's synthesis (with
+//!   `--no-refine` the whole world is);
+//! - the refinement: bounded, each window routing only its own water, the windows blended
+//!   by a partition of unity (no seam; measured in docs/features.md);
+//! - not done: a diffusion refined per tile and a tiled Priority-Flood.
 
 pub mod engine;
 pub mod plan;
+pub mod refine;
 pub mod task;
 pub mod window;
 

@@ -42,6 +42,26 @@ pub struct Plan {
     pub world: usize,
     /// Levels of detail between the global build and the world.
     pub levels: u32,
+    /// Whether the erosion is refined at the world's resolution, tile by tile (stage 1 of
+    /// the tasks, [`super::refine`]): only with levels of detail and a scene with erosion.
+    /// Absent in a plan file: refined where it can be.
+    #[serde(default = "refined")]
+    pub refine: bool,
+}
+
+fn refined() -> bool {
+    true
+}
+
+/// What task `k` of a plan does ([`Plan::task`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Task {
+    /// Task 0: the scene in one piece at the plan's `world` size.
+    Global,
+    /// Stage 1 of a refined build: tile `k`'s window, eroded at the world's resolution.
+    Refine(usize),
+    /// The last stage: tile `k`'s cells, written to its file.
+    Tile(usize),
 }
 
 impl Plan {
@@ -82,7 +102,15 @@ impl Plan {
             tile,
             world,
             levels,
+            refine: levels > 0 && scene.erosion.is_some(),
         })
+    }
+
+    /// The plan with no refinement: the tiles are the global build and its levels of
+    /// detail alone (every cell exact, [`super::window`]).
+    pub fn without_refinement(mut self) -> Self {
+        self.refine = false;
+        self
     }
 
     /// Tiles along each axis.
@@ -90,9 +118,88 @@ impl Plan {
         self.size.div_ceil(self.tile)
     }
 
-    /// Tasks of the build: the global build (task 0), then one per tile.
+    /// Tiles of the world.
+    pub fn tile_count(&self) -> usize {
+        self.tiles_per_side() * self.tiles_per_side()
+    }
+
+    /// Tasks of the build: the global build (task 0), then with refinement one per tile's
+    /// window (stage 1), then one per tile.
     pub fn tasks(&self) -> usize {
-        1 + self.tiles_per_side() * self.tiles_per_side()
+        1 + self.tile_count() * (1 + usize::from(self.refine))
+    }
+
+    /// What task `k` does; `None` past the last.
+    pub fn task(&self, k: usize) -> Option<Task> {
+        let tiles = self.tile_count();
+        match k {
+            0 => Some(Task::Global),
+            _ if k >= self.tasks() => None,
+            _ if self.refine && k <= tiles => Some(Task::Refine(k - 1)),
+            _ if self.refine => Some(Task::Tile(k - 1 - tiles)),
+            _ => Some(Task::Tile(k - 1)),
+        }
+    }
+
+    /// Tile `k` and the tiles around it (whose refined windows reach into each other), in
+    /// tile order.
+    pub fn neighbours(&self, k: usize) -> impl Iterator<Item = usize> + use<> {
+        let per = self.tiles_per_side();
+        let (row, col) = (k / per, k % per);
+        (row.saturating_sub(1)..=(row + 1).min(per - 1)).flat_map(move |r| {
+            (col.saturating_sub(1)..=(col + 1).min(per - 1)).map(move |c| r * per + c)
+        })
+    }
+
+    /// The task that writes tile `k`.
+    pub fn tile_task(&self, k: usize) -> usize {
+        1 + k + usize::from(self.refine) * self.tile_count()
+    }
+
+    /// The stages of the tasks, in the order they must run (each may run its tasks in any
+    /// order, on any number of workers): the task numbers and what they do.
+    pub fn stages(&self) -> Vec<(std::ops::RangeInclusive<usize>, String)> {
+        let tiles = self.tile_count();
+        let mut stages = vec![(0..=0, format!("the global build at {}^2", self.world))];
+        if self.refine {
+            stages.push((
+                1..=tiles,
+                format!(
+                    "each tile's erosion refined on the tile and {} cells around it",
+                    self.halo()
+                ),
+            ));
+        }
+        let first = self.tile_task(0);
+        stages.push((first..=first + tiles - 1, "the tiles".into()));
+        stages
+    }
+
+    /// Cells a refined window reaches past its tile on each side ([`super::refine`]): an
+    /// eighth of the tile, and at least eight global cells (the step's creep reaches one
+    /// global cell from the held edge, and the windows' blend starts half a halo in), at
+    /// most the tile (the windows over a tile are its own and its neighbours').
+    pub fn halo(&self) -> usize {
+        (self.tile / 8).max(8 << self.levels).min(self.tile)
+    }
+
+    /// Tile `k`'s window of the refinement: the tile and [`Plan::halo`] cells around it,
+    /// within the world.
+    pub fn refine_window(&self, k: usize) -> Window {
+        let (_, _, tile) = self.tile(k);
+        let halo = self.halo();
+        let (x0, y0) = (tile.x0.saturating_sub(halo), tile.y0.saturating_sub(halo));
+        Window {
+            x0,
+            y0,
+            width: (tile.x0 + tile.width + halo).min(self.size) - x0,
+            height: (tile.y0 + tile.height + halo).min(self.size) - y0,
+        }
+    }
+
+    /// Metres between the global build's cells.
+    pub fn global_cell_m(&self) -> f64 {
+        self.cell_m() * f64::from(1u32 << self.levels)
     }
 
     /// Tile `k` (0-based, row by row): its row, column and cells.
@@ -130,7 +237,10 @@ impl Plan {
                 plan.version
             )));
         }
+        let mut plan = plan;
         let again = Self::new(&plan.scene, plan.size, plan.tile, Some(plan.world))?;
+        // Refined only where it can be (a plan file may ask for it without erosion).
+        plan.refine &= again.refine;
         if again.levels != plan.levels {
             return Err(WorldError::Plan(format!(
                 "the plan file's levels ({}) do not take a {} world to {} cells",
@@ -180,9 +290,29 @@ mod tests {
         let plan = Plan::new(&scene, 32_768, 2048, None).unwrap();
         assert_eq!((plan.world, plan.levels), (4097, 3));
         assert!(output_len(plan.world, plan.levels) >= 32_768);
-        assert_eq!(plan.tasks(), 1 + 256);
+        assert_eq!(
+            plan.tasks(),
+            1 + 2 * 256,
+            "refined: two stages of tile tasks"
+        );
+        assert_eq!(plan.task(1), Some(Task::Refine(0)));
+        assert_eq!(plan.task(257), Some(Task::Tile(0)));
+        assert_eq!(plan.task(512), Some(Task::Tile(255)));
+        assert_eq!(plan.task(513), None);
+        assert_eq!(plan.tile_task(255), 512);
+        let plain = plan.clone().without_refinement();
+        assert_eq!(plain.tasks(), 1 + 256);
+        assert_eq!(plain.task(1), Some(Task::Tile(0)));
+        assert_eq!(plain.stages().len(), 2);
+        assert_eq!(plan.stages()[2].0, 257..=512);
+        // A window holds its tile and a halo, within the world.
+        let w = plan.refine_window(17);
+        let (_, _, t) = plan.tile(17);
+        assert_eq!((t.x0 - w.x0, w.width), (256, 2048 + 512));
+        assert_eq!(plan.refine_window(0).x0, 0);
         let plan = Plan::new(&scene, 1000, 256, None).unwrap();
         assert_eq!((plan.world, plan.levels), (1000, 0));
+        assert!(!plan.refine, "no levels of detail: nothing finer to refine");
         assert_eq!(plan.tiles_per_side(), 4);
         let (row, col, last) = plan.tile(15);
         assert_eq!((row, col), (3, 3));

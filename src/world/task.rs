@@ -7,15 +7,21 @@
 //!   size (`world.f32`, RAW R32: little-endian `f32`, row-major; `preview.tif`, the same as a
 //!   GeoTIFF: the whole world at low resolution before any tile), and the standard
 //!   deviations of its levels of detail from its wavelet statistics (`world.json`).
-//! - Task `k` >= 1, tile `k - 1`: its cells of the world, the global build with the levels of
-//!   detail [`super::window::synthesize`] adds (`tiles/rRRR-cCCC.f32`).
+//! - With refinement ([`super::refine`]), tasks 1 to T: tile `k`'s window (the tile and a
+//!   halo), its cells of the world eroded once more at the world's resolution
+//!   (`refined/rRRR-cCCC.f32`: its heights, then the drainage area the step routed, RAW R32
+//!   of twice the window's rows).
+//! - The last T tasks, tile `k`: its cells of the world (`tiles/rRRR-cCCC.f32`), the global
+//!   build with the levels of detail [`super::window::synthesize`] adds, or with refinement
+//!   the refined windows over it blended.
 
 use std::path::{Path, PathBuf};
 
 use serde::{Deserialize, Serialize};
 
 use super::WorldError;
-use super::plan::Plan;
+use super::plan::{Plan, Task};
+use super::refine::Refined;
 use super::window::{Window, synthesize};
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
@@ -82,14 +88,43 @@ impl BuildDir {
             .join(format!("r{row:03}-c{col:03}.f32"))
     }
 
-    /// Whether task `k` of `plan` has its output.
+    /// Tile (`row`, `col`)'s refined window ([`super::refine`]).
+    pub fn refined(&self, row: usize, col: usize) -> PathBuf {
+        self.root
+            .join("refined")
+            .join(format!("r{row:03}-c{col:03}.f32"))
+    }
+
+    /// Whether task `k` of `plan` has its output. A refined window is done once written, or
+    /// once every tile that reads it is (assembling the world removes the windows).
     pub fn done(&self, plan: &Plan, k: usize) -> bool {
-        if k == 0 {
-            return self.world_info().is_file() && self.world().is_file();
+        let holds = |path: PathBuf, w: Window| {
+            std::fs::metadata(path).is_ok_and(|m| m.len() == (w.width * w.height * 4) as u64)
+        };
+        match plan.task(k) {
+            Some(Task::Global) => self.world_info().is_file() && self.world().is_file(),
+            Some(Task::Refine(j)) => {
+                let (row, col, _) = plan.tile(j);
+                holds(self.refined(row, col), stacked(plan.refine_window(j)))
+                    || plan
+                        .neighbours(j)
+                        .all(|t| self.done(plan, plan.tile_task(t)))
+            }
+            Some(Task::Tile(j)) => {
+                let (row, col, window) = plan.tile(j);
+                holds(self.tile(row, col), window)
+            }
+            None => false,
         }
-        let (row, col, window) = plan.tile(k - 1);
-        let want = (window.width * window.height * 4) as u64;
-        std::fs::metadata(self.tile(row, col)).is_ok_and(|m| m.len() == want)
+    }
+}
+
+/// A refined window's file as one RAW R32 field: its heights, then its drainage area below
+/// them (twice the window's rows).
+fn stacked(window: Window) -> Window {
+    Window {
+        height: 2 * window.height,
+        ..window
     }
 }
 
@@ -112,7 +147,11 @@ pub fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), WorldError> {
 /// how many were removed.
 pub fn remove_leftovers(dir: &BuildDir) -> usize {
     let mut removed = 0;
-    for folder in [dir.root.clone(), dir.root.join("tiles")] {
+    for folder in [
+        dir.root.clone(),
+        dir.root.join("tiles"),
+        dir.root.join("refined"),
+    ] {
         let Ok(entries) = std::fs::read_dir(&folder) else {
             continue;
         };
@@ -125,6 +164,12 @@ pub fn remove_leftovers(dir: &BuildDir) -> usize {
         }
     }
     removed
+}
+
+/// Removes the refined windows once every tile is written (the world is assembled): they
+/// are the size of the world again, and only the tiles read them.
+pub fn remove_refined(dir: &BuildDir) {
+    let _ = std::fs::remove_dir_all(dir.root.join("refined"));
 }
 
 /// Writes the plan, or checks that the one already in `dir` is the same (a directory holds
@@ -158,10 +203,10 @@ pub async fn run(dir: &BuildDir, plan: &Plan, k: usize, ctx: &JobCtx) -> Result<
     if dir.done(plan, k) {
         return Ok(false);
     }
-    if k == 0 {
-        global_build(dir, plan, ctx).await?;
-    } else {
-        tile(dir, plan, k - 1)?;
+    match plan.task(k) {
+        Some(Task::Global) | None => global_build(dir, plan, ctx).await?,
+        Some(Task::Refine(j)) => refine(dir, plan, j)?,
+        Some(Task::Tile(j)) => tile(dir, plan, j)?,
     }
     Ok(true)
 }
@@ -271,33 +316,82 @@ pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Wind
     synthesize(world, sigma, plan.levels, key, window)
 }
 
-/// Task `k + 1`: tile `k`.
-fn tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
+/// Stage 1 of a refined build: tile `k`'s window refined ([`super::refine::refine`]).
+fn refine(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
     let (world, sigma) = read_world(dir, plan)?;
-    let (row, col, window) = plan.tile(k);
+    let (row, col, _) = plan.tile(k);
+    let window = plan.refine_window(k);
     let heights = cells(&world, &sigma, plan, window);
+    drop(world);
+    let mut refined = super::refine::refine(plan, window, heights)?;
+    refined.heights.append(&mut refined.area);
+    write_field(&dir.refined(row, col), stacked(window), refined.heights)
+}
+
+/// The last stage: tile `k`, its cells of the world, or with refinement the refined windows
+/// over it blended ([`super::refine::blend`]).
+fn tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
+    let (row, col, window) = plan.tile(k);
+    let heights = if plan.refine {
+        super::refine::blend(plan, k, |j| read_refined(dir, plan, j))?
+    } else {
+        let (world, sigma) = read_world(dir, plan)?;
+        cells(&world, &sigma, plan, window)
+    };
+    write_field(&dir.tile(row, col), window, heights)
+}
+
+/// Writes the cells of `window` to `path` as RAW R32, atomically.
+fn write_field(path: &Path, window: Window, heights: Vec<f32>) -> Result<(), WorldError> {
     let field = Heightfield::from_vec(window.width, window.height, heights)
         .map_err(|e| WorldError::Io(e.to_string()))?;
-    write_atomically(
-        &dir.tile(row, col),
-        &crate::dem::raw32::write(&field, false),
-    )
+    write_atomically(path, &crate::dem::raw32::write(&field, false))
+}
+
+/// Tile `k`'s refined window, as its task left it.
+fn read_refined(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Refined, WorldError> {
+    let (row, col, _) = plan.tile(k);
+    let window = plan.refine_window(k);
+    let mut heights = read_cells(&dir.refined(row, col), stacked(window), k + 1)?;
+    let area = heights.split_off(window.width * window.height);
+    Ok(Refined { heights, area })
+}
+
+/// The world's cells in `window`, from the finished tiles it crosses.
+pub fn read_window(dir: &BuildDir, plan: &Plan, window: Window) -> Result<Vec<f32>, WorldError> {
+    let mut out = vec![0.0f32; window.width * window.height];
+    let per = plan.tiles_per_side();
+    let rows = window.y0 / plan.tile..=(window.y0 + window.height - 1) / plan.tile;
+    for row in rows {
+        for col in window.x0 / plan.tile..=(window.x0 + window.width - 1) / plan.tile {
+            let k = row * per + col;
+            let (_, _, tile) = plan.tile(k);
+            let cells = read_tile(dir, plan, k)?;
+            let xs = tile.x0.max(window.x0)..(tile.x0 + tile.width).min(window.x0 + window.width);
+            let ys = tile.y0.max(window.y0)..(tile.y0 + tile.height).min(window.y0 + window.height);
+            for y in ys {
+                let from = (y - tile.y0) * tile.width + xs.start - tile.x0;
+                let to = (y - window.y0) * window.width + xs.start - window.x0;
+                out[to..to + xs.len()].copy_from_slice(&cells[from..from + xs.len()]);
+            }
+        }
+    }
+    Ok(out)
 }
 
 /// A finished tile's heights.
 pub fn read_tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Vec<f32>, WorldError> {
     let (row, col, window) = plan.tile(k);
-    let path = dir.tile(row, col);
-    let bytes = std::fs::read(&path).map_err(|e| {
-        WorldError::Io(format!(
-            "{}: {e} (run task {} first)",
-            path.display(),
-            k + 1
-        ))
-    })?;
+    read_cells(&dir.tile(row, col), window, plan.tile_task(k))
+}
+
+/// The cells of `window` that task `task` wrote to `path`.
+fn read_cells(path: &Path, window: Window, task: usize) -> Result<Vec<f32>, WorldError> {
+    let bytes = std::fs::read(path)
+        .map_err(|e| WorldError::Io(format!("{}: {e} (run task {task} first)", path.display())))?;
     if bytes.len() != window.width * window.height * 4 {
         return Err(WorldError::Io(format!(
-            "{} has {} bytes, not the {} of a {} x {} tile",
+            "{} has {} bytes, not the {} of its {} x {} cells",
             path.display(),
             bytes.len(),
             window.width * window.height * 4,

@@ -179,7 +179,10 @@ async function runMode(url, mode, expectedChecksum) {
     const plan = await page.evaluate(() => window.strahler.worldPlan({ size: 16384, tile: 2048 }));
     check('worldPlan() plans a world in tiles of the scene',
       plan.size === 16384 && plan.tile === 2048 && plan.world === 2049 && plan.levels === 3
+      && plan.refine === true
       && JSON.stringify(plan.scene) === JSON.stringify(scene), JSON.stringify(plan).slice(0, 200));
+    const plain = await page.evaluate(() => window.strahler.worldPlan({ size: 16384, refine: false }));
+    check('worldPlan({refine: false}) plans no refinement', plain.refine === false, JSON.stringify(plain.refine));
     const badPlan = await page.evaluate(() => {
       try { window.strahler.worldPlan({ size: 16384, tile: 100 }); return null; } catch (e) { return String(e.message); }
     });
@@ -189,7 +192,7 @@ async function runMode(url, mode, expectedChecksum) {
       writeFileSync(file, JSON.stringify(plan));
       const printed = execFileSync(process.env.STRAHLER_BIN,
         ['build', file, '--plan', '--out', join(output, 'world')]).toString();
-      check('strahler build takes the page\'s plan', printed.includes('65 tasks'), printed);
+      check('strahler build takes the page\'s plan', printed.includes('129 tasks in 3 stages'), printed);
     }
     await goldenScenes(page, mode);
     // Back to the first scene for the edits below.

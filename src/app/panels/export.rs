@@ -201,12 +201,17 @@ impl ExportDialog {
                     Ok(plan) => {
                         ui.label(format!(
                             "{} tasks: the global build at {}^2, then {} x {} tiles with {} \
-                             levels of detail",
+                             levels of detail{}",
                             plan.tasks(),
                             plan.world,
                             plan.tiles_per_side(),
                             plan.tiles_per_side(),
-                            plan.levels
+                            plan.levels,
+                            if plan.refine {
+                                ", the erosion refined tile by tile"
+                            } else {
+                                ""
+                            }
                         ));
                         if ui.button("Save the world plan").clicked() {
                             actions.push(Action::SaveWorldPlan {
