@@ -830,7 +830,7 @@ fn export_dialog_shows_engine_numbers_and_files_then_asks_for_the_export() {
 }
 
 /// Folded below the export: a world in tiles larger than the map, the tasks its plan makes,
-/// and the plan saved for `strahler build`.
+/// the plan saved for `strahler build`, and its preview built and saved.
 #[test]
 fn export_dialog_saves_the_plan_of_a_world_in_tiles() {
     let info = export_info();
@@ -853,6 +853,15 @@ fn export_dialog_saves_the_plan_of_a_world_in_tiles() {
     h.run();
     match h.state().actions.as_slice() {
         [Action::SaveWorldPlan { size, tile }] => assert_eq!((*size, *tile), (16_384, 2048)),
+        other => panic!("{other:?}"),
+    }
+    h.state_mut().actions.clear();
+    h.get_by_label("Save the preview").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::SaveWorldPreview { size, tile }] => {
+            assert_eq!((*size, *tile), (16_384, 2048))
+        }
         other => panic!("{other:?}"),
     }
 }

@@ -104,6 +104,44 @@ impl StrahlerApp {
         }
     }
 
+    /// Builds the preview of a world of the scene in tiles (its global build, the bytes
+    /// `strahler build`'s first task writes as `preview.tif`) in an export job, and saves it.
+    pub(super) fn save_world_preview(&mut self, ctx: &egui::Context, size: usize, tile: usize) {
+        let scene = self.session.scene().clone();
+        let plan = match crate::world::Plan::new(&scene, size, tile, None) {
+            Ok(plan) => plan,
+            Err(problem) => return self.set_error(format!("The world preview: {problem}")),
+        };
+        let stem = super::files::free_stem("strahler-world-preview", &[".tif"]);
+        let name = format!("{stem}.tif");
+        let repaint = ctx.clone();
+        let spawned = crate::jobs::spawn(
+            "world preview",
+            move |job| async move {
+                let global = crate::world::task::build_global(&plan, &job)
+                    .await
+                    .map_err(|e| e.to_string())?;
+                Ok(vec![File {
+                    name,
+                    mime: "image/tiff",
+                    bytes: global.preview,
+                }])
+            },
+            move || repaint.request_repaint(),
+        );
+        match spawned {
+            Ok(job) => self.export.running.push(Exporting {
+                job,
+                to: Destination::Save {
+                    stem,
+                    layers: Vec::new(),
+                    files: 1,
+                },
+            }),
+            Err(err) => self.set_error(err.to_string()),
+        }
+    }
+
     /// Starts exporting `request` for the dialog (and the skeleton's layers with `layers`).
     pub(super) fn download(&mut self, ctx: &egui::Context, mut request: Request, layers: bool) {
         let suffixes: Vec<String> = request

@@ -250,6 +250,7 @@ impl StrahlerApp {
             Action::Document(action) => self.document_action(action),
             Action::Export { request, layers } => self.download(ctx, request, layers),
             Action::SaveWorldPlan { size, tile } => self.save_world_plan(size, tile),
+            Action::SaveWorldPreview { size, tile } => self.save_world_preview(ctx, size, tile),
         }
     }
 

@@ -9,6 +9,9 @@
 //! - `worldPlan({size, tile, world, refine})`: the plan of a world in tiles of the current
 //!   scene (`crate::world::Plan`, `refine: false` for no refinement of the erosion per
 //!   tile), the file `strahler build` takes; throws naming a bad option.
+//! - `worldPreview({size, tile, world})`: a promise of that plan's global build as a
+//!   GeoTIFF (`Uint8Array`): the bytes of `preview.tif`, the whole world at low resolution,
+//!   that `strahler build`'s task 0 writes.
 //! - `loadScene(obj)`: replaces the scene; throws an `Error` naming the bad field.
 //! - `addRiver([x0, y0], [x1, y1], {phi, depth})`: adds a river stroke (map units, estuary
 //!   first); throws on invalid values. Both regenerate the terrain.
@@ -98,36 +101,61 @@ fn install_reports(api: &js_sys::Object, automation: &Automation) {
     let plan_source = automation.clone();
     let world_plan =
         Closure::<dyn Fn(JsValue) -> Result<JsValue, JsValue>>::new(move |options: JsValue| {
-            let scene = plan_source
-                .scene()
-                .ok_or_else(|| error("Strahler has not started yet"))?;
-            let number = |key: &str| -> Result<Option<usize>, JsValue> {
-                let value = js_sys::Reflect::get(&options, &JsValue::from_str(key))
-                    .map_err(|_| error("options must be an object like {size: 16384}"))?;
-                match value.as_f64() {
-                    None if value.is_undefined() => Ok(None),
-                    Some(v) if v.fract() == 0.0 && (1.0..=1e9).contains(&v) => Ok(Some(v as usize)),
-                    _ => Err(error(format!(
-                        "worldPlan: {key} must be a whole number of cells"
-                    ))),
-                }
-            };
-            let size = number("size")?.ok_or_else(|| error("worldPlan: give {size}"))?;
-            let tile = number("tile")?.unwrap_or(2048);
-            let plan = crate::world::Plan::new(&scene, size, tile, number("world")?)
-                .map_err(|e| error(format!("worldPlan: {e}")))?;
-            let refine = js_sys::Reflect::get(&options, &JsValue::from_str("refine"))
-                .map_err(|_| error("options must be an object like {size: 16384}"))?;
-            let plan = match refine.as_bool() {
-                None if refine.is_undefined() => plan,
-                Some(true) => plan,
-                Some(false) => plan.without_refinement(),
-                None => return Err(error("worldPlan: refine must be true or false")),
-            };
-            Ok(to_js(&plan))
+            Ok(to_js(&world_plan_of(&plan_source, &options, "worldPlan")?))
         });
     set(api, "worldPlan", world_plan.as_ref());
     world_plan.forget();
+
+    let preview_source = automation.clone();
+    let world_preview =
+        Closure::<dyn Fn(JsValue) -> Result<js_sys::Promise, JsValue>>::new(move |options| {
+            let plan = world_plan_of(&preview_source, &options, "worldPreview")?;
+            Ok(wasm_bindgen_futures::future_to_promise(async move {
+                let global = crate::world::task::build_global(&plan, &JobCtx::detached())
+                    .await
+                    .map_err(|e| error(format!("worldPreview: {e}")))?;
+                Ok(js_sys::Uint8Array::from(&global.preview[..]).into())
+            }))
+        });
+    set(api, "worldPreview", world_preview.as_ref());
+    world_preview.forget();
+}
+
+/// The plan `options` (`{size, tile, world, refine}`) ask for of the scene on the map; `name`
+/// (the function's) heads the error naming a bad option.
+fn world_plan_of(
+    automation: &Automation,
+    options: &JsValue,
+    name: &str,
+) -> Result<crate::world::Plan, JsValue> {
+    let scene = automation
+        .scene()
+        .ok_or_else(|| error("Strahler has not started yet"))?;
+    let get = |key: &str| {
+        js_sys::Reflect::get(options, &JsValue::from_str(key))
+            .map_err(|_| error("options must be an object like {size: 16384}"))
+    };
+    let number = |key: &str| -> Result<Option<usize>, JsValue> {
+        let value = get(key)?;
+        match value.as_f64() {
+            None if value.is_undefined() => Ok(None),
+            Some(v) if v.fract() == 0.0 && (1.0..=1e9).contains(&v) => Ok(Some(v as usize)),
+            _ => Err(error(format!(
+                "{name}: {key} must be a whole number of cells"
+            ))),
+        }
+    };
+    let size = number("size")?.ok_or_else(|| error(format!("{name}: give {{size}}")))?;
+    let tile = number("tile")?.unwrap_or(2048);
+    let plan = crate::world::Plan::new(&scene, size, tile, number("world")?)
+        .map_err(|e| error(format!("{name}: {e}")))?;
+    let refine = get("refine")?;
+    match refine.as_bool() {
+        None if refine.is_undefined() => Ok(plan),
+        Some(true) => Ok(plan),
+        Some(false) => Ok(plan.without_refinement()),
+        None => Err(error(format!("{name}: refine must be true or false"))),
+    }
 }
 
 /// The scene's edits: `loadScene`, `addRiver`, `maskFromRivers` and `paintMask`.

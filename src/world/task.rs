@@ -211,9 +211,19 @@ pub async fn run(dir: &BuildDir, plan: &Plan, k: usize, ctx: &JobCtx) -> Result<
     Ok(true)
 }
 
-/// Task 0: the scene built in one piece at the plan's `world` size, and its detail's
-/// standard deviations (GSA of seed paper 001).
-async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), WorldError> {
+/// The global build: the scene in one piece at the plan's `world` size, what `world.json`
+/// records of it, and `preview.tif`'s bytes (the whole world at low resolution, georeferenced
+/// over the world's extent). Task 0 writes it; the app and the page save the preview alone,
+/// the same bytes, before a batch run.
+pub struct GlobalBuild {
+    pub field: std::sync::Arc<Heightfield>,
+    pub info: WorldInfo,
+    pub preview: Vec<u8>,
+}
+
+/// Builds the scene of `plan` in one piece at its `world` size on the CPU (the same bits
+/// everywhere), with its detail's standard deviations (GSA of seed paper 001).
+pub async fn build_global(plan: &Plan, ctx: &JobCtx) -> Result<GlobalBuild, WorldError> {
     let options = RunOptions {
         size: plan.world,
         ..RunOptions::for_scene(&plan.scene)
@@ -222,11 +232,11 @@ async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), W
         .run(&plan.scene, &options, &Backend::Cpu, ctx)
         .await
         .map_err(|e| WorldError::Build(e.to_string()))?;
-    let field = &out.field;
+    let field = out.field;
     let sigma_bits = if plan.levels == 0 {
         Vec::new()
     } else {
-        let analysis = crate::wavelet::analyze(field, &AnalysisParams::default())
+        let analysis = crate::wavelet::analyze(&field, &AnalysisParams::default())
             .map_err(|e| WorldError::Build(format!("the detail's statistics: {e}")))?;
         let tables =
             SigmaTables::build(&analysis, None, plan.levels, field.width(), field.height());
@@ -245,14 +255,27 @@ async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), W
         min,
         max,
     };
-    let spacing = plan.cell_m() * f64::from(1u32 << plan.levels);
+    let spacing = plan.global_cell_m();
     let centre = plan.scene.location.map(|l| [l.lon, l.lat]);
     let georef = crate::export::map_georef(centre, spacing * plan.world as f64, spacing, 0.0, 0.0);
-    let preview = crate::dem::geotiff::write(field, &georef)
+    let preview = crate::dem::geotiff::write(&field, &georef)
         .map_err(|e| WorldError::Io(format!("the preview: {e}")))?;
-    write_atomically(&dir.preview(), &preview)?;
-    write_atomically(&dir.world(), &crate::dem::raw32::write(field, false))?;
-    let text = serde_json::to_string_pretty(&info).unwrap_or_default();
+    Ok(GlobalBuild {
+        field,
+        info,
+        preview,
+    })
+}
+
+/// Task 0: the global build ([`build_global`]) and its files.
+async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), WorldError> {
+    let global = build_global(plan, ctx).await?;
+    write_atomically(&dir.preview(), &global.preview)?;
+    write_atomically(
+        &dir.world(),
+        &crate::dem::raw32::write(&global.field, false),
+    )?;
+    let text = serde_json::to_string_pretty(&global.info).unwrap_or_default();
     write_atomically(&dir.world_info(), text.as_bytes())
 }
 

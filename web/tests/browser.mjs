@@ -193,6 +193,18 @@ async function runMode(url, mode, expectedChecksum) {
       const printed = execFileSync(process.env.STRAHLER_BIN,
         ['build', file, '--plan', '--out', join(output, 'world')]).toString();
       check('strahler build takes the page\'s plan', printed.includes('129 tasks in 3 stages'), printed);
+      // The world's preview built in the page: the bytes of the build's first task.
+      const small = await page.evaluate(() => window.strahler.worldPlan({ size: 513, world: 129, tile: 128 }));
+      const smallFile = join(output, 'small-plan.json');
+      writeFileSync(smallFile, JSON.stringify(small));
+      execFileSync(process.env.STRAHLER_BIN,
+        ['build', smallFile, '--task', '0', '--out', join(output, 'small-world')]);
+      const preview = await page.evaluate(async () =>
+        Array.from(await window.strahler.worldPreview({ size: 513, world: 129, tile: 128 })));
+      const written = readFileSync(join(output, 'small-world', 'preview.tif'));
+      check('worldPreview() gives the bytes of the build\'s preview.tif',
+        preview.length === written.length && written.every((b, i) => b === preview[i]),
+        `${preview.length} bytes against ${written.length}`);
     }
     await goldenScenes(page, mode);
     // Back to the first scene for the edits below.

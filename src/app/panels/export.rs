@@ -213,12 +213,25 @@ impl ExportDialog {
                                 ""
                             }
                         ));
-                        if ui.button("Save the world plan").clicked() {
-                            actions.push(Action::SaveWorldPlan {
-                                size: *size,
-                                tile: *tile,
-                            });
-                        }
+                        ui.horizontal(|ui| {
+                            if ui.button("Save the world plan").clicked() {
+                                actions.push(Action::SaveWorldPlan {
+                                    size: *size,
+                                    tile: *tile,
+                                });
+                            }
+                            let preview = ui.button("Save the preview").on_hover_text(format!(
+                                "The whole world at low resolution ({}^2, GeoTIFF): the \
+                                 build's first task, the same bytes as its preview.tif",
+                                plan.world
+                            ));
+                            if preview.clicked() {
+                                actions.push(Action::SaveWorldPreview {
+                                    size: *size,
+                                    tile: *tile,
+                                });
+                            }
+                        });
                     }
                     Err(problem) => {
                         ui.colored_label(ui.visuals().error_fg_color, problem.to_string());

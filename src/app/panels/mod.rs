@@ -72,6 +72,9 @@ pub enum Action {
     },
     /// Save the plan of a world in tiles of the scene (`strahler build`'s input).
     SaveWorldPlan { size: usize, tile: usize },
+    /// Build and save that world's preview (its global build, `strahler build`'s
+    /// `preview.tif`).
+    SaveWorldPreview { size: usize, tile: usize },
 }
 
 /// Every panel of the side panel, with its own state.
