@@ -14,20 +14,29 @@
 //! reach one global cell ([`step_years`]), a few thousand years, not the global run's
 //! hundred thousand years a step.
 //!
-//! **Seams.** Each window sees only its own drainage area, so two windows can differ where
-//! they overlap. A tile's cells are the windows over it blended with weights that fall to
-//! zero at each window's held edge ([`weight`]: a smoothstep over the two halos), normalised
-//! by their sum: a partition of unity, so the world is continuous across tiles, with no
-//! tile's edge held. The tile task reads the windows of its tile and its eight neighbours,
-//! in a fixed order, so the bits are the same whatever the order or number of tasks.
+//! **Only what is finer than the global cell.** The step has no uplift, so it also lowers the
+//! whole land a little (the global run's steady state balanced erosion with uplift); the
+//! change kept is the step's change less its local mean over a global cell
+//! (`keep_the_fine_part`), so the global build's shapes stay where they were.
+//!
+//! **Seams.** Each window sees only its own catchments, so two windows can differ where they
+//! overlap. A tile's cells are the windows over it blended ([`blend`]): each window's
+//! [`weight`] is zero on its held edge and over the half-halo beside it (where the held edge
+//! bends its routing and creep), rising to one over the next halo, and is multiplied by the
+//! share of the largest drainage area the windows routed to the cell (the window that sees
+//! more of a catchment cuts its channel the right depth); normalised by their sum, a
+//! partition of unity: the world is continuous across tiles, with no tile's edge held. The
+//! tile task reads the windows of its tile and its eight neighbours in tile order, so the
+//! bits are the same whatever the order or number of tasks.
 //!
 //! **Exact or bounded.** The global build and the levels of detail are exact (the same bits
-//! as one piece); the refinement is bounded: a cell differs from a one-piece refinement only
-//! through drainage area from beyond its window's halo (a quarter of a tile away), which
-//! the step's short time keeps to centimetres on rills and to the global build's own valleys
-//! on the large rivers. Departures from the pipeline's refinement (docs/departures.md): the
-//! rock is uniform (the global erodibility, not its patches), and no floor or slope limit
-//! holds the step (a step this short cuts no floodplain and fails no slope).
+//! as one piece); the refinement is bounded: a cell differs from a refinement of the whole
+//! world in one piece only through the catchments that cross its windows' held edges. On
+//! the default scene at 8192^2 the change is within +-0.22 m for 98% of the cells; across
+//! the tile edges the steps between cells are those inside the tiles (tests/world.rs
+//! measures both). Departures from the pipeline's refinement (docs/departures.md): the rock
+//! is uniform (the global erodibility, not its patches), and no floor or slope limit holds
+//! the step (a step this short cuts no floodplain and fails no slope).
 
 use super::WorldError;
 use super::plan::Plan;
@@ -147,9 +156,10 @@ fn transpose_box(v: &mut [f32], w: usize, h: usize, r: usize) {
 }
 
 /// The weight of the refinement of `window` at world cell (`x`, `y`) inside it: the product
-/// along each axis of a smoothstep of the distance to the window's nearer edge, zero on the
-/// held edge and one from two halos in; an edge on the world's border does not count (no
-/// other window reaches past it).
+/// along each axis of a smoothstep of the distance to the window's nearer edge: zero on the
+/// held edge and for half a halo beside it, one from a halo and a half in (so at its tile's
+/// edge, a halo in, a half); an edge on the world's border does not count (no other window
+/// reaches past it).
 pub fn weight(plan: &Plan, window: Window, x: usize, y: usize) -> f32 {
     let ramp = |at: usize, start: usize, len: usize| {
         let from_start = if start > 0 { at - start } else { usize::MAX };
