@@ -445,7 +445,8 @@ fn a_world_becomes_engine_tiles_that_share_their_edges() {
         out,
     ]);
     assert!(
-        status.contains("tasks done: 51 of 51; ") && status.contains("world.tif written"),
+        status.contains("tasks done: 51 of 51 (stage 0 1/1, stage 1 25/25, stage 2 25/25); ")
+            && status.contains("world.tif written"),
         "{status}"
     );
     // The plan file alone (the page's `worldPlan()` writes the same) builds the same world.
@@ -475,7 +476,9 @@ fn a_world_becomes_engine_tiles_that_share_their_edges() {
         here.join("none").to_str().unwrap(),
     ]);
     assert!(
-        half.contains("tasks done: 0 of 51; world.tif not yet"),
+        half.contains(
+            "tasks done: 0 of 51 (stage 0 0/1, stage 1 0/25, stage 2 0/25); world.tif not yet"
+        ),
         "{half}"
     );
     let contradicted = strahler(&[

@@ -116,16 +116,28 @@ fn engine_for(key: &str, plan: &Plan) -> Result<Engine, Box<dyn std::error::Erro
     Ok(engine)
 }
 
-/// How far the build in `dir` has come.
+/// How far the build in `dir` has come: the tasks done, of each stage, and `world.tif`.
 fn status_line(dir: &BuildDir, plan: &Plan) -> String {
     let tasks = plan.tasks();
     let done = (0..tasks).filter(|&k| dir.done(plan, k)).count();
+    let stages: Vec<String> = plan
+        .stages()
+        .iter()
+        .enumerate()
+        .map(|(s, (range, _))| {
+            let of = range.clone().filter(|&k| dir.done(plan, k)).count();
+            format!("stage {s} {of}/{}", range.clone().count())
+        })
+        .collect();
     let world = if dir.world_tif().is_file() {
         format!("{} written", dir.world_tif().display())
     } else {
         "world.tif not yet".into()
     };
-    format!("tasks done: {done} of {tasks}; {world}")
+    format!(
+        "tasks done: {done} of {tasks} ({}); {world}",
+        stages.join(", ")
+    )
 }
 
 /// What the plan is: its tasks, world, tiles and levels in a line, then a line a stage
@@ -199,27 +211,60 @@ fn plan_of(args: &BuildArgs) -> Result<Plan, Box<dyn std::error::Error>> {
     })
 }
 
-/// Every task not yet done, in order, with the count and the time left on stderr.
+/// Every task not yet done, in order, with the count, the stage and the time left on stderr.
 fn run_all(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), Box<dyn std::error::Error>> {
     let tasks = plan.tasks();
-    let started = web_time::Instant::now();
-    let mut ran = 0usize;
+    let stages = plan.stages();
+    let stage_of = |k: usize| stages.iter().position(|(r, _)| r.contains(&k)).unwrap_or(0);
+    let mut clock = StageClock::new(stages.len());
     for k in 0..tasks {
+        let started = web_time::Instant::now();
         if pollster::block_on(task::run(dir, plan, k, ctx))? {
-            ran += 1;
+            clock.add(stage_of(k), started.elapsed().as_secs_f64());
         }
-        let seconds = started.elapsed().as_secs_f64();
-        let left = if ran > 0 && k + 1 < tasks {
-            format!(
-                ", about {:.0} s left",
-                seconds / ran as f64 * (tasks - k - 1) as f64
-            )
-        } else {
-            String::new()
-        };
-        eprintln!("tasks {} of {tasks} done{left}", k + 1);
+        let left = clock
+            .left((k + 1..tasks).map(stage_of))
+            .map_or(String::new(), |s| format!(", about {s:.0} s left"));
+        eprintln!(
+            "tasks {} of {tasks} done (stage {}){left}",
+            k + 1,
+            stage_of(k)
+        );
     }
     Ok(())
+}
+
+/// The time the tasks of each stage took so far, for the time left: the stages' tasks take
+/// different times (a refined window about three tiles), so each stage is timed alone.
+struct StageClock {
+    /// Seconds and tasks run, a stage.
+    spent: Vec<(f64, usize)>,
+}
+
+impl StageClock {
+    fn new(stages: usize) -> Self {
+        Self {
+            spent: vec![(0.0, 0); stages],
+        }
+    }
+
+    fn add(&mut self, stage: usize, seconds: f64) {
+        self.spent[stage].0 += seconds;
+        self.spent[stage].1 += 1;
+    }
+
+    /// Seconds the tasks of these stages will take at the rates so far. A stage not timed
+    /// yet goes at the latest timed stage's rate after the global build (one task of its
+    /// own, no guide to the tiles'); `None` before any such stage has a task timed.
+    fn left(&self, stages: impl Iterator<Item = usize>) -> Option<f64> {
+        let rate = |(seconds, ran): (f64, usize)| (ran > 0).then(|| seconds / ran as f64);
+        let latest = self.spent.iter().skip(1).rev().find_map(|&s| rate(s));
+        let mut sum = 0.0;
+        for s in stages {
+            sum += rate(self.spent[s]).or(latest)?;
+        }
+        Some(sum)
+    }
 }
 
 /// `world.tif` in the build's directory from the finished tiles.
