@@ -118,16 +118,19 @@ fn engine_for(key: &str, plan: &Plan) -> Result<Engine, Box<dyn std::error::Erro
 
 /// How far the build in `dir` has come: the tasks done, of each stage, and `world.tif`.
 fn status_line(dir: &BuildDir, plan: &Plan) -> String {
-    let tasks = plan.tasks();
-    let done = (0..tasks).filter(|&k| dir.done(plan, k)).count();
-    let stages: Vec<String> = plan
+    let stages: Vec<(usize, usize)> = plan
         .stages()
+        .into_iter()
+        .map(|(range, _)| {
+            let all = range.clone().count();
+            (range.filter(|&k| dir.done(plan, k)).count(), all)
+        })
+        .collect();
+    let done: usize = stages.iter().map(|s| s.0).sum();
+    let each: Vec<String> = stages
         .iter()
         .enumerate()
-        .map(|(s, (range, _))| {
-            let of = range.clone().filter(|&k| dir.done(plan, k)).count();
-            format!("stage {s} {of}/{}", range.clone().count())
-        })
+        .map(|(s, (of, all))| format!("stage {s} {of}/{all}"))
         .collect();
     let world = if dir.world_tif().is_file() {
         format!("{} written", dir.world_tif().display())
@@ -135,8 +138,9 @@ fn status_line(dir: &BuildDir, plan: &Plan) -> String {
         "world.tif not yet".into()
     };
     format!(
-        "tasks done: {done} of {tasks} ({}); {world}",
-        stages.join(", ")
+        "tasks done: {done} of {} ({}); {world}",
+        plan.tasks(),
+        each.join(", ")
     )
 }
 
