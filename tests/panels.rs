@@ -207,6 +207,7 @@ fn erosion_report() -> ErosionReport {
         conditioning: Default::default(),
         backend: "cpu",
         millis: 321.0,
+        in_worker: false,
         held: None,
     }
 }
@@ -910,6 +911,7 @@ fn status_bar_shows_the_path_the_job_and_the_pointer() {
                         map: egui::pos2(0.25, 0.5),
                         height: Some(812.34),
                     }),
+                    worker: None,
                 };
                 s.bar.show(ui, &info);
             },

@@ -23,6 +23,9 @@ pub struct Status {
     pub compute: String,
     /// The status bar's words, e.g. "GPU: WebGPU" or "CPU (this browser has no WebGPU)".
     pub compute_path: String,
+    /// Where the page's heavy stages run: "the erosion runs in a Web Worker", or why not;
+    /// `None` natively.
+    pub worker: Option<String>,
     /// The adapter eframe draws with (a WebGL adapter on the CPU fallback).
     pub adapter: Option<AdapterSummary>,
     pub capabilities: Option<Capabilities>,

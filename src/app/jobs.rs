@@ -214,8 +214,10 @@ impl StrahlerApp {
         };
         self.show_picture(ctx, shown.unwrap_or_else(|| picture.clone()));
         self.canvas.pictures = Some((picture, before));
-        self.automation
-            .update(|s| s.last_run = Some(summary.clone()));
+        self.automation.update(|s| {
+            s.last_run = Some(summary.clone());
+            s.worker = super::status_bar::worker_words();
+        });
         self.summaries.last_run = Some((size, summary));
         self.messages.error = None;
     }

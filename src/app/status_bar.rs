@@ -18,6 +18,7 @@ pub(super) fn show(ui: &mut egui::Ui, app: &mut StrahlerApp) {
         map: app.session.on_map(),
         tool: app.canvas.tool,
         hover: app.canvas.hover,
+        worker: worker_words(),
     };
     let bar = &mut app.panels.status;
     egui::Panel::bottom("status").show(ui, |ui| bar.show(ui, &info));
@@ -31,4 +32,12 @@ fn line<T>(job: &JobHandle<T>) -> JobLine {
         message: job.message(),
         left: job.time_left(),
     }
+}
+
+/// Where the page's heavy stages run; `None` natively (every job has its own thread there).
+pub(super) fn worker_words() -> Option<String> {
+    #[cfg(target_arch = "wasm32")]
+    return Some(crate::jobs::worker::describe());
+    #[cfg(not(target_arch = "wasm32"))]
+    None
 }

@@ -47,6 +47,16 @@ impl FixedMask {
     }
 
     /// The packed words, for upload.
+    /// The mask of `words` in [`Self::words`]' layout; `None` if their count does not fit
+    /// `width x height`.
+    pub fn from_words(width: usize, height: usize, words: Vec<u32>) -> Option<Self> {
+        (words.len() == (width * height).div_ceil(32)).then_some(Self {
+            width,
+            height,
+            words,
+        })
+    }
+
     pub fn words(&self) -> &[u32] {
         &self.words
     }

@@ -15,6 +15,7 @@ mod cpu;
 pub mod demo;
 mod gpu;
 pub mod multigrid;
+pub mod offload;
 pub mod post;
 pub mod selftest;
 
@@ -53,6 +54,9 @@ use crate::jobs::{Cancelled, JobCtx};
 pub enum DiffusionError {
     #[error(transparent)]
     Gpu(#[from] GpuError),
+    /// The page's Web Worker failed on the solve (its message).
+    #[error("diffusion in the Web Worker: {0}")]
+    Worker(String),
     #[error("diffusion was cancelled")]
     Cancelled(#[from] Cancelled),
     #[error("nothing to diffuse from: no cell is fixed (give at least one known height)")]
@@ -158,6 +162,50 @@ pub async fn fill(
 /// multigrid solve on a GPU backend of a field that fits one binding), for a next GPU stage
 /// to work on in place; otherwise the field comes back on the CPU.
 pub async fn fill_keeping(
+    backend: &Backend,
+    problem: &Constraints,
+    method: Method,
+    ctx: &JobCtx,
+) -> Result<Filled<FieldOut>, DiffusionError> {
+    #[cfg(target_arch = "wasm32")]
+    if matches!(backend, Backend::Cpu) {
+        use crate::jobs::worker::{CallError, call};
+        match call(
+            offload::KIND,
+            offload::task_into_parcel(problem, method),
+            ctx,
+        )
+        .await
+        {
+            Ok(parcel) => {
+                let filled = offload::result_from_parcel(parcel)
+                    .map_err(|e| DiffusionError::Worker(e.to_string()))?;
+                return Ok(Filled {
+                    field: FieldOut::Cpu(filled.field),
+                    method: filled.method,
+                    backend: filled.backend,
+                    cycles: filled.cycles,
+                    sweeps: filled.sweeps,
+                    work_sweeps: filled.work_sweeps,
+                    residual: filled.residual,
+                    relative_residual: filled.relative_residual,
+                    converged: filled.converged,
+                    estimated_error: filled.estimated_error,
+                    millis: filled.millis,
+                });
+            }
+            Err(CallError::Unavailable(reason)) => {
+                log::info!("diffusion on the page's thread: {reason}");
+            }
+            Err(CallError::Cancelled(c)) => return Err(c.into()),
+            Err(CallError::Failed(message)) => return Err(DiffusionError::Worker(message)),
+        }
+    }
+    solve_here(backend, problem, method, ctx).await
+}
+
+/// [`fill_keeping`] on this thread (in the page's Web Worker, the worker's own).
+async fn solve_here(
     backend: &Backend,
     problem: &Constraints,
     method: Method,

@@ -48,7 +48,7 @@ use crate::jobs::JobCtx;
 const LIMIT_PASSES: usize = 8;
 
 /// How far the held cells ended from their design, measured after the correction.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct Held {
     /// Held cells (the sketch's ridges and peaks off base level).
     pub cells: usize,

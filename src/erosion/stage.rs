@@ -23,8 +23,9 @@ use crate::terrain::{Generated, drainage};
 
 /// The scene's `erosion` section: the stream-power law with uplift and hillslope processes
 /// (see [`super`]). Absent from a scene = no erosion.
-/// Serialised only into the pipeline's stage keys; the scene file has its own schema.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+/// Serialised into the pipeline's stage keys and the Web Worker's parcels; the scene file
+/// has its own schema.
+#[derive(Clone, Debug, PartialEq, Serialize, serde::Deserialize)]
 pub struct ErosionSettings {
     /// The preset these values came from ("custom" once edited); for the user only.
     pub preset: String,
@@ -363,7 +364,7 @@ impl ErosionSettings {
 }
 
 /// What the erosion stage reports.
-#[derive(Clone, Debug, Serialize)]
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub struct ErosionReport {
     pub preset: String,
     pub steps: u32,
@@ -378,12 +379,30 @@ pub struct ErosionReport {
     pub conditioning: drainage::Conditioning,
     /// Where the solver ran: "cpu" or "gpu" (the GPU when the pipeline's backend is one and
     /// it holds the solver's fields, see [`super::gpu`]).
-    pub backend: &'static str,
+    #[serde(deserialize_with = "backend_name")]
+    pub backend: BackendName,
     pub millis: f64,
+    /// Whether the page's Web Worker ran it ([`super::offload`]); never natively.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub in_worker: bool,
     /// How close the sketch's peaks and ridges came to their drawn heights (`hold.rs`); absent
     /// when the scene has none.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub held: Option<super::hold::Held>,
+}
+
+/// "cpu" or "gpu". An alias, so that serde's derive does not borrow the field from the
+/// input (it would for a `&str` it can see); [`backend_name`] reads it back.
+pub type BackendName = &'static str;
+
+/// [`ErosionReport::backend`] read back ("cpu" or "gpu").
+fn backend_name<'de, D: serde::Deserializer<'de>>(from: D) -> Result<&'static str, D::Error> {
+    let name = <String as serde::Deserialize>::deserialize(from)?;
+    match name.as_str() {
+        "cpu" => Ok("cpu"),
+        "gpu" => Ok("gpu"),
+        other => Err(serde::de::Error::unknown_variant(other, &["cpu", "gpu"])),
+    }
 }
 
 /// The erosion stage's output.
@@ -418,6 +437,9 @@ pub enum StageError {
     Solver(#[from] ErosionError),
     #[error("{0}")]
     Field(#[from] crate::heightfield::HeightfieldError),
+    /// The page's Web Worker failed on the stage (its message).
+    #[error("{0}")]
+    Worker(String),
     #[error("cancelled")]
     Cancelled(#[from] Cancelled),
     /// The correction that holds the drawn heights could not be solved (`hold.rs`).
@@ -1111,13 +1133,22 @@ pub async fn erode_terrain(
     ctx: &JobCtx,
 ) -> Result<Eroded, StageError> {
     let kinds = &hydrology.skeleton.kinds;
+    let anchors = Anchors {
+        painted,
+        ..(&hydrology.skeleton).into()
+    };
+    #[cfg(target_arch = "wasm32")]
+    if matches!(backend, Backend::Cpu) {
+        let task =
+            super::offload::Task::new(&hydrology.terrain, kinds, anchors, settings, cell_m, seed);
+        if let Some(eroded) = in_the_worker(task, ctx).await? {
+            return Ok(eroded);
+        }
+    }
     erode_field(
         &hydrology.terrain,
         kinds,
-        Anchors {
-            painted,
-            ..(&hydrology.skeleton).into()
-        },
+        anchors,
         settings,
         cell_m,
         seed,
@@ -1125,6 +1156,30 @@ pub async fn erode_terrain(
         ctx,
     )
     .await
+}
+
+/// Erodes `task` in the page's Web Worker ([`crate::jobs::worker`]); `None` where there is
+/// none (the caller then erodes on the page's thread).
+#[cfg(target_arch = "wasm32")]
+async fn in_the_worker(
+    task: super::offload::Task,
+    ctx: &JobCtx,
+) -> Result<Option<Eroded>, StageError> {
+    use crate::jobs::worker::{CallError, call};
+    match call(super::offload::KIND, task.into_parcel(), ctx).await {
+        Ok(parcel) => {
+            let mut eroded = super::offload::result_from_parcel(parcel)
+                .map_err(|e| StageError::Worker(e.to_string()))?;
+            eroded.report.in_worker = true;
+            Ok(Some(eroded))
+        }
+        Err(CallError::Unavailable(reason)) => {
+            log::info!("erosion on the page's thread: {reason}");
+            Ok(None)
+        }
+        Err(CallError::Cancelled(c)) => Err(StageError::Cancelled(c)),
+        Err(CallError::Failed(message)) => Err(StageError::Worker(message)),
+    }
 }
 
 /// Erodes the square `field` with the rivers and valleys of `kinds` as base level: uplift
@@ -1291,6 +1346,7 @@ pub async fn erode_field_within(
             conditioning,
             backend: solved.ran_on,
             millis: 0.0,
+            in_worker: false,
             held,
         },
         millis: 0.0,

@@ -18,6 +18,9 @@
 //! span of the bar; a part that reports a fraction lower than the bar already shows leaves
 //! the bar where it is. [`time_left`] estimates the rest from the time so far.
 
+pub mod parcel;
+#[cfg(target_arch = "wasm32")]
+pub mod worker;
 mod yield_now;
 
 use std::future::Future;

@@ -38,6 +38,14 @@ pub enum CellKind {
 }
 
 impl CellKind {
+    /// The kind whose `as u8` code is `code`.
+    pub fn from_code(code: u8) -> Option<Self> {
+        use CellKind::*;
+        [Free, River, Ridge, Enriched, Valley, Floor, Grown]
+            .into_iter()
+            .find(|kind| *kind as u8 == code)
+    }
+
     /// Whether the cell is on a river: a drawn one, or a branch the erosion lets the law
     /// shape ([`CellKind::Grown`]).
     pub fn is_river(self) -> bool {

@@ -2,6 +2,7 @@
 //! `window.strahler` for scripts (see `api`).
 
 mod api;
+mod stages;
 
 use wasm_bindgen::JsCast as _;
 
@@ -12,9 +13,14 @@ const CANVAS_ID: &str = "strahler_canvas";
 /// Id of the loading text shown while the wasm downloads.
 const LOADING_ID: &str = "loading_text";
 
-/// Called by `main` on wasm32.
+/// Called by `main` on wasm32: in the page, starts the app; in the page's Web Worker (the
+/// same module, see [`crate::jobs::worker`]), serves the stages the page hands it.
 pub fn start() {
     let _ = eframe::WebLogger::init(log::LevelFilter::Info);
+    if crate::jobs::worker::in_worker() {
+        stages::serve();
+        return;
+    }
     let automation = Automation::default();
     api::install(&automation);
 

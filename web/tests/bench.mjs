@@ -20,7 +20,7 @@
 //                  path (the wasm build is single-threaded; these stages never use the GPU)
 //
 // Usage: node web/tests/bench.mjs [DIST_DIR]
-//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT)
+//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT, BENCH_NO_WORKER)
 
 import { existsSync } from 'node:fs';
 import { join, resolve } from 'node:path';
@@ -127,6 +127,8 @@ async function measure(url, mode) {
   try {
     const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
     await page.addInitScript(watchFirstTerrain);
+    // BENCH_NO_WORKER=1: a browser without Web Workers, every stage on the page's thread.
+    if (process.env.BENCH_NO_WORKER === '1') await page.addInitScript(() => { window.Worker = undefined; });
     await page.goto(url);
     await page.waitForFunction(() => window.__firstTerrain !== undefined, null, { timeout: 120_000 });
     await page.reload();

@@ -22,6 +22,9 @@ const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
 const output = resolve(process.env.TEST_OUTPUT ?? join(here, '..', 'test-output'));
 mkdirSync(output, { recursive: true });
 
+// The first terrain's checksum in each mode (the default scene): the run without workers
+// compares with it.
+const firstChecksums = {};
 let passed = 0;
 let failed = 0;
 function check(name, condition, detail = '') {
@@ -125,6 +128,12 @@ async function runMode(url, mode, expectedChecksum) {
     // (every stage is slower on it), as the command line does beside lavapipe.
     check('first terrain ran on the CPU (auto beside a software rasteriser, or no WebGPU)',
       run.backend === 'cpu', run.backend);
+    // Issue 35: the diffusion and the erosion (most of a CPU run) run in the page's Web Worker.
+    const worker = (await page.evaluate(() => window.strahler.status())).worker;
+    check('status() says the diffusion and the erosion run in a Web Worker',
+      worker === 'the diffusion and the erosion run in a Web Worker',
+      String(worker));
+    firstChecksums[mode] = run.checksum;
     if (mode === 'webgpu') {
       // "Compute on: gpu" runs every stage on SwiftShader (erosion too, tens of seconds a
       // run here): once, then back to auto; the 3D view's GPU maps ask for it again below.
@@ -530,6 +539,10 @@ async function goldenScenes(page, mode) {
       const report = await page.evaluate(() => window.strahler.generate({}));
       check(`the page makes the pinned terrain of scene ${name}`, report.checksum === pinned[name],
         `${report.checksum} != ${pinned[name]}`);
+      if (report.erosion) {
+        check(`scene ${name}: the erosion ran in the Web Worker`, report.erosion.in_worker === true,
+          JSON.stringify(report.erosion).slice(0, 120));
+      }
     }
   }
   // exportHeightmap() waits for the terrain being computed instead of failing.
@@ -644,6 +657,29 @@ async function check3d(page, mode) {
   await page.evaluate(() => window.strahler.setView('2d'));
 }
 
+// A browser without (module) Web Workers: the page erodes on its own thread, with the bits
+// the worker gives (the first terrain of the default scene, as in the runs before).
+async function withoutWorkers(url) {
+  console.log('browser (cpu, no Web Workers):');
+  const browser = await chromium.launch({ executablePath: chromiumPath, args: COMMON_FLAGS });
+  try {
+    const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+    await page.addInitScript(() => { window.Worker = undefined; });
+    await page.goto(url);
+    await page.waitForFunction(() => window.strahler?.status().ready === true, null, { timeout: 90_000 });
+    await page.waitForFunction(() => window.strahler.status().lastRun !== null
+      && window.strahler.status().job === null, null, { timeout: 120_000 });
+    const status = await page.evaluate(() => window.strahler.status());
+    check('without Web Workers the status says the diffusion and the erosion run on the page',
+      /^no Web Worker \(.+\): the diffusion and the erosion run on the page$/.test(status.worker ?? ''), String(status.worker));
+    const expected = firstChecksums.cpu ?? firstChecksums.webgpu;
+    check('without Web Workers the page makes the same terrain bits as with one',
+      expected !== undefined && status.lastRun.checksum === expected, `${status.lastRun.checksum} != ${expected}`);
+  } finally {
+    await browser.close();
+  }
+}
+
 if (!existsSync(join(dist, 'index.html'))) {
   console.error(`no ${join(dist, 'index.html')}: run \`.ci/build-web\` first`);
   process.exit(2);
@@ -654,6 +690,7 @@ try {
   const expected = nativeChecksum();
   const modes = (process.env.BROWSER_MODES ?? 'webgpu,cpu').split(',');
   for (const mode of modes) await runMode(url, mode, expected);
+  await withoutWorkers(url);
 } finally {
   server.close();
 }

@@ -56,9 +56,14 @@ impl ErosionPanel {
         }
         if let Some(report) = report {
             ui.label(format!(
-                "Eroded in {:.0} ms: {}, up to {:.0} m lowered; {:.1}% of river cells drain \
+                "Eroded in {:.0} ms{}: {}, up to {:.0} m lowered; {:.1}% of river cells drain \
                  along the river{}",
                 report.millis,
+                if report.in_worker {
+                    " (in a Web Worker)"
+                } else {
+                    ""
+                },
                 net_change(report.mean_depth_m),
                 report.max_depth_m,
                 report.drainage.river_fraction * 100.0,

@@ -40,6 +40,8 @@ pub struct StatusInfo<'a> {
     pub map: Option<crate::app::OnMap>,
     pub tool: Tool,
     pub hover: Option<Hover>,
+    /// Where the page's heavy stages run (its Web Worker, or why not); `None` natively.
+    pub worker: Option<String>,
 }
 
 /// The bottom bar (no state of its own).
@@ -50,7 +52,12 @@ impl StatusBar {
     pub fn show(&mut self, ui: &mut egui::Ui, info: &StatusInfo<'_>) {
         ui.horizontal(|ui| {
             let label = ui.label(RichText::new(info.path.to_string()).strong());
-            label.on_hover_ui(|ui| compute_details(ui, info.path));
+            label.on_hover_ui(|ui| {
+                compute_details(ui, info.path);
+                if let Some(worker) = &info.worker {
+                    ui.label(worker);
+                }
+            });
             if let Some(map) = &info.map {
                 ui.separator();
                 ui.label(map.words()).on_hover_text(

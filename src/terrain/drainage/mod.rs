@@ -14,7 +14,7 @@ use crate::radix_heap::{RadixHeap, ordered_key};
 use crate::skeleton::CellKind;
 
 /// Drainage measures of a terrain (`strahler generate --report`, tests).
-#[derive(Clone, Debug, Default, Serialize)]
+#[derive(Clone, Debug, Default, Serialize, serde::Deserialize)]
 pub struct Drainage {
     /// Cells of the drawn rivers: the strokes, sketched valleys, and, where the erosion did
     /// not shape them, the branches the L-system grew.
@@ -384,7 +384,7 @@ pub fn has_pits(field: &Heightfield) -> bool {
 }
 
 /// What [`fill_depressions`] changed.
-#[derive(Clone, Copy, Debug, Default, Serialize)]
+#[derive(Clone, Copy, Debug, Default, Serialize, serde::Deserialize)]
 pub struct Conditioning {
     /// Cells raised out of a depression.
     pub raised_cells: usize,
