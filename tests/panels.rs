@@ -853,7 +853,25 @@ fn export_dialog_saves_the_plan_of_a_world_in_tiles() {
     h.get_by_label("Save the world plan").click();
     h.run();
     match h.state().actions.as_slice() {
-        [Action::SaveWorldPlan { size, tile }] => assert_eq!((*size, *tile), (16_384, 2048)),
+        [Action::SaveWorldPlan { size, tile, fill }] => {
+            assert_eq!((*size, *tile, *fill), (16_384, 2048, false))
+        }
+        other => panic!("{other:?}"),
+    }
+    h.state_mut().actions.clear();
+    h.get_by_label("Fill the depressions").click();
+    h.run();
+    assert!(
+        h.query_by_label_contains("258 tasks: the global build at 2049^2")
+            .is_some()
+            && h.query_by_label_contains("the depressions filled")
+                .is_some(),
+        "filling adds a task per tile twice and one for the world"
+    );
+    h.get_by_label("Save the world plan").click();
+    h.run();
+    match h.state().actions.as_slice() {
+        [Action::SaveWorldPlan { fill, .. }] => assert!(*fill),
         other => panic!("{other:?}"),
     }
     h.state_mut().actions.clear();

@@ -512,3 +512,119 @@ fn a_world_becomes_engine_tiles_that_share_their_edges() {
     );
     let _ = std::fs::remove_dir_all(&here);
 }
+
+/// Interior cells with no neighbour at or below their height (none after filling).
+fn pits(h: &[f32], n: usize) -> usize {
+    (1..n - 1)
+        .flat_map(|y| (1..n - 1).map(move |x| (x, y)))
+        .filter(|&(x, y)| {
+            let z = h[y * n + x];
+            (-1i64..=1)
+                .flat_map(|dy| (-1i64..=1).map(move |dx| (dx, dy)))
+                .filter(|&d| d != (0, 0))
+                .all(|(dx, dy)| h[(y as i64 + dy) as usize * n + (x as i64 + dx) as usize] > z)
+        })
+        .count()
+}
+
+/// `--fill-depressions`: the tiled Priority-Flood's world (refined, in tiles of 128 on a
+/// 513^2 world, so the last row and column of tiles are one cell wide) is the one-piece
+/// fill of the unfilled world bit for bit, with no pit left; its three stages run task by task in reverse
+/// order give the same bits, and a fill before the world's graph is refused naming the task.
+#[test]
+fn a_world_filled_in_tiles_is_the_one_piece_fill() {
+    let here = dir("fill");
+    let scene = scene(&here);
+    let scene = scene.to_str().unwrap();
+    let common = ["--size", "513", "--world", "129", "--tile", "128"];
+    let out = |name: &str| here.join(name).to_str().unwrap().to_owned();
+    let build = |name: &str, extra: &[&str]| {
+        ok(&[&["build", scene, "--out", &out(name)][..], &common, extra].concat())
+    };
+    build("plain", &[]);
+    let printed = build("filled", &["--fill-depressions"]);
+    assert!(printed.contains("world.tif"), "{printed}");
+    let (plain, n, _) = read_world(&here.join("plain").join("world.tif"));
+    let (filled, _, _) = read_world(&here.join("filled").join("world.tif"));
+    let whole = strahler::world::flood::fill_tile(
+        strahler::world::flood::flood_tile(&plain, n, n, |_, _| true),
+        &[],
+    );
+    let raised = filled.iter().zip(&plain).filter(|(a, b)| a > b).count();
+    assert!(
+        pits(&plain, n) > 0 && raised > 0,
+        "the unfilled world has pits to fill"
+    );
+    assert!(
+        whole
+            .iter()
+            .zip(&filled)
+            .all(|(a, b)| a.to_bits() == b.to_bits()),
+        "the tiled fill differs from the one-piece fill"
+    );
+    assert_eq!(pits(&filled, n), 0);
+    // A batch engine's way for the three filling stages, each stage's tasks in reverse
+    // order, from the same tiles.
+    let stages = build("by-task", &["--fill-depressions", "--plan"]);
+    assert!(stages.contains("102 tasks in 6 stages"), "{stages}");
+    for name in ["world.f32", "world.json"] {
+        std::fs::copy(
+            here.join("plain").join(name),
+            here.join("by-task").join(name),
+        )
+        .unwrap();
+    }
+    std::fs::create_dir_all(here.join("by-task").join("tiles")).unwrap();
+    for entry in std::fs::read_dir(here.join("plain").join("tiles")).unwrap() {
+        let entry = entry.unwrap();
+        std::fs::copy(
+            entry.path(),
+            here.join("by-task").join("tiles").join(entry.file_name()),
+        )
+        .unwrap();
+    }
+    let task = |k: usize| {
+        strahler(
+            &[
+                &[
+                    "build",
+                    scene,
+                    "--out",
+                    &out("by-task"),
+                    "--fill-depressions",
+                ][..],
+                &common,
+                &["--task", &k.to_string()],
+            ]
+            .concat(),
+        )
+    };
+    let early = task(85);
+    assert!(!early.status.success());
+    let said = String::from_utf8_lossy(&early.stderr);
+    assert!(said.contains("run task 76 first"), "{said}");
+    for stage in [
+        (51..=75).rev().collect::<Vec<_>>(),
+        vec![76],
+        (77..=101).rev().collect(),
+    ] {
+        for k in stage {
+            let ran = task(k);
+            assert!(
+                ran.status.success(),
+                "task {k}: {}",
+                String::from_utf8_lossy(&ran.stderr)
+            );
+        }
+    }
+    build("by-task", &["--fill-depressions", "--assemble"]);
+    let (by_task, _, _) = read_world(&here.join("by-task").join("world.tif"));
+    assert!(
+        by_task
+            .iter()
+            .zip(&filled)
+            .all(|(a, b)| a.to_bits() == b.to_bits()),
+        "task by task, the filled world differs"
+    );
+    let _ = std::fs::remove_dir_all(&here);
+}

@@ -84,11 +84,12 @@ impl StrahlerApp {
 
     /// Saves the plan of a world of the scene in tiles (`strahler build plan.json` builds
     /// it on one machine or a batch engine).
-    pub(super) fn save_world_plan(&mut self, size: usize, tile: usize) {
+    pub(super) fn save_world_plan(&mut self, size: usize, tile: usize, fill: bool) {
         let scene = self.session.scene().clone();
         let saved = crate::world::Plan::new(&scene, size, tile, None)
             .map_err(|e| e.to_string())
             .and_then(|plan| {
+                let plan = if fill { plan.with_fill() } else { plan };
                 let stem = super::files::free_stem("strahler-world-plan", &[".json"]);
                 let name = format!("{stem}.json");
                 super::files::save(&name, "application/json", plan.to_json().as_bytes())

@@ -249,7 +249,7 @@ impl StrahlerApp {
             Action::Dem(action) => self.dem_action(ctx, action),
             Action::Document(action) => self.document_action(action),
             Action::Export { request, layers } => self.download(ctx, request, layers),
-            Action::SaveWorldPlan { size, tile } => self.save_world_plan(size, tile),
+            Action::SaveWorldPlan { size, tile, fill } => self.save_world_plan(size, tile, fill),
             Action::SaveWorldPreview { size, tile } => self.save_world_preview(ctx, size, tile),
         }
     }

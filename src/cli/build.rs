@@ -37,6 +37,11 @@ pub struct BuildArgs {
     /// and its levels of detail alone, every cell exact (half the tasks).
     #[arg(long)]
     pub no_refine: bool,
+    /// Fill the world's depressions (flat lakes, as GIS tools' "fill sinks"), exactly, tile
+    /// by tile (the tiled Priority-Flood of Barnes 2016): every cell then drains to the
+    /// world's edge. Three more stages: a task per tile, one for the world, one per tile.
+    #[arg(long)]
+    pub fill_depressions: bool,
     /// Write the plan and print its number of tasks, nothing else.
     #[arg(long)]
     pub plan: bool,
@@ -157,10 +162,11 @@ fn plan_line(plan: &Plan) -> String {
         plan.size,
         plan.tile,
         plan.levels,
-        if plan.refine {
-            ", the erosion refined per tile"
-        } else {
-            ""
+        match (plan.refine, plan.fill) {
+            (true, true) => ", the erosion refined per tile, the depressions filled",
+            (true, false) => ", the erosion refined per tile",
+            (false, true) => ", the depressions filled",
+            (false, false) => "",
         }
     );
     for (s, (tasks, what)) in stages.iter().enumerate() {
@@ -187,6 +193,9 @@ fn plan_of(args: &BuildArgs) -> Result<Plan, Box<dyn std::error::Error>> {
         if args.no_refine {
             plan = plan.without_refinement();
         }
+        if args.fill_depressions {
+            plan = plan.with_fill();
+        }
         let differs = args.size.is_some_and(|s| s != plan.size)
             || args.tile.is_some_and(|t| t != plan.tile)
             || args.world.is_some_and(|w| w != plan.world);
@@ -207,12 +216,14 @@ fn plan_of(args: &BuildArgs) -> Result<Plan, Box<dyn std::error::Error>> {
     let size = args
         .size
         .ok_or("--size: give the world's cells a side (a scene file has no world size)")?;
-    let plan = Plan::new(&scene, size, args.tile.unwrap_or(DEFAULT_TILE), args.world)?;
-    Ok(if args.no_refine {
-        plan.without_refinement()
-    } else {
-        plan
-    })
+    let mut plan = Plan::new(&scene, size, args.tile.unwrap_or(DEFAULT_TILE), args.world)?;
+    if args.no_refine {
+        plan = plan.without_refinement();
+    }
+    if args.fill_depressions {
+        plan = plan.with_fill();
+    }
+    Ok(plan)
 }
 
 /// Every task not yet done, in order, with the count, the stage and the time left on stderr.
@@ -274,7 +285,7 @@ impl StageClock {
 /// `world.tif` in the build's directory from the finished tiles.
 fn assemble(dir: &BuildDir, plan: &Plan) -> Result<(), Box<dyn std::error::Error>> {
     let missing: Vec<usize> = (0..plan.tile_count())
-        .map(|k| plan.tile_task(k))
+        .map(|k| plan.final_task(k))
         .filter(|&k| !dir.done(plan, k))
         .collect();
     if let Some(first) = missing.first() {

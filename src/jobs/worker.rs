@@ -485,7 +485,9 @@ fn message_of(value: &JsValue) -> String {
     if let Some(error) = value.dyn_ref::<js_sys::Error>() {
         return String::from(error.message());
     }
-    value.as_string().unwrap_or_else(|| "an unknown error".into())
+    value
+        .as_string()
+        .unwrap_or_else(|| "an unknown error".into())
 }
 
 fn string(value: &JsValue, key: &str) -> Option<String> {

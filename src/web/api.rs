@@ -6,9 +6,10 @@
 //!   lastRun, lastError}`; `compute` is "webgpu" on the GPU path and "cpu" on the fallback.
 //! - `selfTest()`: a promise of the CPU/GPU comparison (`diffusion::selftest::SelfTest`).
 //! - `scene()`: the current scene (the document, see `crate::scene`).
-//! - `worldPlan({size, tile, world, refine})`: the plan of a world in tiles of the current
-//!   scene (`crate::world::Plan`, `refine: false` for no refinement of the erosion per
-//!   tile), the file `strahler build` takes; throws naming a bad option.
+//! - `worldPlan({size, tile, world, refine, fill})`: the plan of a world in tiles of the
+//!   current scene (`crate::world::Plan`, `refine: false` for no refinement of the erosion
+//!   per tile, `fill: true` to fill its depressions exactly tile by tile), the file
+//!   `strahler build` takes; throws naming a bad option.
 //! - `worldPreview({size, tile, world})`: a promise of that plan's global build as a
 //!   GeoTIFF (`Uint8Array`): the bytes of `preview.tif`, the whole world at low resolution,
 //!   that `strahler build`'s task 0 writes.
@@ -121,7 +122,7 @@ fn install_reports(api: &js_sys::Object, automation: &Automation) {
     world_preview.forget();
 }
 
-/// The plan `options` (`{size, tile, world, refine}`) ask for of the scene on the map; `name`
+/// The plan `options` (`{size, tile, world, refine, fill}`) ask for of the scene on the map; `name`
 /// (the function's) heads the error naming a bad option.
 fn world_plan_of(
     automation: &Automation,
@@ -149,13 +150,22 @@ fn world_plan_of(
     let tile = number("tile")?.unwrap_or(2048);
     let plan = crate::world::Plan::new(&scene, size, tile, number("world")?)
         .map_err(|e| error(format!("{name}: {e}")))?;
-    let refine = get("refine")?;
-    match refine.as_bool() {
-        None if refine.is_undefined() => Ok(plan),
-        Some(true) => Ok(plan),
-        Some(false) => Ok(plan.without_refinement()),
-        None => Err(error(format!("{name}: refine must be true or false"))),
+    let flag = |key: &str, default: bool| -> Result<bool, JsValue> {
+        let value = get(key)?;
+        match value.as_bool() {
+            Some(on) => Ok(on),
+            None if value.is_undefined() => Ok(default),
+            None => Err(error(format!("{name}: {key} must be true or false"))),
+        }
+    };
+    let mut plan = plan;
+    if !flag("refine", true)? {
+        plan = plan.without_refinement();
     }
+    if flag("fill", false)? {
+        plan = plan.with_fill();
+    }
+    Ok(plan)
 }
 
 /// The scene's edits: `loadScene`, `addRiver`, `maskFromRivers` and `paintMask`.

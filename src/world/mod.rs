@@ -16,9 +16,12 @@
 //!   `--no-refine` the whole world is);
 //! - the refinement: bounded, each window routing only its own water, the windows blended
 //!   by a partition of unity (no seam; measured in docs/features.md);
-//! - not done: a diffusion refined per tile and a tiled Priority-Flood.
+//! - the depression filling (`--fill-depressions`, [`flood`]): exact, the tiled
+//!   Priority-Flood of Barnes (2016), the one-piece fill bit for bit;
+//! - not done: a diffusion refined per tile.
 
 pub mod engine;
+pub mod flood;
 pub mod plan;
 pub mod refine;
 pub mod task;

@@ -47,6 +47,11 @@ pub struct Plan {
     /// Absent in a plan file: refined where it can be.
     #[serde(default = "refined")]
     pub refine: bool,
+    /// Whether the world's depressions are filled (flat lakes), exactly, by the tiled
+    /// Priority-Flood ([`super::flood`]): three more stages after the tiles. Absent in a plan
+    /// file: not filled.
+    #[serde(default)]
+    pub fill: bool,
 }
 
 fn refined() -> bool {
@@ -60,8 +65,14 @@ pub enum Task {
     Global,
     /// Stage 1 of a refined build: tile `k`'s window, eroded at the world's resolution.
     Refine(usize),
-    /// The last stage: tile `k`'s cells, written to its file.
+    /// Tile `k`'s cells, written to its file (the last stage unless the plan fills).
     Tile(usize),
+    /// With filling: tile `k` flooded alone, its spill graph written ([`super::flood`]).
+    Flood(usize),
+    /// With filling: every tile's graph joined and flooded from the world's edge.
+    Levels,
+    /// With filling, the last stage: tile `k` raised to its watersheds' spill levels.
+    Filled(usize),
 }
 
 impl Plan {
@@ -103,7 +114,14 @@ impl Plan {
             world,
             levels,
             refine: levels > 0 && scene.erosion.is_some(),
+            fill: false,
         })
+    }
+
+    /// The plan with the world's depressions filled ([`super::flood`]).
+    pub fn with_fill(mut self) -> Self {
+        self.fill = true;
+        self
     }
 
     /// The plan with no refinement: the tiles are the global build and its levels of
@@ -124,21 +142,50 @@ impl Plan {
     }
 
     /// Tasks of the build: the global build (task 0), then with refinement one per tile's
-    /// window (stage 1), then one per tile.
+    /// window (stage 1), then one per tile; with filling, one more per tile, one for the
+    /// whole world's graph, and one per tile again.
     pub fn tasks(&self) -> usize {
-        1 + self.tile_count() * (1 + usize::from(self.refine))
+        let tiles = self.tile_count();
+        1 + tiles * (1 + usize::from(self.refine)) + usize::from(self.fill) * (2 * tiles + 1)
     }
 
     /// What task `k` does; `None` past the last.
     pub fn task(&self, k: usize) -> Option<Task> {
         let tiles = self.tile_count();
-        match k {
-            0 => Some(Task::Global),
-            _ if k >= self.tasks() => None,
-            _ if self.refine && k <= tiles => Some(Task::Refine(k - 1)),
-            _ if self.refine => Some(Task::Tile(k - 1 - tiles)),
-            _ => Some(Task::Tile(k - 1)),
+        if k == 0 {
+            return Some(Task::Global);
         }
+        if k >= self.tasks() {
+            return None;
+        }
+        let mut j = k - 1;
+        if self.refine {
+            if j < tiles {
+                return Some(Task::Refine(j));
+            }
+            j -= tiles;
+        }
+        Some(match j {
+            _ if j < tiles => Task::Tile(j),
+            _ if j < 2 * tiles => Task::Flood(j - tiles),
+            _ if j == 2 * tiles => Task::Levels,
+            _ => Task::Filled(j - 2 * tiles - 1),
+        })
+    }
+
+    /// The task that writes tile `k`'s final heights: the tile's own, or with filling the
+    /// filled tile's.
+    pub fn final_task(&self, k: usize) -> usize {
+        if self.fill {
+            self.levels_task() + 1 + k
+        } else {
+            self.tile_task(k)
+        }
+    }
+
+    /// With filling, the task of the whole world's spill graph.
+    pub fn levels_task(&self) -> usize {
+        self.tile_task(0) + 2 * self.tile_count()
     }
 
     /// Tile `k` and the tiles around it (whose refined windows reach into each other), in
@@ -172,6 +219,18 @@ impl Plan {
         }
         let first = self.tile_task(0);
         stages.push((first..=first + tiles - 1, "the tiles".into()));
+        if self.fill {
+            let levels = self.levels_task();
+            stages.push((
+                first + tiles..=levels - 1,
+                "each tile's depressions flooded alone, its spill graph".into(),
+            ));
+            stages.push((levels..=levels, "the whole world's spill graph".into()));
+            stages.push((
+                levels + 1..=levels + tiles,
+                "each tile filled to its spill levels".into(),
+            ));
+        }
         stages
     }
 
@@ -305,6 +364,20 @@ mod tests {
         assert_eq!(plain.task(1), Some(Task::Tile(0)));
         assert_eq!(plain.stages().len(), 2);
         assert_eq!(plan.stages()[2].0, 257..=512);
+        // Filled: a flood per tile, the world's graph, a fill per tile, each stage in turn.
+        let filled = plan.clone().with_fill();
+        assert_eq!(filled.tasks(), 1 + 2 * 256 + 2 * 256 + 1);
+        assert_eq!(filled.task(513), Some(Task::Flood(0)));
+        assert_eq!(filled.task(768), Some(Task::Flood(255)));
+        assert_eq!(filled.task(769), Some(Task::Levels));
+        assert_eq!(filled.task(770), Some(Task::Filled(0)));
+        assert_eq!(filled.task(1025), Some(Task::Filled(255)));
+        assert_eq!(filled.task(1026), None);
+        assert_eq!((filled.levels_task(), filled.final_task(255)), (769, 1025));
+        let ranges: Vec<_> = filled.stages().into_iter().map(|(r, _)| r).collect();
+        assert_eq!(ranges[3..], [513..=768, 769..=769, 770..=1025]);
+        assert_eq!(plain.clone().with_fill().task(257), Some(Task::Flood(0)));
+        assert_eq!(Plan::from_json(&filled.to_json()).unwrap(), filled);
         // A window holds its tile and a halo, within the world.
         let w = plan.refine_window(17);
         let (_, _, t) = plan.tile(17);

@@ -14,6 +14,9 @@
 //! - The last T tasks, tile `k`: its cells of the world (`tiles/rRRR-cCCC.f32`), the global
 //!   build with the levels of detail [`super::window::synthesize`] adds, or with refinement
 //!   the refined windows over it blended.
+//! - With filling ([`super::flood`]), after the tiles: each tile's spill graph
+//!   (`flood/rRRR-cCCC.json`), then one task joining them (`flood/levels.json`), then each
+//!   tile filled (`filled/rRRR-cCCC.f32`, what the world is assembled from).
 
 use std::path::{Path, PathBuf};
 
@@ -95,6 +98,25 @@ impl BuildDir {
             .join(format!("r{row:03}-c{col:03}.f32"))
     }
 
+    /// Tile (`row`, `col`)'s spill graph, flooded alone ([`super::flood`]).
+    pub fn flood_graph(&self, row: usize, col: usize) -> PathBuf {
+        self.root
+            .join("flood")
+            .join(format!("r{row:03}-c{col:03}.json"))
+    }
+
+    /// Every tile's spill levels, from the whole world's graph.
+    pub fn flood_levels(&self) -> PathBuf {
+        self.root.join("flood").join("levels.json")
+    }
+
+    /// Tile (`row`, `col`) with its depressions filled.
+    pub fn filled(&self, row: usize, col: usize) -> PathBuf {
+        self.root
+            .join("filled")
+            .join(format!("r{row:03}-c{col:03}.f32"))
+    }
+
     /// Whether task `k` of `plan` has its output. A refined window is done once written, or
     /// once every tile that reads it is (assembling the world removes the windows).
     pub fn done(&self, plan: &Plan, k: usize) -> bool {
@@ -113,6 +135,16 @@ impl BuildDir {
             Some(Task::Tile(j)) => {
                 let (row, col, window) = plan.tile(j);
                 holds(self.tile(row, col), window)
+            }
+            // A graph is only read by the levels' task.
+            Some(Task::Flood(j)) => {
+                let (row, col, _) = plan.tile(j);
+                self.flood_graph(row, col).is_file() || self.flood_levels().is_file()
+            }
+            Some(Task::Levels) => self.flood_levels().is_file(),
+            Some(Task::Filled(j)) => {
+                let (row, col, window) = plan.tile(j);
+                holds(self.filled(row, col), window)
             }
             None => false,
         }
@@ -151,6 +183,8 @@ pub fn remove_leftovers(dir: &BuildDir) -> usize {
         dir.root.clone(),
         dir.root.join("tiles"),
         dir.root.join("refined"),
+        dir.root.join("flood"),
+        dir.root.join("filled"),
     ] {
         let Ok(entries) = std::fs::read_dir(&folder) else {
             continue;
@@ -207,6 +241,9 @@ pub async fn run(dir: &BuildDir, plan: &Plan, k: usize, ctx: &JobCtx) -> Result<
         Some(Task::Global) | None => global_build(dir, plan, ctx).await?,
         Some(Task::Refine(j)) => refine(dir, plan, j)?,
         Some(Task::Tile(j)) => tile(dir, plan, j)?,
+        Some(Task::Flood(j)) => flood(dir, plan, j)?,
+        Some(Task::Levels) => flood_levels(dir, plan)?,
+        Some(Task::Filled(j)) => filled(dir, plan, j)?,
     }
     Ok(true)
 }
@@ -364,6 +401,105 @@ fn tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
     write_field(&dir.tile(row, col), window, heights)
 }
 
+/// Tile `k` flooded alone from its perimeter ([`super::flood::flood_tile`]): the same bits
+/// whichever task floods it (the graph's and the fill's).
+fn flooded_tile(
+    dir: &BuildDir,
+    plan: &Plan,
+    k: usize,
+) -> Result<super::flood::TileFlood, WorldError> {
+    let (row, col, window) = plan.tile(k);
+    let heights = read_cells(&dir.tile(row, col), window, plan.tile_task(k))?;
+    let last = plan.size - 1;
+    let on_world_edge = |x: usize, y: usize| {
+        let (x, y) = (window.x0 + x, window.y0 + y);
+        x == 0 || y == 0 || x == last || y == last
+    };
+    Ok(super::flood::flood_tile(
+        &heights,
+        window.width,
+        window.height,
+        on_world_edge,
+    ))
+}
+
+/// With filling, the stage after the tiles: tile `k`'s spill graph.
+fn flood(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
+    let (row, col, _) = plan.tile(k);
+    let graph = flooded_tile(dir, plan, k)?.graph;
+    let text = serde_json::to_string(&graph).map_err(|e| WorldError::Io(e.to_string()))?;
+    write_atomically(&dir.flood_graph(row, col), text.as_bytes())
+}
+
+/// With filling, one task: every tile's graph joined and flooded from the world's edge
+/// ([`super::flood::solve`]); each tile's spill levels, as `f32` bits, in `levels.json`.
+fn flood_levels(dir: &BuildDir, plan: &Plan) -> Result<(), WorldError> {
+    let graphs = (0..plan.tile_count())
+        .map(|k| {
+            let (row, col, window) = plan.tile(k);
+            let path = dir.flood_graph(row, col);
+            let text = std::fs::read_to_string(&path).map_err(|e| {
+                WorldError::Io(format!(
+                    "{}: {e} (run task {} first)",
+                    path.display(),
+                    plan.tile_task(k) + plan.tile_count()
+                ))
+            })?;
+            let graph: super::flood::TileGraph = serde_json::from_str(&text)
+                .map_err(|e| WorldError::Io(format!("{}: {e}", path.display())))?;
+            if (graph.width, graph.height) != (window.width, window.height) {
+                return Err(WorldError::Io(format!(
+                    "{} is a graph of {} x {} cells, not the tile's {} x {}",
+                    path.display(),
+                    graph.width,
+                    graph.height,
+                    window.width,
+                    window.height
+                )));
+            }
+            Ok(graph)
+        })
+        .collect::<Result<Vec<_>, WorldError>>()?;
+    let layout = super::flood::Layout {
+        size: plan.size,
+        tile: plan.tile,
+    };
+    let levels: Vec<Vec<u32>> = super::flood::solve(layout, &graphs)
+        .into_iter()
+        .map(|tile| tile.into_iter().map(f32::to_bits).collect())
+        .collect();
+    let text = serde_json::to_string(&levels).map_err(|e| WorldError::Io(e.to_string()))?;
+    write_atomically(&dir.flood_levels(), text.as_bytes())
+}
+
+/// With filling, the last stage: tile `k` flooded alone again, then raised to its
+/// watersheds' spill levels ([`super::flood::fill_tile`]).
+fn filled(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
+    let (row, col, window) = plan.tile(k);
+    let path = dir.flood_levels();
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        WorldError::Io(format!(
+            "{}: {e} (run task {} first)",
+            path.display(),
+            plan.levels_task()
+        ))
+    })?;
+    let levels: Vec<Vec<u32>> = serde_json::from_str(&text)
+        .map_err(|e| WorldError::Io(format!("{}: {e}", path.display())))?;
+    let mine: Vec<f32> = levels
+        .get(k)
+        .ok_or_else(|| WorldError::Io(format!("{} has no levels for tile {k}", path.display())))?
+        .iter()
+        .map(|&bits| f32::from_bits(bits))
+        .collect();
+    let flood = flooded_tile(dir, plan, k)?;
+    write_field(
+        &dir.filled(row, col),
+        window,
+        super::flood::fill_tile(flood, &mine),
+    )
+}
+
 /// Writes the cells of `window` to `path` as RAW R32, atomically.
 fn write_field(path: &Path, window: Window, heights: Vec<f32>) -> Result<(), WorldError> {
     let field = Heightfield::from_vec(window.width, window.height, heights)
@@ -402,10 +538,15 @@ pub fn read_window(dir: &BuildDir, plan: &Plan, window: Window) -> Result<Vec<f3
     Ok(out)
 }
 
-/// A finished tile's heights.
+/// A finished tile's heights (with filling, the filled tile's).
 pub fn read_tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Vec<f32>, WorldError> {
     let (row, col, window) = plan.tile(k);
-    read_cells(&dir.tile(row, col), window, plan.tile_task(k))
+    let path = if plan.fill {
+        dir.filled(row, col)
+    } else {
+        dir.tile(row, col)
+    };
+    read_cells(&path, window, plan.final_task(k))
 }
 
 /// The cells of `window` that task `task` wrote to `path`.

@@ -192,6 +192,9 @@ async function runMode(url, mode, expectedChecksum) {
       && JSON.stringify(plan.scene) === JSON.stringify(scene), JSON.stringify(plan).slice(0, 200));
     const plain = await page.evaluate(() => window.strahler.worldPlan({ size: 16384, refine: false }));
     check('worldPlan({refine: false}) plans no refinement', plain.refine === false, JSON.stringify(plain.refine));
+    const filledPlan = await page.evaluate(() => window.strahler.worldPlan({ size: 16384, fill: true }));
+    check('worldPlan({fill: true}) plans the depressions filled (and not by default)',
+      filledPlan.fill === true && plan.fill === false, `${filledPlan.fill}, ${plan.fill}`);
     const badPlan = await page.evaluate(() => {
       try { window.strahler.worldPlan({ size: 16384, tile: 100 }); return null; } catch (e) { return String(e.message); }
     });
@@ -202,6 +205,13 @@ async function runMode(url, mode, expectedChecksum) {
       const printed = execFileSync(process.env.STRAHLER_BIN,
         ['build', file, '--plan', '--out', join(output, 'world')]).toString();
       check('strahler build takes the page\'s plan', printed.includes('129 tasks in 3 stages'), printed);
+      const filledFile = join(output, 'filled-plan.json');
+      writeFileSync(filledFile, JSON.stringify(filledPlan));
+      const filledPrinted = execFileSync(process.env.STRAHLER_BIN,
+        ['build', filledFile, '--plan', '--out', join(output, 'filled-world')]).toString();
+      check('strahler build takes the page\'s plan with filling: three more stages',
+        filledPrinted.includes('258 tasks in 6 stages') && filledPrinted.includes('the depressions filled'),
+        filledPrinted);
       // The world's preview built in the page: the bytes of the build's first task.
       const small = await page.evaluate(() => window.strahler.worldPlan({ size: 513, world: 129, tile: 128 }));
       const smallFile = join(output, 'small-plan.json');

@@ -45,6 +45,8 @@ pub struct ExportDialog {
     pub layers: bool,
     /// A world in tiles of the scene: its cells a side and its tiles'.
     pub world: (usize, usize),
+    /// Whether that world's depressions are filled (`strahler build --fill-depressions`).
+    pub world_fill: bool,
 }
 
 impl Default for ExportDialog {
@@ -62,6 +64,7 @@ impl Default for ExportDialog {
             rivers: false,
             layers: false,
             world: (16_384, 2048),
+            world_fill: false,
         }
     }
 }
@@ -196,9 +199,17 @@ impl ExportDialog {
                         .response
                         .labelled_by(label.id);
                 });
+                ui.checkbox(&mut self.world_fill, "Fill the depressions")
+                    .on_hover_text(
+                        "Flat lakes where water would stand, so that every cell drains to the \
+                         world's edge (GIS tools' \"fill sinks\"), exactly, tile by tile: \
+                         three more stages of tasks.",
+                    );
+                let fill = self.world_fill;
                 let scene = crate::scene::Scene::default();
                 match crate::world::Plan::new(&scene, *size, *tile, None) {
                     Ok(plan) => {
+                        let plan = if fill { plan.with_fill() } else { plan };
                         ui.label(format!(
                             "{} tasks: the global build at {}^2, then {} x {} tiles with {} \
                              levels of detail{}",
@@ -207,10 +218,13 @@ impl ExportDialog {
                             plan.tiles_per_side(),
                             plan.tiles_per_side(),
                             plan.levels,
-                            if plan.refine {
-                                ", the erosion refined tile by tile"
-                            } else {
-                                ""
+                            match (plan.refine, plan.fill) {
+                                (true, true) => {
+                                    ", the erosion refined tile by tile, the depressions filled"
+                                }
+                                (true, false) => ", the erosion refined tile by tile",
+                                (false, true) => ", the depressions filled",
+                                (false, false) => "",
                             }
                         ));
                         ui.horizontal(|ui| {
@@ -218,6 +232,7 @@ impl ExportDialog {
                                 actions.push(Action::SaveWorldPlan {
                                     size: *size,
                                     tile: *tile,
+                                    fill,
                                 });
                             }
                             let preview = ui.button("Save the preview").on_hover_text(format!(

@@ -71,7 +71,11 @@ pub enum Action {
         layers: bool,
     },
     /// Save the plan of a world in tiles of the scene (`strahler build`'s input).
-    SaveWorldPlan { size: usize, tile: usize },
+    SaveWorldPlan {
+        size: usize,
+        tile: usize,
+        fill: bool,
+    },
     /// Build and save that world's preview (its global build, `strahler build`'s
     /// `preview.tif`).
     SaveWorldPreview { size: usize, tile: usize },
