@@ -132,6 +132,33 @@ pub struct Filled<F = Heightfield> {
     pub millis: f64,
 }
 
+impl<F> Filled<F> {
+    /// The same solve with its field mapped (moved to the CPU, unwrapped...).
+    pub fn map_field<G>(self, f: impl FnOnce(F) -> G) -> Filled<G> {
+        match self.try_map_field(|field| Ok::<G, std::convert::Infallible>(f(field))) {
+            Ok(filled) => filled,
+            Err(never) => match never {},
+        }
+    }
+
+    /// [`Self::map_field`] with a mapping that may fail.
+    pub fn try_map_field<G, E>(self, f: impl FnOnce(F) -> Result<G, E>) -> Result<Filled<G>, E> {
+        Ok(Filled {
+            field: f(self.field)?,
+            method: self.method,
+            backend: self.backend,
+            cycles: self.cycles,
+            sweeps: self.sweeps,
+            work_sweeps: self.work_sweeps,
+            residual: self.residual,
+            relative_residual: self.relative_residual,
+            converged: self.converged,
+            estimated_error: self.estimated_error,
+            millis: self.millis,
+        })
+    }
+}
+
 /// Fills `problem` with `method` on `backend`: the diffusion stage's entry point. The time
 /// includes reading the field back from the GPU.
 pub async fn fill(
@@ -180,19 +207,7 @@ pub async fn fill_keeping(
             Ok(parcel) => {
                 let filled = offload::result_from_parcel(parcel)
                     .map_err(|e| DiffusionError::Worker(e.to_string()))?;
-                return Ok(Filled {
-                    field: FieldOut::Cpu(filled.field),
-                    method: filled.method,
-                    backend: filled.backend,
-                    cycles: filled.cycles,
-                    sweeps: filled.sweeps,
-                    work_sweeps: filled.work_sweeps,
-                    residual: filled.residual,
-                    relative_residual: filled.relative_residual,
-                    converged: filled.converged,
-                    estimated_error: filled.estimated_error,
-                    millis: filled.millis,
-                });
+                return Ok(filled.map_field(FieldOut::Cpu));
             }
             Err(CallError::Unavailable(reason)) => {
                 log::info!("diffusion on the page's thread: {reason}");

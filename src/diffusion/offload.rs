@@ -155,23 +155,11 @@ pub async fn serve(parcel: Parcel, ctx: JobCtx) -> Result<Parcel, String> {
     let filled = super::solve_here(&Backend::Cpu, &problem, method, &ctx)
         .await
         .map_err(|e| e.to_string())?;
-    let field = match filled.field {
-        FieldOut::Cpu(field) => field,
-        FieldOut::Gpu(_) => return Err("the worker's solve stayed on a GPU".into()),
-    };
-    Ok(result_into_parcel(Filled {
-        field,
-        method: filled.method,
-        backend: filled.backend,
-        cycles: filled.cycles,
-        sweeps: filled.sweeps,
-        work_sweeps: filled.work_sweeps,
-        residual: filled.residual,
-        relative_residual: filled.relative_residual,
-        converged: filled.converged,
-        estimated_error: filled.estimated_error,
-        millis: filled.millis,
-    }))
+    let filled = filled.try_map_field(|field| match field {
+        FieldOut::Cpu(field) => Ok(field),
+        FieldOut::Gpu(_) => Err("the worker's solve stayed on a GPU"),
+    })?;
+    Ok(result_into_parcel(filled))
 }
 
 #[cfg(test)]
