@@ -11,6 +11,8 @@
 //                  median, 95th percentile and longest, and how long the generation took;
 //                  main-thread tasks over 50 ms meanwhile (PerformanceObserver 'longtask':
 //                  the page's own work, without the browser's compositing) and the longest
+//   3D orbit       camera turns the 3D view draws a second while it is turned every animation
+//                  frame: idle, and while a 2048^2 terrain is generated (BENCH_ORBIT=0 skips)
 //   exports        an Unreal export at 4033^2 from the map's terrain, alone and with the
 //                  normal and splat maps and the rivers (one zip): its time, the frame gaps
 //                  and the main-thread tasks over 50 ms meanwhile (both paths;
@@ -20,7 +22,7 @@
 //                  path (the wasm build is single-threaded; these stages never use the GPU)
 //
 // Usage: node web/tests/bench.mjs [DIST_DIR]
-//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT, BENCH_NO_WORKER)
+//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT, BENCH_NO_WORKER, BENCH_ORBIT)
 
 import { existsSync } from 'node:fs';
 import { join, resolve } from 'node:path';
@@ -101,6 +103,43 @@ async function watched(work) {
   return { gaps, total, tasks, result };
 }
 
+// Runs in the page: the 3D view orbiting (the camera turned every animation frame), as
+// frames the view drew with a new camera per second, idle and while a 2048^2 terrain is
+// generated, then back to the map.
+async function orbitRates() {
+  const pause = (ms) => new Promise((done) => setTimeout(done, ms));
+  window.strahler.setView('3d');
+  await pause(2000);
+  const orbitFor = async (work) => {
+    let yaw = 0;
+    let turning = true;
+    const drawn = new Set();
+    const turn = () => {
+      if (!turning) return;
+      yaw = (yaw + 1) % 360;
+      window.strahler.setCamera({ yaw });
+      const seen = window.strahler.status().view3d?.yaw;
+      if (seen !== undefined) drawn.add(Math.round(seen * 1000));
+      requestAnimationFrame(turn);
+    };
+    const start = performance.now();
+    requestAnimationFrame(turn);
+    await work();
+    turning = false;
+    return (drawn.size * 1000) / (performance.now() - start);
+  };
+  const idle = await orbitFor(() => pause(3000));
+  let ms = 0;
+  const building = await orbitFor(async () => {
+    const start = performance.now();
+    await window.strahler.generate({ size: 2048 });
+    ms = performance.now() - start;
+  });
+  window.strahler.setView('2d');
+  await pause(500);
+  return { idle, building, ms };
+}
+
 // Runs in the page: two Unreal exports at 4033^2 of the terrain on the map, watched.
 async function exports() {
   const watch = window.watched;
@@ -178,6 +217,7 @@ async function measure(url, mode) {
     // Main-thread tasks over 50 ms (what the page's own work blocks), beside the frame gaps
     // (which also hold the browser's painting).
     const frames = await page.evaluate(() => window.watched(() => window.strahler.generate({ size: 2048 })));
+    const orbit = process.env.BENCH_ORBIT === '0' ? null : await page.evaluate(orbitRates);
     const hydrology = mode === 'cpu' ? await page.evaluate(hydrologyStages) : null;
     // Peak memory of a 4096^2 generation of the default scene (the page's WebAssembly memory
     // only grows, so its size afterwards is the peak), on the CPU path only (SwiftShader
@@ -209,6 +249,7 @@ async function measure(url, mode) {
       longest: gaps[gaps.length - 1],
       longTasks: frames.tasks.length,
       longestTask: Math.max(0, ...frames.tasks),
+      orbit,
       hydrology,
       big,
       exportRows,
@@ -257,6 +298,10 @@ for (const r of rows) {
 }
 console.log('targets (editor issue): first terrain <= 3000; the coarse pass <= 300 and the 512^2 preview '
   + '<= 2000 on the CPU path; frames < 50 while a 2048^2 terrain is generated');
+for (const r of rows.filter((row) => row.orbit)) {
+  console.log(`3D view orbiting (${r.mode}): ${r.orbit.idle.toFixed(1)} drawn camera turns a second idle, `
+    + `${r.orbit.building.toFixed(1)} while a 2048^2 terrain is generated (${r.orbit.ms.toFixed(0)} ms)`);
+}
 for (const r of rows.filter((row) => row.hydrology)) {
   const h = r.hydrology;
   console.log(`hydrology at 2048^2 in the page (${h.nodes} river nodes, median of 3): rivers `
