@@ -32,9 +32,9 @@ impl StrahlerApp {
             });
         }
         let repaint = ctx.clone();
-        let events = self
-            .session
-            .poll(&self.path, gesture, move || repaint.request_repaint());
+        let events = self.session.poll(&self.path, gesture, move || {
+            repaint.request_repaint_after(super::ONE_FRAME)
+        });
         for event in events {
             match event {
                 session::Event::Started => self.automation.set_scene(self.scene()),

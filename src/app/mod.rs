@@ -76,6 +76,13 @@ pub fn wgpu_options() -> egui_wgpu::WgpuConfiguration {
     }
 }
 
+/// How soon a script's command or a finished job repaints: at once, but as one frame. egui
+/// answers an immediate request (`request_repaint()`) with two frames, and where the page is
+/// composited in software (headless Chromium here) each frame holds its thread over 100 ms,
+/// which an edit's coarse pass waited behind; the frame that shows a result asks for any
+/// frame after it that it needs.
+pub(crate) const ONE_FRAME: std::time::Duration = std::time::Duration::from_millis(1);
+
 /// The application state.
 pub struct StrahlerApp {
     path: ComputePath,
@@ -121,7 +128,7 @@ impl StrahlerApp {
         log::info!("compute path: {path}");
         automation.set_compute_path(&path, adapter, caps);
         let repaint = cc.egui_ctx.clone();
-        automation.set_repaint(move || repaint.request_repaint());
+        automation.set_repaint(move || repaint.request_repaint_after(ONE_FRAME));
         let mut app = Self {
             path,
             automation,

@@ -419,9 +419,15 @@ impl Session {
         let scene = self.scene.clone();
         let mut pipeline = self.pipeline.clone();
         self.running = (options.size, pass);
+        let coarse = pass == Pass::Coarse;
         let spawned = crate::jobs::spawn(
             "terrain",
             move |job| async move {
+                // The coarse pass (128^2: tens of milliseconds on the page's thread, its
+                // diffusion and erosion in the Web Worker) does not yield between its steps:
+                // where the page is composited in software each yield let a repaint of over
+                // 100 ms in before the next step.
+                let job = if coarse { job.unyielding() } else { job };
                 // One bar: the stages, then the map's picture (a few per cent of a run).
                 let stages = job.part(0.0, 0.95);
                 let output = pipeline.run(&scene, &options, &backend, &stages).await?;

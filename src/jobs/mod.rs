@@ -97,6 +97,8 @@ pub struct JobCtx {
     span: (f32, f32),
     /// What this part of the job is about, put before its messages (see [`Self::titled`]).
     title: Option<Arc<str>>,
+    /// Whether its checkpoints yield to the event loop (see [`Self::unyielding`]).
+    yields: bool,
 }
 
 impl JobCtx {
@@ -108,6 +110,7 @@ impl JobCtx {
             control: Arc::default(),
             span: (0.0, 1.0),
             title: None,
+            yields: true,
         }
     }
 
@@ -165,6 +168,7 @@ impl JobCtx {
             control: Arc::clone(&self.control),
             span: (at(from), at(to.max(from))),
             title: self.title.clone(),
+            yields: self.yields,
         }
     }
 
@@ -174,6 +178,18 @@ impl JobCtx {
     pub fn titled(&self, title: &str) -> Self {
         Self {
             title: Some(title.into()),
+            ..self.clone()
+        }
+    }
+
+    /// This context, and its parts, never yielding at their checkpoints (they still record
+    /// progress and notice a cancel; awaits of real events, a GPU readback or a Web Worker's
+    /// reply, still wait): for a job so small that it costs less than one repaint of the page
+    /// (the coarse pass of an edit, tens of milliseconds), which would otherwise wait behind
+    /// a repaint at each yield.
+    pub fn unyielding(&self) -> Self {
+        Self {
+            yields: false,
             ..self.clone()
         }
     }
@@ -256,7 +272,7 @@ impl JobCtx {
         self.count_tick(fraction);
         self.end_slice(message);
         self.set_progress(fraction, message);
-        if !self.control.inline {
+        if !self.control.inline && self.yields {
             yield_now().await;
         }
         *self
@@ -347,6 +363,7 @@ impl JobCtx {
             }),
             span: (0.0, 1.0),
             title: None,
+            yields: true,
         }
     }
 
@@ -460,6 +477,7 @@ where
         }),
         span: (0.0, 1.0),
         title: None,
+        yields: true,
     };
     let mut future = std::pin::pin!(body(ctx));
     let mut waker = std::task::Context::from_waker(std::task::Waker::noop());
@@ -508,6 +526,7 @@ where
         control: Arc::clone(&control),
         span: (0.0, 1.0),
         title: None,
+        yields: true,
     };
     let slot = Arc::clone(&result);
     // The future is built where it runs: natively inside the worker thread, so only the
@@ -554,6 +573,23 @@ mod tests {
             );
             std::thread::sleep(Duration::from_millis(1));
         }
+    }
+
+    #[test]
+    fn an_unyielding_context_still_reports_progress_and_notices_a_cancel() {
+        let ctx = JobCtx::detached().unyielding();
+        let half = ctx.part(0.0, 0.5);
+        assert!(!half.yields, "its parts do not yield either");
+        pollster::block_on(half.checkpoint(1.0, "half way")).unwrap();
+        assert_eq!(
+            (ctx.progress(), ctx.message(), ctx.ticks()),
+            (0.5, "half way".into(), 1)
+        );
+        ctx.control.cancelled.store(true, Ordering::Relaxed);
+        assert_eq!(
+            pollster::block_on(half.checkpoint(1.0, "on")),
+            Err(Cancelled)
+        );
     }
 
     #[test]
