@@ -488,6 +488,9 @@ async function runMode(url, mode, expectedChecksum) {
     check('a scripted edit is autosaved within 2 s and restored after a reload', restored === scripted,
       `${scripted} vs ${restored}`);
     await page.screenshot({ path: join(output, `${mode}.png`) });
+    // The restored scene's terrain once built, to look at.
+    await page.waitForFunction(() => window.strahler.status().job === null, null, { timeout: 120_000 });
+    await page.screenshot({ path: join(output, `${mode}-terrain.png`) });
     // Issue 32: the uploaded DEM's features become the scene, which erodes as a rebuild of
     // the DEM (its valleys run on to their outlets).
     // After the reload: the DEM back from IndexedDB and the restored scene's terrain built
