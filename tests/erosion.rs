@@ -305,6 +305,65 @@ fn one_design_reads_as_land_at_every_map_width() {
     }
 }
 
+/// The network's own large valleys have floors (`erosion::network_floors`): on a 50 km map
+/// the land beside the channels the law cut or the branches the L-system grew, where they
+/// drain 100 km^2 or more (a floor at least two cells wide), stands within a bankfull depth
+/// and a little of the channel beside it, where a V valley's sides at the mountains' slopes
+/// stand tens of metres above it; and the map still drains.
+#[test]
+fn the_networks_large_valleys_have_floors() {
+    let size = 512;
+    let scene = Scene {
+        size,
+        cell_size: 50_000.0 / size as f64,
+        rivers: vec![river([0.5, 1.0], [0.5, 0.35], 3, 5)],
+        ..Scene::default()
+    };
+    let out = run(&scene);
+    let eroded = out.erosion.as_ref().expect("eroded");
+    let area = eroded.drainage_area.data();
+    let z = out.field.data();
+    // The strokes' trunks have their floors from the design (`erosion::floodplain`).
+    let mut trunk = vec![false; size * size];
+    for &i in &out.hydrology.skeleton.trunk {
+        trunk[i as usize] = true;
+    }
+    let drawn = |i: usize| trunk[i];
+    let (mut beside, mut low) = (0usize, 0usize);
+    for y in 2..size - 2 {
+        for x in 2..size - 2 {
+            let c = y * size + x;
+            if area[c] < 1.0e8 || drawn(c) {
+                continue;
+            }
+            // A bankfull depth at the largest area a map of 2500 km^2 drains, and the floor's
+            // rise across a diagonal cell.
+            let allowed = 0.25 * 2500f32.powf(0.4) + 0.004 * 1.5 * scene.cell_size as f32 + 1.0;
+            for (dx, dy) in [(1isize, 0isize), (-1, 0), (0, 1), (0, -1)] {
+                let j = ((y as isize + dy) as usize) * size + (x as isize + dx) as usize;
+                if area[j] >= 1.0e7 || drawn(j) {
+                    continue;
+                }
+                beside += 1;
+                if z[j] - z[c] <= allowed {
+                    low += 1;
+                }
+            }
+        }
+    }
+    assert!(
+        beside > 100,
+        "large channels of the network: {beside} cells beside them"
+    );
+    let share = low as f64 / beside as f64;
+    assert!(
+        share >= 0.8,
+        "{low} of {beside} cells beside the large channels are floor"
+    );
+    let drainage = &eroded.report.drainage;
+    assert!(drainage.outlet_fraction >= 0.99, "{drainage:?}");
+}
+
 /// The steepest Horn slope of the interior cells, degrees.
 fn steepest_deg(field: &Heightfield, cell: f64) -> f64 {
     let (w, h) = (field.width(), field.height());

@@ -189,7 +189,12 @@ pub fn lift_coves(field: &Heightfield, kinds: &[CellKind], cell_m: f64) -> Optio
 }
 
 /// The highest channel cell among the 8 neighbours of cell `i`, if any.
-fn highest_channel_beside(z: &[f32], channel: &[bool], n: usize, i: usize) -> Option<f32> {
+pub(super) fn highest_channel_beside(
+    z: &[f32],
+    channel: &[bool],
+    n: usize,
+    i: usize,
+) -> Option<f32> {
     let (x, y) = (i % n, i / n);
     let mut highest: Option<f32> = None;
     for yy in y.saturating_sub(1)..(y + 2).min(n) {
@@ -208,7 +213,7 @@ fn highest_channel_beside(z: &[f32], channel: &[bool], n: usize, i: usize) -> Op
 /// `None` beyond every reach. Dijkstra's order with each cell carrying its nearest source
 /// (the propagation of Danielsson's vector distance transform), so the distance is measured
 /// to the source itself, not along grid steps.
-fn nearest_within(
+pub(super) fn nearest_within(
     n: usize,
     sources: impl Iterator<Item = usize>,
     reach: &[f32],

@@ -66,6 +66,7 @@ mod guide;
 mod hold;
 mod layers;
 mod nearest;
+mod network_floors;
 pub mod offload;
 mod outlets;
 mod painted;

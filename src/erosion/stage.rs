@@ -1120,6 +1120,51 @@ pub(super) async fn run_solver(
     })
 }
 
+/// The angle the walls of the network's valley floors are brought back to where the preset
+/// has no threshold slope (the old hills' creep alone): the young mountains' talus angle.
+const FLOOR_WALL_DEG: f64 = 35.0;
+
+/// Cuts valley floors beside the large channels of the eroded `heights` (`n` x `n`, cells
+/// `cell_m` wide; `area` the solver's drainage area), keeping the base level and the `held`
+/// design cells, then lowers what stands above the floors steeper than the rock's angle (its
+/// strength varied as the solver's), carried out from the floors (`network_floors.rs`).
+/// Returns whether any floor was cut. O(floor and lowered cells log cells), plus the rock's
+/// strength, O(cells).
+async fn floors_of_the_network(
+    heights: &mut [f32],
+    area: &[f32],
+    (base, held): (&[bool], &[u32]),
+    settings: &ErosionSettings,
+    (n, cell_m, seed): (usize, f64, u64),
+    ctx: &JobCtx,
+) -> Result<bool, StageError> {
+    ctx.tick(0.95, "eroding: the network's valley floors")
+        .await?;
+    let mut fixed = base.to_vec();
+    for &i in held {
+        fixed[i as usize] = true;
+    }
+    let Some(floor) = super::network_floors::cut(heights, area, &fixed, n, cell_m) else {
+        return Ok(false);
+    };
+    let mut strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
+    if !held.is_empty() {
+        // As the held flanks were limited, so the limit here does not cut them back.
+        for s in &mut strength {
+            *s = 1.0 - HELD_STRENGTH_SHARE * (1.0 - *s);
+        }
+    }
+    ctx.tick(0.95, "eroding: the floors' walls").await?;
+    let talus = settings.talus_deg.unwrap_or(FLOOR_WALL_DEG);
+    let mask = super::slope_limit::Mask::new(n, n, cell_m, talus).with_strength(strength);
+    let seeds = (0..n * n).filter(|&i| floor[i]);
+    for (f, on_floor) in fixed.iter_mut().zip(&floor) {
+        *f |= *on_floor;
+    }
+    mask.relax_from(heights, &fixed, seeds);
+    Ok(true)
+}
+
 /// Erodes the hydrology stage's terrain: the rivers as base level, uplift from the design,
 /// then depression filling and the drainage check ([`erode_field`] of its terrain and
 /// skeleton).
@@ -1295,6 +1340,15 @@ pub async fn erode_field_within(
         ctx,
     )
     .await?;
+    let floored = floors_of_the_network(
+        &mut heights,
+        area.data(),
+        (&base, anchors.held),
+        settings,
+        (n, cell_m, seed),
+        ctx,
+    )
+    .await?;
     // The grown branches' water runs down the branches on the finished surface too.
     let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
     ctx.tick(0.95, "eroding: the branches' beds").await?;
@@ -1315,7 +1369,7 @@ pub async fn erode_field_within(
     let gpu = solved
         .gpu
         .filter(|_| conditioning.raised_cells == 0 && held.is_none());
-    if let (Some(field), Backend::Gpu(context), true) = (&gpu, backend, burnt > 0) {
+    if let (Some(field), Backend::Gpu(context), true) = (&gpu, backend, burnt > 0 || floored) {
         field.write(context, eroded.data());
     }
     let conditioning = drainage::merge(solved.conditioning, conditioning);
