@@ -26,7 +26,7 @@ fn solve(
         &mut out,
         rect,
         guide,
-        &MultigridParams::default(),
+        (&MultigridParams::default(), 0.0),
         &JobCtx::detached(),
     ))
     .expect("blend");
@@ -232,6 +232,74 @@ fn the_blended_block_carries_the_reference_features_and_meets_the_terrain_withou
     assert_eq!(got.get(50, 40), Some(100.0));
 }
 
+/// The feathered edge (`blend::poisson`'s module docs): a rough reference blended into a
+/// tilted plane. Eq. 9 alone leaves a crease along the frame, the slope jumping from the
+/// plane's to the reference's; with a quarter of the side feathered the crease falls to a
+/// tenth or less and to no more than the block's own texture, the middle beyond the band is
+/// eq. 9's solution to the bit, and every cell lies between the terrain and that solution.
+#[test]
+fn a_feathered_block_meets_the_terrain_with_its_slope() {
+    let n = 64;
+    let plane: Vec<f32> = (0..n * n).map(|i| 100.0 + (i % n) as f32).collect();
+    let target = Heightfield::from_vec(n, n, plane).unwrap();
+    let mut reference = fbm::diamond_square(33, 33, 0.9, 7).unwrap();
+    reference.data_mut().iter_mut().for_each(|v| *v *= 40.0);
+    let rect = BlockRect {
+        row: 15,
+        col: 15,
+        height: 33,
+        width: 33,
+    };
+    let run = |feather: f32| {
+        let mut out = target.clone();
+        pollster::block_on(blend::solve_block(
+            &Backend::Cpu,
+            &mut out,
+            rect,
+            &reference,
+            (&MultigridParams::default(), feather),
+            &JobCtx::detached(),
+        ))
+        .expect("blend");
+        out
+    };
+    let (sharp, feathered) = (run(0.0), run(0.25));
+    let at = |f: &Heightfield, x: usize, y: usize| f.get(x, y).unwrap();
+    // Second differences across the west and east sides (the plane's are zero).
+    let crease = |f: &Heightfield| {
+        let mut sum = 0.0f32;
+        for y in 16..47 {
+            for x in [15usize, 47] {
+                sum += (at(f, x + 1, y) - 2.0 * at(f, x, y) + at(f, x - 1, y)).abs();
+            }
+        }
+        sum / 62.0
+    };
+    // The same in the block's middle, beyond the band of 8 cells.
+    let texture = |f: &Heightfield| {
+        let mut sum = 0.0f32;
+        for y in 24..39 {
+            for x in 24..39 {
+                sum += (at(f, x + 1, y) - 2.0 * at(f, x, y) + at(f, x - 1, y)).abs();
+            }
+        }
+        sum / 225.0
+    };
+    let (c0, c1, t1) = (crease(&sharp), crease(&feathered), texture(&feathered));
+    assert!(c1 <= 0.1 * c0, "crease {c1} feathered, {c0} by eq. 9 alone");
+    assert!(c1 <= t1, "crease {c1} against the block's texture {t1}");
+    for y in 0..n {
+        for x in 0..n {
+            let (s, t0, t) = (at(&target, x, y), at(&sharp, x, y), at(&feathered, x, y));
+            let middle = (23..40).contains(&x) && (23..40).contains(&y);
+            if middle {
+                assert_eq!(t, t0, "({x}, {y}) beyond the band");
+            }
+            assert!(t >= s.min(t0) - 1e-3 && t <= s.max(t0) + 1e-3, "({x}, {y})");
+        }
+    }
+}
+
 #[test]
 fn bad_blocks_get_specific_errors() {
     let (target, reference) = terrain();
@@ -242,7 +310,7 @@ fn bad_blocks_get_specific_errors() {
             t,
             rect,
             g,
-            &MultigridParams::default(),
+            (&MultigridParams::default(), 0.0),
             &JobCtx::detached(),
         ))
     };

@@ -717,6 +717,8 @@ fn blend_solves_a_block_and_keeps_the_rest() {
         "5,8",
         "--scale-z",
         "0.8",
+        "--feather",
+        "0",
         "--out",
         &out_path.to_string_lossy(),
         "--report",
@@ -758,6 +760,61 @@ fn blend_solves_a_block_and_keeps_the_rest() {
         }
     }
     assert!(worst < 1e-2, "Laplacian mismatch {worst} m");
+    // Feathered (the default, a quarter of the shorter side: 12.25 cells), the middle of the
+    // block is eq. 9's to the bit and the cells next to the frame lie between the terrain
+    // and eq. 9's solution.
+    let feathered_path = dir.join("feathered.tif");
+    let args = |feather: &str, out: &std::path::Path| {
+        let mut a: Vec<String> = [
+            "blend",
+            &target.to_string_lossy(),
+            &reference.to_string_lossy(),
+            "--block",
+            "30,20,50,70",
+            "--ref-at",
+            "5,8",
+            "--scale-z",
+            "0.8",
+            "--out",
+            &out.to_string_lossy(),
+        ]
+        .map(String::from)
+        .to_vec();
+        if !feather.is_empty() {
+            a.extend(["--feather".to_owned(), feather.to_owned()]);
+        }
+        a
+    };
+    let run = |a: Vec<String>| strahler(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let out = run(args("", &feathered_path));
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let feathered = read_tif(&feathered_path).field;
+    for y in 31..79 {
+        for x in 21..89 {
+            let (s, t0, t) = (
+                before.get(x, y).unwrap(),
+                after.get(x, y).unwrap(),
+                feathered.get(x, y).unwrap(),
+            );
+            if (43..67).contains(&y) && (33..77).contains(&x) {
+                assert_eq!(t, t0, "({x}, {y}) beyond the band");
+            }
+            assert!(t >= s.min(t0) - 1e-3 && t <= s.max(t0) + 1e-3, "({x}, {y})");
+        }
+    }
+    assert_ne!(feathered, after, "the band fades the change in");
+    for bad in ["0.7", "-0.1", "nan"] {
+        let out = run(args(bad, &feathered_path));
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(
+            !out.status.success() && err.contains("--feather"),
+            "{bad}: {err}"
+        );
+    }
     let bad = strahler(&[
         "blend",
         &target.to_string_lossy(),

@@ -63,6 +63,7 @@ const FIELDS: &[&str] = &[
     "blend.0.rect.2",
     "blend.0.quarter_turns",
     "blend.0.z_scale",
+    "blend.0.feather",
     "textures.rock_slope_deg",
     "textures.snow_above",
     "textures.sediment_area_m2",

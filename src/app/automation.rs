@@ -175,6 +175,8 @@ pub enum Command {
         quarter_turns: u8,
         mirror: bool,
         z_scale: f32,
+        /// The share of the block's shorter side its change fades in over.
+        feather: f32,
     },
     Undo,
     Redo,

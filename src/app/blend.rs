@@ -220,19 +220,30 @@ impl StrahlerApp {
     /// per terrain cell (shrunk to half the map if larger).
     pub(super) fn place_selection(&mut self) {
         let window = self.blend.selection;
-        self.place_block(window, None, 0, false, 1.0);
+        let transform = crate::blend::Transform::default();
+        self.place_block(
+            window,
+            None,
+            transform,
+            crate::blend::poisson::DEFAULT_FEATHER,
+        );
     }
 
     /// Adds a block from the DEM window `[row, col, height, width]` at `rect` (map units;
-    /// `None` = centred at one DEM cell per terrain cell).
+    /// `None` = centred at one DEM cell per terrain cell), turned, mirrored and scaled by
+    /// `transform`, its change fading in over `feather` of its shorter side.
     pub(super) fn place_block(
         &mut self,
         window: [usize; 4],
         rect: Option<[f64; 4]>,
-        quarter_turns: u8,
-        mirror: bool,
-        z_scale: f32,
+        transform: crate::blend::Transform,
+        feather: f32,
     ) {
+        let crate::blend::Transform {
+            quarter_turns,
+            mirror,
+            z_scale,
+        } = transform;
         let Some(loaded) = &self.blend.dem else {
             self.set_error_at(
                 super::Place::Dem,
@@ -277,6 +288,7 @@ impl StrahlerApp {
                 block.quarter_turns = quarter_turns;
                 block.mirror = mirror;
                 block.z_scale = z_scale;
+                block.feather = feather;
                 if let Err(err) = self.session.apply(Edit::AddBlock(block)) {
                     self.set_error_at(super::Place::Dem, format!("Block {err}"));
                     return;

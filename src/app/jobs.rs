@@ -243,7 +243,15 @@ impl StrahlerApp {
                 quarter_turns,
                 mirror,
                 z_scale,
-            } => self.place_block(window, Some(rect), quarter_turns, mirror, z_scale),
+                feather,
+            } => {
+                let transform = crate::blend::Transform {
+                    quarter_turns,
+                    mirror,
+                    z_scale,
+                };
+                self.place_block(window, Some(rect), transform, feather)
+            }
             Command::OpenScene { name, bytes } => self.open_scene(&name, &bytes),
             Command::Export(request) => self.export_for_script(ctx, *request, number),
             Command::FileRefused {

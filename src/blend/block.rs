@@ -27,6 +27,10 @@ pub struct BlendBlock {
     pub mirror: bool,
     /// Multiplies the reference's heights (and so its gradients).
     pub z_scale: f32,
+    /// The share of the block's shorter side over which its change of the terrain fades in
+    /// from its edge, 0 to [`super::poisson::MAX_FEATHER`] (0: the paper's eq. 9 alone;
+    /// `poisson`'s module docs).
+    pub feather: f32,
 }
 
 impl BlendBlock {
@@ -50,6 +54,7 @@ impl BlendBlock {
             quarter_turns: 0,
             mirror: false,
             z_scale: 1.0,
+            feather: super::poisson::DEFAULT_FEATHER,
         })
     }
 
@@ -135,6 +140,13 @@ impl BlendBlock {
             return Err((
                 "z_scale",
                 format!("must be a number from -100 to 100, got {}", self.z_scale),
+            ));
+        }
+        let max = super::poisson::MAX_FEATHER;
+        if !(self.feather.is_finite() && (0.0..=max).contains(&self.feather)) {
+            return Err((
+                "feather",
+                format!("must be a number from 0 to {max}, got {}", self.feather),
             ));
         }
         let reference = self.reference().map_err(|p| ("reference_png", p))?;

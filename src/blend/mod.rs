@@ -144,7 +144,7 @@ pub async fn apply_blocks(
             terrain,
             rect,
             &guide,
-            &MultigridParams::default(),
+            (&MultigridParams::default(), block.feather),
             ctx,
         )
         .await

@@ -29,6 +29,11 @@ pub struct BlendArgs {
     /// Multiply the reference's heights (and so its gradients).
     #[arg(allow_hyphen_values = true, long, default_value_t = 1.0)]
     pub scale_z: f32,
+    /// Fade the block's change of TARGET in from its edge over this share of its shorter
+    /// side, 0 to 0.5, so its slopes meet TARGET's without a crease (0: the paper's eq. 9
+    /// alone, R's texture stopping at the edge).
+    #[arg(allow_hyphen_values = true, long, default_value_t = blend::poisson::DEFAULT_FEATHER, value_parser = parse_feather)]
+    pub feather: f32,
     /// Output file (format from the extension).
     #[arg(long)]
     pub out: PathBuf,
@@ -45,6 +50,16 @@ pub struct BlendArgs {
     /// did not write, a read-only file, another user's file.
     #[arg(long)]
     pub force: bool,
+}
+
+fn parse_feather(text: &str) -> Result<f32, String> {
+    let max = blend::poisson::MAX_FEATHER;
+    match text.trim().parse::<f32>() {
+        Ok(v) if (0.0..=max).contains(&v) => Ok(v),
+        _ => Err(format!(
+            "expected a share of the block's shorter side from 0 to {max}, got '{text}'"
+        )),
+    }
 }
 
 fn numbers(text: &str, n: usize, what: &str) -> Result<Vec<usize>, String> {
@@ -122,7 +137,7 @@ pub fn run(args: &BlendArgs) -> Result<(), Box<dyn std::error::Error>> {
         &mut field,
         b,
         &g,
-        &MultigridParams::default(),
+        (&MultigridParams::default(), args.feather),
         &JobCtx::detached(),
     ))?;
     super::io::write_dem(

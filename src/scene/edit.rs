@@ -403,6 +403,14 @@ mod tests {
         let err = scene.apply(Edit::AddBlock(block)).unwrap_err();
         assert!(err.to_string().starts_with("blend[1].rect"), "{err}");
         assert_eq!(scene, before, "a refused block is not added");
+        let mut feathered = BlendBlock::new("b", &reference, [0.1, 0.1, 0.4, 0.4]).unwrap();
+        feathered.feather = 0.9;
+        let err = scene.apply(Edit::AddBlock(feathered)).unwrap_err();
+        assert!(err.to_string().starts_with("blend[1].feather"), "{err}");
+        assert_eq!(
+            scene, before,
+            "a block feathered past half its side is not added"
+        );
         let rect = [0.5, 0.5, 0.9, 0.9];
         scene.apply(Edit::SetBlockRect { index: 0, rect }).unwrap();
         assert_eq!(scene.blend[0].rect, rect);

@@ -248,6 +248,10 @@ pub mod blocks {
         mirror: bool,
         #[serde(default = "one")]
         z_scale: f32,
+        /// Missing in files written before the feathered edge: 0, eq. 9 alone, so they keep
+        /// their terrain.
+        #[serde(default)]
+        feather: f32,
     }
 
     fn one() -> f32 {
@@ -264,6 +268,7 @@ pub mod blocks {
                 quarter_turns: b.quarter_turns,
                 mirror: b.mirror,
                 z_scale: b.z_scale,
+                feather: b.feather,
             })
             .collect();
         file.serialize(s)
@@ -279,6 +284,7 @@ pub mod blocks {
                 quarter_turns: b.quarter_turns,
                 mirror: b.mirror,
                 z_scale: b.z_scale,
+                feather: b.feather,
             })
             .collect())
     }

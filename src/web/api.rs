@@ -300,7 +300,7 @@ fn install_dem(api: &js_sys::Object, automation: &Automation) {
             let o: PlaceOptions = serde_json::from_str(&json_text(&options)?).map_err(|e| {
                 error(format!(
                     "placeBlock({{window: [row, col, height, width], rect: [x0, y0, x1, y1], \
-                     quarterTurns, mirror, zScale}}): {e}"
+                     quarterTurns, mirror, zScale, feather}}): {e}"
                 ))
             })?;
             let command = Command::PlaceBlock {
@@ -309,6 +309,7 @@ fn install_dem(api: &js_sys::Object, automation: &Automation) {
                 quarter_turns: o.quarter_turns,
                 mirror: o.mirror,
                 z_scale: o.z_scale,
+                feather: o.feather,
             };
             Ok(applied(&place_target, command))
         },
@@ -727,6 +728,12 @@ struct PlaceOptions {
     mirror: bool,
     #[serde(default = "one")]
     z_scale: f32,
+    #[serde(default = "default_feather")]
+    feather: f32,
+}
+
+fn default_feather() -> f32 {
+    crate::blend::poisson::DEFAULT_FEATHER
 }
 
 /// `setView`'s options.

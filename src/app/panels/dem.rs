@@ -444,6 +444,18 @@ fn blocks(ui: &mut egui::Ui, view: &DemView<'_>) -> Vec<Action> {
                     )
                     .labelled_by(label.id)
                     .changed();
+                let label = ui.label("Feather").on_hover_text(
+                    "How far the block's change fades in from its edge, as a share of its \
+                     shorter side (0: the paper's Poisson blend alone, its edge a crease)",
+                );
+                changed |= ui
+                    .add(
+                        DragValue::new(&mut block.feather)
+                            .range(0.0..=crate::blend::poisson::MAX_FEATHER)
+                            .speed(0.01),
+                    )
+                    .labelled_by(label.id)
+                    .changed();
             });
         }
         if changed {

@@ -57,7 +57,7 @@ fn table(sizes: &[usize], backends: &[Backend]) -> Result<(), Box<dyn std::error
                     &mut t,
                     rect,
                     &g,
-                    &MultigridParams::default(),
+                    (&MultigridParams::default(), 0.0),
                     &JobCtx::detached(),
                 ))?;
                 best = best.min(solve.millis);
