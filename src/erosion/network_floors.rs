@@ -23,7 +23,7 @@
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 
 use super::floodplain::{
-    CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m, channel_width_m,
+    CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m, channel_width_m, floor_base,
     highest_channel_beside, nearest_within,
 };
 
@@ -65,6 +65,7 @@ pub fn cut(
     }
     let sources = (0..n * n).filter(|&i| channel[i]);
     let nearest = nearest_within(n, sources, &half_width);
+    let base = floor_base(heights, &nearest, &channel, n);
     let mut floor = channel.clone();
     for (i, near) in nearest.iter().enumerate() {
         let Some((source, distance)) = near else {
@@ -81,7 +82,7 @@ pub fn cut(
         } else {
             0.0
         };
-        let level = heights[s] + (CROSS_RISE * across + bank) as f32;
+        let level = base[i] + (CROSS_RISE * across + bank) as f32;
         // Sources are never lowered, so the channel heights read here are the solver's.
         let banks = highest_channel_beside(heights, &channel, n, i)
             .map_or(f32::MIN, |h| h + (CROSS_RISE * cell_m) as f32);

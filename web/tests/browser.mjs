@@ -357,6 +357,8 @@ async function runMode(url, mode, expectedChecksum) {
     check('placeBlock() blends the DEM block into the terrain', blend.blocks === 1 && blend.converged
       && blend.backend === 'cpu', JSON.stringify(blend));
     check('the block is saved in the scene', (await page.evaluate(() => window.strahler.scene().blend.length)) === 1);
+    const feather = await page.evaluate(() => window.strahler.scene().blend[0].feather);
+    check('a placed block fades in over a quarter of its side (its feather)', feather === 0.25, String(feather));
     const exported = await page.evaluate(async () => {
       const head = (b) => Array.from(b.slice(0, 24));
       const png = await window.strahler.exportHeightmap('png');
