@@ -707,23 +707,32 @@ fn blend_solves_a_block_and_keeps_the_rest() {
     let reference = test_dem("volcano_maungawhau.tif");
     let out_path = dir.join("blended.tif");
     let report = dir.join("blend.json");
-    let out = strahler(&[
-        "blend",
-        &target.to_string_lossy(),
-        &reference.to_string_lossy(),
-        "--block",
-        "30,20,50,70",
-        "--ref-at",
-        "5,8",
-        "--scale-z",
-        "0.8",
-        "--feather",
-        "0",
-        "--out",
-        &out_path.to_string_lossy(),
-        "--report",
-        &report.to_string_lossy(),
-    ]);
+    // Eq. 9 alone (`--feather 0`), then feathered (the default).
+    let args = |feather: &str, out: &std::path::Path| {
+        let mut a: Vec<String> = [
+            "blend",
+            &target.to_string_lossy(),
+            &reference.to_string_lossy(),
+            "--block",
+            "30,20,50,70",
+            "--ref-at",
+            "5,8",
+            "--scale-z",
+            "0.8",
+            "--out",
+            &out.to_string_lossy(),
+        ]
+        .map(String::from)
+        .to_vec();
+        if !feather.is_empty() {
+            a.extend(["--feather".to_owned(), feather.to_owned()]);
+        }
+        a
+    };
+    let run = |a: Vec<String>| strahler(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    let mut eq9 = args("0", &out_path);
+    eq9.extend(["--report".to_owned(), report.to_string_lossy().into_owned()]);
+    let out = run(eq9);
     assert!(
         out.status.success(),
         "{}",
@@ -764,28 +773,6 @@ fn blend_solves_a_block_and_keeps_the_rest() {
     // block is eq. 9's to the bit and the cells next to the frame lie between the terrain
     // and eq. 9's solution.
     let feathered_path = dir.join("feathered.tif");
-    let args = |feather: &str, out: &std::path::Path| {
-        let mut a: Vec<String> = [
-            "blend",
-            &target.to_string_lossy(),
-            &reference.to_string_lossy(),
-            "--block",
-            "30,20,50,70",
-            "--ref-at",
-            "5,8",
-            "--scale-z",
-            "0.8",
-            "--out",
-            &out.to_string_lossy(),
-        ]
-        .map(String::from)
-        .to_vec();
-        if !feather.is_empty() {
-            a.extend(["--feather".to_owned(), feather.to_owned()]);
-        }
-        a
-    };
-    let run = |a: Vec<String>| strahler(&a.iter().map(String::as_str).collect::<Vec<_>>());
     let out = run(args("", &feathered_path));
     assert!(
         out.status.success(),

@@ -118,20 +118,10 @@ pub fn valley_floors(
         if channel[i] {
             continue;
         }
-        // The channel's bed beside the river cell, the floodplain a bankfull depth above it.
         let area = f64::from(routing.area[*source as usize]);
         let across = f64::from(*distance) * cell_m;
-        let bank = if across > channel_width_m(area) / 2.0 {
-            bankfull_depth_m(area)
-        } else {
-            0.0
-        };
-        let floor = base[i] + (CROSS_RISE * across + bank) as f32;
-        // Never below a river beside it: each river cell keeps its steepest way down along
-        // its own river (a floor cell of a lower reach nearby would take the water across).
-        let banks = highest_channel_beside(z, &channel, n, i)
-            .map_or(f32::MIN, |h| h + (CROSS_RISE * cell_m) as f32);
-        heights[i] = heights[i].min(floor.max(banks));
+        let floor = floor_height(z, &channel, (n, cell_m), (i, base[i], across, area));
+        heights[i] = heights[i].min(floor);
         floored[i] = CellKind::Floor;
         any = true;
     }
@@ -187,6 +177,29 @@ pub fn lift_coves(field: &Heightfield, kinds: &[CellKind], cell_m: f64) -> Optio
         }
     }
     lifted.and_then(|h| Heightfield::from_vec(n, n, h).ok())
+}
+
+/// The floor's height at cell `i` (of an `n` x `n` grid of `cell_m` cells), `across` metres
+/// from its nearest channel cell, which drains `area` m^2, rising from `base` ([`floor_base`]):
+/// the channel's bed within half the bankfull width, the floodplain a bankfull depth above
+/// it beyond, both rising [`CROSS_RISE`] away from the channel; never below a channel cell
+/// of `z` beside it plus one cell's rise (each channel cell keeps its steepest way down along
+/// its own channel: a floor cell of a lower reach nearby would take the water across).
+pub(super) fn floor_height(
+    z: &[f32],
+    channel: &[bool],
+    (n, cell_m): (usize, f64),
+    (i, base, across, area): (usize, f32, f64, f64),
+) -> f32 {
+    let bank = if across > channel_width_m(area) / 2.0 {
+        bankfull_depth_m(area)
+    } else {
+        0.0
+    };
+    let floor = base + (CROSS_RISE * across + bank) as f32;
+    let banks = highest_channel_beside(z, channel, n, i)
+        .map_or(f32::MIN, |h| h + (CROSS_RISE * cell_m) as f32);
+    floor.max(banks)
 }
 
 /// Jacobi sweeps of [`floor_base`]: they spread a step over about `sqrt(sweeps)` cells along
@@ -250,12 +263,7 @@ pub(super) fn floor_base(
 }
 
 /// The highest channel cell among the 8 neighbours of cell `i`, if any.
-pub(super) fn highest_channel_beside(
-    z: &[f32],
-    channel: &[bool],
-    n: usize,
-    i: usize,
-) -> Option<f32> {
+fn highest_channel_beside(z: &[f32], channel: &[bool], n: usize, i: usize) -> Option<f32> {
     let (x, y) = (i % n, i / n);
     let mut highest: Option<f32> = None;
     for yy in y.saturating_sub(1)..(y + 2).min(n) {

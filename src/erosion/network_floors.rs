@@ -22,10 +22,7 @@
 //! heights beside the rivers and have no floors; the lateral erosion of Langston and Tucker
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 
-use super::floodplain::{
-    CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m, channel_width_m, floor_base,
-    highest_channel_beside, nearest_within,
-};
+use super::floodplain::{HALF_WIDTH_PER_SQRT_AREA, floor_base, floor_height, nearest_within};
 
 /// The least drainage area with a valley floor, m^2: 10 km^2. Valleys draining less are
 /// bedrock gorges and hollows in mountains, V-shaped (Montgomery and Buffington 1997's
@@ -74,19 +71,11 @@ pub fn cut(
         if channel[i] || fixed[i] {
             continue;
         }
-        let s = *source as usize;
-        let a = f64::from(area[s]);
+        let a = f64::from(area[*source as usize]);
         let across = f64::from(*distance) * cell_m;
-        let bank = if across > channel_width_m(a) / 2.0 {
-            bankfull_depth_m(a)
-        } else {
-            0.0
-        };
-        let level = base[i] + (CROSS_RISE * across + bank) as f32;
         // Sources are never lowered, so the channel heights read here are the solver's.
-        let banks = highest_channel_beside(heights, &channel, n, i)
-            .map_or(f32::MIN, |h| h + (CROSS_RISE * cell_m) as f32);
-        heights[i] = heights[i].min(level.max(banks));
+        let level = floor_height(heights, &channel, (n, cell_m), (i, base[i], across, a));
+        heights[i] = heights[i].min(level);
         floor[i] = true;
     }
     Some(floor)
@@ -95,6 +84,7 @@ pub fn cut(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::erosion::floodplain::{CROSS_RISE, bankfull_depth_m};
 
     /// A V valley draining 100 km^2 along row 20 of 20 m cells, its sides at 30 degrees: the
     /// cut leaves a floor about `2 k sqrt(A)` wide (240 m), a bankfull depth above the channel

@@ -11,7 +11,7 @@
 // Usage: node tests/browser.mjs [DIST_DIR]   (env: CHROMIUM, STRAHLER_BIN, TEST_OUTPUT)
 
 import { execFileSync } from 'node:child_process';
-import { existsSync, mkdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { existsSync, mkdirSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { join, resolve } from 'node:path';
 import { chromium } from 'playwright-core';
 import { COMMON_FLAGS, WEBGPU_FLAGS, decodePng, serve } from './harness.mjs';
@@ -216,6 +216,8 @@ async function runMode(url, mode, expectedChecksum) {
       const small = await page.evaluate(() => window.strahler.worldPlan({ size: 513, world: 129, tile: 128 }));
       const smallFile = join(output, 'small-plan.json');
       writeFileSync(smallFile, JSON.stringify(small));
+      // A finished task is skipped: a world left by an earlier run would be read back as it was.
+      rmSync(join(output, 'small-world'), { recursive: true, force: true });
       execFileSync(process.env.STRAHLER_BIN,
         ['build', smallFile, '--task', '0', '--out', join(output, 'small-world')]);
       const preview = await page.evaluate(async () =>
