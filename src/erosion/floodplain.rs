@@ -55,6 +55,13 @@ pub fn bankfull_depth_m(area_m2: f64) -> f64 {
 /// The widest half-floor, in cells.
 const MAX_HALF_WIDTH_CELLS: f64 = 32.0;
 
+/// The half-width in cells of the floor beside a channel draining `area_m2`, on `cell_m`
+/// cells: `k sqrt(A)`, at most [`MAX_HALF_WIDTH_CELLS`].
+pub(super) fn half_width_cells(area_m2: f64, cell_m: f64) -> f32 {
+    let cells = HALF_WIDTH_PER_SQRT_AREA * area_m2.sqrt() / cell_m;
+    cells.min(MAX_HALF_WIDTH_CELLS) as f32
+}
+
 /// The design with its valley floors cut in, and the floor cells marked
 /// [`CellKind::Floor`] in a copy of `kinds` (`None` where no river is large enough for a
 /// floor). `field` is square, cells `cell_m` wide; `mouths` are the river mouths inside the
@@ -90,10 +97,7 @@ pub fn valley_floors(
     let mut half_width: Vec<f32> = routing
         .area
         .iter()
-        .map(|a| {
-            let cells = HALF_WIDTH_PER_SQRT_AREA * f64::from(*a).sqrt() / cell_m;
-            cells.min(MAX_HALF_WIDTH_CELLS) as f32
-        })
+        .map(|a| half_width_cells(f64::from(*a), cell_m))
         .collect();
     let sources: Vec<usize> = (0..n * n)
         .filter(|&i| channel[i] && half_width[i] >= 1.0)

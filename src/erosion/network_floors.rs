@@ -22,16 +22,13 @@
 //! heights beside the rivers and have no floors; the lateral erosion of Langston and Tucker
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 
-use super::floodplain::{HALF_WIDTH_PER_SQRT_AREA, floor_base, floor_height, nearest_within};
+use super::floodplain::{floor_base, floor_height, half_width_cells, nearest_within};
 
 /// The least drainage area with a valley floor, m^2: 10 km^2. Valleys draining less are
 /// bedrock gorges and hollows in mountains, V-shaped (Montgomery and Buffington 1997's
 /// colluvial and bedrock reaches lie above it); floors of alluvium appear beside larger
 /// rivers. At the floor law's `k` it is a floor 76 m wide.
 pub const MIN_AREA_M2: f64 = 10.0e6;
-
-/// The widest half-floor of the network's channels, in cells (as the drawn rivers').
-const MAX_HALF_WIDTH_CELLS: f64 = 32.0;
 
 /// Cuts floors into `heights` (`n` x `n`, cells `cell_m` wide) beside every channel whose
 /// drainage area (`area`, m^2) is at least [`MIN_AREA_M2`] and asks for a floor a cell wide or
@@ -52,8 +49,7 @@ pub fn cut(
             if a < MIN_AREA_M2 {
                 return 0.0;
             }
-            let cells = HALF_WIDTH_PER_SQRT_AREA * a.sqrt() / cell_m;
-            cells.min(MAX_HALF_WIDTH_CELLS) as f32
+            half_width_cells(a, cell_m)
         })
         .collect();
     let channel: Vec<bool> = half_width.iter().map(|w| *w >= 1.0).collect();
@@ -84,7 +80,7 @@ pub fn cut(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::erosion::floodplain::{CROSS_RISE, bankfull_depth_m};
+    use crate::erosion::floodplain::{CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m};
 
     /// A V valley draining 100 km^2 along row 20 of 20 m cells, its sides at 30 degrees: the
     /// cut leaves a floor about `2 k sqrt(A)` wide (240 m), a bankfull depth above the channel

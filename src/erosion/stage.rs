@@ -1128,12 +1128,13 @@ const FLOOR_WALL_DEG: f64 = 35.0;
 /// `cell_m` wide; `area` the solver's drainage area), keeping the base level and the `held`
 /// design cells, then lowers what stands above the floors steeper than the rock's angle (its
 /// strength varied as the solver's), carried out from the floors (`network_floors.rs`).
+/// `held_limit` is the mask the held design's flanks were limited by, if any, reused here.
 /// Returns whether any floor was cut. O(floor and lowered cells log cells), plus the rock's
-/// strength, O(cells).
+/// strength, O(cells), where there is no `held_limit`.
 async fn floors_of_the_network(
     heights: &mut [f32],
     area: &[f32],
-    (base, held): (&[bool], &[u32]),
+    (base, held, held_limit): (&[bool], &[u32], Option<&super::slope_limit::Mask>),
     settings: &ErosionSettings,
     (n, cell_m, seed): (usize, f64, u64),
     ctx: &JobCtx,
@@ -1147,16 +1148,19 @@ async fn floors_of_the_network(
     let Some(floor) = super::network_floors::cut(heights, area, &fixed, n, cell_m) else {
         return Ok(false);
     };
-    let mut strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
-    if !held.is_empty() {
-        // As the held flanks were limited, so the limit here does not cut them back.
-        for s in &mut strength {
-            *s = 1.0 - HELD_STRENGTH_SHARE * (1.0 - *s);
+    // The held flanks' own mask where they were limited, so the limit here does not cut
+    // them back (it exists wherever held cells and a talus angle do).
+    let built;
+    let mask = match held_limit {
+        Some(mask) => mask,
+        None => {
+            let strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
+            let talus = settings.talus_deg.unwrap_or(FLOOR_WALL_DEG);
+            built = super::slope_limit::Mask::new(n, n, cell_m, talus).with_strength(strength);
+            &built
         }
-    }
+    };
     ctx.tick(0.95, "eroding: the floors' walls").await?;
-    let talus = settings.talus_deg.unwrap_or(FLOOR_WALL_DEG);
-    let mask = super::slope_limit::Mask::new(n, n, cell_m, talus).with_strength(strength);
     let seeds = (0..n * n).filter(|&i| floor[i]);
     for (f, on_floor) in fixed.iter_mut().zip(&floor) {
         *f |= *on_floor;
@@ -1343,7 +1347,7 @@ pub async fn erode_field_within(
     let floored = floors_of_the_network(
         &mut heights,
         area.data(),
-        (&base, anchors.held),
+        (&base, anchors.held, limit.as_ref()),
         settings,
         (n, cell_m, seed),
         ctx,
