@@ -43,6 +43,8 @@
 //!    excess at once and gathers what its neighbours shed): the CPU updates in place in scan
 //!    order, which is sequential.
 //! 7. The near-river floor.
+//! 8. After the last step only, the threshold-slope limit's passes once more, as the CPU
+//!    solver ends (its last pass, `mod.rs`).
 //!
 //! After the last step the heights and the last step's drainage area are read back once, as
 //! the CPU solver leaves them; the erosion stage then conditions the surface
@@ -561,6 +563,9 @@ async fn erode_with(
     let bytes = n as u64 * 4;
     let sweeps = ((r as f32).sqrt().ceil() as usize).clamp(2, 8);
     let steps = p.steps;
+    let limit_passes: Vec<(usize, &wgpu::BindGroup)> = (0..LIMIT_PASSES)
+        .map(|l| (18, &g_limit[(l % 2) as usize]))
+        .collect();
     for step in 0..steps {
         if let Some(seed) = seed {
             let key = Params {
@@ -627,10 +632,7 @@ async fn erode_with(
         }
         // 4b. The threshold-slope limit (the CPU's, in Jacobi passes).
         if p.talus_deg.is_some() {
-            let list: Vec<(usize, &wgpu::BindGroup)> = (0..LIMIT_PASSES)
-                .map(|l| (18, &g_limit[(l % 2) as usize]))
-                .collect();
-            run(&mut encoder, &list);
+            run(&mut encoder, &limit_passes);
         }
         if let Some(t) = profile.as_deref_mut() {
             flush(gpu, &mut encoder, &mut phase_clock, &mut t[3], &mut scope).await?;
@@ -660,6 +662,10 @@ async fn erode_with(
         // 7. The floor.
         if let Some(g) = &g_floor {
             run(&mut encoder, &[(17, g)]);
+        }
+        // 8. After the last step, the limit once more (the CPU solver's last pass).
+        if step + 1 == steps && p.talus_deg.is_some() {
+            run(&mut encoder, &limit_passes);
         }
         if let Some(t) = profile.as_deref_mut() {
             flush(gpu, &mut encoder, &mut phase_clock, &mut t[6], &mut scope).await?;
