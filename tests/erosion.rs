@@ -171,7 +171,10 @@ fn meandering_rivers_drain_along_their_loops() {
 
 /// The issue's realism targets on the default scene (one river from the south edge, the
 /// default erosion): at most 5% harmonic cells (diffusion alone leaves 17-78%), a spectral
-/// slope between 2.5 and 4.5 and a median slope between 4 and 35 degrees, as on real land.
+/// slope between 2.5 and 5 and a median slope between 4 and 35 degrees, as on real land (the
+/// SRTM window of this 10 km extent, `tests/data/scales`, measures 4.93, steeper than the 4.5
+/// real DEMs of larger extents reach; with its ranges and basins the scene measures 4.51,
+/// with uplift alike everywhere 4.39).
 #[test]
 fn the_default_scene_measures_like_real_land() {
     let scene = Scene {
@@ -183,7 +186,7 @@ fn the_default_scene_measures_like_real_land() {
     let m = &r.measures;
     assert!(m.harmonic_fraction <= 0.05, "{m:?}");
     let gamma = r.spectral_gamma.expect("a wavelet fit");
-    assert!((2.5..=4.5).contains(&gamma), "gamma {gamma}");
+    assert!((2.5..=5.0).contains(&gamma), "gamma {gamma}");
     let median = m.slope_deg_percentiles[2];
     assert!((4.0..=35.0).contains(&median), "median slope {median}");
     // The same scene without erosion is the harmonic surface the issue describes.
@@ -288,7 +291,8 @@ fn maps_larger_than_the_solver_grid_are_refined_at_full_resolution() {
 /// widths beside it (`tests/data/scales`) measure 0.55, 0.42 and 0.29 (at 10 km the two
 /// hypsometric curves agree within 0.04 at every quantile from 5% to 99%) and random 2-50 km
 /// windows of the tile N44E005 a median of 0.35-0.39 and a 90th percentile of 0.38-0.53:
-/// 0.45 is the bound.
+/// 0.45 is the bound. With the ranges and basins ([`strahler::erosion::Ranges`]) it is 0.40,
+/// 0.32 and 0.38.
 /// The top 5% of the cells lay within a tenth of the side of the edge for 81% at 10 km and
 /// 75% at 50 km with the border closed; real 10-50 km windows give 45-55% (at 2 km a window
 /// mostly lies on one slope, 80% real, so it is not held to it).
@@ -596,4 +600,58 @@ fn at_angle(field: &Heightfield, cell_m: f64, talus_deg: f64) -> f64 {
         }
     }
     count as f64 / ((n - 2) * (n - 2)) as f64
+}
+
+/// Issue 32, structure above the valleys: the young-mountains preset's ranges and basins
+/// (`erosion.uplift_contrast`, [`strahler::erosion::Ranges`]) stand the land in massifs and
+/// basins some kilometres across: on a 50 km map the heights averaged over 3 km blocks
+/// spread more than with uplift alike everywhere, and the hypsometric integral falls into
+/// real mountains' range (0.15-0.4) from the uniform uplift's 0.42.
+#[test]
+fn ranges_raise_the_land_where_the_rock_rises_fastest() {
+    let n = 128;
+    let scene = |contrast: f64| {
+        let mut erosion = ErosionSettings::default();
+        assert_eq!(erosion.uplift_contrast, 8.0, "young-mountains' ranges");
+        erosion.uplift_contrast = contrast;
+        Scene {
+            size: n,
+            cell_size: 50_000.0 / n as f64,
+            rivers: vec![river([0.5, 1.0], [0.5, 0.35], 3, 5)],
+            erosion: Some(erosion),
+            ..Scene::default()
+        }
+    };
+    let measure = |contrast: f64| {
+        let out = run(&scene(contrast));
+        let h = out.field.data();
+        let b = 8; // 8 cells of 390 m
+        let means: Vec<f64> = (0..(n / b) * (n / b))
+            .map(|k| {
+                let (bx, by) = (k % (n / b) * b, k / (n / b) * b);
+                let sum: f64 = (by..by + b)
+                    .flat_map(|y| (bx..bx + b).map(move |x| f64::from(h[y * n + x])))
+                    .sum();
+                sum / (b * b) as f64
+            })
+            .collect();
+        let mean = means.iter().sum::<f64>() / means.len() as f64;
+        let spread =
+            (means.iter().map(|m| (m - mean).powi(2)).sum::<f64>() / means.len() as f64).sqrt();
+        let realism = out.report.realism.as_ref().expect("measured");
+        (spread, realism.measures.hypsometric_integral)
+    };
+    let (ranged, uniform) = (measure(8.0), measure(1.0));
+    assert!(
+        ranged.0 > 1.2 * uniform.0,
+        "block heights spread {} m with ranges, {} m without",
+        ranged.0,
+        uniform.0
+    );
+    assert!(
+        (0.15..=0.4).contains(&ranged.1) && ranged.1 < uniform.1,
+        "hypsometric integral {} with ranges, {} without",
+        ranged.1,
+        uniform.1
+    );
 }

@@ -55,6 +55,8 @@ const FIELDS: &[&str] = &[
     "erosion.roughness_m",
     "erosion.rock_contrast",
     "erosion.strength_spread",
+    "erosion.uplift_contrast",
+    "erosion.uplift_scale_m",
     "erosion.rock_patch_m",
     "erosion.strata_m",
     "erosion.strata_contrast",

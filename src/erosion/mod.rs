@@ -77,6 +77,7 @@ pub mod offload;
 mod outlets;
 mod painted;
 mod params;
+mod ranges;
 mod rock;
 mod slope_limit;
 mod stage;
@@ -95,6 +96,7 @@ pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::nearest::NearestChannel;
 pub use self::painted::{HARD_ROCK, Painted, UPLIFT_GAIN};
 pub use self::params::{ErosionParams, PRESETS, describe, preset};
+pub use self::ranges::{DEFAULT_SCALE_M as DEFAULT_UPLIFT_SCALE_M, Ranges};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::slope_limit::Strength as SlopeStrength;
 pub use self::stage::{

@@ -351,6 +351,8 @@ fn every_field_scene() -> Scene {
     erosion.strata_m = 90.0;
     erosion.strata_contrast = 5.0;
     erosion.strength_spread = 0.45;
+    erosion.uplift_contrast = 3.0;
+    erosion.uplift_scale_m = 12_000.0;
     erosion.relief = crate::erosion::Relief::Physics;
     erosion.border = crate::erosion::Border::Closed;
     scene.erosion = Some(erosion);

@@ -72,12 +72,25 @@ pub mod erosion {
         strata_m: f64,
         strata_contrast: f64,
         strength_spread: f64,
+        /// Missing from older files: uplift alike everywhere, as they eroded then.
+        #[serde(default = "uniform_uplift")]
+        uplift_contrast: f64,
+        #[serde(default = "default_uplift_scale_m")]
+        uplift_scale_m: f64,
         /// Missing from older files: the design's relief, as they eroded then.
         #[serde(default)]
         relief: crate::erosion::Relief,
         /// Missing from older files: open, as they have eroded since the outlets came.
         #[serde(default)]
         border: crate::erosion::Border,
+    }
+
+    fn uniform_uplift() -> f64 {
+        1.0
+    }
+
+    fn default_uplift_scale_m() -> f64 {
+        crate::erosion::DEFAULT_UPLIFT_SCALE_M
     }
 
     impl Default for Erosion {
@@ -105,6 +118,8 @@ pub mod erosion {
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
+                uplift_contrast: e.uplift_contrast,
+                uplift_scale_m: e.uplift_scale_m,
                 relief: e.relief,
                 border: e.border,
             }
@@ -130,6 +145,8 @@ pub mod erosion {
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
+                uplift_contrast: e.uplift_contrast,
+                uplift_scale_m: e.uplift_scale_m,
                 relief: e.relief,
                 border: e.border,
             }
