@@ -370,8 +370,9 @@ struct Refinement {
 /// The refinement at full resolution of a map eroded on a coarser grid: one more step of
 /// the same law, as long as one step of the coarse run (`years / steps`), with its uplift
 /// (without it the step's incision, unbalanced, lowered the default scene's 10 km map, its
-/// uplift alike everywhere, by 66 m on average at 2048^2: relief 626 m against 703 m at 1024^2, now 722 m, and its heights
-/// correlated at 0.935 with the 1024^2 map's, now 0.948) and hillslope creep reaching as many
+/// uplift alike everywhere, by 66 m on average at 2048^2: relief 626 m against 703 m at
+/// 1024^2, now 722 m, and its heights correlated at 0.935 with the 1024^2 map's, now 0.948)
+/// and hillslope creep reaching as many
 /// cells as in a coarse step (`kappa` times `(cell / coarse cell)^2`: it smooths the
 /// roughening below the coarse cell; at full strength one long implicit step relaxed the
 /// fine grid towards a harmonic surface, 9% of the default scene's cells at 2048^2 and 28%
