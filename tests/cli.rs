@@ -2087,10 +2087,18 @@ fn rebuild_row(text: &str, label: &str) -> [f64; 3] {
 }
 
 /// Issue 32, item 6: a terrain rebuilt from a real DEM's features must beat the Laplace fill
-/// of a random 1% of the DEM's heights on SSIM and read as land where that fill does not.
+/// of a random 1% of the DEM's heights on SSIM and read as land where that fill does not, on
+/// the SRTM crop and on the 10 km window (whose rebuild lost to the fill, 0.755 against 0.766,
+/// with the preset's creep in place of the creep its hilltops ask for).
 #[test]
 fn features_rebuild_reads_as_land_and_beats_a_random_fill() {
-    let dem = test_dem("srtm_n44e005_384.tif");
+    for (name, side) in [("srtm_n44e005_384.tif", 384), ("scales/srtm_10km.tif", 250)] {
+        rebuild_beats_a_random_fill(name, side);
+    }
+}
+
+fn rebuild_beats_a_random_fill(name: &str, side: usize) {
+    let dem = test_dem(name);
     let dir = out_dir();
     let (scene, rebuilt) = (dir.join("rebuild.json"), dir.join("rebuilt.tif"));
     let out = strahler(&[
@@ -2105,31 +2113,39 @@ fn features_rebuild_reads_as_land_and_beats_a_random_fill() {
     let text = String::from_utf8_lossy(&out.stdout);
     assert!(
         out.status.success(),
-        "{}",
+        "{name}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
     let [_, ours, fill] = rebuild_row(&text, "SSIM against the DEM");
     assert!(
         ours > fill,
-        "SSIM {ours} against the random fill's {fill}: {text}"
+        "{name}: SSIM {ours} against the random fill's {fill}: {text}"
     );
     let [_, ours, fill] = rebuild_row(&text, "straight channel runs");
     assert!(
         ours <= 13.0 && fill > 13.0,
-        "straight runs {ours}% vs {fill}%: {text}"
+        "{name}: straight runs {ours}% vs {fill}%: {text}"
     );
     let [_, ours, _] = rebuild_row(&text, "harmonic cells");
-    assert!(ours <= 5.0, "harmonic cells {ours}%: {text}");
+    assert!(ours <= 5.0, "{name}: harmonic cells {ours}%: {text}");
     let [_, ours, _] = rebuild_row(&text, "flats (< 0.5 deg)");
-    assert!(ours <= 3.0, "flats {ours}%: {text}");
+    assert!(ours <= 3.0, "{name}: flats {ours}%: {text}");
     let [real, ours, _] = rebuild_row(&text, "relief (m)");
     assert!(
         (ours - real).abs() < 0.1 * real,
-        "relief {ours} m vs {real} m: {text}"
+        "{name}: relief {ours} m vs {real} m: {text}"
     );
-    // The scene erodes as a rebuild, and its size is the DEM's.
+    // The scene erodes as a rebuild, with the creep its hilltops ask for (more than the
+    // preset's knife edges), and its size is the DEM's.
     let json: serde_json::Value =
         serde_json::from_slice(&std::fs::read(&scene).unwrap()).expect("the scene is JSON");
     assert_eq!(json["erosion"]["preset"], "rebuild", "{json}");
-    assert_eq!(read_tif(&rebuilt).field.width(), 384);
+    let kappa = json["erosion"]["diffusivity"]
+        .as_f64()
+        .expect("a diffusivity");
+    assert!(
+        (0.02..=0.2).contains(&kappa),
+        "{name}: creep {kappa} m^2/yr"
+    );
+    assert_eq!(read_tif(&rebuilt).field.width(), side);
 }

@@ -30,7 +30,8 @@ pub struct FeaturesArgs {
     #[arg(long)]
     pub rebuild: Option<PathBuf>,
     /// How the scene erodes when regenerated: "rebuild" (dissect the DEM's relief: the
-    /// young-mountains law for a quarter of its time, uplift from the relief), an erosion
+    /// young-mountains law for a quarter of its time, uplift from the relief, soil creep
+    /// from the DEM's hilltop curvature), an erosion
     /// preset (young-mountains, old-hills, badlands, mesas), or "none" for the features'
     /// Laplace fill alone.
     #[arg(long, default_value = "rebuild")]

@@ -214,6 +214,12 @@ fn rock_of_preset(preset: &str) -> (f64, f64, f64) {
     }
 }
 
+/// The range of the soil creep a rebuild infers from its DEM, m^2/yr: from the
+/// young-mountains preset's (knife-edge crests) to a hundred times it (hilltops rounded over
+/// many cells; real soil-mantled hillslopes 0.001-0.05, Roering et al. 2007, the rebuild's
+/// uplift being faster than real erosion rates).
+pub const REBUILD_DIFFUSIVITY: (f64, f64) = (0.005, 0.5);
+
 impl ErosionSettings {
     /// The named preset ([`super::PRESETS`]), or `None`.
     pub fn preset(name: &str) -> Option<Self> {
@@ -231,7 +237,17 @@ impl ErosionSettings {
     /// against the DEM on the SRTM windows of `tests/data` (`strahler features --rebuild`,
     /// docs/features.md): the full preset scored 0.70 at 10 km, a quarter of its time with
     /// this uplift 0.74, a twentieth 0.80 but left parallel rills on planar flanks.
-    pub fn rebuild(relief_m: f64) -> Self {
+    ///
+    /// The soil creep comes from the DEM: `hilltop_curvature` (1/m, the convex crests'
+    /// `-lap(h)`, `features::hilltop_curvature` over the cell's side squared) gives the
+    /// diffusivity at which the rebuild's hilltops, lowered at its uplift rate, keep the
+    /// DEM's curvature at steady state, `kappa = U / C_HT` (Roering et al. 2007; Hurst et al.
+    /// 2012), within [`REBUILD_DIFFUSIVITY`]. The preset's creep (0.005 m^2/yr) cut gullies
+    /// a cell apart into DEMs dissected at hundreds of metres: on the SRTM windows the
+    /// inferred creep (0.06, 0.08 and 0.21 m^2/yr at 10 km, on the 384^2 crop and on the
+    /// whole tile) raised SSIM from 0.755 to 0.790, 0.710 to 0.731 and 0.825 to 0.851.
+    /// `None` (no convex crest) keeps the preset's.
+    pub fn rebuild(relief_m: f64, hilltop_curvature: Option<f64>) -> Self {
         let mut s = Self::preset("young-mountains").expect("a preset of PRESETS");
         s.preset = "rebuild".into();
         // The features carry the DEM's relief: the uplift follows them (land rising evenly
@@ -246,6 +262,15 @@ impl ErosionSettings {
             0.0
         };
         s.uplift_m_per_kyr = (0.25 * relief / s.years * 1000.0).min(100.0);
+        if let Some(c) = hilltop_curvature.filter(|c| c.is_finite() && *c > 0.0) {
+            let kappa = s.uplift_m_per_kyr / 1000.0 / c;
+            let (lo, hi) = REBUILD_DIFFUSIVITY;
+            s.diffusivity = if kappa.is_finite() {
+                kappa.clamp(lo, hi)
+            } else {
+                hi
+            };
+        }
         s
     }
 

@@ -46,6 +46,7 @@
 use std::fmt;
 
 pub mod baseline;
+mod creep;
 mod drain;
 #[cfg(test)]
 mod tests;
@@ -143,6 +144,9 @@ pub struct Features {
     pub ridge_cells: Vec<bool>,
     /// Raster valley map (`width * height`, row-major): cells crossed by a returned valley line.
     pub valley_cells: Vec<bool>,
+    /// The DEM's hilltop curvature, metres per cell squared ([`creep::hilltop_curvature`]):
+    /// what a rebuild infers its soil creep from. `None` where no crest is convex.
+    pub hilltop_curvature: Option<f64>,
 }
 
 impl Features {
@@ -1016,6 +1020,7 @@ impl Extraction {
             out: Features {
                 ridge_cells: vec![false; width * height],
                 valley_cells: vec![false; width * height],
+                hilltop_curvature: creep::hilltop_curvature(heights, width, height),
                 ..Features::default()
             },
         })
