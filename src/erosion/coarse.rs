@@ -267,7 +267,7 @@ pub(super) async fn erode_coarse_to_fine(
         // the painted uplift resampled to the full grid.
         let rate = settings.uplift_m_per_kyr / 1000.0;
         let mut uplift = uplift_map(field, kinds, &near.base, rate);
-        let ranges = ranges_of(settings, n, cell_m, seed);
+        let ranges = ranges_of(settings, (n, cell_m, seed), &near, anchors.held);
         in_row_bands(ctx, FINISHING, &mut uplift, n, |rows, part| {
             ranges.raise(rows.start, part);
         })

@@ -865,7 +865,7 @@ impl Prepared {
         let mut base = base_level(kinds, n, settings.river_band);
         let near = nearest_channel(field, kinds);
         let mut uplift = uplift_map(field, kinds, &near.base, settings.uplift_m_per_kyr / 1000.0);
-        ranges_of(settings, n, cell_m, seed).raise(0, &mut uplift);
+        ranges_of(settings, (n, cell_m, seed), &near, held).raise(0, &mut uplift);
         let floor = floor_near_rivers(&near, FLOOR_CELLS);
         let mut heights = field.data().to_vec();
         let keep = Keep::of(held, &near.base, cell_m, settings.talus_deg);
@@ -905,7 +905,7 @@ impl Prepared {
         let near = nearest_channel_in_steps(field, kinds, ctx, PREPARING).await?;
         ctx.tick(PREPARING.0, PREPARING.1).await?;
         let mut uplift = uplift_map(field, kinds, &near.base, settings.uplift_m_per_kyr / 1000.0);
-        let ranges = ranges_of(settings, n, cell_m, seed);
+        let ranges = ranges_of(settings, (n, cell_m, seed), &near, held);
         in_row_bands(ctx, PREPARING, &mut uplift, n, |rows, part| {
             ranges.raise(rows.start, part);
         })
@@ -950,20 +950,28 @@ impl Prepared {
 }
 
 /// The ranges and basins of `settings` on an `n` x `n` map of `cell_m` cells
-/// ([`super::Ranges`]), to multiply its uplift by.
+/// ([`super::Ranges`]), to multiply its uplift by, with basins along the drawn rivers and
+/// valleys (`near`, [`nearest_channel`]) where the sketch holds no peak or ridge (`held`
+/// empty): a sketch of them draws its ranges itself, and a basin beside a river would pull a
+/// peak sketched a few kilometres from it below its height.
 pub(super) fn ranges_of(
     settings: &ErosionSettings,
-    n: usize,
-    cell_m: f64,
-    seed: u64,
+    (n, cell_m, seed): (usize, f64, u64),
+    near: &NearestChannel,
+    held: &[u32],
 ) -> super::Ranges {
-    super::Ranges::new(
+    let ranges = super::Ranges::new(
         n,
         cell_m,
         settings.uplift_contrast,
         settings.uplift_scale_m,
         seed,
-    )
+    );
+    if held.is_empty() {
+        ranges.with_basins(&near.distance)
+    } else {
+        ranges
+    }
 }
 
 /// The erodibility factors of `settings`' rock on an `n` x `n` map of `cell_m` cells (empty

@@ -118,7 +118,7 @@ fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
             .labelled_by(label.id);
             ui.end_row();
             row(ui, "Uplift (m/kyr)", "Rock uplift U in metres per thousand years: everywhere alike with the relief from the physics; from the design, where the design stands highest above its rivers, 15% of it beside the rivers, levelling off towards the highest ground.", &mut e.uplift_m_per_kyr, 0.0..=100.0, 0.05);
-            row(ui, "Uplift contrast", "Ranges and basins: how many times faster the rock rises in the fastest-rising ranges than in the slowest basins (1 = alike everywhere). The ranges stand high and rugged, the basins low and gentle.", &mut e.uplift_contrast, 1.0..=100.0, 0.1);
+            row(ui, "Uplift contrast", "Ranges and basins: how many times faster the rock rises in the fastest-rising ranges than in the slowest basins (1 = alike everywhere). The ranges stand high and rugged, the basins low and gentle; the drawn rivers run in basins unless the sketch draws peaks or ridges.", &mut e.uplift_contrast, 1.0..=100.0, 0.1);
             row(ui, "Ranges (m)", "The size of the ranges and basins: the wavelength of the largest, in metres. A map much smaller lies within one range or one basin.", &mut e.uplift_scale_m, 100.0..=1.0e7, 100.0);
             row(ui, "Erodibility K", "K of the stream-power law, in m^(1-2m) per year: how fast water cuts rock. Larger K carves deeper valleys.", &mut e.erodibility, 0.0..=1.0, 1e-6);
             row(ui, "m", "Drainage-area exponent m (m/n is the concavity of river profiles, 0.3 to 0.7 in real rivers).", &mut e.m, 0.1..=1.0, 0.01);
