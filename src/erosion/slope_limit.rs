@@ -64,6 +64,9 @@ const MAX_OCTAVES: u32 = 8;
 /// of about 0.1): the factors' standard deviation is then about `SPREAD / 4`.
 const GAIN: f64 = 2.5;
 
+/// The farthest a move of [`FORWARD`] reaches along either axis, in cells.
+const REACH: isize = 2;
+
 /// The mask's offsets `(dx, dy)` in the forward scan's half (rows above, and the cells left
 /// of the current one); the backward half is their negation.
 const FORWARD: [(isize, isize); 8] = [
@@ -167,9 +170,15 @@ impl Mask {
     ) -> bool {
         let (w, rows_total) = (self.width as isize, self.height as isize);
         let sign = if forward { 1 } else { -1 };
+        // Each move's index offset, for the cells whose moves all stay on the map (two cells
+        // from every edge): the same neighbours in the same order, without the bounds tests.
+        let moves = self
+            .steps
+            .map(|(dx, dy, rise)| (sign * (dy * w + dx), rise));
         let mut changed = false;
         for yy in rows {
             let y = if forward { yy } else { self.height - 1 - yy } as isize;
+            let inner_row = y >= REACH && y < rows_total - REACH;
             for xx in 0..w {
                 let x = if forward { xx } else { w - 1 - xx };
                 let i = (y * w + x) as usize;
@@ -178,10 +187,16 @@ impl Mask {
                 }
                 let strength = self.strength.get(i).copied().unwrap_or(1.0);
                 let mut cap = h[i];
-                for &(dx, dy, rise) in &self.steps {
-                    let (nx, ny) = (x + sign * dx, y + sign * dy);
-                    if nx >= 0 && ny >= 0 && nx < w && ny < rows_total {
-                        cap = cap.min(h[(ny * w + nx) as usize] + rise * strength);
+                if inner_row && x >= REACH && x < w - REACH {
+                    for &(offset, rise) in &moves {
+                        cap = cap.min(h[i.wrapping_add_signed(offset)] + rise * strength);
+                    }
+                } else {
+                    for &(dx, dy, rise) in &self.steps {
+                        let (nx, ny) = (x + sign * dx, y + sign * dy);
+                        if nx >= 0 && ny >= 0 && nx < w && ny < rows_total {
+                            cap = cap.min(h[(ny * w + nx) as usize] + rise * strength);
+                        }
                     }
                 }
                 if cap < h[i] {
