@@ -192,11 +192,6 @@ fn relief_of(preset: &str) -> Relief {
     }
 }
 
-/// The layered rock each preset pairs with its law: (bed thickness in metres, 0 = none;
-/// the soft beds' erodibility over the hard beds'), and the contrast of its rock patches.
-/// Mesas: 120 m pairs of beds 20 times apart in strength, and weaker patches (2), so that
-/// the beds, not the patches, shape the land (chosen by eye on the default scene at 10 km,
-/// where it gives some five beds of relief: escarpments round broad benches).
 /// The ranges' uplift contrast of a preset: young mountains rise faster in some ranges than
 /// in others ([`super::Ranges`]); the presets whose uplift follows the design take their
 /// ranges from it.
@@ -207,6 +202,11 @@ fn uplift_contrast_of(preset: &str) -> f64 {
     }
 }
 
+/// The layered rock each preset pairs with its law: (bed thickness in metres, 0 = none;
+/// the soft beds' erodibility over the hard beds'), and the contrast of its rock patches.
+/// Mesas: 120 m pairs of beds 20 times apart in strength, and weaker patches (2), so that
+/// the beds, not the patches, shape the land (chosen by eye on the default scene at 10 km,
+/// where it gives some five beds of relief: escarpments round broad benches).
 fn rock_of_preset(preset: &str) -> (f64, f64, f64) {
     match preset {
         "mesas" => (120.0, 20.0, 2.0),
