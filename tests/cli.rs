@@ -2116,6 +2116,10 @@ fn rebuild_beats_a_random_fill(name: &str, side: usize) {
         "{name}: {}",
         String::from_utf8_lossy(&out.stderr)
     );
+    assert!(
+        text.contains("with soil creep") && text.contains("from its hilltops' curvature"),
+        "{name}: the inferred creep is printed: {text}"
+    );
     let [_, ours, fill] = rebuild_row(&text, "SSIM against the DEM");
     assert!(
         ours > fill,

@@ -112,6 +112,18 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         found.peaks.len(),
         args.out.display()
     );
+    if let Some(erosion) = scene.erosion.as_ref().filter(|e| e.preset == "rebuild") {
+        let from = match found.hilltop_curvature {
+            Some(c) => format!("its hilltops' curvature, {:.2e} /m", c / (cx * cx)),
+            None => "the preset (no convex hilltop)".to_owned(),
+        };
+        println!(
+            "the rebuild erodes for {:.0} kyr at {:.2} m/kyr of uplift, with soil creep {:.3} m^2/yr from {from}",
+            erosion.years / 1000.0,
+            erosion.uplift_m_per_kyr,
+            erosion.diffusivity
+        );
+    }
     if let Some(path) = &args.png {
         let png = feature_map(&dem.field, &found, cx)?;
         outputs.write(path, &png)?;
