@@ -113,8 +113,8 @@ pub fn run(args: &FeaturesArgs) -> Result<(), Box<dyn std::error::Error>> {
         args.out.display()
     );
     if let Some(erosion) = scene.erosion.as_ref().filter(|e| e.preset == "rebuild") {
-        let from = match found.hilltop_curvature {
-            Some(c) => format!("its hilltops' curvature, {:.2e} /m", c / (cx * cx)),
+        let from = match found.hilltop_curvature_per_m(cx) {
+            Some(c) => format!("its hilltops' curvature, {c:.2e} /m"),
             None => "the preset (no convex hilltop)".to_owned(),
         };
         println!(

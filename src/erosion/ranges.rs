@@ -47,7 +47,7 @@ const GAIN: f64 = 2.0;
 const BASIN_DEPTH: f64 = 0.5;
 /// The basins' half-width (the `1/e` distance of their Gaussian) as a share of the ranges'
 /// scale: 3 km beside a river at the default 25 km.
-pub const BASIN_WIDTH: f64 = 0.125;
+const BASIN_WIDTH: f64 = 0.125;
 
 /// The ranges of one map, to be applied row by row ([`Ranges::raise`]).
 pub struct Ranges {
@@ -84,18 +84,19 @@ impl Ranges {
             return self;
         }
         let width_cells = BASIN_WIDTH * self.scale_m / self.cell_m;
-        let mut g: Vec<f64> = distance
+        // `g` first, then the term in place: one map-sized field of `f32`.
+        let mut basins: Vec<f32> = distance
             .iter()
             .map(|d| {
                 let x = f64::from(*d) / width_cells;
-                libm::exp(-x * x)
+                libm::exp(-x * x) as f32
             })
             .collect();
-        let mean = g.iter().sum::<f64>() / g.len() as f64;
-        for v in &mut g {
-            *v = -BASIN_DEPTH * (*v - mean);
+        let mean = basins.iter().map(|g| f64::from(*g)).sum::<f64>() / basins.len() as f64;
+        for v in &mut basins {
+            *v = (-BASIN_DEPTH * (f64::from(*v) - mean)) as f32;
         }
-        self.basins = g.into_iter().map(|v| v as f32).collect();
+        self.basins = basins;
         self
     }
 

@@ -218,7 +218,7 @@ fn rock_of_preset(preset: &str) -> (f64, f64, f64) {
 /// young-mountains preset's (knife-edge crests) to a hundred times it (hilltops rounded over
 /// many cells; real soil-mantled hillslopes 0.001-0.05, Roering et al. 2007, the rebuild's
 /// uplift being faster than real erosion rates).
-pub const REBUILD_DIFFUSIVITY: (f64, f64) = (0.005, 0.5);
+const REBUILD_DIFFUSIVITY: (f64, f64) = (0.005, 0.5);
 
 impl ErosionSettings {
     /// The named preset ([`super::PRESETS`]), or `None`.

@@ -150,6 +150,11 @@ pub struct Features {
 }
 
 impl Features {
+    /// [`Features::hilltop_curvature`] in 1/m, on cells `cell_m` wide.
+    pub fn hilltop_curvature_per_m(&self, cell_m: f64) -> Option<f64> {
+        self.hilltop_curvature.map(|c| c / (cell_m * cell_m))
+    }
+
     /// The span of the heights the features carry (lines and peaks), metres; 0 for none.
     pub fn height_range(&self) -> f64 {
         let heights = self
@@ -977,6 +982,8 @@ enum Stage {
     Lines(Kind),
     /// Valleys continued down to their outlets ([`drain`]).
     Drain,
+    /// The hilltops' curvature ([`creep::hilltop_curvature`]).
+    Hilltops,
     Done,
 }
 
@@ -1020,7 +1027,6 @@ impl Extraction {
             out: Features {
                 ridge_cells: vec![false; width * height],
                 valley_cells: vec![false; width * height],
-                hilltop_curvature: creep::hilltop_curvature(heights, width, height),
                 ..Features::default()
             },
         })
@@ -1074,6 +1080,10 @@ impl Extraction {
             }
             Stage::Drain => {
                 drain::drain_valleys(&mut self.out, z, w, h, p.sampling);
+                Stage::Hilltops
+            }
+            Stage::Hilltops => {
+                self.out.hilltop_curvature = creep::hilltop_curvature(z, w, h);
                 Stage::Done
             }
             Stage::Done => Stage::Done,
@@ -1095,6 +1105,7 @@ impl Extraction {
             Stage::Graph(Kind::Valley) => 0.55,
             Stage::Lines(Kind::Valley) => 0.85,
             Stage::Drain => 0.95,
+            Stage::Hilltops => 0.98,
             Stage::Done => 1.0,
         }
     }
@@ -1108,6 +1119,7 @@ impl Extraction {
             Stage::Graph(Kind::Valley) => "valley points",
             Stage::Lines(Kind::Valley) => "valley lines",
             Stage::Drain => "valleys down to their outlets",
+            Stage::Hilltops => "the hilltops' curvature",
             Stage::Done => "done",
         }
     }

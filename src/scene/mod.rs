@@ -747,7 +747,7 @@ impl Scene {
             // erosion dissects that relief as land between the lines.
             erosion: Some(crate::erosion::ErosionSettings::rebuild(
                 found.height_range(),
-                found.hilltop_curvature.map(|c| c / (cell_m * cell_m)),
+                found.hilltop_curvature_per_m(cell_m),
             )),
             ..Scene::default()
         };
