@@ -2028,6 +2028,26 @@ fn generate_takes_painted_masks() {
     }
 }
 
+/// `--erosion coastal-plain` is the terrain type as the app's Start section sets it: the
+/// coastal plain's erosion and its gently falling rivers (`river_slope` 0.001), unless
+/// `--slope` asks for another; the other presets keep the design's slope.
+#[test]
+fn generate_takes_the_coastal_plains_river_slope() {
+    let dir = out_dir();
+    let base = ["generate", "--size", "64", "--erosion", "coastal-plain"];
+    let report = |name: &str, extra: &[&str]| generate_report(&dir.join(name), &base, extra);
+    let plain = report("coastal.json", &[]);
+    let gentle = report("coastal-gentle.json", &["--slope", "0.001"]);
+    let steep = report("coastal-steep.json", &["--slope", "0.01"]);
+    assert_eq!(plain["checksum"], gentle["checksum"]);
+    assert_ne!(plain["hydrology_checksum"], steep["hydrology_checksum"]);
+    let base = ["generate", "--size", "64", "--erosion", "old-hills"];
+    let report = |name: &str, extra: &[&str]| generate_report(&dir.join(name), &base, extra);
+    let hills = report("hills.json", &[]);
+    let hills_steep = report("hills-steep.json", &["--slope", "0.01"]);
+    assert_eq!(hills["checksum"], hills_steep["checksum"]);
+}
+
 /// `--border closed` closes the map's edge (no outlet: another terrain from the same
 /// design), `--meander` loops the rivers (another design: the trunk's loops are 14 cells
 /// long at 320^2, so the grid draws them); bad words and values are refused

@@ -722,3 +722,58 @@ fn ranges_raise_the_land_where_the_rock_rises_fastest() {
         uniform.1
     );
 }
+
+/// The coastal plain (issue 32, item 4's terrain types), with its gently falling rivers
+/// ([`strahler::erosion::river_slope`], as the app's Start section and `--erosion` set
+/// them), is low, gentle land at 10 and 50 km: under 250 m of relief, a median slope of
+/// 0.3-5 degrees (the Olinda coastal lowland in `tests/data`: 89 m over 10 km, 1.6 degrees),
+/// real hypsometry, no grid marks, every cell draining; and its drawn trunk lies in the low
+/// ground, where held at the design's 1% it stood above the land worn down around it.
+#[test]
+fn a_coastal_plain_is_low_gentle_land_with_its_rivers_in_the_low_ground() {
+    let preset = "coastal-plain";
+    let gentle = strahler::erosion::river_slope(preset).expect("the plain's rivers' slope");
+    for width_km in [10.0, 50.0] {
+        let size = 256;
+        let mut scene = Scene {
+            size,
+            cell_size: width_km * 1000.0 / size as f64,
+            rivers: layouts()[0].clone(),
+            erosion: ErosionSettings::preset(preset),
+            ..Scene::default()
+        };
+        let steep = scene.params.river_slope;
+        scene.params.river_slope = gentle;
+        let out = run(&scene);
+        let m = &out.report.realism.as_ref().expect("measured").measures;
+        let what = format!("{width_km} km: {m:?}");
+        assert!((20.0..=250.0).contains(&m.relief_m), "{what}");
+        assert!((0.3..=5.0).contains(&m.slope_deg_percentiles[2]), "{what}");
+        assert!((0.15..=0.45).contains(&m.hypsometric_integral), "{what}");
+        assert!(m.grid_direction_index.abs() <= 0.09, "{what}");
+        let d = &out.erosion.as_ref().expect("eroded").report.drainage;
+        assert!(
+            d.river_fraction >= 0.99 && d.outlet_fraction >= 0.99,
+            "{d:?}"
+        );
+        let low = trunk_above_the_median(&out);
+        scene.params.river_slope = steep;
+        let high = trunk_above_the_median(&run(&scene));
+        println!(
+            "{width_km} km: trunk cells above the median height {low:.3} ({high:.3} at {steep})"
+        );
+        assert!(low <= 0.1, "{width_km} km: {low}");
+        assert!(high > low + 0.1, "{width_km} km: {high} against {low}");
+    }
+}
+
+/// The share of the drawn trunks' cells standing above the map's median height.
+fn trunk_above_the_median(out: &strahler::pipeline::Output) -> f64 {
+    let z = out.field.data();
+    let mut sorted = z.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    let median = sorted[sorted.len() / 2];
+    let trunk = &out.hydrology.skeleton.trunk;
+    let above = trunk.iter().filter(|&&c| z[c as usize] > median).count();
+    above as f64 / trunk.len().max(1) as f64
+}

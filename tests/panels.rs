@@ -127,6 +127,26 @@ fn start_panel_picks_a_terrain_type_draws_a_new_seed_and_turns_preview_off() {
     h.get_by_label(DESIGN_ONLY).click();
     h.run();
     assert_eq!(h.state().actions, [Action::Edit(Edit::SetErosion(None))]);
+    // The coastal plain's rivers fall gently: choosing it sets the design's river slope too.
+    h.state_mut().actions.clear();
+    h.state_mut().scene.erosion = None;
+    h.run();
+    h.get_by_label("Terrain type").click();
+    h.run();
+    h.get_by_label("coastal-plain").click();
+    h.run();
+    let gentle = strahler::erosion::river_slope("coastal-plain").expect("a slope");
+    match h.state().actions.as_slice() {
+        [
+            Action::Edit(Edit::SetErosion(erosion)),
+            Action::Edit(Edit::SetParams(params)),
+        ] => {
+            assert_eq!(*erosion, ErosionSettings::preset("coastal-plain"));
+            assert_eq!(params.river_slope, gentle);
+            assert_eq!(params.theta, h.state().scene.params.theta);
+        }
+        other => panic!("{other:?}"),
+    }
     // Placing the map on Earth (for georeferenced exports).
     h.state_mut().actions.clear();
     h.get_by_label("on Earth").click();

@@ -31,9 +31,8 @@ pub struct FeaturesArgs {
     pub rebuild: Option<PathBuf>,
     /// How the scene erodes when regenerated: "rebuild" (dissect the DEM's relief: the
     /// young-mountains law for a quarter of its time, uplift from the relief, soil creep
-    /// from the DEM's hilltop curvature), an erosion
-    /// preset (young-mountains, old-hills, badlands, mesas), or "none" for the features'
-    /// Laplace fill alone.
+    /// from the DEM's hilltop curvature), an erosion preset (young-mountains, old-hills,
+    /// badlands, mesas, coastal-plain), or "none" for the features' Laplace fill alone.
     #[arg(long, default_value = "rebuild")]
     pub erosion: String,
     /// K_gray of eqs. 1-2 (fraction of cells clipped at each end of the grey range).

@@ -77,8 +77,10 @@ pub struct GenerateArgs {
     /// Amplitude in metres of fBm added to the filled terrain, kept off the rivers [default: 0].
     #[arg(allow_hyphen_values = true, long)]
     pub fbm: Option<f32>,
-    /// Erosion preset, the terrain type (young-mountains, old-hills, badlands, mesas), or "none" to turn erosion off
-    /// [default: the scene's; a scene without an erosion section erodes as young-mountains].
+    /// Erosion preset, the terrain type (young-mountains, old-hills, badlands, mesas,
+    /// coastal-plain), or "none" to turn erosion off; coastal-plain also sets the rivers'
+    /// slope to 0.001 unless --slope is given [default: the scene's; a scene without an
+    /// erosion section erodes as young-mountains].
     #[arg(long)]
     pub erosion: Option<String>,
     /// The map's edge to the erosion's water: "open" (where the rivers do not reach a
@@ -253,6 +255,10 @@ pub fn scene_of(args: &GenerateArgs) -> Result<Scene, Box<dyn std::error::Error>
     }
     if let Some(name) = args.erosion.as_deref() {
         scene.erosion = erosion_named(name, &[])?;
+        // The terrain type's rivers, as the app's Start section sets them.
+        if let (Some(slope), None) = (crate::erosion::river_slope(name), args.slope) {
+            scene.params.river_slope = slope;
+        }
     }
     if let Some(word) = args.border.as_deref() {
         let border = border_named(word)?;

@@ -95,7 +95,7 @@ pub use self::hold::Held;
 pub use self::layers::{depth_grey, drainage_grey, layer_pngs};
 pub use self::nearest::NearestChannel;
 pub use self::painted::{HARD_ROCK, Painted, UPLIFT_GAIN};
-pub use self::params::{ErosionParams, PRESETS, describe, preset};
+pub use self::params::{ErosionParams, PRESETS, describe, preset, river_slope};
 pub use self::ranges::{DEFAULT_SCALE_M as DEFAULT_UPLIFT_SCALE_M, Ranges};
 pub use self::rock::{Rock, erodibility_factors};
 pub use self::slope_limit::Strength as SlopeStrength;

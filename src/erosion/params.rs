@@ -34,7 +34,13 @@ pub struct ErosionParams {
 }
 
 /// Names accepted by [`preset`].
-pub const PRESETS: &[&str] = &["young-mountains", "old-hills", "badlands", "mesas"];
+pub const PRESETS: &[&str] = &[
+    "young-mountains",
+    "old-hills",
+    "badlands",
+    "mesas",
+    "coastal-plain",
+];
 
 /// What a preset ([`PRESETS`]) makes, in a line for the user; `None` for an unknown name.
 pub fn describe(name: &str) -> Option<&'static str> {
@@ -48,8 +54,26 @@ pub fn describe(name: &str) -> Option<&'static str> {
             "Layered rock: soft beds stripped back to hard ones, whose edges stand as \
              escarpments round benches, mesas and buttes."
         }
+        "coastal-plain" => {
+            "Low land near the sea: broad, shallow valleys branching through gentle slopes, \
+             rivers falling 1 m per km."
+        }
         _ => return None,
     })
+}
+
+/// The slope of the drawn rivers (metres per metre, the design's `river_slope`) a preset asks
+/// for, where its land needs one: a coastal plain's rivers fall about 1 m per km (the lower
+/// Mississippi 0.1 m, coastal-plain streams 0.5-2 m), and the stream-power law's steady
+/// slope there, `(U / K) A^(-m)`, is under 0.001 on every channel draining over 6 km^2: a
+/// trunk held at the design's default 1% stood above the land around it, and the outlets on
+/// the map's border, held at their nearest river's height, left basins as flat steps tens
+/// of metres apart. `None`: the design's slope is the user's.
+pub fn river_slope(name: &str) -> Option<f64> {
+    match name {
+        "coastal-plain" => Some(0.001),
+        _ => None,
+    }
 }
 
 /// Parameter presets for a ~10 km map with a few hundred metres of relief (cells of
@@ -76,6 +100,12 @@ pub fn describe(name: &str) -> Option<&'static str> {
 ///   cells, a speckle) and a 60 deg talus over 2 Myr, so that the soft beds are stripped back
 ///   to the hard beds' tops and the beds' edges stand as escarpments: benches, mesas, buttes
 ///   and stepped valley sides.
+/// * `coastal-plain`: soft sediments (`K` ~ 2x) rising slowly (0.05 m/kyr, see the stage's
+///   uplift) with strong creep (`kappa/K` = 2500 m) over 2 Myr, and no talus: relief
+///   `~ U/K` small (80-120 m on 10-50 km maps, where the Olinda coastal lowland in
+///   `tests/data` spans 89 m over 10 km), broad shallow valleys and wide low interfluves.
+///   Its rivers fall gently ([`river_slope`]): held at the design's 1% they stood as raised
+///   strips above land worn down to a few tens of metres.
 ///
 /// Returns `None` for an unknown name.
 pub fn preset(name: &str) -> Option<ErosionParams> {
@@ -115,6 +145,15 @@ pub fn preset(name: &str) -> Option<ErosionParams> {
             n: 1.0,
             diffusivity: 0.005,
             talus_deg: Some(60.0),
+        },
+        "coastal-plain" => ErosionParams {
+            years: 2.0e6,
+            steps: 20,
+            erodibility: 2.0e-5,
+            m: 0.5,
+            n: 1.0,
+            diffusivity: 0.05,
+            talus_deg: None,
         },
         _ => return None,
     };

@@ -176,18 +176,22 @@ pub const DEFAULT_STRATA_CONTRAST: f64 = 8.0;
 fn uplift_of(preset: &str) -> f64 {
     match preset {
         "badlands" => 2.0,
+        // Passive margins and coastal plains rise or sink a few hundredths of a millimetre
+        // a year; 0.05 m/kyr against the preset's soft rock gives 80-120 m of relief.
+        "coastal-plain" => 0.05,
         _ => 1.0,
     }
 }
 
-/// Where each preset's relief comes from: the mountains' from the physics (land rising
-/// evenly, the branches' profiles the law's); the old hills', the badlands' and the mesas'
+/// Where each preset's relief comes from: the mountains' and the coastal plain's from the
+/// physics (land rising evenly, the branches' profiles the law's: the design's ridges, over
+/// 1000 m on the default scene, would make no plain); the old hills', the badlands' and the mesas'
 /// from the design, as they were tuned: with land rising evenly the hills stood 1566 m high
 /// and steep, the badlands over 1000 m in coarse ridges instead of dense fine gullies, and the
 /// mesas' soft beds no longer bared the hard ones into benches.
 fn relief_of(preset: &str) -> Relief {
     match preset {
-        "young-mountains" => Relief::Physics,
+        "young-mountains" | "coastal-plain" => Relief::Physics,
         _ => Relief::Design,
     }
 }

@@ -50,16 +50,27 @@ impl StartPanel {
         };
         let mut after = before.clone();
         choices(ui, &mut after);
-        actions(run, &before, after)
+        actions(run, scene, &before, after)
     }
 }
 
-/// What changed, as actions.
-fn actions(run: &RunSettings, before: &Choices, after: Choices) -> Vec<Action> {
+/// What changed, as actions: a terrain type sets the erosion, and the drawn rivers' slope
+/// where it asks for one ([`crate::erosion::river_slope`]: a coastal plain's rivers fall
+/// gently).
+fn actions(run: &RunSettings, scene: &Scene, before: &Choices, after: Choices) -> Vec<Action> {
     let mut actions = Vec::new();
     if after.terrain_type != before.terrain_type {
         let erosion = ErosionSettings::preset(&after.terrain_type);
         actions.push(Action::Edit(Edit::SetErosion(erosion)));
+        if let Some(slope) = crate::erosion::river_slope(&after.terrain_type)
+            && slope != scene.params.river_slope
+        {
+            let params = crate::scene::Params {
+                river_slope: slope,
+                ..scene.params
+            };
+            actions.push(Action::Edit(Edit::SetParams(params)));
+        }
     }
     if (after.size, after.cell_size) != (before.size, before.cell_size) {
         actions.push(Action::Edit(Edit::SetGrid {
