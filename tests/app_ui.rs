@@ -482,6 +482,35 @@ fn undo_and_redo_walk_the_edits() {
     assert_eq!((status.undo, status.redo), (2, 0));
 }
 
+/// A terrain type that asks for its own rivers' slope (the coastal plain, whose rivers fall
+/// 1 m per km) sets the erosion and the slope in one undo step: one Undo puts both back.
+#[test]
+fn a_terrain_type_and_its_rivers_slope_are_one_undo_step() {
+    let mut harness = cpu_harness();
+    wait_idle(&mut harness);
+    let before = harness.state().scene();
+    harness.get_by_label("Terrain type").click();
+    harness.run_steps(2);
+    harness.get_by_label("coastal-plain").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let scene = harness.state().scene();
+    let erosion = scene.erosion.as_ref().expect("erosion on");
+    assert_eq!(erosion.preset, "coastal-plain");
+    assert_eq!(
+        Some(scene.params.river_slope),
+        strahler::erosion::river_slope("coastal-plain")
+    );
+    let status = harness.state().automation().status();
+    assert_eq!((status.undo, status.redo), (1, 0));
+    harness.get_by_label("Undo").click();
+    harness.run_steps(2);
+    wait_idle(&mut harness);
+    let undone = harness.state().scene();
+    assert_eq!(undone.erosion, before.erosion);
+    assert_eq!(undone.params, before.params);
+}
+
 /// The Select tool: click a drawn river to select it, drag it to move it (the terrain
 /// regenerates), Delete removes it; each is an undo step.
 #[test]
