@@ -22,8 +22,9 @@
 //    the receiver tree, solved by the same pointer jumping (`implicit_init`,
 //    `implicit_jump`: b_i += c_i b_p, c_i *= c_p); `implicit_polish` then runs Jacobi passes
 //    of the CPU's exact rule (no downhill slope: uplift only; n != 1: Newton).
-// 5. `diffuse_red` / `diffuse_black`: red-black Gauss-Seidel of backward-Euler diffusion,
-//    exactly the CPU's sweeps (`diffusion.rs`).
+// 5. `diffuse_red` / `diffuse_black`: red-black over-relaxation (SOR) of backward-Euler
+//    diffusion, then two sweeps of `smooth_red` / `smooth_black` (Gauss-Seidel), exactly
+//    the CPU's sweeps (`diffusion.rs`).
 // 6. `talus_share` + `talus_apply`: the CPU's talus relaxation (`thermal.rs`) in Jacobi form.
 // 7. `apply_floor`: no cell below the near-river floor.
 
@@ -51,7 +52,8 @@ struct Params {
     strata_ln_contrast: f32,
     // Whether `guide` holds guided receivers (1) or nothing (0).
     guided: u32,
-    _pad1: u32,
+    // The diffusion's over-relaxation factor (`src/erosion/diffusion.rs`).
+    omega: f32,
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -541,7 +543,9 @@ fn implicit_polish(@builtin(global_invocation_id) gid: vec3<u32>) {
 @group(0) @binding(2) var<storage, read> rhs: array<f32>;
 @group(0) @binding(3) var<storage, read_write> diffused: array<f32>;
 
-fn diffuse(gid: vec3<u32>, colour: u32) {
+// One colour of a sweep: over-relaxed by `params.omega`, or plain Gauss-Seidel (the last
+// two sweeps, `diffusion.rs`).
+fn diffuse(gid: vec3<u32>, colour: u32, over_relaxed: bool) {
     let i = cell_of(gid);
     if (i == NONE || ((gid.x + gid.y) & 1u) != colour || is_base(i)) {
         return;
@@ -567,17 +571,32 @@ fn diffuse(gid: vec3<u32>, colour: u32) {
         sum += diffused[i + w];
         k += 1.0;
     }
-    diffused[i] = (rhs[i] + r * sum) * (1.0 / (1.0 + r * k));
+    let gauss_seidel = (rhs[i] + r * sum) * (1.0 / (1.0 + r * k));
+    if (over_relaxed) {
+        diffused[i] = diffused[i] + params.omega * (gauss_seidel - diffused[i]);
+    } else {
+        diffused[i] = gauss_seidel;
+    }
 }
 
 @compute @workgroup_size(16, 16, 1)
 fn diffuse_red(@builtin(global_invocation_id) gid: vec3<u32>) {
-    diffuse(gid, 0u);
+    diffuse(gid, 0u, true);
 }
 
 @compute @workgroup_size(16, 16, 1)
 fn diffuse_black(@builtin(global_invocation_id) gid: vec3<u32>) {
-    diffuse(gid, 1u);
+    diffuse(gid, 1u, true);
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn smooth_red(@builtin(global_invocation_id) gid: vec3<u32>) {
+    diffuse(gid, 0u, false);
+}
+
+@compute @workgroup_size(16, 16, 1)
+fn smooth_black(@builtin(global_invocation_id) gid: vec3<u32>) {
+    diffuse(gid, 1u, false);
 }
 
 // ---- 6. talus ---------------------------------------------------------------------------

@@ -37,7 +37,7 @@
 //!    is close to 1 on channels). [`POLISH_PASSES`] Jacobi passes of the CPU's exact rule
 //!    follow: a cell whose receiver ends higher gets its uplift only, and for `n != 1` (where
 //!    the jumping uses `F` linearised around the step's initial slope) Newton's method.
-//! 5. **Hillslope diffusion**: the CPU's red-black Gauss-Seidel sweeps of backward Euler,
+//! 5. **Hillslope diffusion**: the CPU's red-black over-relaxation sweeps of backward Euler,
 //!    one dispatch per colour (a colour's cells are independent).
 //! 6. **Talus**: the CPU's relaxation in Jacobi form (every cell sheds half its largest
 //!    excess at once and gathers what its neighbours shed): the CPU updates in place in scan
@@ -67,6 +67,7 @@
 
 use wgpu::util::DeviceExt;
 
+use super::diffusion::Diffusion;
 use super::flow::step_key;
 use super::params::ErosionParams;
 use super::thermal::THERMAL_PASSES;
@@ -83,7 +84,7 @@ pub(super) const EROSION: Shader = Shader {
 };
 
 /// Entry points of `shaders/erosion.wgsl`, in the order [`Kernels`] takes them.
-const ENTRIES: [&str; 19] = [
+const ENTRIES: [&str; 21] = [
     "receivers",
     "root_init",
     "root_jump",
@@ -103,6 +104,8 @@ const ENTRIES: [&str; 19] = [
     "talus_apply",
     "apply_floor",
     "slope_limit",
+    "smooth_red",
+    "smooth_black",
 ];
 
 /// Planchon–Darboux passes per step for the lakes, each 24 iterations within 16 x 16 tiles
@@ -204,8 +207,8 @@ struct Params {
     strata_ln_contrast: f32,
     /// Whether the guide buffer holds guided receivers (1) or nothing (0).
     guided: u32,
-    /// Uniform buffers are read in 16-byte rows.
-    _pad: u32,
+    /// The diffusion's over-relaxation factor ([`Diffusion::omega`]).
+    omega: f32,
 }
 
 /// The guided receivers' codes packed for the `receivers` kernel: 4 bits a cell, 8 cells a
@@ -371,7 +374,7 @@ async fn erode_with(
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
 
     let dt = p.years / f64::from(p.steps);
-    let r = p.diffusivity * dt / (cell_m * cell_m);
+    let creep = Diffusion::new(p.diffusivity * dt / (cell_m * cell_m));
     let tan = p.talus_deg.map_or(0.0, |t| t.to_radians().tan());
     let kdt = p.erodibility * dt;
     let uniform = Params {
@@ -379,7 +382,7 @@ async fn erode_with(
         height: h as u32,
         route_key: 0,
         random: u32::from(seed.is_some()),
-        r: r as f32,
+        r: creep.r(),
         limit_axis: (tan * cell_m) as f32,
         limit_diag: (tan * std::f64::consts::SQRT_2 * cell_m) as f32,
         n: p.n as f32,
@@ -390,7 +393,7 @@ async fn erode_with(
         strata_period: strata.map_or(0.0, |s| s.period_m),
         strata_ln_contrast: strata.map_or(0.0, |s| s.ln_contrast),
         guided: u32::from(!guide.is_empty()),
-        _pad: 0,
+        omega: creep.omega(),
     };
     let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -536,6 +539,7 @@ async fn erode_with(
         ],
     );
     let g_diffuse = [13, 14].map(|e| b(e, &[(1, &base), (2, &start), (3, &heights_buf)]));
+    let g_smooth = [19, 20].map(|e| b(e, &[(1, &base), (2, &start), (3, &heights_buf)]));
     let g_talus_share = b(15, &[(1, &base), (2, &heights_buf), (3, &tmp)]);
     let g_talus_apply = b(16, &[(1, &base), (2, &heights_buf), (3, &tmp), (4, &coef)]);
     let g_floor = floor_buf
@@ -561,7 +565,6 @@ async fn erode_with(
         (h as u32).div_ceil(WORKGROUP),
     );
     let bytes = n as u64 * 4;
-    let sweeps = ((r as f32).sqrt().ceil() as usize).clamp(2, 8);
     let steps = p.steps;
     let limit_passes: Vec<(usize, &wgpu::BindGroup)> = (0..LIMIT_PASSES)
         .map(|l| (18, &g_limit[(l % 2) as usize]))
@@ -641,8 +644,13 @@ async fn erode_with(
         if p.diffusivity > 0.0 {
             encoder.copy_buffer_to_buffer(&heights_buf, 0, &start, 0, bytes);
             let mut list = Vec::new();
-            for _ in 0..sweeps {
-                list.extend([(13, &g_diffuse[0]), (14, &g_diffuse[1])]);
+            for sweep in 0..creep.sweeps() {
+                let colours = if creep.over_relaxed(sweep) {
+                    [(13, &g_diffuse[0]), (14, &g_diffuse[1])]
+                } else {
+                    [(19, &g_smooth[0]), (20, &g_smooth[1])]
+                };
+                list.extend(colours);
             }
             run(&mut encoder, &list);
         }

@@ -102,8 +102,8 @@ pub fn river_slope(name: &str) -> Option<f64> {
 ///   and stepped valley sides.
 /// * `coastal-plain`: soft sediments (`K` ~ 2x) rising slowly (0.05 m/kyr, see the stage's
 ///   uplift) with strong creep (`kappa/K` = 2500 m) over 2 Myr, and no talus: relief
-///   `~ U/K` small (80-120 m on 10-50 km maps at 512^2, more on finer grids, see
-///   `diffusion.rs`; the Olinda coastal lowland in `tests/data` spans 89 m over 10 km),
+///   `~ U/K` small (77-121 m on 10-50 km maps at 512^2, 135-140 m at 10 km from 1024^2
+///   on; the Olinda coastal lowland in `tests/data` spans 89 m over 10 km),
 ///   broad shallow valleys and wide low interfluves.
 ///   Its rivers fall gently ([`river_slope`]): held at the design's 1% they stood as raised
 ///   strips above land worn down to a few tens of metres.
