@@ -104,8 +104,9 @@ impl Diffusion {
     }
 
     /// One colour of a sweep ([`Self::over_relaxed`] or Gauss-Seidel) over the cells of
-    /// `rows`; `rhs` holds the heights before the step (copied before the first sweep). A colour's cells only read
-    /// the other colour, so any split into rows gives the same bits. O(cells of the rows).
+    /// `rows`; `rhs` holds the heights before the step (copied before the first sweep). A
+    /// colour's cells only read the other colour, so any split into rows gives the same
+    /// bits. O(cells of the rows).
     pub(super) fn rows(
         &self,
         grid: Grid,

@@ -120,9 +120,9 @@ pub const CHUNK_CELLS: usize = 1 << 16;
 /// 42 degrees steep after one pair, on a 35 degree limit). Measured on a 2 km map at 512^2,
 /// each pair lowers about half as much as the one before (40k, 17k, 7.5k, 3.8k, 2k metres
 /// summed over the cells): 4 pairs take the bulk at the cost of 3 more pairs of scans of
-/// the map, where settling every cell took more than 16. With them the 2 km map's steepest
-/// slope by Horn's stencil is 36.1 degrees on its 35 degree limit (43.3 with one pair, 39.8
-/// before the creep was solved).
+/// the map, where settling every cell took more than 16. With them the default design's
+/// 2 km map (test `one_design_reads_as_land_at_every_map_width`) stands at most 36.1 degrees
+/// steep by Horn's stencil on its 35 degree limit (39.8 before the creep was solved).
 const FINAL_LIMIT_PAIRS: u32 = 4;
 
 /// Where the current time step stands: its phase, in order, and how far the phase went.
@@ -498,8 +498,9 @@ impl Eroder {
                     && *lowered
                     && self.final_limit_pairs < FINAL_LIMIT_PAIRS
                 {
-                    // The last pass is repeated until no cell is lowered: one pair is exact
-                    // only where no base-level cell bends the paths.
+                    // The last pass is repeated while it lowers cells (at most
+                    // FINAL_LIMIT_PAIRS pairs): one pair is exact only where no base-level
+                    // cell bends the paths.
                     self.final_limit_pairs += 1;
                     (*forward, *row, *lowered) = (true, 0, false);
                 }
