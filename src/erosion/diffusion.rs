@@ -50,7 +50,10 @@
 //! relief. Measured on a unit step: no value outside `[0, 1]` by more than `1e-4`.
 //! Base-level cells are fixed (Dirichlet).
 
-use super::grid::{D4, Grid};
+use std::ops::Range;
+
+use super::grid::Grid;
+use crate::parallel;
 
 /// Most over-relaxed sweeps per time step (two Gauss-Seidel sweeps follow them).
 const MAX_RELAXED: usize = 64;
@@ -105,8 +108,8 @@ impl Diffusion {
 
     /// One colour of a sweep ([`Self::over_relaxed`] or Gauss-Seidel) over the cells of
     /// `rows`; `rhs` holds the heights before the step (copied before the first sweep). A
-    /// colour's cells only read the other colour, so any split into rows gives the same
-    /// bits. O(cells of the rows).
+    /// colour's cells only read the other colour, so the rows are split into bands run at
+    /// the same time ([`parallel`]) and any split gives the same bits. O(cells of the rows).
     pub(super) fn rows(
         &self,
         grid: Grid,
@@ -114,40 +117,115 @@ impl Diffusion {
         base: &[bool],
         rhs: &[f32],
         half: HalfSweep,
-        rows: std::ops::Range<usize>,
+        rows: Range<usize>,
     ) {
-        let HalfSweep { sweep, colour } = half;
-        let r = self.r;
-        let omega = self.over_relaxed(sweep).then_some(self.omega);
         let w = grid.width;
+        if rows.is_empty() {
+            return;
+        }
+        let per = rows.len().div_ceil(parallel::bands(w, rows.len()));
+        // Each band reads the row above its first and below its last, which the bands
+        // beside it own: copies of them, taken first (their cells that this colour reads are
+        // of the other colour, which this half sweep leaves as they are).
+        let halo = |y: Option<usize>| {
+            y.filter(|y| *y < grid.height)
+                .map(|y| h[y * w..][..w].to_vec())
+        };
+        let halos: Vec<_> = rows
+            .clone()
+            .step_by(per)
+            .map(|y0| {
+                let y1 = (y0 + per).min(rows.end);
+                (halo(y0.checked_sub(1)), halo(Some(y1)))
+            })
+            .collect();
+        let body = &mut h[rows.start * w..rows.end * w];
+        parallel::for_each_band(body, per * w, |k, cells| {
+            let first = rows.start + k * per;
+            let (above, below) = &halos[k];
+            self.band(
+                cells,
+                first,
+                (above.as_deref(), below.as_deref()),
+                (base, rhs),
+                half,
+                w,
+            );
+        });
+    }
+
+    /// [`Self::rows`] for one band: `cells` are its rows, the first of them row `first`;
+    /// `above` and `below` the rows beside it (`None` at the map's edge).
+    fn band(
+        &self,
+        cells: &mut [f32],
+        first: usize,
+        (above, below): (Option<&[f32]>, Option<&[f32]>),
+        (base, rhs): (&[bool], &[f32]),
+        half: HalfSweep,
+        w: usize,
+    ) {
+        let omega = self.over_relaxed(half.sweep).then_some(self.omega);
+        for k in 0..cells.len() / w {
+            let (before, rest) = cells.split_at_mut(k * w);
+            let (row, after) = rest.split_at_mut(w);
+            let up = if k > 0 {
+                Some(&before[(k - 1) * w..])
+            } else {
+                above
+            };
+            let down = if after.is_empty() {
+                below
+            } else {
+                Some(&after[..w])
+            };
+            let y = first + k;
+            let at = y * w..(y + 1) * w;
+            let start = (y + half.colour) % 2;
+            self.row(row, (up, down), (&base[at.clone()], &rhs[at]), start, omega);
+        }
+    }
+
+    /// One colour of one row `row` (its cells from `start`, every other one), `up` and
+    /// `down` the rows beside it; the Gauss-Seidel value sums the neighbours above, left,
+    /// right and below, in that order, over-relaxed by `omega` where given.
+    fn row(
+        &self,
+        row: &mut [f32],
+        (up, down): (Option<&[f32]>, Option<&[f32]>),
+        (base, rhs): (&[bool], &[f32]),
+        start: usize,
+        omega: Option<f32>,
+    ) {
+        let (r, w) = (self.r, row.len());
         // Diagonal weights for 4, 3 and 2 neighbours (interior, edge, corner).
         let inv = |k: usize| 1.0 / (1.0 + r * k as f32);
         let inv4 = inv(4);
-        for y in rows {
-            let interior_row = y > 0 && y + 1 < grid.height;
-            let mut x = (y + colour) % 2;
-            while x < w {
-                let i = y * w + x;
-                if !base[i] {
-                    let gauss_seidel = if interior_row && x > 0 && x + 1 < w {
-                        (rhs[i] + r * (h[i - w] + h[i - 1] + h[i + 1] + h[i + w])) * inv4
-                    } else {
+        let mut x = start;
+        while x < w {
+            if !base[x] {
+                let gauss_seidel = match (up, down) {
+                    (Some(u), Some(d)) if x > 0 && x + 1 < w => {
+                        (rhs[x] + r * (u[x] + row[x - 1] + row[x + 1] + d[x])) * inv4
+                    }
+                    _ => {
+                        let left = x.checked_sub(1).map(|l| row[l]);
+                        let right = (x + 1 < w).then(|| row[x + 1]);
+                        let nbs = [up.map(|u| u[x]), left, right, down.map(|d| d[x])];
                         let (mut sum, mut k) = (0.0, 0);
-                        for &o in &D4 {
-                            if let Some(j) = grid.offset(x, y, o) {
-                                sum += h[j];
-                                k += 1;
-                            }
+                        for v in nbs.into_iter().flatten() {
+                            sum += v;
+                            k += 1;
                         }
-                        (rhs[i] + r * sum) * inv(k)
-                    };
-                    h[i] = match omega {
-                        Some(omega) => h[i] + omega * (gauss_seidel - h[i]),
-                        None => gauss_seidel,
-                    };
-                }
-                x += 2;
+                        (rhs[x] + r * sum) * inv(k)
+                    }
+                };
+                row[x] = match omega {
+                    Some(omega) => row[x] + omega * (gauss_seidel - row[x]),
+                    None => gauss_seidel,
+                };
             }
+            x += 2;
         }
     }
 }
@@ -181,6 +259,34 @@ mod tests {
             })
             .collect();
         (h, (0..n * n).map(|i| i % n == 0).collect())
+    }
+
+    /// A half sweep over many rows at once, split into bands run at the same time (a
+    /// 256^2 grid: two or more bands where there are threads), gives the bits of the same
+    /// half sweep a row at a time, over-relaxed or not.
+    #[test]
+    fn bands_give_the_bits_of_single_rows() {
+        let n = 256;
+        let grid = Grid {
+            width: n,
+            height: n,
+            cell: 1.0,
+        };
+        let (start, base) = rough(n);
+        let step = Diffusion::new(13.0);
+        let (mut whole, mut by_row) = (start.clone(), start.clone());
+        for sweep in [0, step.sweeps() - 1] {
+            for colour in 0..2 {
+                let half = HalfSweep { sweep, colour };
+                step.rows(grid, &mut whole, &base, &start, half, 0..n);
+                for y in 0..n {
+                    step.rows(grid, &mut by_row, &base, &start, half, y..y + 1);
+                }
+            }
+        }
+        let bits = |h: &[f32]| h.iter().map(|z| z.to_bits()).collect::<Vec<_>>();
+        assert_ne!(bits(&whole), bits(&start));
+        assert_eq!(bits(&whole), bits(&by_row));
     }
 
     /// Issue 32's "the same landforms at every resolution" needs the same creep at every

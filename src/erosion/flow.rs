@@ -30,6 +30,7 @@ use std::ops::Range;
 
 use super::fill;
 use super::grid::{D8_DIST, Grid};
+use crate::parallel;
 
 /// Code of a cell without receiver (base level, pit or flat).
 pub(super) const NONE: u8 = 8;
@@ -128,10 +129,7 @@ impl Network {
     /// [`Pick`] chooses among its lower neighbours.
     #[inline]
     fn receiver_of(&self, grid: Grid, h: &[f32], x: usize, y: usize) -> u8 {
-        match self.guide.get(y * grid.width + x) {
-            Some(&code) if code != NONE => code,
-            _ => receiver(grid, h, x, y, &self.off, self.pick),
-        }
+        guided_or_picked(&self.guide, (grid, h), x, y, (&self.off, self.pick))
     }
 
     /// Computes receivers and the stack, filling depressions in `h` first where free
@@ -176,7 +174,10 @@ impl Network {
                     self.donors.fill(0);
                 }
                 let rows = *row..row
-                    .saturating_add(rows_per(cells, grid.width))
+                    .saturating_add(rows_per(
+                        cells.saturating_mul(parallel::threads()),
+                        grid.width,
+                    ))
                     .min(grid.height);
                 *row = rows.end;
                 self.receivers(grid, h, base, rows, pits);
@@ -264,22 +265,28 @@ impl Network {
         rows: Range<usize>,
         pits: &mut Vec<usize>,
     ) {
-        let off = self.off;
-        for y in rows {
-            for x in 0..grid.width {
-                let i = y * grid.width + x;
-                let code = if base[i] {
+        let (w, off, pick) = (grid.width, self.off, self.pick);
+        let cells = rows.start * w..rows.end * w;
+        // Each cell's code depends only on the heights: bands of rows at the same time.
+        let per = rows.len().div_ceil(parallel::bands(w, rows.len())).max(1);
+        let guide = &self.guide;
+        parallel::for_each_band(&mut self.dir[cells.clone()], per * w, |k, codes| {
+            let first = cells.start + k * per * w;
+            for (i, code) in (first..).zip(codes.iter_mut()) {
+                *code = if base[i] {
                     NONE
                 } else {
-                    self.receiver_of(grid, h, x, y)
+                    guided_or_picked(guide, (grid, h), i % w, i / w, (&off, pick))
                 };
-                self.dir[i] = code;
-                if code != NONE {
-                    let d = usize::from(code);
-                    self.donors[i.wrapping_add_signed(off[d])] |= 1 << (7 - d);
-                } else if !base[i] {
-                    pits.push(i);
-                }
+            }
+        });
+        for i in cells {
+            let code = self.dir[i];
+            if code != NONE {
+                let d = usize::from(code);
+                self.donors[i.wrapping_add_signed(off[d])] |= 1 << (7 - d);
+            } else if !base[i] {
+                pits.push(i);
             }
         }
     }
@@ -367,6 +374,22 @@ impl Network {
                 }
             }
         }
+    }
+}
+
+/// The receiver code of free cell `(x, y)`: its guided one (`guide`, empty: none) if it has
+/// one, else the one `pick` chooses among its lower neighbours.
+#[inline]
+fn guided_or_picked(
+    guide: &[u8],
+    (grid, h): (Grid, &[f32]),
+    x: usize,
+    y: usize,
+    (off, pick): (&[isize; 9], Pick),
+) -> u8 {
+    match guide.get(y * grid.width + x) {
+        Some(&code) if code != NONE => code,
+        _ => receiver(grid, h, x, y, off, pick),
     }
 }
 

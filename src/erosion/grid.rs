@@ -25,9 +25,6 @@ pub(super) const D8_DIST: [f64; 8] = [
     std::f64::consts::SQRT_2,
 ];
 
-/// The 4-neighbourhood (used by the diffusion stencil).
-pub(super) const D4: [(isize, isize); 4] = [(0, -1), (-1, 0), (1, 0), (0, 1)];
-
 /// A `width` x `height` row-major grid with square cells of `cell` metres.
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Grid {

@@ -458,6 +458,9 @@ impl Eroder {
                 *next == self.net.stack.len()
             }
             Phase::Hillslope { sweep, colour, row } => {
+                // The rows of a half sweep are split among the threads (`Diffusion::rows`).
+                let rows =
+                    flow::rows_per(chunk.saturating_mul(crate::parallel::threads()), g.width);
                 let band = *row..row.saturating_add(rows).min(g.height);
                 self.diffusion.rows(
                     g,

@@ -80,6 +80,10 @@ const FORWARD: [(isize, isize); 8] = [
     (-1, 0),
 ];
 
+/// The index in [`FORWARD`] of the move along the scanned row, to the cell scanned just
+/// before (the others reach into rows scanned before the current one).
+const ALONG: usize = 7;
+
 /// The rock's strength on an `n` x `n` map of `cell_m` cells: each cell's factor on the
 /// talus slope's tangent, in `(1 - spread, 1]`, sampled row by row ([`Strength::rows`]).
 /// Positions are in metres, so the same scene has the same rock at any resolution (a finer
@@ -170,15 +174,16 @@ impl Mask {
     ) -> bool {
         let (w, rows_total) = (self.width as isize, self.height as isize);
         let sign = if forward { 1 } else { -1 };
-        // Each move's index offset, for the cells whose moves all stay on the map (two cells
-        // from every edge): the same neighbours in the same order, without the bounds tests.
-        let moves = self
-            .steps
-            .map(|(dx, dy, rise)| (sign * (dy * w + dx), rise));
+        let (dx, dy, along_rise) = self.steps[ALONG];
+        let along = sign * (dy * w + dx);
+        let mut before = vec![0.0f32; self.width];
         let mut changed = false;
         for yy in rows {
             let y = if forward { yy } else { self.height - 1 - yy } as isize;
             let inner_row = y >= REACH && y < rows_total - REACH;
+            if inner_row {
+                self.caps_from_rows_before(h, y as usize, sign, &mut before);
+            }
             for xx in 0..w {
                 let x = if forward { xx } else { w - 1 - xx };
                 let i = (y * w + x) as usize;
@@ -186,19 +191,19 @@ impl Mask {
                     continue;
                 }
                 let strength = self.strength.get(i).copied().unwrap_or(1.0);
-                let mut cap = h[i];
-                if inner_row && x >= REACH && x < w - REACH {
-                    for &(offset, rise) in &moves {
-                        cap = cap.min(h[i.wrapping_add_signed(offset)] + rise * strength);
-                    }
+                let cap = if inner_row && x >= REACH && x < w - REACH {
+                    let beside = h[i.wrapping_add_signed(along)] + along_rise * strength;
+                    before[x as usize].min(beside)
                 } else {
+                    let mut cap = h[i];
                     for &(dx, dy, rise) in &self.steps {
                         let (nx, ny) = (x + sign * dx, y + sign * dy);
                         if nx >= 0 && ny >= 0 && nx < w && ny < rows_total {
                             cap = cap.min(h[(ny * w + nx) as usize] + rise * strength);
                         }
                     }
-                }
+                    cap
+                };
                 if cap < h[i] {
                     h[i] = cap;
                     changed = true;
@@ -206,6 +211,38 @@ impl Mask {
             }
         }
         changed
+    }
+
+    /// Each cell of row `y` at least [`REACH`] from its ends: `min(h_i, h_j + rise_ij s_i)`
+    /// over the mask's moves into the rows the scan (`sign` 1 forward, -1 backward) passed
+    /// before, into `out` (indexed by column). The row's own updates do not change those
+    /// rows, so this runs a pass per move along the row, which the compiler vectorises; the
+    /// minimum is exact in any order, so the scan's bits are those of one cell at a time.
+    fn caps_from_rows_before(&self, h: &[f32], y: usize, sign: isize, out: &mut [f32]) {
+        let w = self.width;
+        let inner = REACH as usize..w - REACH as usize;
+        let row = y * w;
+        let out = &mut out[inner.clone()];
+        out.copy_from_slice(&h[row + inner.start..row + inner.end]);
+        for (k, &(dx, dy, rise)) in self.steps.iter().enumerate() {
+            if k == ALONG {
+                continue;
+            }
+            let from = (row + inner.start).wrapping_add_signed(sign * (dy * w as isize + dx));
+            let src = &h[from..from + out.len()];
+            match self.strength.get(row + inner.start..row + inner.end) {
+                Some(strength) => {
+                    for ((cap, z), s) in out.iter_mut().zip(src).zip(strength) {
+                        *cap = cap.min(z + rise * s);
+                    }
+                }
+                None => {
+                    for (cap, z) in out.iter_mut().zip(src) {
+                        *cap = cap.min(z + rise);
+                    }
+                }
+            }
+        }
     }
 
     /// The limit carried out from `seeds` alone: every cell standing above a lowered cell
@@ -293,6 +330,69 @@ mod tests {
             }
         }
         h.iter().zip(&before).filter(|(a, b)| a != b).count()
+    }
+
+    /// The scan one cell at a time, in scan order, over every move of the mask: what
+    /// [`Mask::scan`] computes with its rows-before part taken a row at a time.
+    fn cell_by_cell(mask: &Mask, h: &mut [f32], base: &[bool], forward: bool) {
+        let (w, rows) = (mask.width as isize, mask.height as isize);
+        let sign = if forward { 1 } else { -1 };
+        for yy in 0..rows {
+            let y = if forward { yy } else { rows - 1 - yy };
+            for xx in 0..w {
+                let x = if forward { xx } else { w - 1 - xx };
+                let i = (y * w + x) as usize;
+                if base[i] {
+                    continue;
+                }
+                let strength = mask.strength.get(i).copied().unwrap_or(1.0);
+                for &(dx, dy, rise) in &mask.steps {
+                    let (nx, ny) = (x + sign * dx, y + sign * dy);
+                    if nx >= 0 && ny >= 0 && nx < w && ny < rows {
+                        h[i] = h[i].min(h[(ny * w + nx) as usize] + rise * strength);
+                    }
+                }
+            }
+        }
+    }
+
+    /// The scans give the bits of the cell-by-cell definition, forward and backward, with
+    /// and without the rock's strength, on a rough field with a river.
+    #[test]
+    fn the_scans_are_the_cell_by_cell_limit() {
+        let (w, rows) = (37, 29);
+        let mut state = 0x2545_f491_u32;
+        let rough: Vec<f32> = (0..w * rows)
+            .map(|i| {
+                state ^= state << 13;
+                state ^= state >> 17;
+                state ^= state << 5;
+                (i % w) as f32 * 3.0 + (state % 4000) as f32 * 0.01
+            })
+            .collect();
+        let base: Vec<bool> = (0..w * rows).map(|i| i % w == 0).collect();
+        let mut strength = vec![0.0f32; w * rows];
+        Strength::new(w, 10.0, 3, SPREAD).rows(0, &mut strength);
+        for varied in [false, true] {
+            let mask = Mask::new(w, rows, 10.0, 30.0);
+            let mask = if varied {
+                mask.with_strength(strength.clone())
+            } else {
+                mask
+            };
+            for forward in [true, false] {
+                let (mut fast, mut slow) = (rough.clone(), rough.clone());
+                let lowered = mask.scan(&mut fast, &base, 0..rows, forward);
+                cell_by_cell(&mask, &mut slow, &base, forward);
+                assert!(lowered, "the field is steeper than the mask");
+                let bits = |h: &[f32]| h.iter().map(|z| z.to_bits()).collect::<Vec<_>>();
+                assert_eq!(
+                    bits(&fast),
+                    bits(&slow),
+                    "strength {varied}, forward {forward}"
+                );
+            }
+        }
     }
 
     /// A spike on a plain becomes a 16-sided cone of the talus slope: every cell at most
