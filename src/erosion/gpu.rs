@@ -54,7 +54,7 @@
 //! 4b. **Threshold-slope limit** (with a talus angle): the CPU's `slope_limit.rs` in Jacobi
 //!    form, [`LIMIT_PASSES`] passes a step over the same 5 x 5 mask and the same rock
 //!    strength factors (`slope_limit.rs`' [`super::SlopeStrength`]). The CPU's two raster
-//!    scans carry a cut across the whole map in one step; the passes carry it 16 cells a step,
+//!    scans carry a cut across the whole map in one step; the passes carry it 32 cells a step,
 //!    and the following steps go on, so a slope left steeper after the last step is one the
 //!    CPU would have cut farther than 16 cells from where it started.
 //!
@@ -115,8 +115,11 @@ pub const LAKE_PASSES: u32 = 32;
 /// Jacobi passes of the exact incision rule after the pointer-jumping solve.
 pub const POLISH_PASSES: u32 = 4;
 /// Jacobi passes of the threshold-slope limit a step (even: the last writes the heights).
-/// Each carries a cut two cells, 16 a step; the CPU's raster scans carry it across the map.
-pub const LIMIT_PASSES: u32 = 8;
+/// Each carries a cut two cells, 32 a step; the CPU's raster scans carry it across the map.
+/// With 8 (16 cells a step) the young mountains on a 192^2 real scene stood 1.1% of their
+/// relief from the CPU's on the mean at a strength spread of 0.3 and 1.65% at 0.5, where
+/// rock failing at lower angles makes longer cuts; with 16, 0.83% at 0.5.
+pub const LIMIT_PASSES: u32 = 16;
 
 const WORKGROUP: u32 = 16;
 

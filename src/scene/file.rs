@@ -71,6 +71,8 @@ pub mod erosion {
         rock_patch_m: f64,
         strata_m: f64,
         strata_contrast: f64,
+        /// Missing from older files: 0.3, the default when the field came.
+        #[serde(default = "older_strength_spread")]
         strength_spread: f64,
         /// Missing from older files: uplift alike everywhere, as they eroded then.
         #[serde(default = "uniform_uplift")]
@@ -83,6 +85,10 @@ pub mod erosion {
         /// Missing from older files: open, as they have eroded since the outlets came.
         #[serde(default)]
         border: crate::erosion::Border,
+    }
+
+    fn older_strength_spread() -> f64 {
+        0.3
     }
 
     fn uniform_uplift() -> f64 {
