@@ -23,6 +23,11 @@
 //! its water asks, cut into its floodplain. Where the channel is narrower than a cell, the
 //! river cell is the channel and the floodplain beside it stands the depth above it.
 //!
+//! **Rock and footslopes.** A floor is narrower where the rock is hard and wider where it is
+//! soft ([`half_width_cells`]: the half-width times the square root of the erodibility), so
+//! one river's floor narrows into gorges and opens into basins along its course; and it
+//! curves up into a footslope at its edge ([`footslope_m`]) where it meets the valley's walls.
+//!
 //! The area is the design's D8 drainage area towards the map's edge and the river mouths
 //! inside it (Priority-Flood routing, as the solver's), gathered along the rivers to their
 //! estuaries, so the floor is set before the solver runs and both backends start from it.
@@ -41,6 +46,28 @@ pub const HALF_WIDTH_PER_SQRT_AREA: f64 = 0.012;
 /// How much a floor rises per metre away from its channel (0.4%).
 pub const CROSS_RISE: f64 = 0.004;
 
+/// The slope a floor reaches at its edge over its cross rise (about 8.5 degrees): the
+/// footslope where the valley's walls meet its floor ([`footslope_m`]).
+pub const FOOTSLOPE: f64 = 0.15;
+
+/// How far a floor stands above its flat profile `across` metres from its channel, on a floor
+/// reaching `reach` metres: `FOOTSLOPE reach / 3 (across / reach)^3`, flat at the channel and
+/// rising at [`FOOTSLOPE`] at the edge. Real valley floors are not flat to their walls:
+/// colluvium and fans shed by the walls build concave footslopes that grade into the
+/// floodplain (Ahnert 1996, "Introduction to Geomorphology", ch. 15; the "footslope" of
+/// geomorphon and hillslope-profile classifications, Ruhe 1960), where a floor held flat to
+/// its edge met walls at the threshold angle in a crease: a canal with straight banks at 50
+/// km. Choice: a cubic, the simplest profile flat at the channel with its slope growing
+/// smoothly to the edge. It only lowers land less than the flat floor would; its heights
+/// still rise away from the channel, so the floor drains to it.
+pub fn footslope_m(across: f64, reach: f64) -> f64 {
+    if reach <= 0.0 {
+        return 0.0;
+    }
+    let u = (across / reach).clamp(0.0, 1.0);
+    FOOTSLOPE * reach / 3.0 * u * u * u
+}
+
 /// Bankfull depth at 1 km^2 of drainage area, metres; it grows as `A^0.4` (Leopold and
 /// Maddock's depth exponent): 1 m at 100 km^2, 4 m at 1000 km^2.
 pub const BANKFULL_DEPTH_AT_KM2: f64 = 0.25;
@@ -56,10 +83,28 @@ pub fn bankfull_depth_m(area_m2: f64) -> f64 {
 const MAX_HALF_WIDTH_CELLS: f64 = 32.0;
 
 /// The half-width in cells of the floor beside a channel draining `area_m2`, on `cell_m`
-/// cells: `k sqrt(A)`, at most [`MAX_HALF_WIDTH_CELLS`].
-pub(super) fn half_width_cells(area_m2: f64, cell_m: f64) -> f32 {
-    let cells = HALF_WIDTH_PER_SQRT_AREA * area_m2.sqrt() / cell_m;
+/// cells, in rock `erodibility` times as erodible as the map's mean (1: the mean rock):
+/// `k sqrt(A) sqrt(erodibility)`, at most [`MAX_HALF_WIDTH_CELLS`].
+///
+/// Valley floors are wide where the rock is weak and narrow to gorges where it is strong:
+/// in weak rock the channel undercuts its walls faster than in strong rock, so a river of
+/// one size planes a wider floor (Brocard and van der Beek 2006, "Influence of incision rate,
+/// rock strength, and bedload supply on bedrock river gradients and valley-flat widths",
+/// GSA Special Paper 398; Schanz and Montgomery 2016, "Lithologic controls on valley width
+/// and strath terrace formation", Geomorphology 258, who measured floors several times wider
+/// in weak mudstone than in strong rock along one river). Choice: the width scales as the
+/// square root of the erodibility, as it does with the area, so the default rock's contrast
+/// of 10 makes floors from 0.56 to 1.8 times the mean width, where one width along the whole
+/// river read as a canal.
+pub(super) fn half_width_cells(area_m2: f64, cell_m: f64, erodibility: f32) -> f32 {
+    let rock = f64::from(erodibility.max(0.0)).sqrt();
+    let cells = HALF_WIDTH_PER_SQRT_AREA * area_m2.sqrt() * rock / cell_m;
     cells.min(MAX_HALF_WIDTH_CELLS) as f32
+}
+
+/// The erodibility factor of cell `i` of `rock` (empty: the mean rock, 1).
+pub(super) fn rock_at(rock: &[f32], i: usize) -> f32 {
+    rock.get(i).copied().unwrap_or(1.0)
 }
 
 /// The design with its valley floors cut in, and the floor cells marked
@@ -76,6 +121,7 @@ pub fn valley_floors(
     kinds: &[CellKind],
     mouths: &[u32],
     belt: &[(u32, f32)],
+    rock: &[f32],
     cell_m: f64,
 ) -> Result<Option<(Heightfield, Vec<CellKind>)>, ErosionError> {
     let n = field.width();
@@ -94,10 +140,8 @@ pub fn valley_floors(
         edge[i as usize] = true;
     }
     let routing = receivers_and_area(field.data(), n, n, cell_m, &edge)?;
-    let mut half_width: Vec<f32> = routing
-        .area
-        .iter()
-        .map(|a| half_width_cells(f64::from(*a), cell_m))
+    let mut half_width: Vec<f32> = (routing.area.iter().enumerate())
+        .map(|(i, a)| half_width_cells(f64::from(*a), cell_m, rock_at(rock, i)))
         .collect();
     let sources: Vec<usize> = (0..n * n)
         .filter(|&i| channel[i] && half_width[i] >= 1.0)
@@ -124,7 +168,8 @@ pub fn valley_floors(
         }
         let area = f64::from(routing.area[*source as usize]);
         let across = f64::from(*distance) * cell_m;
-        let floor = floor_height(z, &channel, (n, cell_m), (i, base[i], across, area));
+        let reach = f64::from(half_width[*source as usize]) * cell_m;
+        let floor = floor_height(z, &channel, (n, cell_m), (i, base[i], across, area), reach);
         heights[i] = heights[i].min(floor);
         floored[i] = CellKind::Floor;
         any = true;
@@ -184,23 +229,27 @@ pub fn lift_coves(field: &Heightfield, kinds: &[CellKind], cell_m: f64) -> Optio
 }
 
 /// The floor's height at cell `i` (of an `n` x `n` grid of `cell_m` cells), `across` metres
-/// from its nearest channel cell, which drains `area` m^2, rising from `base` ([`floor_base`]):
-/// the channel's bed within half the bankfull width, the floodplain a bankfull depth above
-/// it beyond, both rising [`CROSS_RISE`] away from the channel; never below a channel cell
-/// of `z` beside it plus one cell's rise (each channel cell keeps its steepest way down along
-/// its own channel: a floor cell of a lower reach nearby would take the water across).
+/// from its nearest channel cell, which drains `area` m^2 and has a floor reaching `reach`
+/// metres from it, rising from `base` ([`floor_base`]): the channel's bed within half the
+/// bankfull width, the floodplain a bankfull depth above it beyond, both rising
+/// [`CROSS_RISE`] away from the channel and curving up into the footslope
+/// ([`footslope_m`]); never below a channel cell of `z` beside it plus one cell's rise (each
+/// channel cell keeps its steepest way down along its own channel: a floor cell of a lower
+/// reach nearby would take the water across).
 pub(super) fn floor_height(
     z: &[f32],
     channel: &[bool],
     (n, cell_m): (usize, f64),
     (i, base, across, area): (usize, f32, f64, f64),
+    reach: f64,
 ) -> f32 {
     let bank = if across > channel_width_m(area) / 2.0 {
         bankfull_depth_m(area)
     } else {
         0.0
     };
-    let floor = base + (CROSS_RISE * across + bank) as f32;
+    let rise = CROSS_RISE * across + bank + footslope_m(across, reach);
+    let floor = base + rise as f32;
     let banks = highest_channel_beside(z, channel, n, i)
         .map_or(f32::MIN, |h| h + (CROSS_RISE * cell_m) as f32);
     floor.max(banks)
@@ -427,7 +476,7 @@ mod tests {
         let mid = n / 2;
         let (data, kinds) = v_valley(n, cell);
         let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
-        let (floored, marked) = valley_floors(&field, &kinds, &[], &[], cell)
+        let (floored, marked) = valley_floors(&field, &kinds, &[], &[], &[], cell)
             .unwrap()
             .expect("a floor");
         let area = routed_area(&data, n, cell);
@@ -453,8 +502,11 @@ mod tests {
                 if d >= 2.0 {
                     // The floodplain: the cross rise over the bank of the channel (all
                     // narrower than a cell here), as deep as the law asks for its area.
+                    // And the footslope, curving up to the floor's edge.
                     let rise = f64::from(z[i] - river) - CROSS_RISE * d * cell;
-                    let bank = bankfull_depth_m(f64::from(area[y * n + mid]));
+                    let a = f64::from(area[y * n + mid]);
+                    let reach = f64::from(half_width_cells(a, cell, 1.0)) * cell;
+                    let bank = bankfull_depth_m(a) + footslope_m(d * cell, reach);
                     assert!((rise - bank).abs() < 1e-2, "{i}: {rise} vs {bank}");
                 } else {
                     // Beside the river: above every river cell it touches.
@@ -463,6 +515,41 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// The footslope: none at the channel, steeper the farther from it, [`FOOTSLOPE`] at the
+    /// floor's edge, no higher beyond it, none on a floor of no width.
+    #[test]
+    fn the_floor_curves_up_into_a_footslope_at_its_edge() {
+        let reach = 400.0;
+        assert_eq!(footslope_m(0.0, reach), 0.0);
+        let slope = |x: f64| footslope_m(x + 0.05, reach) - footslope_m(x - 0.05, reach);
+        assert!((slope(reach - 0.05) / 0.1 - FOOTSLOPE).abs() < 1e-3);
+        assert!(slope(100.0) < slope(200.0) && slope(200.0) < slope(300.0));
+        assert_eq!(footslope_m(2.0 * reach, reach), footslope_m(reach, reach));
+        assert_eq!(footslope_m(10.0, 0.0), 0.0);
+    }
+
+    /// One valley in rock four times harder than the mean and four times softer: its floor
+    /// is about half and twice the mean's width (the square root of the erodibility).
+    #[test]
+    fn floors_are_narrow_in_hard_rock_and_wide_in_soft() {
+        let (n, cell) = (256, 10.0);
+        let (data, kinds) = v_valley(n, cell);
+        let field = Heightfield::from_vec(n, n, data).unwrap();
+        let width = |rock: &[f32]| {
+            let (_, marked) = valley_floors(&field, &kinds, &[], &[], rock, cell)
+                .unwrap()
+                .expect("a floor");
+            (0..n)
+                .filter(|x| marked[(n - 2) * n + x] == CellKind::Floor)
+                .count()
+        };
+        let rock = |k: f32| vec![k; n * n];
+        let (hard, mean, soft) = (width(&rock(0.25)), width(&rock(1.0)), width(&rock(4.0)));
+        assert_eq!(mean, width(&[]), "no rock field is the mean rock");
+        assert!(hard < mean && mean < soft, "{hard} {mean} {soft}");
+        assert!(soft >= 3 * hard, "{hard} {soft}");
     }
 
     /// A meandering river down a tilted valley, loops 40 cells long swinging 8 cells either
@@ -495,7 +582,7 @@ mod tests {
         }
         let field = Heightfield::from_vec(n, n, data).unwrap();
         let west_edge = |belt: &[(u32, f32)]| {
-            let (_, marked) = valley_floors(&field, &kinds, &[], belt, cell)
+            let (_, marked) = valley_floors(&field, &kinds, &[], belt, &[], cell)
                 .unwrap()
                 .expect("a floor");
             let edges: Vec<usize> = (n / 2..n - 8)
@@ -547,7 +634,7 @@ mod tests {
         let mid = n / 2;
         let (data, kinds) = v_valley(n, cell);
         let field = Heightfield::from_vec(n, n, data.clone()).unwrap();
-        let (floored, _) = valley_floors(&field, &kinds, &[], &[], cell)
+        let (floored, _) = valley_floors(&field, &kinds, &[], &[], &[], cell)
             .unwrap()
             .expect("a floor");
         let area = routed_area(&data, n, cell);
@@ -569,7 +656,11 @@ mod tests {
             assert_eq!(bed_width(y), expected(y), "row {y}");
         }
         assert!(bed_width(n - 8) > bed_width(n / 8));
-        let step = |y: usize| f64::from(z[y * n + mid + 4] - z[y * n + mid]) - CROSS_RISE * 4.0;
+        let step = |y: usize| {
+            let a = f64::from(area[y * n + mid]);
+            let foot = footslope_m(4.0 * cell, f64::from(half_width_cells(a, cell, 1.0)) * cell);
+            f64::from(z[y * n + mid + 4] - z[y * n + mid]) - CROSS_RISE * 4.0 - foot
+        };
         let (a_up, a_down) = (area[n / 8 * n + mid], area[(n - 8) * n + mid]);
         let law = (f64::from(a_down) / f64::from(a_up)).powf(0.4);
         assert!(

@@ -22,7 +22,7 @@
 //! heights beside the rivers and have no floors; the lateral erosion of Langston and Tucker
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 
-use super::floodplain::{floor_base, floor_height, half_width_cells, nearest_within};
+use super::floodplain::{floor_base, floor_height, half_width_cells, nearest_within, rock_at};
 
 /// The least drainage area with a valley floor, m^2: 10 km^2. Valleys draining less are
 /// bedrock gorges and hollows in mountains, V-shaped (Montgomery and Buffington 1997's
@@ -32,24 +32,26 @@ pub const MIN_AREA_M2: f64 = 10.0e6;
 
 /// Cuts floors into `heights` (`n` x `n`, cells `cell_m` wide) beside every channel whose
 /// drainage area (`area`, m^2) is at least [`MIN_AREA_M2`] and asks for a floor a cell wide or
-/// more; `fixed` cells (base level and held design) keep their heights. Returns which cells
+/// more in its rock (`rock`: erodibility factors, empty: the mean rock; floors are narrower in
+/// hard rock, [`half_width_cells`]); `fixed` cells (base level and held design) keep their
+/// heights. Returns which cells
 /// are floor or channel (the sources), `None` where no channel is large enough. O(floor cells
 /// log floor cells).
 pub fn cut(
     heights: &mut [f32],
     area: &[f32],
     fixed: &[bool],
+    rock: &[f32],
     n: usize,
     cell_m: f64,
 ) -> Option<Vec<bool>> {
-    let half_width: Vec<f32> = area
-        .iter()
-        .map(|&a| {
+    let half_width: Vec<f32> = (area.iter().enumerate())
+        .map(|(i, &a)| {
             let a = f64::from(a);
             if a < MIN_AREA_M2 {
                 return 0.0;
             }
-            half_width_cells(a, cell_m)
+            half_width_cells(a, cell_m, rock_at(rock, i))
         })
         .collect();
     let channel: Vec<bool> = half_width.iter().map(|w| *w >= 1.0).collect();
@@ -70,7 +72,14 @@ pub fn cut(
         let a = f64::from(area[*source as usize]);
         let across = f64::from(*distance) * cell_m;
         // Sources are never lowered, so the channel heights read here are the solver's.
-        let level = floor_height(heights, &channel, (n, cell_m), (i, base[i], across, a));
+        let reach = f64::from(half_width[*source as usize]) * cell_m;
+        let level = floor_height(
+            heights,
+            &channel,
+            (n, cell_m),
+            (i, base[i], across, a),
+            reach,
+        );
         heights[i] = heights[i].min(level);
         floor[i] = true;
     }
@@ -80,7 +89,9 @@ pub fn cut(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::erosion::floodplain::{CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m};
+    use crate::erosion::floodplain::{
+        CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m, footslope_m,
+    };
 
     /// A V valley draining 100 km^2 along row 20 of 20 m cells, its sides at 30 degrees: the
     /// cut leaves a floor about `2 k sqrt(A)` wide (240 m), a bankfull depth above the channel
@@ -106,7 +117,7 @@ mod tests {
         let mut fixed = vec![false; n * n];
         fixed[17 * n + 5] = true;
         let before = h.clone();
-        let floor = cut(&mut h, &area, &fixed, n, cell).expect("a floor");
+        let floor = cut(&mut h, &area, &fixed, &[], n, cell).expect("a floor");
         let half = HALF_WIDTH_PER_SQRT_AREA * 1.0e4 / cell; // 6 cells
         let bank = bankfull_depth_m(1.0e8) as f32;
         for y in 0..n {
@@ -118,7 +129,8 @@ mod tests {
                     continue;
                 }
                 assert!(floor[i], "({x}, {y}) is floor");
-                let want = x as f32 + (CROSS_RISE * off * cell) as f32 + bank;
+                let foot = footslope_m(off * cell, half * cell) as f32;
+                let want = x as f32 + (CROSS_RISE * off * cell) as f32 + bank + foot;
                 assert!((h[i] - want).abs() < 0.05, "({x}, {y}): {} != {want}", h[i]);
             }
         }
@@ -143,7 +155,7 @@ mod tests {
         let mut h: Vec<f32> = (0..n * n).map(|i| ((i / n) as f32 - 8.0).abs()).collect();
         let area = vec![(MIN_AREA_M2 * 0.9) as f32; n * n];
         let before = h.clone();
-        assert!(cut(&mut h, &area, &vec![false; n * n], n, 5.0).is_none());
+        assert!(cut(&mut h, &area, &vec![false; n * n], &[], n, 5.0).is_none());
         assert_eq!(h, before);
     }
 }

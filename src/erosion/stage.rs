@@ -991,6 +991,20 @@ pub(super) fn rock_of(settings: &ErosionSettings, n: usize, cell_m: f64, seed: u
     )
 }
 
+/// [`rock_in_bands`] with the painted hard rock of `anchors` (empty: uniform rock, nothing
+/// painted). Made where it is read and dropped after, not kept through the solve: a field
+/// of the map's size.
+async fn rock_with_painting(
+    settings: &ErosionSettings,
+    anchors: &Anchors<'_>,
+    (n, cell_m, seed): (usize, f64, u64),
+    ctx: &JobCtx,
+) -> Result<Vec<f32>, Cancelled> {
+    let mut rock = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
+    anchors.painted.harden(&mut rock, n);
+    Ok(rock)
+}
+
 /// [`rock_of`] in bands of rows with the job's ticks between them (the same values).
 pub(super) async fn rock_in_bands(
     settings: &ErosionSettings,
@@ -1235,18 +1249,21 @@ const FLOOR_WALL_DEG: f64 = 35.0;
 async fn floors_of_the_network(
     heights: &mut [f32],
     area: &[f32],
-    (base, held, held_limit): (&[bool], &[u32], Option<&super::slope_limit::Mask>),
-    settings: &ErosionSettings,
+    (base, held_limit): (&[bool], Option<&super::slope_limit::Mask>),
+    (settings, anchors): (&ErosionSettings, &Anchors<'_>),
     (n, cell_m, seed): (usize, f64, u64),
     ctx: &JobCtx,
 ) -> Result<bool, StageError> {
     ctx.tick(0.95, "eroding: the network's valley floors")
         .await?;
     let mut fixed = base.to_vec();
-    for &i in held {
+    for &i in anchors.held {
         fixed[i as usize] = true;
     }
-    let Some(floor) = super::network_floors::cut(heights, area, &fixed, n, cell_m) else {
+    let rock = rock_with_painting(settings, anchors, (n, cell_m, seed), ctx).await?;
+    let cut = super::network_floors::cut(heights, area, &fixed, &rock, n, cell_m);
+    drop(rock);
+    let Some(floor) = cut else {
         return Ok(false);
     };
     // The held flanks' own mask where they were limited, so the limit here does not cut
@@ -1390,8 +1407,12 @@ pub async fn erode_field_within(
     let grown = super::guide::shape(kinds, &anchors, settings.relief);
     let kinds = grown.as_deref().unwrap_or(kinds);
     ctx.tick(PREPARING.0, "eroding: valley floors").await?;
-    let floors =
-        super::floodplain::valley_floors(design, kinds, anchors.mouths, anchors.belt, cell_m)?;
+    let floors = {
+        // Floors are narrower in hard rock: the rock the solver erodes, painted included.
+        let rock = rock_with_painting(settings, &anchors, (n, cell_m, seed), ctx).await?;
+        let (mouths, belt) = (anchors.mouths, anchors.belt);
+        super::floodplain::valley_floors(design, kinds, mouths, belt, &rock, cell_m)?
+    };
     let (field, kinds) = match &floors {
         Some((floored, floor_kinds)) => (floored, floor_kinds.as_slice()),
         None => (design, kinds),
@@ -1448,8 +1469,8 @@ pub async fn erode_field_within(
     let floored = floors_of_the_network(
         &mut heights,
         area.data(),
-        (&base, anchors.held, limit.as_ref()),
-        settings,
+        (&base, limit.as_ref()),
+        (settings, &anchors),
         (n, cell_m, seed),
         ctx,
     )

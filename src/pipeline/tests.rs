@@ -487,6 +487,81 @@ fn a_run_fills_one_bar_in_stage_order() {
     assert_eq!(ctx.progress(), 1.0, "a finished run fills the bar");
 }
 
+/// Painted hard rock across a drawn river narrows its valley floor (a floor's half-width goes
+/// as the square root of the erodibility, `erosion::floodplain`): in the rows under the
+/// paint, under half as many cells lie within the floor's few metres above the river as in
+/// the same rows unpainted; rows far from the paint keep their floor.
+#[test]
+fn painted_hard_rock_narrows_a_rivers_floor() {
+    let n = 192;
+    let mut scene = Scene {
+        size: n,
+        cell_size: 100.0,
+        seed: 3,
+        rivers: vec![river([0.5, 1.0], [0.5, 0.0], 2, 4)],
+        ..Scene::default()
+    };
+    if let Some(erosion) = scene.erosion.as_mut() {
+        erosion.rock_contrast = 1.0;
+    }
+    let mut pipeline = Pipeline::new();
+    let plain = run(&mut pipeline, &scene);
+    let mut mask = Mask::new(n, n).unwrap();
+    let brush = Brush {
+        radius: 24.0,
+        hardness: 1.0,
+        value: 1.0,
+        eraser: false,
+    };
+    mask.paint_segment(
+        glam::DVec2::new(0.0, 0.7),
+        glam::DVec2::new(1.0, 0.7),
+        &brush,
+    );
+    let mut painted = scene.clone();
+    painted.set_mask(crate::scene::MaskKind::HardRock, Some(&mask));
+    let hard = run(&mut pipeline, &painted);
+    let values = mask.values();
+    let covered = |y: usize| (0..n).all(|x| values[y * n + x] > 0.99);
+    let bare = |y: usize| (0..n).all(|x| values[y * n + x] == 0.0);
+    // Cells standing less than 15 m above their row's lowest (the river): its floor.
+    let low = |z: &[f32], rows: &[usize]| {
+        rows.iter()
+            .map(|&y| {
+                let row = &z[y * n..(y + 1) * n];
+                let river = row.iter().copied().fold(f32::INFINITY, f32::min);
+                row.iter().filter(|h| **h - river < 15.0).count()
+            })
+            .sum::<usize>()
+    };
+    let under: Vec<usize> = (1..n - 1).filter(|&y| covered(y)).collect();
+    let away: Vec<usize> = (n / 8..n / 3).filter(|&y| bare(y)).collect();
+    assert!(
+        under.len() > 10 && away.len() > 10,
+        "{} {}",
+        under.len(),
+        away.len()
+    );
+    let (before, after) = (
+        low(plain.field.data(), &under),
+        low(hard.field.data(), &under),
+    );
+    // Measured: 222 -> 92; the harder rock alone (its land standing higher, the floor's
+    // width as before) gave 186.
+    assert!(
+        after * 2 <= before,
+        "{after} floor cells under the hard rock, {before} without it"
+    );
+    let (before, after) = (
+        low(plain.field.data(), &away),
+        low(hard.field.data(), &away),
+    );
+    assert!(
+        after * 10 >= before * 9,
+        "{after} floor cells away from the paint, {before} without it"
+    );
+}
+
 /// Painted hard rock (the scene's `erosion_masks`): a change of the mask re-runs the erosion,
 /// not the hydrology; the land under the painted rock stands higher than the same scene's
 /// without it, and the mask travels through the scene file.
