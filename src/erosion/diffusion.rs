@@ -261,17 +261,22 @@ mod tests {
         (h, (0..n * n).map(|i| i % n == 0).collect())
     }
 
+    /// An `n` x `n` grid of 1 m cells.
+    fn unit_grid(n: usize) -> Grid {
+        Grid {
+            width: n,
+            height: n,
+            cell: 1.0,
+        }
+    }
+
     /// A half sweep over many rows at once, split into bands run at the same time (a
     /// 256^2 grid: two or more bands where there are threads), gives the bits of the same
     /// half sweep a row at a time, over-relaxed or not.
     #[test]
     fn bands_give_the_bits_of_single_rows() {
         let n = 256;
-        let grid = Grid {
-            width: n,
-            height: n,
-            cell: 1.0,
-        };
+        let grid = unit_grid(n);
         let (start, base) = rough(n);
         let step = Diffusion::new(13.0);
         let (mut whole, mut by_row) = (start.clone(), start.clone());
@@ -298,11 +303,7 @@ mod tests {
     #[test]
     fn a_step_is_solved_alike_at_every_ratio() {
         let n = 64;
-        let grid = Grid {
-            width: n,
-            height: n,
-            cell: 1.0,
-        };
+        let grid = unit_grid(n);
         let (start, base) = rough(n);
         let (lo, hi) = start
             .iter()
