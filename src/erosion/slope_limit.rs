@@ -188,7 +188,8 @@ impl Mask {
         let mut changed = false;
         for yy in rows {
             let y = if forward { yy } else { self.height - 1 - yy } as isize;
-            let inner_row = y >= REACH && y < rows_total - REACH;
+            // Rows with cells two from every edge (none on a map under five cells wide).
+            let inner_row = y >= REACH && y < rows_total - REACH && w > 2 * REACH;
             if inner_row {
                 self.caps_from_rows_before(h, y as usize, sign, &mut before);
             }
@@ -365,10 +366,15 @@ mod tests {
     }
 
     /// The scans give the bits of the cell-by-cell definition, forward and backward, with
-    /// and without the rock's strength, on a rough field with a river.
+    /// and without the rock's strength, on a rough field with a river; and on a map three
+    /// cells wide, which has no cell two from every edge.
     #[test]
     fn the_scans_are_the_cell_by_cell_limit() {
-        let (w, rows) = (37, 29);
+        scans_match_cell_by_cell(37, 29);
+        scans_match_cell_by_cell(3, 9);
+    }
+
+    fn scans_match_cell_by_cell(w: usize, rows: usize) {
         let mut state = 0x2545_f491_u32;
         let rough: Vec<f32> = (0..w * rows)
             .map(|i| {
@@ -379,8 +385,13 @@ mod tests {
             })
             .collect();
         let base: Vec<bool> = (0..w * rows).map(|i| i % w == 0).collect();
-        let mut strength = vec![0.0f32; w * rows];
-        Strength::new(w, 10.0, 3, SPREAD).rows(0, &mut strength);
+        // The strength of a square map as wide as the longer side, cut to this one.
+        let side = w.max(rows);
+        let mut square = vec![0.0f32; side * side];
+        Strength::new(side, 10.0, 3, SPREAD).rows(0, &mut square);
+        let strength: Vec<f32> = (0..w * rows)
+            .map(|i| square[i / w * side + i % w])
+            .collect();
         for varied in [false, true] {
             let mask = Mask::new(w, rows, 10.0, 30.0);
             let mask = if varied {
