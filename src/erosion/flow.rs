@@ -271,13 +271,15 @@ impl Network {
         let per = rows.len().div_ceil(parallel::bands(w, rows.len())).max(1);
         let guide = &self.guide;
         parallel::for_each_band(&mut self.dir[cells.clone()], per * w, |k, codes| {
-            let first = cells.start + k * per * w;
-            for (i, code) in (first..).zip(codes.iter_mut()) {
-                *code = if base[i] {
-                    NONE
-                } else {
-                    guided_or_picked(guide, (grid, h), i % w, i / w, (&off, pick))
-                };
+            let first = rows.start + k * per;
+            for (y, row) in (first..).zip(codes.chunks_mut(w)) {
+                for (x, code) in row.iter_mut().enumerate() {
+                    *code = if base[y * w + x] {
+                        NONE
+                    } else {
+                        guided_or_picked(guide, (grid, h), x, y, (&off, pick))
+                    };
+                }
             }
         });
         for i in cells {
@@ -512,6 +514,9 @@ fn steepest(s: &[f32; 8]) -> u8 {
 /// The running sums are taken once, as `max(s, 0)` added in D8 order, and compared with
 /// `u * sum`: the WGSL kernel does exactly these operations (a `max` between the slope's
 /// product and the add, so no GPU fuses them), so the same heights draw the same neighbour.
+/// The kernel returns the first lower neighbour whose running sum exceeds `u * sum`; as the
+/// sums never decrease, and rise only at lower neighbours, that is the count of sums not
+/// above `u * sum`, which this counts without branches.
 #[inline(always)]
 fn drawn(s: &[f32; 8], u: f32) -> u8 {
     let mut running = [0.0f32; 8];
@@ -521,21 +526,63 @@ fn drawn(s: &[f32; 8], u: f32) -> u8 {
         *sum = total;
     }
     let target = u * total;
-    let mut last = NONE;
-    for (d, &s) in s.iter().enumerate() {
-        if s > 0.0 {
-            last = d as u8;
-            if target < running[d] {
-                return last;
-            }
-        }
+    let below = running.iter().map(|&r| u8::from(r <= target)).sum::<u8>();
+    if below < 8 {
+        return below;
     }
-    last // rounding: the last lower neighbour
+    // No lower neighbour, or `u * sum` rounded up to the sum: the last lower neighbour.
+    s.iter().rposition(|&s| s > 0.0).map_or(NONE, |d| d as u8)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The kernel's loop (`shaders/erosion.wgsl`): the first lower neighbour whose running
+    /// sum exceeds `u * sum`, else the last lower neighbour.
+    fn drawn_as_the_kernel(s: &[f32; 8], u: f32) -> u8 {
+        let mut running = [0.0f32; 8];
+        let mut total = 0.0f32;
+        for (sum, &s) in running.iter_mut().zip(s) {
+            total += s.max(0.0);
+            *sum = total;
+        }
+        let target = u * total;
+        let mut last = NONE;
+        for (d, &s) in s.iter().enumerate() {
+            if s > 0.0 {
+                last = d as u8;
+                if target < running[d] {
+                    return last;
+                }
+            }
+        }
+        last
+    }
+
+    #[test]
+    fn the_count_of_sums_draws_what_the_kernel_draws() {
+        let mut key = 7u32;
+        let mut next = || {
+            key = hash32(key);
+            (key >> 8) as f32 / 16_777_216.0
+        };
+        let edges = [0.0, 0.5, 1.0 - 1.0 / 16_777_216.0];
+        for case in 0..20_000 {
+            // Slopes of either sign, some exactly zero, some tiny beside large ones.
+            let s: [f32; 8] = std::array::from_fn(|_| {
+                let v = next();
+                match (v * 8.0) as u32 {
+                    0 => 0.0,
+                    1 => -v,
+                    2 => v * 1e-7,
+                    _ => (v - 0.3) * 100.0,
+                }
+            });
+            let u = edges.get(case % 7).copied().unwrap_or_else(&mut next);
+            assert_eq!(drawn(&s, u), drawn_as_the_kernel(&s, u), "{s:?} {u}");
+        }
+    }
 
     /// Over uniform draws, each lower neighbour is picked in proportion to its slope; higher
     /// neighbours and neighbours off the map (slope 0) never.
