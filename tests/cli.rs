@@ -76,8 +76,10 @@ fn test_dem(name: &str) -> std::path::PathBuf {
     path
 }
 
+/// The tests' shared folder under Cargo's scratch folder for tests (`target/tmp`): runs
+/// reuse it, so nothing piles up in the system's temporary folder.
 fn out_dir() -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("strahler-cli-{}", std::process::id()));
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }

@@ -60,8 +60,10 @@ fn refused(args: &[&str], expect: &[&str]) -> String {
     err
 }
 
+/// The test's folder under Cargo's scratch folder for tests (`target/tmp`), emptied first:
+/// runs reuse it, so nothing piles up in the system's temporary folder.
 fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("strahler-hostile-{}-{name}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("hostile-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir

@@ -30,8 +30,10 @@ fn refused(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stderr).into_owned()
 }
 
+/// The test's folder under Cargo's scratch folder for tests (`target/tmp`), emptied first:
+/// runs reuse it, so nothing piles up in the system's temporary folder.
 fn dir(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("strahler-export-{}-{name}", std::process::id()));
+    let dir = Path::new(env!("CARGO_TARGET_TMPDIR")).join(format!("export-{name}"));
     let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir).unwrap();
     dir

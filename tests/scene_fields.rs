@@ -199,7 +199,7 @@ proptest! {
         flag in proptest::sample::select(FLAGS),
         value in number(),
     ) {
-        let dir = std::env::temp_dir().join(format!("strahler-flags-{}", std::process::id()));
+        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("flags");
         std::fs::create_dir_all(&dir).unwrap();
         let out = dir.join("t.tif");
         let _ = std::fs::remove_file(&out);
