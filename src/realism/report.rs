@@ -22,9 +22,36 @@ pub struct RealismReport {
     /// log2 of the detail variance per level, finest first, the bands pooled (their mean).
     pub log2_variance: Vec<Option<f64>>,
     /// Largest distance (log2 units) of a level's pooled log-variance from the least-squares
-    /// line through the levels the wavelet fits use: real land 0.3-0.9; a terrain dissected at one spacing has
-    /// one level standing out by 2.
+    /// line through the levels the wavelet fits use: on real land it grows with the number
+    /// of levels ([`real_bump`]); a terrain dissected at one spacing has one level standing
+    /// out by 2.
     pub spectral_bump: Option<f64>,
+    /// How many levels the bump's line is fitted through.
+    pub spectral_bump_levels: usize,
+}
+
+/// The spectral bump of real land, least and largest, by the number of levels its line is
+/// fitted through: windows of the SRTM tile N44E005 (Mont Ventoux, Baronnies, Diois and the
+/// southern Vercors; 66 x 92 m cells) of 128^2, 256^2, 512^2 and 1024^2 cells, 16, 16, 16
+/// and 9 windows spread over the tile (`docs/features.md`, "The spectral bump and the map's
+/// size"). Real spectra bend (Perron, Kirchner and Dietrich 2008, "Spectral signatures of
+/// characteristic spatial scales and nonfractal structure in landscapes", JGR 113, F04003:
+/// a rollover at the valleys' spacing, smooth hillslopes below it), so the more octaves a
+/// line spans, the farther its ends stand from it: a bump is judged against land of as many
+/// levels.
+const REAL_BUMP: [(usize, f64, f64); 4] =
+    [(5, 0.2, 0.8), (6, 0.5, 1.4), (7, 1.1, 1.9), (8, 1.7, 2.1)];
+
+/// The real land's bump for a line through `levels` levels: the measured range of the
+/// nearest number of levels measured, and that number.
+pub fn real_bump(levels: usize) -> (f64, f64, usize) {
+    let (first, last) = (REAL_BUMP[0], REAL_BUMP[REAL_BUMP.len() - 1]);
+    let (k, lo, hi) = REAL_BUMP
+        .iter()
+        .copied()
+        .find(|(k, _, _)| *k == levels)
+        .unwrap_or(if levels < first.0 { first } else { last });
+    (lo, hi, k)
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -98,6 +125,7 @@ impl RealismReport {
             wavelet_fits,
             log2_variance,
             spectral_bump,
+            spectral_bump_levels: fitted.iter().flatten().count(),
         }
     }
 
@@ -139,8 +167,15 @@ impl RealismReport {
             None => lines.push("spectral slope: no wavelet fit (voids or too small)".into()),
         }
         if let Some(b) = self.spectral_bump {
+            let levels = self.spectral_bump_levels;
+            let (lo, hi, measured) = real_bump(levels);
+            let like = if measured == levels {
+                format!("SRTM windows over {levels} levels {lo:.1} to {hi:.1}")
+            } else {
+                format!("{levels} levels; SRTM windows over {measured} {lo:.1} to {hi:.1}")
+            };
             lines.push(format!(
-                "spectral bump {b:.2} log2 units (largest level off the line; real land 0.3 to 0.9)"
+                "spectral bump {b:.2} log2 units (largest level off the line; {like})"
             ));
         }
         lines.push(format!(
@@ -182,6 +217,10 @@ pub fn comparison_table(
     let row = |f: &dyn Fn(&RealismReport) -> String| -> Vec<String> {
         columns.iter().map(|(_, r)| f(r)).collect()
     };
+    // The real bump over as many levels as the first column's line spans.
+    let bump_levels = columns.first().map_or(0, |(_, r)| r.spectral_bump_levels);
+    let (lo, hi, measured) = real_bump(bump_levels);
+    let real_bump = format!("{lo:.1}-{hi:.1} (SRTM, {measured} levels)");
     let mut rows: Vec<(&str, Vec<String>, &str)> = extra
         .iter()
         .map(|(label, values)| (*label, values.clone(), ""))
@@ -233,7 +272,7 @@ pub fn comparison_table(
         (
             "spectral bump (log2)",
             row(&|r| optional(r.spectral_bump)),
-            "0.3-0.9",
+            &real_bump,
         ),
         (
             "drainage density (/km)",
@@ -302,7 +341,21 @@ pub(super) fn spectral_bump(log2_variance: &[Option<f64>]) -> Option<f64> {
 
 #[cfg(test)]
 mod tests {
-    use super::spectral_bump;
+    use super::{real_bump, spectral_bump};
+
+    #[test]
+    fn real_land_bends_more_over_more_levels() {
+        let (lo6, hi6, k6) = real_bump(6);
+        let (lo8, hi8, k8) = real_bump(8);
+        assert_eq!((k6, k8), (6, 8));
+        assert!(lo6 < lo8 && hi6 < hi8);
+        assert_eq!(
+            real_bump(3).2,
+            5,
+            "fewer levels than measured: the fewest measured"
+        );
+        assert_eq!(real_bump(10).2, 8, "more: the most measured");
+    }
 
     #[test]
     fn bump_is_the_largest_distance_from_the_line() {
