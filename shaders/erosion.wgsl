@@ -397,15 +397,56 @@ fn lift(@builtin(global_invocation_id) gid: vec3<u32>) {
 // Each cell's factor on K (rock hardness; 1 where the rock is uniform).
 @group(0) @binding(6) var<storage, read> inc_erodibility: array<f32>;
 
-// The factor on K of the rock at height `h`: the CPU's `Strata::factor`, with its constants
-// (HARD_FRACTION 0.35, EDGE_FRACTION 0.15).
-fn strata_factor(h: f32) -> f32 {
+// The beds' hardness at phase `phase` of a period, and its integral from phase 0 to `p`
+// (`src/erosion/strata.rs`, with its constants HARD_FRACTION 0.35, EDGE_FRACTION 0.15).
+fn strata_hardness(phase: f32) -> f32 {
+    return smoothstep(0.0, 0.15, phase) * (1.0 - smoothstep(0.35, 0.5, phase));
+}
+
+fn strata_ramp(s: f32) -> f32 {
+    let t = clamp(s, 0.0, 1.0);
+    return 0.15 * t * t * t * (1.0 - 0.5 * t);
+}
+
+fn strata_integral(p: f32) -> f32 {
+    let falling = clamp(p - 0.35, 0.0, 0.15);
+    return strata_ramp(p / 0.15) + max(min(p, 0.35) - 0.15, 0.0) + falling
+        - strata_ramp(falling / 0.15);
+}
+
+// The factor on K of cell `i` at height `h` (its start height): the CPU's
+// `Strata::factor_of_cell`, the mean hardness of the beds its neighbourhood exposes, from its
+// lowest neighbour to its highest, at the start of the step.
+fn strata_factor(i: u32, h: f32) -> f32 {
     if (params.strata_period <= 0.0) {
         return 1.0;
     }
-    let t = h / params.strata_period;
-    let phase = t - floor(t);
-    let hard = smoothstep(0.0, 0.15, phase) * (1.0 - smoothstep(0.35, 0.5, phase));
+    let x = i % params.width;
+    let y = i / params.width;
+    var lowest = h;
+    var highest = h;
+    for (var d = 0u; d < 8u; d++) {
+        let j = neighbour(x, y, d);
+        if (j != NONE) {
+            lowest = min(lowest, inc_start[j]);
+            highest = max(highest, inc_start[j]);
+        }
+    }
+    let lo = lowest;
+    let hi = highest;
+    var a = lo / params.strata_period;
+    var b = hi / params.strata_period;
+    var hard: f32;
+    if (b - a > 1.0e-3) {
+        let first = floor(a);
+        a = a - first;
+        b = b - first;
+        let whole = floor(b);
+        hard = (whole * 0.35 + strata_integral(b - whole) - strata_integral(a)) / (b - a);
+    } else {
+        let t = 0.5 * (lo + hi) / params.strata_period;
+        hard = strata_hardness(t - floor(t));
+    }
     return exp(params.strata_ln_contrast * (0.5 - hard));
 }
 
@@ -434,7 +475,7 @@ fn implicit_init(@builtin(global_invocation_id) gid: vec3<u32>) {
     let a = f32(inc_cells[i]) * params.cell_area;
     let diag = diagonal(direction(i, r));
     let f = select(params.coef_axis, params.coef_diag, diag) * pow(a, params.m)
-        * inc_erodibility[i] * strata_factor(hi);
+        * inc_erodibility[i] * strata_factor(i, hi);
     coef_out[i] = f;
     // n != 1: F linearised around the slope at the start of the step (Picard).
     var fl = f;

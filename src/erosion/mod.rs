@@ -189,6 +189,11 @@ pub struct Eroder {
     limit: Option<slope_limit::Mask>,
     /// Each cell's factor on the erodibility ([`Eroder::with_erodibility`]); empty: 1.
     erodibility: Vec<f32>,
+    /// Beds of hard and soft rock ([`Eroder::with_strata`]); `None`: no beds.
+    strata: Option<Strata>,
+    /// The factor of the beds each cell's neighbourhood exposes at the start of the step's
+    /// incision; empty without beds.
+    beds: Vec<f32>,
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -296,6 +301,8 @@ impl Eroder {
             frame: flow::Frame::own(width),
             limit: None,
             erodibility: Vec::new(),
+            strata: None,
+            beds: Vec::new(),
         })
     }
 
@@ -310,8 +317,29 @@ impl Eroder {
     /// Varies the erodibility `K` with height: beds of hard and soft rock (`strata.rs`);
     /// `None`: no beds.
     pub fn with_strata(mut self, strata: Option<Strata>) -> Self {
-        self.incision.strata = strata;
+        self.strata = strata;
         self
+    }
+
+    /// With beds, each cell's factor of the beds its neighbourhood exposes, from the heights the
+    /// incision starts from (uplifted off base level, as the incision reads them; the GPU's
+    /// `lift`). O(cells).
+    fn read_the_beds(&mut self) {
+        let Some(strata) = self.strata else {
+            return;
+        };
+        let dt = self.params.years / f64::from(self.params.steps.max(1));
+        let start: Vec<f32> = (0..self.grid.len())
+            .map(|i| {
+                let h = self.heights[i];
+                match self.uplift.get(i) {
+                    Some(u) if !self.base[i] => (f64::from(h) + dt * f64::from(*u)) as f32,
+                    _ => h,
+                }
+            })
+            .collect();
+        self.beds.resize(self.grid.len(), 1.0);
+        strata.cell_factors(&start, self.grid.width, &mut self.beds);
     }
 
     /// Holds the slopes of the surface to `talus_deg` after each step's incision, before the
@@ -452,6 +480,7 @@ impl Eroder {
                     area: &self.area,
                     uplift: &self.uplift,
                     erodibility: &self.erodibility,
+                    beds: &self.beds,
                 };
                 self.incision
                     .apply(&self.net, run, &fields, &mut self.heights);
@@ -551,7 +580,10 @@ impl Eroder {
                 self.finishing = true;
                 Phase::Route(flow::Route::new(None))
             }
-            Phase::Area { .. } => Phase::Incise { next: 0 },
+            Phase::Area { .. } => {
+                self.read_the_beds();
+                Phase::Incise { next: 0 }
+            }
             Phase::Incise { .. } if self.limit.is_some() => Phase::Limit {
                 forward: true,
                 row: 0,

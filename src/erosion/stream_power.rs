@@ -18,7 +18,8 @@
 //!   step leaving that bracket is replaced by bisection, so it converges for any `n`.
 //!
 //! The erodibility may vary from cell to cell (`K_i`, rock of varying hardness: `rock.rs`)
-//! and with the height the cell stands at before its update (layered rock: `strata.rs`).
+//! and with the beds its neighbourhood exposes at the start of the step (layered rock:
+//! `strata.rs`).
 //!
 //! When `h_i + dt U_i <= h_r'` (a receiver uplifted faster than its donor) there is no
 //! downhill slope: the node only gets its uplift and becomes a pit for the next step.
@@ -37,8 +38,6 @@ pub(super) struct Incision {
     /// `A^m` for drainage areas of 0 to [`POW_TABLE_CELLS`] cells.
     pow_table: Vec<f64>,
     inv_cell2: f64,
-    /// Beds of hard and soft rock (`K` varying with height); `None`: no beds.
-    pub(super) strata: Option<super::Strata>,
 }
 
 /// `A^m` is tabulated for drainage areas below this many cells (most cells), as
@@ -61,7 +60,6 @@ impl Incision {
                 .map(|c| (c as f64 * cell2).powf(m))
                 .collect(),
             inv_cell2: 1.0 / cell2,
-            strata: None,
         }
     }
 
@@ -80,6 +78,7 @@ impl Incision {
             area,
             uplift,
             erodibility,
+            beds,
         } = *fields;
         let linear = self.n == 1.0;
         for &i in &net.stack[run] {
@@ -103,9 +102,9 @@ impl Incision {
                 Some(k) => self.coef[code] * a_m * f64::from(*k),
                 None => self.coef[code] * a_m,
             };
-            // The bed at the height the cell stands at (in f32, as the GPU reads it).
-            if let Some(beds) = self.strata {
-                f *= beds.factor(hi as f32);
+            // The beds its neighbourhood exposes at the start of the step (f32, as the GPU's).
+            if let Some(b) = beds.get(i) {
+                f *= f64::from(*b);
             }
             let damp = 1.0 / (1.0 + f);
             // Everything above is independent of the receiver's new height, which
@@ -124,13 +123,15 @@ impl Incision {
     }
 }
 
-/// The per-cell fields the incision reads: drainage area (m^2), uplift (m/yr; empty: none)
-/// and the erodibility's factor (empty: 1).
+/// The per-cell fields the incision reads: drainage area (m^2), uplift (m/yr; empty: none),
+/// the erodibility's factor (empty: 1) and the factor of the beds each cell's neighbourhood
+/// exposes at the start of the step ([`super::Strata::cell_factors`]; empty: no beds).
 #[derive(Clone, Copy)]
 pub(super) struct Fields<'a> {
     pub(super) area: &'a [f32],
     pub(super) uplift: &'a [f32],
     pub(super) erodibility: &'a [f32],
+    pub(super) beds: &'a [f32],
 }
 
 /// Solves `x - c + f x^n = 0` for `x` in `(0, c]` (`c > 0`, `f > 0`).
