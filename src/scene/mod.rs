@@ -35,7 +35,7 @@ pub const MAX_SKETCH_POINTS: usize = 10_000;
 /// Points of all sketched lines together.
 pub const MAX_SKETCH_POINTS_TOTAL: usize = 20_000;
 /// Sketched ridges, valleys and peaks together.
-pub const MAX_SKETCH_ITEMS: usize = 1_000;
+pub const MAX_SKETCH_ITEMS: usize = 2_500;
 /// Blended blocks (each a Poisson solve).
 pub const MAX_BLEND_BLOCKS: usize = 64;
 /// The most reference cells all blend blocks of a scene hold together (two 8192^2 windows:
@@ -940,7 +940,7 @@ mod tests {
         );
         scene.sketch.ridges = vec![line(MAX_SKETCH_POINTS); 3];
         let err = scene.validate().unwrap_err().to_string();
-        assert!(err.contains("20000"), "{err}");
+        assert!(err.contains(&MAX_SKETCH_POINTS_TOTAL.to_string()), "{err}");
         scene.sketch.ridges.clear();
         scene.sketch.peaks = vec![
             SketchPeak {
@@ -950,7 +950,10 @@ mod tests {
             MAX_SKETCH_ITEMS + 1
         ];
         let err = scene.validate().unwrap_err().to_string();
-        assert!(err.contains("1000 ridges, valleys and peaks"), "{err}");
+        assert!(
+            err.contains(&format!("{MAX_SKETCH_ITEMS} ridges, valleys and peaks")),
+            "{err}"
+        );
     }
 
     #[test]
