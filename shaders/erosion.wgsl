@@ -416,20 +416,21 @@ fn strata_integral(p: f32) -> f32 {
 
 // The factor on K of cell `i` at height `h` (its start height): the CPU's
 // `Strata::factor_of_cell`, the mean hardness of the beds its neighbourhood exposes, from its
-// lowest neighbour to its highest, at the start of the step.
+// lowest neighbour within two cells to its highest, at the start of the step.
 fn strata_factor(i: u32, h: f32) -> f32 {
     if (params.strata_period <= 0.0) {
         return 1.0;
     }
-    let x = i % params.width;
-    let y = i / params.width;
+    let x = i32(i % params.width);
+    let y = i32(i / params.width);
     var lowest = h;
     var highest = h;
-    for (var d = 0u; d < 8u; d++) {
-        let j = neighbour(x, y, d);
-        if (j != NONE) {
-            lowest = min(lowest, inc_start[j]);
-            highest = max(highest, inc_start[j]);
+    // The neighbours within two cells (the CPU's REACH).
+    for (var ny = max(y - 2, 0); ny <= min(y + 2, i32(params.height) - 1); ny++) {
+        for (var nx = max(x - 2, 0); nx <= min(x + 2, i32(params.width) - 1); nx++) {
+            let z = inc_start[u32(ny) * params.width + u32(nx)];
+            lowest = min(lowest, z);
+            highest = max(highest, z);
         }
     }
     let lo = lowest;

@@ -19,7 +19,7 @@
 //! the last bits, read nearly the same rock. The factor on `K` is `contrast^(1/2 - hard)`,
 //! `hard` in `[0, 1]`: `1/sqrt(contrast)` in the hard beds, `sqrt(contrast)` in the soft
 //! ones, as for the rock patches. A cell reads the mean hardness of the beds between its
-//! lowest and its highest neighbour ([`Strata::factor_of_cell`]: a cell is an area, and the
+//! lowest and its highest neighbour within two cells ([`Strata::factor_of_cell`]: a cell is an area, and the
 //! bed at its centre alone made escarpments one cell high and ragged where beds are thin
 //! beside the cells). The same formulas, in `f32`, are in `shaders/erosion.wgsl`
 //! (`strata_factor`).
@@ -56,26 +56,27 @@ impl Strata {
         (f64::from(self.ln_contrast) * f64::from(0.5 - self.hardness(h))).exp()
     }
 
-    /// The factor on the erodibility of a cell standing at `h` metres whose eight neighbours
-    /// stand between `lowest` and `highest`: the factor of the mean hardness of the beds its
-    /// neighbourhood exposes, from its lowest neighbour to its highest. A cell is an area, not
-    /// a point: reading the bed at its centre alone made each cell all hard or all soft, so
-    /// that a cell a little higher than its neighbours, in a hard bed, eroded slower and
-    /// stayed higher while they, in a soft bed, were cut down: escarpments a cell high,
-    /// ragged at the cell's scale, their edges staircases along the grid's rows and
+    /// The factor on the erodibility of a cell standing at `h` metres whose neighbours within
+    /// [`REACH`] cells stand between `lowest` and `highest`: the factor of the mean hardness
+    /// of the beds its neighbourhood exposes, from its lowest neighbour to its highest. A cell
+    /// is an area, not a point: reading the bed at its centre alone made each cell all hard or
+    /// all soft, so that a cell a little higher than its neighbours, in a hard bed, eroded
+    /// slower and stayed higher while they, in a soft bed, were cut down: escarpments a cell
+    /// high, ragged at the cell's scale, their edges staircases along the grid's rows and
     /// diagonals (the mesas at 50 km, 98 m cells on 120 m beds: a grid-direction index of
     /// 0.32). Read over its neighbourhood, such a cell's rock is a mix, and its neighbours
-    /// read nearly the same beds (the index 0.10; over its own face alone, halfway to the
-    /// neighbours, 0.13). Where the neighbourhood spans less than a bed's edge, as on maps of
-    /// fine cells on gentle land, the mean is nearly the centre's hardness. O(1).
+    /// read nearly the same beds (the index 0.09; over the 8 nearest neighbours 0.10, over
+    /// its own face alone, halfway to them, 0.13). Where the neighbourhood spans less than a
+    /// bed's edge, as on maps of fine cells on gentle land, the mean is nearly the centre's
+    /// hardness. O(1).
     pub fn factor_of_cell(&self, h: f32, lowest: f32, highest: f32) -> f64 {
         let (lo, hi) = (lowest.min(h), highest.max(h));
         (f64::from(self.ln_contrast) * f64::from(0.5 - self.mean_hardness(lo, hi))).exp()
     }
 
     /// Each cell's [`factor_of_cell`](Self::factor_of_cell) on a `width`-wide grid of
-    /// heights `h` (row-major), its neighbours those on the map, into `out`. Rows on all
-    /// threads (each cell reads only `h`: the same values). O(cells).
+    /// heights `h` (row-major), its neighbours those on the map within [`REACH`] cells, into
+    /// `out`. Rows on all threads (each cell reads only `h`: the same values). O(cells).
     pub fn cell_factors(&self, h: &[f32], width: usize, out: &mut [f32]) {
         let w = width.max(1);
         let rows = h.len() / w;
@@ -85,8 +86,8 @@ impl Strata {
                 let i = k * per * w + j;
                 let (x, y) = (i % w, i / w);
                 let (mut lowest, mut highest) = (f32::INFINITY, f32::NEG_INFINITY);
-                for ny in y.saturating_sub(1)..(y + 2).min(rows) {
-                    for nx in x.saturating_sub(1)..(x + 2).min(w) {
+                for ny in y.saturating_sub(REACH)..(y + REACH + 1).min(rows) {
+                    for nx in x.saturating_sub(REACH)..(x + REACH + 1).min(w) {
                         let z = h[ny * w + nx];
                         lowest = lowest.min(z);
                         highest = highest.max(z);
@@ -122,6 +123,9 @@ impl Strata {
             * (1.0 - smoothstep(HARD_FRACTION, HARD_FRACTION + EDGE_FRACTION, phase))
     }
 }
+
+/// How far (cells, along each axis) the neighbourhood a cell reads its beds over reaches.
+pub const REACH: usize = 2;
 
 /// Spans of heights under this share of a period take the hardness at their middle.
 const MIN_SPAN: f32 = 1.0e-3;
