@@ -76,12 +76,18 @@ fn test_dem(name: &str) -> std::path::PathBuf {
     path
 }
 
-/// The tests' shared folder under Cargo's scratch folder for tests (`target/tmp`): runs
-/// reuse it, so nothing piles up in the system's temporary folder.
+/// The tests' shared folder under Cargo's scratch folder for tests (`target/tmp`), emptied
+/// once a run (the tests check that refused outputs are not written, so an earlier run's
+/// files must go): runs reuse it, so nothing piles up in the system's temporary folder.
 fn out_dir() -> std::path::PathBuf {
-    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+    static DIR: std::sync::OnceLock<std::path::PathBuf> = std::sync::OnceLock::new();
+    DIR.get_or_init(|| {
+        let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("cli");
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    })
+    .clone()
 }
 
 fn read_tif(path: &std::path::Path) -> strahler::dem::Dem {
