@@ -81,19 +81,34 @@ impl Strata {
         let w = width.max(1);
         let rows = h.len() / w;
         let per = rows.div_ceil(crate::parallel::bands(w, rows)).max(1);
-        crate::parallel::for_each_band(out, per * w, |k, band| {
-            for (j, v) in band.iter_mut().enumerate() {
-                let i = k * per * w + j;
-                let (x, y) = (i % w, i / w);
-                let (mut lowest, mut highest) = (f32::INFINITY, f32::NEG_INFINITY);
-                for ny in y.saturating_sub(REACH)..(y + REACH + 1).min(rows) {
-                    for nx in x.saturating_sub(REACH)..(x + REACH + 1).min(w) {
-                        let z = h[ny * w + nx];
-                        lowest = lowest.min(z);
-                        highest = highest.max(z);
-                    }
+        // The square's least and greatest heights, separably: along each row, then along each
+        // column of those (min and max are exact in any order: the whole square's values).
+        let mut along = vec![[0.0f32; 2]; h.len()];
+        crate::parallel::for_each_band(&mut along, per * w, |k, band| {
+            for (y, row) in (k * per..).zip(band.chunks_mut(w)) {
+                let line = &h[y * w..(y + 1) * w];
+                for (x, v) in row.iter_mut().enumerate() {
+                    let near = &line[x.saturating_sub(REACH)..(x + REACH + 1).min(w)];
+                    *v = near
+                        .iter()
+                        .fold([f32::INFINITY, f32::NEG_INFINITY], |[lo, hi], z| {
+                            [lo.min(*z), hi.max(*z)]
+                        });
                 }
-                *v = self.factor_of_cell(h[i], lowest, highest) as f32;
+            }
+        });
+        crate::parallel::for_each_band(out, per * w, |k, band| {
+            for (y, row) in (k * per..).zip(band.chunks_mut(w)) {
+                let near = y.saturating_sub(REACH)..(y + REACH + 1).min(rows);
+                for (x, v) in row.iter_mut().enumerate() {
+                    let [lowest, highest] =
+                        near.clone()
+                            .fold([f32::INFINITY, f32::NEG_INFINITY], |[lo, hi], ny| {
+                                let [a, b] = along[ny * w + x];
+                                [lo.min(a), hi.max(b)]
+                            });
+                    *v = self.factor_of_cell(h[y * w + x], lowest, highest) as f32;
+                }
             }
         });
     }
@@ -174,6 +189,32 @@ mod tests {
             let h = k as f32 * 0.01;
             let (a, b) = (s.factor(h), s.factor(h + 0.01));
             assert!((a / b).ln().abs() < 0.05, "{h}: {a} {b}");
+        }
+    }
+
+    /// The factors read the least and greatest heights of each cell's whole square of
+    /// neighbours (within REACH, clipped at the map's edges), as one cell at a time would.
+    #[test]
+    fn each_cell_reads_its_whole_square() {
+        let s = Strata::new(120.0, 20.0).expect("beds");
+        let (w, rows) = (13, 9);
+        let h: Vec<f32> = (0..w * rows)
+            .map(|i| ((i * 7919) % 241) as f32 * 1.3 - 40.0)
+            .collect();
+        let mut out = vec![0.0; w * rows];
+        s.cell_factors(&h, w, &mut out);
+        for y in 0..rows {
+            for x in 0..w {
+                let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
+                for ny in y.saturating_sub(REACH)..(y + REACH + 1).min(rows) {
+                    for nx in x.saturating_sub(REACH)..(x + REACH + 1).min(w) {
+                        lo = lo.min(h[ny * w + nx]);
+                        hi = hi.max(h[ny * w + nx]);
+                    }
+                }
+                let want = s.factor_of_cell(h[y * w + x], lo, hi) as f32;
+                assert_eq!(out[y * w + x].to_bits(), want.to_bits(), "({x}, {y})");
+            }
         }
     }
 
