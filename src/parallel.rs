@@ -1,23 +1,38 @@
 //! Row bands and items for the grid operators (multigrid, wavelet lifting): natively on
-//! rayon's thread pool (made once, its threads reused by every call), one thread on the web
-//! (this wasm build has no threads). Each band or item is computed alone, whichever thread
-//! takes it, so results do not depend on the number of threads.
+//! rayon's thread pool (made once, its threads reused by every call); on the web, on rayon's
+//! pool of Web Workers in the page's stages worker where the threaded build runs there
+//! ([`crate::jobs::threads`]: a cross-origin isolated page), else on the calling thread. Each
+//! band or item is computed alone, whichever thread takes it, so results do not depend on
+//! the number of threads: the page computes the bits the command line does, on one thread
+//! or several.
 
+#[cfg(not(target_arch = "wasm32"))]
 use std::sync::OnceLock;
 
 /// Levels smaller than this many cells run on one thread (spawning would cost more).
 const MIN_PARALLEL_CELLS: usize = 1 << 16;
 
-/// Worker threads available to the solver: the machine's parallelism natively, 1 on wasm.
+/// Worker threads available to the solver: the machine's parallelism natively; on wasm the
+/// threads of the pool started in this instance (1 where none was: the page's own thread, a
+/// build without threads, a worker whose pool is not up yet).
 pub fn threads() -> usize {
-    static THREADS: OnceLock<usize> = OnceLock::new();
-    *THREADS.get_or_init(|| {
-        if cfg!(target_arch = "wasm32") {
-            1
-        } else {
-            std::thread::available_parallelism().map_or(1, |n| n.get().min(8))
-        }
-    })
+    #[cfg(target_arch = "wasm32")]
+    {
+        crate::jobs::threads::pool_threads().max(1)
+    }
+    #[cfg(not(target_arch = "wasm32"))]
+    {
+        static THREADS: OnceLock<usize> = OnceLock::new();
+        *THREADS.get_or_init(|| std::thread::available_parallelism().map_or(1, |n| n.get().min(8)))
+    }
+}
+
+/// Whether rayon's pool may be called: always natively; on wasm only once this instance
+/// started its pool of Web Workers (rayon's own default pool would spawn `std` threads,
+/// which wasm has not).
+#[cfg(any(not(target_arch = "wasm32"), target_feature = "atomics"))]
+fn pool_up() -> bool {
+    threads() > 1
 }
 
 /// How many row bands to split a `w` x `h` level into (1 = serial).
@@ -30,7 +45,7 @@ pub fn bands(w: usize, h: usize) -> usize {
 }
 
 /// Calls `f(k, band)` for consecutive chunks of `data` of `band_len` elements: on rayon's
-/// pool natively (the caller waits for them), one after the other on wasm.
+/// pool where there is one (the caller waits for them), else one after the other.
 pub fn for_each_band<T: Send>(
     data: &mut [T],
     band_len: usize,
@@ -41,25 +56,25 @@ pub fn for_each_band<T: Send>(
         f(0, data);
         return;
     }
-    #[cfg(not(target_arch = "wasm32"))]
-    {
+    #[cfg(any(not(target_arch = "wasm32"), target_feature = "atomics"))]
+    if pool_up() {
         use rayon::prelude::*;
         data.par_chunks_mut(band_len)
             .enumerate()
             .for_each(|(k, chunk)| f(k, chunk));
+        return;
     }
-    #[cfg(target_arch = "wasm32")]
     for (k, chunk) in data.chunks_mut(band_len).enumerate() {
         f(k, chunk);
     }
 }
 
 /// Calls `f` on every item: on rayon's pool natively (work-stealing, so items of unequal
-/// cost balance), all on the calling thread on wasm. For independent rows of a lifting step
+/// cost balance) where there is one, else all on the calling thread. For independent rows of a lifting step
 /// and the like.
 pub fn for_each_item<T: Send>(items: Vec<T>, f: impl Fn(T) + Sync + Send) {
-    #[cfg(not(target_arch = "wasm32"))]
-    if threads() > 1 && items.len() > 1 {
+    #[cfg(any(not(target_arch = "wasm32"), target_feature = "atomics"))]
+    if pool_up() && items.len() > 1 {
         use rayon::prelude::*;
         items.into_par_iter().for_each(f);
         return;
@@ -67,14 +82,14 @@ pub fn for_each_item<T: Send>(items: Vec<T>, f: impl Fn(T) + Sync + Send) {
     items.into_iter().for_each(f);
 }
 
-/// Runs `a` and `b` at the same time natively (on rayon's pool), one after the other on
-/// wasm; returns both results. For independent measures of one grid.
+/// Runs `a` and `b` at the same time on rayon's pool where there is one, else one after the
+/// other; returns both results. For independent measures of one grid.
 pub fn join<A: Send, B: Send>(
     a: impl FnOnce() -> A + Send,
     b: impl FnOnce() -> B + Send,
 ) -> (A, B) {
-    #[cfg(not(target_arch = "wasm32"))]
-    if threads() > 1 {
+    #[cfg(any(not(target_arch = "wasm32"), target_feature = "atomics"))]
+    if pool_up() {
         return rayon::join(a, b);
     }
     (a(), b())

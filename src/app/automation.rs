@@ -26,6 +26,9 @@ pub struct Status {
     /// Where the page's heavy stages run: "the erosion runs in a Web Worker", or why not;
     /// `None` natively.
     pub worker: Option<String>,
+    /// The threads the Web Worker's stages run on (its pool's, 1 without one: the page not
+    /// cross-origin isolated, or `?threads=1`), once it started; `None` before and natively.
+    pub threads: Option<u32>,
     /// The adapter eframe draws with (a WebGL adapter on the CPU fallback).
     pub adapter: Option<AdapterSummary>,
     pub capabilities: Option<Capabilities>,

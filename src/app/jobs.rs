@@ -217,6 +217,7 @@ impl StrahlerApp {
         self.automation.update(|s| {
             s.last_run = Some(summary.clone());
             s.worker = super::status_bar::worker_words();
+            s.threads = super::status_bar::worker_threads();
         });
         self.summaries.last_run = Some((size, summary));
         self.messages.error = None;

@@ -41,3 +41,11 @@ pub(super) fn worker_words() -> Option<String> {
     #[cfg(not(target_arch = "wasm32"))]
     None
 }
+
+/// The threads the page's Web Worker computes on, once it started; `None` natively.
+pub(super) fn worker_threads() -> Option<u32> {
+    #[cfg(target_arch = "wasm32")]
+    return crate::jobs::worker::threads().map(|t| t.count);
+    #[cfg(not(target_arch = "wasm32"))]
+    None
+}

@@ -75,6 +75,9 @@ impl BackendChoice {
     /// and the CPU beside a software rasteriser (Mesa's lavapipe, the browser's SwiftShader):
     /// one runs on the same cores as the CPU path and every stage is slower there (the
     /// multigrid ten times on lavapipe, docs/performance.md).
+    // Shared across job threads natively; the page's threaded build (src/jobs/threads.rs)
+    // never moves GPU objects off the thread that made them, where wgpu's are not `Send`.
+    #[cfg_attr(target_feature = "atomics", allow(clippy::arc_with_non_send_sync))]
     pub fn resolve(self, path: &ComputePath) -> Result<Backend, NoGpuError> {
         match (self, path) {
             (BackendChoice::Cpu, _) => Ok(Backend::Cpu),
@@ -146,6 +149,9 @@ pub enum ComputePath {
 
 impl ComputePath {
     /// The path for a context, or the CPU with the reason the context cannot compute.
+    // Shared across job threads natively; the page's threaded build (src/jobs/threads.rs)
+    // never moves GPU objects off the thread that made them, where wgpu's are not `Send`.
+    #[cfg_attr(target_feature = "atomics", allow(clippy::arc_with_non_send_sync))]
     pub fn from_context(context: GpuContext) -> Self {
         if context.caps.compute {
             ComputePath::Gpu {

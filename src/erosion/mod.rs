@@ -9,7 +9,8 @@
 //! O(n), implicit and parallel method to solve the stream power equation governing
 //! fluvial incision and landscape evolution", Geomorphology 180–181, 170–179.
 //!
-//! One [`Eroder::step`] (all O(cells), single-threaded, deterministic):
+//! One [`Eroder::step`] (all O(cells), deterministic: the receivers, the creep and the strata
+//! in bands of rows on every core, the rest on one thread, the same bits on any number):
 //! 1. receivers (`flow.rs`): D8 steepest descent, or with [`Eroder::with_seed`] (as the
 //!    pipeline runs it) one lower neighbour drawn in proportion to the slopes, anew each
 //!    step, so that channels do not lock onto the grid's 8 directions; a guided cell (a branch

@@ -20,6 +20,8 @@
 
 pub mod parcel;
 #[cfg(target_arch = "wasm32")]
+pub mod threads;
+#[cfg(target_arch = "wasm32")]
 pub mod worker;
 mod yield_now;
 
@@ -498,6 +500,20 @@ where
     }
 }
 
+/// What a job's body, result and `on_finish` must be: `Send` natively, where the job runs on
+/// a thread of its own; nothing on the web, where it runs on the thread that spawned it (in
+/// the threaded build, which the page's stages worker runs, wgpu's objects are not `Send`).
+#[cfg(not(target_arch = "wasm32"))]
+pub trait JobSend: Send {}
+#[cfg(not(target_arch = "wasm32"))]
+impl<T: Send> JobSend for T {}
+/// What a job's body, result and `on_finish` must be: nothing on the web, where a job runs
+/// on the thread that spawned it.
+#[cfg(target_arch = "wasm32")]
+pub trait JobSend {}
+#[cfg(target_arch = "wasm32")]
+impl<T> JobSend for T {}
+
 /// The operating system refused a worker thread (native only).
 #[derive(Debug, Error)]
 #[error("could not start a worker thread for {name}: {source}")]
@@ -513,11 +529,11 @@ pub struct SpawnError {
 pub fn spawn<T, F, Fut>(
     name: &str,
     body: F,
-    on_finish: impl FnOnce() + Send + 'static,
+    on_finish: impl FnOnce() + JobSend + 'static,
 ) -> Result<JobHandle<T>, SpawnError>
 where
-    T: Send + 'static,
-    F: FnOnce(JobCtx) -> Fut + Send + 'static,
+    T: JobSend + 'static,
+    F: FnOnce(JobCtx) -> Fut + JobSend + 'static,
     Fut: Future<Output = T> + 'static,
 {
     let control = Arc::new(Control::default());

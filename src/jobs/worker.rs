@@ -48,18 +48,48 @@ pub type Handler =
     fn(String, Parcel, JobCtx) -> Pin<Box<dyn Future<Output = Result<Parcel, String>>>>;
 
 /// The bootstrap module: waits for the glue's URL and the compiled module, instantiates it
-/// (whose `main` installs the Rust handler), then replays what arrived meanwhile.
+/// (whose `main` installs the Rust handler), then replays what arrived meanwhile. Where the
+/// page is cross-origin isolated and asks for threads, it instantiates the threaded build
+/// (`threads/`) instead and starts its pool ([`super::threads`]), keeping the page's messages
+/// queued until the pool is up; where that build does not load, the page's own. It then
+/// posts `{id: 0, threads, note}`: how many threads the stages run on, and why only one.
 const BOOT: &str = r#"
 let queued = [];
 self.onmessage = async (first) => {
   self.onmessage = (e) => queued.push(e.data);
-  try {
-    const glue = await import(first.data.glue);
-    await glue.default({ module_or_path: first.data.module });
-  } catch (err) {
-    self.postMessage({ id: 0, failed: 'the worker could not start: ' + err });
-    return;
+  const { glue, module, threads } = first.data;
+  let count = 1, note = 'one thread: ', loaded = false;
+  if (!threads || threads.count < 2) {
+    note += 'one was asked for';
+  } else if (!self.crossOriginIsolated) {
+    note += 'the page is not cross-origin isolated (its server sends no COOP and COEP headers)';
+  } else {
+    try {
+      const wasm = await import(threads.glue);
+      await wasm.default({ module_or_path: threads.wasm });
+      loaded = true;
+      const serve = self.onmessage;
+      self.onmessage = (e) => queued.push(e.data);
+      try {
+        count = await wasm.strahler_start_threads(threads.glue, threads.count);
+        note = count + ' threads';
+      } finally {
+        self.onmessage = serve;
+      }
+    } catch (err) {
+      note += (loaded ? 'the threads did not start: ' : 'the threaded build did not load: ') + err;
+    }
   }
+  if (!loaded) {
+    try {
+      const glueModule = await import(glue);
+      await glueModule.default({ module_or_path: module });
+    } catch (err) {
+      self.postMessage({ id: 0, failed: 'the worker could not start: ' + err });
+      return;
+    }
+  }
+  self.postMessage({ id: 0, threads: count, note });
   for (const data of queued) self.onmessage({ data });
   queued = [];
 };
@@ -78,6 +108,8 @@ struct Remote {
     inboxes: Rc<RefCell<HashMap<u32, Inbox>>>,
     /// Set once the worker failed to start: every waiting and later call is unavailable.
     broken: Rc<RefCell<Option<String>>>,
+    /// How many threads the worker's stages run on, and why (set once it started).
+    threads: Rc<RefCell<Option<Threads>>>,
     next_id: u32,
     _on_message: Closure<dyn FnMut(JsValue)>,
     _on_error: Closure<dyn FnMut(JsValue)>,
@@ -121,6 +153,22 @@ pub async fn call(kind: &str, parcel: Parcel, ctx: &JobCtx) -> Result<Parcel, Ca
     }
 }
 
+/// How many threads the worker's stages run on (1: the calling thread alone), and in words
+/// why ("2 threads", "one thread: the page is not cross-origin isolated ...").
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Threads {
+    pub count: u32,
+    pub note: String,
+}
+
+/// The worker's threads, once it started (`None` before, and without a worker).
+pub fn threads() -> Option<Threads> {
+    REMOTE.with(|slot| match slot.borrow().as_ref() {
+        Some(Ok(remote)) if remote.broken.borrow().is_none() => remote.threads.borrow().clone(),
+        _ => None,
+    })
+}
+
 /// What the worker runs (the stages that call [`call`]), for the status line.
 const STAGES: &str = "the diffusion and the erosion";
 
@@ -131,7 +179,10 @@ pub fn describe() -> String {
         None => "a Web Worker starts with the first terrain".into(),
         Some(Ok(remote)) => match remote.broken.borrow().as_ref() {
             Some(reason) => without(reason),
-            None => format!("{STAGES} run in a Web Worker"),
+            None => match remote.threads.borrow().as_ref() {
+                Some(threads) => format!("{STAGES} run in a Web Worker ({})", threads.note),
+                None => format!("{STAGES} run in a Web Worker"),
+            },
         },
         Some(Err(reason)) => without(reason),
     })
@@ -228,14 +279,27 @@ fn start() -> Result<Remote, String> {
         .map_err(|e| format!("this browser has no module workers: {}", message_of(&e)))?;
     let inboxes: Rc<RefCell<HashMap<u32, Inbox>>> = Rc::default();
     let broken: Rc<RefCell<Option<String>>> = Rc::default();
+    let threads: Rc<RefCell<Option<Threads>>> = Rc::default();
     let on_message = {
         let (inboxes, broken) = (Rc::clone(&inboxes), Rc::clone(&broken));
+        let threads = Rc::clone(&threads);
         Closure::<dyn FnMut(JsValue)>::new(move |event: JsValue| {
             let data = Reflect::get(&event, &"data".into()).unwrap_or(JsValue::UNDEFINED);
             let id = Reflect::get(&data, &"id".into())
                 .ok()
                 .and_then(|v| v.as_f64())
                 .unwrap_or(0.0) as u32;
+            let started = Reflect::get(&data, &"threads".into())
+                .ok()
+                .and_then(|v| v.as_f64());
+            if let (0, Some(count)) = (id, started) {
+                let note = string(&data, "note").unwrap_or_default();
+                *threads.borrow_mut() = Some(Threads {
+                    count: count as u32,
+                    note,
+                });
+                return;
+            }
             if id == 0 {
                 let reason = string(&data, "failed").unwrap_or_else(|| "it stopped".into());
                 break_all(&inboxes, &broken, reason);
@@ -263,6 +327,7 @@ fn start() -> Result<Remote, String> {
     let first = object(&[
         ("glue", JsValue::from_str(&glue)),
         ("module", wasm_bindgen::module()),
+        ("threads", threaded_build(&glue)),
     ]);
     worker
         .post_message(&first)
@@ -271,10 +336,40 @@ fn start() -> Result<Remote, String> {
         worker,
         inboxes,
         broken,
+        threads,
         next_id: 0,
         _on_message: on_message,
         _on_error: on_error,
     })
+}
+
+/// Where the threaded build lies (`threads/strahler.js` and `threads/strahler_bg.wasm`
+/// beside the page's glue at `glue`) and how many threads to ask of it: the page's
+/// `?threads=N`, else the machine's cores (`navigator.hardwareConcurrency`), at most
+/// [`super::threads::MAX_THREADS`].
+fn threaded_build(glue: &str) -> JsValue {
+    let Some(window) = web_sys::window() else {
+        return JsValue::UNDEFINED;
+    };
+    let asked = window
+        .location()
+        .search()
+        .ok()
+        .and_then(|search| web_sys::UrlSearchParams::new_with_str(&search).ok())
+        .and_then(|params| params.get("threads"))
+        .and_then(|n| n.trim().parse::<usize>().ok());
+    let cores = window.navigator().hardware_concurrency() as usize;
+    let count = asked.unwrap_or(cores).clamp(1, super::threads::MAX_THREADS);
+    let url = |name: &str| {
+        web_sys::Url::new_with_base(&format!("threads/{name}"), glue)
+            .map(|u| JsValue::from_str(&u.href()))
+            .unwrap_or(JsValue::UNDEFINED)
+    };
+    object(&[
+        ("glue", url("strahler.js")),
+        ("wasm", url("strahler_bg.wasm")),
+        ("count", JsValue::from(count as u32)),
+    ])
 }
 
 /// Marks the worker broken and wakes every waiting call (each then answers unavailable).

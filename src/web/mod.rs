@@ -16,6 +16,10 @@ const LOADING_ID: &str = "loading_text";
 /// Called by `main` on wasm32: in the page, starts the app; in the page's Web Worker (the
 /// same module, see [`crate::jobs::worker`]), serves the stages the page hands it.
 pub fn start() {
+    if crate::jobs::threads::in_pool_thread() {
+        // A thread of the stages worker's pool: it runs what rayon hands it.
+        return;
+    }
     let _ = eframe::WebLogger::init(log::LevelFilter::Info);
     if crate::jobs::worker::in_worker() {
         stages::serve();

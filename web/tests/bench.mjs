@@ -17,12 +17,19 @@
 //                  normal and splat maps and the rivers (one zip): its time, the frame gaps
 //                  and the main-thread tasks over 50 ms meanwhile (both paths;
 //                  BENCH_EXPORT=0 skips it, BENCH_EXPORT=only measures nothing else)
+//   threads        (BENCH_THREADS=only, or =1 besides the rest) `generate()` at 1024^2, 2048^2
+//                  and 4096^2 (BENCH_THREAD_SIZES) in a cross-origin isolated page whose stages
+//                  worker runs the threaded build, on one thread (`?threads=1`) and on the
+//                  machine's cores: the time, the diffusion's and the erosion's, and whether
+//                  the bits are the same
 //   hydrology      the stages before diffusion at 2048^2 on the scene of `strahler bench
 //                  --pipeline` (four rivers, phi 2 to 4), median of 3 generations on the CPU
-//                  path (the wasm build is single-threaded; these stages never use the GPU)
+//                  path (they run on the page's own thread, whose build has no threads; these
+//                  stages never use the GPU)
 //
 // Usage: node web/tests/bench.mjs [DIST_DIR]
-//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT, BENCH_NO_WORKER, BENCH_ORBIT)
+//   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT, BENCH_NO_WORKER, BENCH_ORBIT,
+//    BENCH_THREADS, BENCH_THREAD_SIZES)
 
 import { existsSync } from 'node:fs';
 import { join, resolve } from 'node:path';
@@ -259,10 +266,62 @@ async function measure(url, mode) {
   }
 }
 
+// `generate()` at each size on `threads` threads (the page's `?threads=N`; null: the machine's
+// cores, the page's default) in a cross-origin
+// isolated page on the CPU path: [{size, threads, ms, diffuse, erosion, checksum}].
+async function threadRuns(base, threads, sizes) {
+  const browser = await chromium.launch({ executablePath: chromiumPath, args: COMMON_FLAGS });
+  try {
+    const page = await browser.newPage({ viewport: { width: 1280, height: 800 } });
+    await page.goto(threads ? `${base}?threads=${threads}` : base);
+    await page.waitForFunction(() => window.strahler?.status().lastRun
+      && window.strahler.status().job === null, null, { timeout: 120_000 });
+    const started = (await page.evaluate(() => window.strahler.status())).threads;
+    const runs = [];
+    for (const size of sizes) {
+      const run = await page.evaluate(async (n) => {
+        const t = performance.now();
+        const report = await window.strahler.generate({ size: n });
+        const stage = (name) => report.stages.find((s) => s.name === name)?.ms ?? NaN;
+        return { ms: performance.now() - t, diffuse: stage('diffuse'), erosion: stage('erosion'),
+          checksum: report.checksum };
+      }, size);
+      runs.push({ size, threads: started, ...run });
+    }
+    return runs;
+  } finally {
+    await browser.close();
+  }
+}
+
+async function threadsTable() {
+  const isolated = await serve(dist, { isolated: true });
+  const base = `http://127.0.0.1:${isolated.address().port}/`;
+  const sizes = (process.env.BENCH_THREAD_SIZES ?? '1024,2048,4096').split(',').map(Number);
+  try {
+    const one = await threadRuns(base, 1, sizes);
+    const all = await threadRuns(base, null, sizes);
+    console.log('generate() in a cross-origin isolated page (CPU path, the stages worker\'s threads), milliseconds');
+    console.log('size    threads   generate  diffuse  erosion | speed-up  same bits');
+    const f = (v) => v.toFixed(0).padStart(8);
+    one.forEach((a, k) => {
+      const b = all[k];
+      for (const r of [a, b]) {
+        const extra = r === b ? ` | ${(a.ms / b.ms).toFixed(2).padStart(8)}  ${a.checksum === b.checksum}` : ' |';
+        console.log(`${String(r.size).padEnd(7)} ${String(r.threads).padStart(7)} ${f(r.ms)} ${f(r.diffuse)} ${f(r.erosion)}${extra}`);
+      }
+    });
+  } finally {
+    isolated.close();
+  }
+}
+
 if (!existsSync(join(dist, 'index.html'))) {
   console.error(`no ${join(dist, 'index.html')}: run \`.ci/build-web\` first`);
   process.exit(2);
 }
+if (process.env.BENCH_THREADS) await threadsTable();
+if (process.env.BENCH_THREADS === 'only') process.exit(0);
 const server = await serve(dist);
 const url = `http://127.0.0.1:${server.address().port}/`;
 const rows = [];

@@ -79,6 +79,38 @@ async function passesOfEdit(editSource) {
   return seen;
 }
 
+// The Web Worker's threads as the page reports them: in a cross-origin isolated page the
+// threaded build's pool of the machine's cores (at most 8; 2 on this machine), else one
+// thread, saying why. Where `.ci/build-web` could not make the threaded build it wrote why
+// in dist/threads/MISSING, and the page must say the build did not load.
+async function checkThreads(page, mode) {
+  const { status, cores, isolated } = await page.evaluate(() => ({
+    status: window.strahler.status(),
+    cores: navigator.hardwareConcurrency,
+    isolated: window.crossOriginIsolated,
+  }));
+  const stages = 'the diffusion and the erosion run in a Web Worker';
+  const missing = join(dist, 'threads', 'MISSING');
+  check(`${mode}: the page is ${mode === 'cpu' ? '' : 'not '}cross-origin isolated`,
+    isolated === (mode === 'cpu'), String(isolated));
+  if (mode !== 'cpu') {
+    check('without cross-origin isolation the worker runs one thread and says why',
+      status.threads === 1
+        && status.worker === `${stages} (one thread: the page is not cross-origin isolated (its server sends no COOP and COEP headers))`,
+      `${status.threads}: ${status.worker}`);
+  } else if (existsSync(missing)) {
+    console.log(`  NOTE: no threaded build (${readFileSync(missing, 'utf8').trim()}): the worker runs one thread`);
+    check('without the threaded build the worker runs one thread and says its build did not load',
+      status.threads === 1 && status.worker.startsWith(`${stages} (one thread: the threaded build did not load`),
+      `${status.threads}: ${status.worker}`);
+  } else {
+    const want = Math.min(cores, 8);
+    check(`the cross-origin isolated page computes on ${want} threads (its cores)`,
+      want < 2 || (status.threads === want && status.worker === `${stages} (${want} threads)`),
+      `${status.threads}: ${status.worker}`);
+  }
+}
+
 async function runMode(url, mode, expectedChecksum) {
   console.log(`browser (${mode}):`);
   const browser = await chromium.launch({
@@ -128,11 +160,10 @@ async function runMode(url, mode, expectedChecksum) {
     // (every stage is slower on it), as the command line does beside lavapipe.
     check('first terrain ran on the CPU (auto beside a software rasteriser, or no WebGPU)',
       run.backend === 'cpu', run.backend);
-    // Issue 35: the diffusion and the erosion (most of a CPU run) run in the page's Web Worker.
-    const worker = (await page.evaluate(() => window.strahler.status())).worker;
-    check('status() says the diffusion and the erosion run in a Web Worker',
-      worker === 'the diffusion and the erosion run in a Web Worker',
-      String(worker));
+    // Issue 35: the diffusion and the erosion (most of a CPU run) run in the page's Web Worker,
+    // on every core where the page is cross-origin isolated (the CPU mode's server sends the
+    // headers), on one thread where it is not (the WebGPU mode's).
+    await checkThreads(page, mode);
     firstChecksums[mode] = run.checksum;
     if (mode === 'webgpu') {
       // "Compute on: gpu" runs every stage on SwiftShader (erosion too, tens of seconds a
@@ -705,15 +736,24 @@ if (!existsSync(join(dist, 'index.html'))) {
   console.error(`no ${join(dist, 'index.html')}: run \`.ci/build-web\` first`);
   process.exit(2);
 }
+// The WebGPU mode's page is not cross-origin isolated (its worker runs one thread); the CPU
+// mode's is (the threaded build's pool): both must give the command line's bits.
 const server = await serve(dist);
-const url = `http://127.0.0.1:${server.address().port}/`;
+const isolatedServer = await serve(dist, { isolated: true });
+const urlOf = (s) => `http://127.0.0.1:${s.address().port}/`;
+const url = urlOf(server);
 try {
   const expected = nativeChecksum();
   const modes = (process.env.BROWSER_MODES ?? 'webgpu,cpu').split(',');
-  for (const mode of modes) await runMode(url, mode, expected);
+  for (const mode of modes) await runMode(mode === 'cpu' ? urlOf(isolatedServer) : url, mode, expected);
+  if (firstChecksums.cpu !== undefined && firstChecksums.webgpu !== undefined) {
+    check('the first terrain has the same bits on one thread (WebGPU page) and on the pool (CPU page)',
+      firstChecksums.cpu === firstChecksums.webgpu, `${firstChecksums.cpu} != ${firstChecksums.webgpu}`);
+  }
   await withoutWorkers(url);
 } finally {
   server.close();
+  isolatedServer.close();
 }
 console.log(`browser: ${passed} passed, ${failed} failed`);
 process.exit(failed === 0 ? 0 : 1);
