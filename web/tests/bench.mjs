@@ -29,7 +29,7 @@
 //
 // Usage: node web/tests/bench.mjs [DIST_DIR]
 //   (env: CHROMIUM, BROWSER_MODES, BENCH_COMPUTE, BENCH_4096, BENCH_EXPORT, BENCH_NO_WORKER, BENCH_ORBIT,
-//    BENCH_THREADS, BENCH_THREAD_SIZES)
+//    BENCH_ISOLATED, BENCH_THREADS, BENCH_THREAD_SIZES)
 
 import { existsSync } from 'node:fs';
 import { join, resolve } from 'node:path';
@@ -322,7 +322,8 @@ if (!existsSync(join(dist, 'index.html'))) {
 }
 if (process.env.BENCH_THREADS) await threadsTable();
 if (process.env.BENCH_THREADS === 'only') process.exit(0);
-const server = await serve(dist);
+// BENCH_ISOLATED=1: the editor's page cross-origin isolated, its worker on every core.
+const server = await serve(dist, { isolated: process.env.BENCH_ISOLATED === '1' });
 const url = `http://127.0.0.1:${server.address().port}/`;
 const rows = [];
 try {
