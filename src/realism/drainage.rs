@@ -434,21 +434,36 @@ pub(super) fn drainage(g: &Grid, threshold_m2: f64) -> Drainage {
     }
 }
 
-/// [`Drainage::straight_fraction`] of the routing `rcv` with upstream areas `area`. Every
-/// cell drains more area than each of its donors, so cells in ascending area come after
-/// their donors: one pass in that order carries each cell's run of one direction down to
-/// its receiver. O(cells log cells).
+/// [`Drainage::straight_fraction`] of the routing `rcv` with upstream areas `area`. Each
+/// cell is visited once all its donors were (Kahn's order over the receivers), which carries
+/// each cell's run of one direction down to its receiver; its largest donor (by area, ties
+/// to the lower index) is then known. The top share is picked by selection on (area, index),
+/// a total order, so the set is the one a sort by area would end with. O(cells): the sort by
+/// area this replaced took a third of `analyze` at 4096^2 (the test keeps it as the
+/// reference, and the two agree).
 fn straight_fraction(area: &[f64], rcv: &Receivers) -> f64 {
-    let mut order: Vec<usize> = (0..rcv.len()).filter(|&i| rcv.get(i).is_some()).collect();
-    if order.is_empty() {
+    let n = rcv.len();
+    let mut routed: Vec<usize> = (0..n).filter(|&i| rcv.get(i).is_some()).collect();
+    if routed.is_empty() {
         return 0.0;
     }
-    order.sort_by(|&a, &b| area[a].total_cmp(&area[b]).then(a.cmp(&b)));
+    // Donors of each cell not yet visited (at most 8).
+    let mut waiting = vec![0u8; n];
+    for &i in &routed {
+        if let Some((j, _)) = rcv.get(i) {
+            waiting[j] += 1;
+        }
+    }
     // The donor of largest area of each cell (usize::MAX: none yet) and each cell's run.
-    let mut main = vec![usize::MAX; rcv.len()];
-    let mut run = vec![0u32; rcv.len()];
+    let mut main = vec![usize::MAX; n];
+    let mut run = vec![0u32; n];
     let step = |i: usize| rcv.get(i).map(|(j, _)| j as isize - i as isize);
-    for &i in &order {
+    let mut ready: Vec<usize> = routed
+        .iter()
+        .copied()
+        .filter(|&i| waiting[i] == 0)
+        .collect();
+    while let Some(i) = ready.pop() {
         let m = main[i];
         run[i] = if m != usize::MAX && step(m) == step(i) {
             run[m] + 1
@@ -460,10 +475,16 @@ fn straight_fraction(area: &[f64], rcv: &Receivers) -> f64 {
             if k == usize::MAX || area[i] > area[k] || (area[i] == area[k] && i < k) {
                 main[j] = i;
             }
+            waiting[j] -= 1;
+            if waiting[j] == 0 && rcv.get(j).is_some() {
+                ready.push(j);
+            }
         }
     }
-    let top = ((order.len() as f64 * STRAIGHT_TOP_SHARE).ceil() as usize).max(1);
-    let straight = order[order.len() - top..]
+    let top = ((routed.len() as f64 * STRAIGHT_TOP_SHARE).ceil() as usize).max(1);
+    let first = routed.len() - top;
+    routed.select_nth_unstable_by(first, |&a, &b| area[a].total_cmp(&area[b]).then(a.cmp(&b)));
+    let straight = routed[first..]
         .iter()
         .filter(|&&i| run[i] >= STRAIGHT_RUN_CELLS)
         .count();
@@ -608,6 +629,72 @@ mod tests {
             assert_eq!(bits(&reference_again), bits(&reference), "seed {seed}");
             assert_eq!(bits(&again), bits(&reference), "seed {seed}");
         }
+    }
+
+    /// The sort-based pass [`straight_fraction`] replaced: cells in ascending (area, index)
+    /// come after their donors.
+    fn sorted_straight_fraction(area: &[f64], rcv: &Receivers) -> f64 {
+        let mut order: Vec<usize> = (0..rcv.len()).filter(|&i| rcv.get(i).is_some()).collect();
+        order.sort_by(|&a, &b| area[a].total_cmp(&area[b]).then(a.cmp(&b)));
+        let mut main = vec![usize::MAX; rcv.len()];
+        let mut run = vec![0u32; rcv.len()];
+        let step = |i: usize| rcv.get(i).map(|(j, _)| j as isize - i as isize);
+        for &i in &order {
+            let m = main[i];
+            run[i] = if m != usize::MAX && step(m) == step(i) {
+                run[m] + 1
+            } else {
+                1
+            };
+            if let Some((j, _)) = rcv.get(i) {
+                let k = main[j];
+                if k == usize::MAX || area[i] > area[k] || (area[i] == area[k] && i < k) {
+                    main[j] = i;
+                }
+            }
+        }
+        let top = ((order.len() as f64 * STRAIGHT_TOP_SHARE).ceil() as usize).max(1);
+        let straight = order[order.len() - top..]
+            .iter()
+            .filter(|&&i| run[i] >= STRAIGHT_RUN_CELLS)
+            .count();
+        straight as f64 / top as f64
+    }
+
+    /// The O(cells) straight-run share is the sorted pass's, on rough quantised terrains
+    /// (flats, no-data holes) and on planes whose flow keeps one direction (a share of 1).
+    #[test]
+    fn straight_runs_in_kahns_order_match_the_sorted_pass() {
+        for (seed, (w, h), step) in [(1, (64, 48), 1.0), (2, (97, 131), 4.0), (5, (150, 90), 0.5)] {
+            let heights = quantised(w, h, seed, step);
+            let g = Grid::new(&heights, w, h, 30.0, 30.0).expect("a grid");
+            let (z, outlet) = priority_flood_epsilon(&g);
+            let rcv = d8_receivers(&g, &z, &outlet);
+            let area = flow_accumulation(&g, &rcv);
+            let (fast, sorted) = (
+                straight_fraction(&area, &rcv),
+                sorted_straight_fraction(&area, &rcv),
+            );
+            assert_eq!(
+                fast.to_bits(),
+                sorted.to_bits(),
+                "seed {seed}: {fast} vs {sorted}"
+            );
+        }
+        let (w, h) = (40, 40);
+        let plane: Vec<f32> = (0..w * h).map(|i| (i / w) as f32 * 2.0).collect();
+        let g = Grid::new(&plane, w, h, 30.0, 30.0).expect("a grid");
+        let (z, outlet) = priority_flood_epsilon(&g);
+        let rcv = d8_receivers(&g, &z, &outlet);
+        let area = flow_accumulation(&g, &rcv);
+        assert_eq!(
+            straight_fraction(&area, &rcv),
+            sorted_straight_fraction(&area, &rcv)
+        );
+        assert!(
+            straight_fraction(&area, &rcv) > 0.5,
+            "a plane's flow runs straight"
+        );
     }
 
     /// A sink inside the map (a designed river's mouth) takes the water of the bowl around
