@@ -3,16 +3,16 @@
 //!
 //! The page ships two builds of the same code: the page's own (no threads: a page that is not
 //! cross-origin isolated cannot make shared memory at all) and, in `threads/`, one compiled
-//! with wasm's atomics and bulk memory and a shared memory (`.ci/build-web`). Where the page is
-//! cross-origin isolated (its server sends `Cross-Origin-Opener-Policy: same-origin` and
-//! `Cross-Origin-Embedder-Policy: require-corp`, as `.ci/serve`, `trunk serve` and the tests'
-//! server do), the stages worker ([`super::worker`]) instantiates the threaded build and
-//! calls [`start_threads`], which starts one more worker per thread, each instantiating the
-//! same module on the same memory, and hands each a rayon `ThreadBuilder` to run (rayon's
-//! `spawn_handler`: wasm has no `std::thread::spawn`), the way wasm-bindgen's parallel
-//! raytracing example and `wasm-bindgen-rayon` build theirs. [`crate::parallel`] then runs
-//! its bands on that pool as it does natively; each band is computed alone, so the bits are
-//! those of one thread (and of the command line).
+//! with wasm's atomics and bulk memory and a shared memory (`.ci/build-threads`). Where the
+//! page is cross-origin isolated (its server sends `Cross-Origin-Opener-Policy: same-origin`
+//! and `Cross-Origin-Embedder-Policy: require-corp`, as `.ci/serve`, `trunk serve` and the
+//! tests' server do), the stages worker ([`super::worker`]) instantiates the threaded build
+//! and calls `start_threads` (`strahler_start_threads` in JavaScript), which starts one more
+//! worker per thread, each instantiating the same module on the same memory, and hands each a
+//! rayon `ThreadBuilder` to run (rayon's `spawn_handler`: wasm has no `std::thread::spawn`),
+//! the way wasm-bindgen's parallel raytracing example and `wasm-bindgen-rayon` build theirs.
+//! [`crate::parallel`] then runs its bands on that pool as it does natively; each band is
+//! computed alone, so the bits are those of one thread (and of the command line).
 //!
 //! Only workers block: the stages worker waits in `Atomics.wait` while the pool works, which
 //! a page's own thread may not do, so the page's thread never calls into a pool (its build
