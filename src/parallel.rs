@@ -69,9 +69,9 @@ pub fn for_each_band<T: Send>(
     }
 }
 
-/// Calls `f` on every item: on rayon's pool natively (work-stealing, so items of unequal
-/// cost balance) where there is one, else all on the calling thread. For independent rows of a lifting step
-/// and the like.
+/// Calls `f` on every item: on rayon's pool where there is one (work-stealing, so items of
+/// unequal cost balance), else all on the calling thread. For independent rows of a lifting
+/// step and the like.
 pub fn for_each_item<T: Send>(items: Vec<T>, f: impl Fn(T) + Sync + Send) {
     #[cfg(any(not(target_arch = "wasm32"), target_feature = "atomics"))]
     if pool_up() && items.len() > 1 {

@@ -195,6 +195,9 @@ pub struct Eroder {
     /// The factor of the beds each cell's neighbourhood exposes at the start of the step's
     /// incision; empty without beds.
     beds: Vec<f32>,
+    /// Scratch of [`Self::read_the_beds`], kept between steps: the heights the beds are read
+    /// at, and each cell's least and greatest along its row ([`Strata::cell_factors`]).
+    bed_scratch: (Vec<f32>, Vec<[f32; 2]>),
 }
 
 /// Flow routing of a surface, as computed by [`receivers_and_area`].
@@ -304,6 +307,7 @@ impl Eroder {
             erodibility: Vec::new(),
             strata: None,
             beds: Vec::new(),
+            bed_scratch: (Vec::new(), Vec::new()),
         })
     }
 
@@ -330,17 +334,17 @@ impl Eroder {
             return;
         };
         let dt = self.params.years / f64::from(self.params.steps.max(1));
-        let start: Vec<f32> = (0..self.grid.len())
-            .map(|i| {
-                let h = self.heights[i];
-                match self.uplift.get(i) {
-                    Some(u) if !self.base[i] => (f64::from(h) + dt * f64::from(*u)) as f32,
-                    _ => h,
-                }
-            })
-            .collect();
+        let (start, along) = &mut self.bed_scratch;
+        start.clear();
+        start.extend((0..self.grid.len()).map(|i| {
+            let h = self.heights[i];
+            match self.uplift.get(i) {
+                Some(u) if !self.base[i] => (f64::from(h) + dt * f64::from(*u)) as f32,
+                _ => h,
+            }
+        }));
         self.beds.resize(self.grid.len(), 1.0);
-        strata.cell_factors(&start, self.grid.width, &mut self.beds);
+        strata.cell_factors(start, self.grid.width, along, &mut self.beds);
     }
 
     /// Holds the slopes of the surface to `talus_deg` after each step's incision, before the

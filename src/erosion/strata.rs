@@ -19,9 +19,9 @@
 //! the last bits, read nearly the same rock. The factor on `K` is `contrast^(1/2 - hard)`,
 //! `hard` in `[0, 1]`: `1/sqrt(contrast)` in the hard beds, `sqrt(contrast)` in the soft
 //! ones, as for the rock patches. A cell reads the mean hardness of the beds between its
-//! lowest and its highest neighbour within two cells ([`Strata::factor_of_cell`]: a cell is an area, and the
-//! bed at its centre alone made escarpments one cell high and ragged where beds are thin
-//! beside the cells). The same formulas, in `f32`, are in `shaders/erosion.wgsl`
+//! lowest and its highest neighbour within two cells ([`Strata::factor_of_cell`]: a cell is
+//! an area, and the bed at its centre alone made escarpments one cell high and ragged where
+//! beds are thin beside the cells). The same formulas, in `f32`, are in `shaders/erosion.wgsl`
 //! (`strata_factor`).
 
 /// The hard bed's share of each period of the beds (the rest is soft rock).
@@ -76,15 +76,23 @@ impl Strata {
 
     /// Each cell's [`factor_of_cell`](Self::factor_of_cell) on a `width`-wide grid of
     /// heights `h` (row-major), its neighbours those on the map within [`REACH`] cells, into
-    /// `out`. Rows on all threads (each cell reads only `h`: the same values). O(cells).
-    pub fn cell_factors(&self, h: &[f32], width: usize, out: &mut [f32]) {
+    /// `out`. Rows on all threads (each cell reads only `h`: the same values); `along` is
+    /// scratch, kept by the caller between steps. O(cells).
+    pub fn cell_factors(
+        &self,
+        h: &[f32],
+        width: usize,
+        along: &mut Vec<[f32; 2]>,
+        out: &mut [f32],
+    ) {
         let w = width.max(1);
         let rows = h.len() / w;
         let per = rows.div_ceil(crate::parallel::bands(w, rows)).max(1);
         // The square's least and greatest heights, separably: along each row, then along each
         // column of those (min and max are exact in any order: the whole square's values).
-        let mut along = vec![[0.0f32; 2]; h.len()];
-        crate::parallel::for_each_band(&mut along, per * w, |k, band| {
+        along.resize(h.len(), [0.0; 2]);
+        let along = &mut along[..h.len()];
+        crate::parallel::for_each_band(along, per * w, |k, band| {
             for (y, row) in (k * per..).zip(band.chunks_mut(w)) {
                 let line = &h[y * w..(y + 1) * w];
                 for (x, v) in row.iter_mut().enumerate() {
@@ -202,7 +210,7 @@ mod tests {
             .map(|i| ((i * 7919) % 241) as f32 * 1.3 - 40.0)
             .collect();
         let mut out = vec![0.0; w * rows];
-        s.cell_factors(&h, w, &mut out);
+        s.cell_factors(&h, w, &mut Vec::new(), &mut out);
         for y in 0..rows {
             for x in 0..w {
                 let (mut lo, mut hi) = (f32::INFINITY, f32::NEG_INFINITY);
