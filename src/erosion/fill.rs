@@ -20,6 +20,16 @@
 //! one. Work is proportional to the lakes, not to their catchments. As a safety net, if
 //! a work budget runs out, [`Unrouted`] floods every cell not yet draining to base
 //! level from the routed ones (the classic algorithm, seeded at base level).
+//!
+//! Where pits are many (more than one in [`PITS_FOR_ONE_FLOOD`] cells: a rough surface, as
+//! an uploaded DEM or `strahler bench erosion`'s start, 8% of its cells pits) the routing
+//! goes straight to that one flood. Lakes filled one by one there spill into each other and
+//! are filled again: at 1024^2 the first routing's 89 000 pits made 544 000 lakes of 5.4
+//! million cells in all, and the benchmark's run took 3.2 s; with the one flood, 1.8 s
+//! (2048^2: 14.7 s and 7.6 s). Where pits are sparser the lakes cost less than the flood,
+//! which visits every cell draining into a pit (nearly all of them): the first routing of a
+//! 4096^2 refinement, 1% of its cells pits, took 2-3 s longer flooded at once. Both leave
+//! the same lake levels (epsilon gradients may differ).
 
 use std::cmp::Ordering;
 use std::collections::{BinaryHeap, VecDeque};
@@ -212,6 +222,10 @@ pub(super) fn fill_unrouted(grid: Grid, h: &mut [f32], dir: &[u8], routed: &[u32
 /// Local fills allowed per pit found by the receiver pass (merging lakes need more than
 /// one) before falling back to [`Unrouted`].
 pub(super) const LOCAL_FILLS_PER_PIT: usize = 8;
+
+/// Above one pit in this many cells, a routing floods every unrouted cell at once
+/// ([`Unrouted`]) instead of filling lakes one by one.
+pub(super) const PITS_FOR_ONE_FLOOD: usize = 32;
 
 /// Scratch state of the local fills.
 struct Local {

@@ -156,7 +156,8 @@ impl Network {
     /// bits as [`route`](Self::route) however the work is split, as every piece runs in the
     /// same order. O(cells) over a whole routing.
     ///
-    /// Receivers come first; then, if there are pits, their lakes are filled one by one;
+    /// Receivers come first; then, if there are pits, their lakes are filled one by one
+    /// (or, where pits are many, all unrouted cells are flooded at once: see [`fill`]);
     /// then the stack is built. If the local fills gave up (their work budget) the stack
     /// misses cells: then all unrouted cells are flooded, and receivers and the stack are
     /// computed once more.
@@ -183,7 +184,12 @@ impl Network {
                 self.receivers(grid, h, base, rows, pits);
                 if *row == grid.height {
                     let pits = std::mem::take(pits);
-                    route.stage = if route.fell_back || pits.is_empty() {
+                    // Many pits (a rough first surface): one flood of every unrouted cell
+                    // costs less than lakes filled one by one, which spill into each other.
+                    // A test's cap on the local fills keeps them.
+                    let flood_all = route.max_fills.is_none()
+                        && pits.len() > grid.len() / fill::PITS_FOR_ONE_FLOOD;
+                    route.stage = if route.fell_back || pits.is_empty() || flood_all {
                         RouteStage::Stack(self.start_stack(grid))
                     } else {
                         let budget = route
@@ -201,7 +207,8 @@ impl Network {
             RouteStage::Stack(walk) => {
                 if self.walk_stack(base, walk, cells) {
                     route.stage = if self.stack.len() < grid.len() && !route.fell_back {
-                        // The local fills gave up (work budget): flood all unrouted cells.
+                        // Pits were many, or the local fills gave up (work budget): flood
+                        // all unrouted cells.
                         route.fell_back = true;
                         RouteStage::Unrouted(Box::new(fill::Unrouted::new(grid, &self.stack)))
                     } else {
@@ -408,13 +415,21 @@ pub(super) fn start_area(grid: Grid, area: &mut [f32]) {
 /// A routing in progress ([`Network::continue_route`]).
 pub(super) struct Route {
     stage: RouteStage,
-    /// Cap on the local lake fills (`None`: [`fill::LOCAL_FILLS_PER_PIT`] per pit, + 64).
+    /// Cap on the local lake fills (`None`: [`fill::LOCAL_FILLS_PER_PIT`] per pit, + 64, and
+    /// one flood of all unrouted cells instead where pits are many; `Some`: lakes always).
     max_fills: Option<usize>,
     /// Whether the fallback flood ran (the second stack is then complete).
     fell_back: bool,
 }
 
 impl Route {
+    /// Whether every cell the receivers and lakes left unrouted was flooded at once (many
+    /// pits, or the local fills' budget ran out).
+    #[cfg(test)]
+    pub(super) fn flooded_all(&self) -> bool {
+        self.fell_back
+    }
+
     pub(super) fn new(max_fills: Option<usize>) -> Self {
         Route {
             stage: RouteStage::Receivers {

@@ -252,7 +252,8 @@ fn local_fill_matches_global_priority_flood() {
     };
     let (z0, base) = rough_surface(w, h, 21, 50.0);
     let mut local = z0.clone();
-    Network::new(grid).route(grid, &mut local, &base);
+    // A cap on the fills keeps the local ones however many the pits are.
+    Network::new(grid).route_with_budget(grid, &mut local, &base, Some(usize::MAX));
     // Global flood: nothing but base level counts as routed.
     let mut global = z0.clone();
     let seeds: Vec<u32> = (0..w * h).filter(|&i| base[i]).map(|i| i as u32).collect();
@@ -279,6 +280,56 @@ fn local_fill_matches_global_priority_flood() {
     net.route_with_budget(grid, &mut fallback, &base, Some(0));
     assert_eq!(net.stack.len(), w * h);
     assert_descending_paths(w, h, &fallback, &base);
+}
+
+/// Where pits are many, the routing floods every unrouted cell at once: the fallback flood,
+/// with its bits. Where they are few, it fills lakes one by one.
+#[test]
+fn many_pits_are_flooded_at_once() {
+    let (w, h) = (64, 56);
+    let grid = Grid {
+        width: w,
+        height: h,
+        cell: 10.0,
+    };
+    // The heights' checksum and whether every unrouted cell was flooded at once.
+    let route = |z0: &[f32], base: &[bool], max_fills| {
+        let mut z = z0.to_vec();
+        let mut net = Network::new(grid);
+        let mut route = flow::Route::new(max_fills);
+        while !net.continue_route(grid, &mut z, base, &mut route, usize::MAX) {}
+        assert_eq!(net.stack.len(), w * h);
+        assert_descending_paths(w, h, &z, base);
+        (fnv1a(&z), route.flooded_all())
+    };
+    let (rough, base) = rough_surface(w, h, 21, 50.0);
+    let pits = (0..w * h)
+        .filter(|&i| !base[i])
+        .filter(|&i| {
+            let (x, y) = grid.xy(i);
+            (0..8)
+                .filter_map(|d| grid.neighbour(x, y, d))
+                .all(|j| rough[j] >= rough[i])
+        })
+        .count();
+    assert!(pits > w * h / fill::PITS_FOR_ONE_FLOOD, "{pits} pits");
+    let (flooded, at_once) = route(&rough, &base, None);
+    assert!(at_once);
+    assert_eq!((flooded, true), route(&rough, &base, Some(0)));
+    assert!(!route(&rough, &base, Some(usize::MAX)).1);
+    // A tilted plane with three dimples: lakes one by one.
+    let mut few = vec![0.0f32; w * h];
+    for (i, z) in few.iter_mut().enumerate() {
+        let (x, y) = grid.xy(i);
+        *z = (x + y) as f32;
+    }
+    for i in [20 * w + 20, 30 * w + 40, 40 * w + 10] {
+        few[i] -= 5.0;
+    }
+    let (filled, at_once) = route(&few, &base, None);
+    assert!(!at_once);
+    assert_eq!((filled, false), route(&few, &base, Some(usize::MAX)));
+    assert_ne!(fnv1a(&few), filled);
 }
 
 #[test]
@@ -376,7 +427,7 @@ fn routing_in_pieces_gives_the_same_bits() {
         cell: 10.0,
     };
     let (z0, base) = rough_surface(w, h, 21, 50.0);
-    for max_fills in [None, Some(0), Some(5)] {
+    for max_fills in [None, Some(0), Some(5), Some(usize::MAX)] {
         let mut whole = z0.clone();
         let mut one = Network::new(grid);
         one.route_with_budget(grid, &mut whole, &base, max_fills);
