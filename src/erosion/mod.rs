@@ -47,8 +47,9 @@
 //! runs of the stack in its fixed order, lakes one by one), so a browser job can yield
 //! between them; the order of the work, and so every bit of the result, is the same.
 //!
-//! The stage around the solver (`stage.rs`) pins the sketch's peaks and ridges with the
-//! floor and raises their flanks after the last step (`hold.rs`).
+//! The scene's section and the terrain types' settings are in `settings.rs`. The stage
+//! around the solver (`stage.rs`) pins the sketch's peaks and ridges with the floor and
+//! raises their flanks after the last step (`hold.rs`).
 //!
 //! Base-level cells (`base_level[i] == true`: rivers drawn by the user, a band around
 //! them, the border's outlets or the whole border) keep their heights exactly and are the
@@ -81,6 +82,7 @@ mod painted;
 mod params;
 mod ranges;
 mod rock;
+mod settings;
 mod slope_limit;
 mod stage;
 mod strata;
@@ -100,11 +102,11 @@ pub use self::painted::{HARD_ROCK, Painted, UPLIFT_GAIN};
 pub use self::params::{ErosionParams, PRESETS, describe, preset, river_slope};
 pub use self::ranges::{DEFAULT_SCALE_M as DEFAULT_UPLIFT_SCALE_M, Ranges};
 pub use self::rock::{Rock, erodibility_factors};
+pub use self::settings::{Border, ErosionSettings, Relief};
 pub use self::slope_limit::Strength as SlopeStrength;
 pub use self::stage::{
-    Anchors, Border, Eroded, ErosionReport, ErosionSettings, Prepared, Relief, StageError,
-    base_level, erode_field, erode_field_within, erode_terrain, nearest_channel, roughen,
-    uplift_from_design, uplift_map,
+    Anchors, Eroded, ErosionReport, Prepared, StageError, base_level, erode_field,
+    erode_field_within, erode_terrain, nearest_channel, roughen, uplift_from_design, uplift_map,
 };
 pub use self::strata::Strata;
 

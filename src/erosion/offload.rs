@@ -9,7 +9,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::Painted;
-use super::stage::{Anchors, Eroded, ErosionReport, ErosionSettings, erode_field};
+use super::settings::ErosionSettings;
+use super::stage::{Anchors, Eroded, ErosionReport, erode_field};
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
@@ -217,7 +218,7 @@ pub async fn serve(parcel: Parcel, ctx: JobCtx) -> Result<Parcel, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::erosion::stage::Border;
+    use crate::erosion::settings::Border;
 
     fn task() -> Task {
         let n = 24;
