@@ -21,9 +21,9 @@
 //! a work budget runs out, [`Unrouted`] floods every cell not yet draining to base
 //! level from the routed ones (the classic algorithm, seeded at base level).
 //!
-//! Where pits are many (more than one in [`PITS_FOR_ONE_FLOOD`] cells: a rough surface, as
-//! an uploaded DEM or `strahler bench erosion`'s start, 8% of its cells pits) the routing
-//! goes straight to that one flood. Lakes filled one by one there spill into each other and
+//! Where pits are many (more than one in [`PITS_FOR_ONE_FLOOD`] cells: a rough surface, such
+//! as `strahler bench erosion`'s start, 8% of its cells pits) the routing goes straight to
+//! that one flood. Lakes filled one by one there spill into each other and
 //! are filled again: at 1024^2 the first routing's 89 000 pits made 544 000 lakes of 5.4
 //! million cells in all, and the benchmark's run took 3.2 s; with the one flood, 1.8 s
 //! (2048^2: 14.7 s and 7.6 s). Where pits are sparser the lakes cost less than the flood,
