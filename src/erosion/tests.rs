@@ -34,6 +34,15 @@ fn params(k: f64, m: f64, n: f64, kappa: f64, years: f64, steps: u32) -> Erosion
     }
 }
 
+/// A `width` x `height` grid of `cell` metre cells.
+fn grid_of(width: usize, height: usize, cell: f64) -> Grid {
+    Grid {
+        width,
+        height,
+        cell,
+    }
+}
+
 /// Rough test surface: tilted plane + noise (with many pits), border as base level
 /// plus a short interior "river".
 fn rough_surface(w: usize, h: usize, seed: u32, relief: f32) -> (Vec<f32>, Vec<bool>) {
@@ -58,11 +67,7 @@ fn run(mut e: Eroder) -> Eroder {
 
 /// Follows strictly descending steps from every free cell and checks it reaches base.
 fn assert_descending_paths(w: usize, h: usize, z: &[f32], base: &[bool]) {
-    let grid = Grid {
-        width: w,
-        height: h,
-        cell: 1.0,
-    };
+    let grid = grid_of(w, h, 1.0);
     for start in 0..z.len() {
         let mut i = start;
         let mut steps = 0;
@@ -245,11 +250,7 @@ fn no_pits_after_erosion() {
 #[test]
 fn local_fill_matches_global_priority_flood() {
     let (w, h) = (64, 56);
-    let grid = Grid {
-        width: w,
-        height: h,
-        cell: 10.0,
-    };
+    let grid = grid_of(w, h, 10.0);
     let (z0, base) = rough_surface(w, h, 21, 50.0);
     let mut local = z0.clone();
     // A cap on the fills keeps the local ones however many the pits are.
@@ -287,11 +288,7 @@ fn local_fill_matches_global_priority_flood() {
 #[test]
 fn many_pits_are_flooded_at_once() {
     let (w, h) = (64, 56);
-    let grid = Grid {
-        width: w,
-        height: h,
-        cell: 10.0,
-    };
+    let grid = grid_of(w, h, 10.0);
     // The heights' checksum and whether every unrouted cell was flooded at once.
     let route = |z0: &[f32], base: &[bool], max_fills| {
         let mut z = z0.to_vec();
@@ -421,11 +418,7 @@ fn small_pieces_match(
 #[test]
 fn routing_in_pieces_gives_the_same_bits() {
     let (w, h) = (64, 56);
-    let grid = Grid {
-        width: w,
-        height: h,
-        cell: 10.0,
-    };
+    let grid = grid_of(w, h, 10.0);
     let (z0, base) = rough_surface(w, h, 21, 50.0);
     for max_fills in [None, Some(0), Some(5), Some(usize::MAX)] {
         let mut whole = z0.clone();
@@ -446,11 +439,7 @@ fn routing_in_pieces_gives_the_same_bits() {
 
 /// Largest `slope / tan(talus) - 1` from a free cell down to any neighbour.
 fn worst_talus_excess(w: usize, h: usize, cell: f64, z: &[f32], base: &[bool], talus: f64) -> f64 {
-    let grid = Grid {
-        width: w,
-        height: h,
-        cell,
-    };
+    let grid = grid_of(w, h, cell);
     let tan = talus.to_radians().tan();
     let mut worst = f64::MIN;
     for i in (0..w * h).filter(|&i| !base[i]) {
@@ -490,16 +479,7 @@ fn thermal_conserves_mass_away_from_base() {
     let (z0, _) = rough_surface(w, h, 13, 100.0);
     let base = vec![false; w * h];
     let mut z = z0.clone();
-    thermal::relax(
-        Grid {
-            width: w,
-            height: h,
-            cell: 5.0,
-        },
-        &mut z,
-        &base,
-        30.0,
-    );
+    thermal::relax(grid_of(w, h, 5.0), &mut z, &base, 30.0);
     let sum = |v: &[f32]| v.iter().map(|&x| x as f64).sum::<f64>();
     assert!(z != z0, "nothing moved");
     assert!((sum(&z) - sum(&z0)).abs() < 1e-6 * sum(&z0));
