@@ -136,12 +136,8 @@ enum Phase {
     Area { left: usize },
     /// Incision of the stack's cells from `next` on.
     Incise { next: usize },
-    /// Hillslope diffusion: the sweep, its colour, and the next row.
-    Hillslope {
-        sweep: usize,
-        colour: usize,
-        row: usize,
-    },
+    /// Hillslope diffusion: the next half sweep.
+    Hillslope { half: usize },
     /// Talus relaxation: the pass and the next row of its scan.
     Talus { pass: usize, row: usize },
     /// The threshold-slope limit ([`Eroder::with_slope_limit`]): the scan (forward, then
@@ -446,13 +442,16 @@ impl Eroder {
     }
 
     /// Runs the next piece of the current step, about [`CHUNK_CELLS`] cells of work: a band
-    /// of rows of the receivers, of a diffusion sweep or of a talus pass; a run of the stack
-    /// for its walk, the drainage area or the incision; lakes that saw about that many
-    /// cells; or a run of the floor. So a browser job can yield between pieces and never
+    /// of rows of the receivers or of a talus pass; a run of the stack for its walk, the
+    /// drainage area or the incision; lakes that saw about that many cells; or a run of the
+    /// floor. The diffusion goes by passes over the whole map, each of up to
+    /// [`diffusion::BLOCK`] half sweeps in one pass over its memory (`Diffusion::block`), a
+    /// few milliseconds at 1024^2. So a browser job can yield between pieces and never
     /// hold the page for a whole phase. Returns true when the step ended (or when no step
     /// remains); the same bits as [`Eroder::step`], however the work is split, as every
     /// piece runs in the same order. O(chunk) per call, besides a copy or fill of a field
-    /// where a phase starts and a single lake larger than the chunk.
+    /// where a phase starts, a single lake larger than the chunk, and the diffusion's
+    /// passes, O(cells).
     pub fn advance(&mut self) -> bool {
         if self.steps_done >= self.params.steps {
             return true;
@@ -493,32 +492,20 @@ impl Eroder {
                     .apply(&self.net, run, &fields, &mut self.heights);
                 *next == self.net.stack.len()
             }
-            Phase::Hillslope { sweep, colour, row } => {
-                // The rows of a half sweep are split among the threads (`Diffusion::rows`).
-                let rows =
-                    flow::rows_per(chunk.saturating_mul(crate::parallel::threads()), g.width);
-                let band = *row..row.saturating_add(rows).min(g.height);
-                self.diffusion.rows(
+            Phase::Hillslope { half } => {
+                // A pass over the map of up to BLOCK half sweeps, split among the threads
+                // (`Diffusion::block`).
+                let halves = *half..half.saturating_add(diffusion::BLOCK);
+                let halves = halves.start..halves.end.min(self.diffusion.halves());
+                self.diffusion.block(
                     g,
                     &mut self.heights,
                     &self.base,
                     &self.scratch,
-                    diffusion::HalfSweep {
-                        sweep: *sweep,
-                        colour: *colour,
-                    },
-                    band.clone(),
+                    halves.clone(),
                 );
-                *row = band.end;
-                if *row == g.height {
-                    *row = 0;
-                    *colour += 1;
-                    if *colour == 2 {
-                        *colour = 0;
-                        *sweep += 1;
-                    }
-                }
-                *sweep == self.diffusion.sweeps()
+                *half = halves.end;
+                *half == self.diffusion.halves()
             }
             Phase::Limit {
                 forward,
@@ -598,11 +585,7 @@ impl Eroder {
             },
             Phase::Incise { .. } | Phase::Limit { .. } if p.diffusivity > 0.0 => {
                 self.scratch.copy_from_slice(&self.heights);
-                Phase::Hillslope {
-                    sweep: 0,
-                    colour: 0,
-                    row: 0,
-                }
+                Phase::Hillslope { half: 0 }
             }
             Phase::Incise { .. } | Phase::Limit { .. } | Phase::Hillslope { .. }
                 if self.talus.is_some() =>
