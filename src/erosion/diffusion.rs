@@ -232,25 +232,9 @@ impl Diffusion {
                 if k < lo(j) || k >= hi(j) {
                     continue;
                 }
-                let (before, rest) = cells.split_at_mut(k * w);
-                let (row, after) = rest.split_at_mut(w);
                 // Only half sweep 0 reaches a band's first or last row beside another band.
-                let up = if k > 0 {
-                    Some(&before[(k - 1) * w..])
-                } else {
-                    above
-                };
-                let down = if k + 1 < len {
-                    Some(&after[..w])
-                } else {
-                    below
-                };
                 let half = self.half(halves.start + j);
-                let y = first + k;
-                let at = y * w..(y + 1) * w;
-                let omega = self.over_relaxed(half.sweep).then_some(self.omega);
-                let start = (y + half.colour) % 2;
-                self.row(row, (up, down), (&base[at.clone()], &rhs[at]), start, omega);
+                self.band_row(cells, (first, k), (above, below), (base, rhs), half, w);
             }
         }
     }
@@ -314,25 +298,40 @@ impl Diffusion {
         half: HalfSweep,
         w: usize,
     ) {
-        let omega = self.over_relaxed(half.sweep).then_some(self.omega);
         for k in 0..cells.len() / w {
-            let (before, rest) = cells.split_at_mut(k * w);
-            let (row, after) = rest.split_at_mut(w);
-            let up = if k > 0 {
-                Some(&before[(k - 1) * w..])
-            } else {
-                above
-            };
-            let down = if after.is_empty() {
-                below
-            } else {
-                Some(&after[..w])
-            };
-            let y = first + k;
-            let at = y * w..(y + 1) * w;
-            let start = (y + half.colour) % 2;
-            self.row(row, (up, down), (&base[at.clone()], &rhs[at]), start, omega);
+            self.band_row(cells, (first, k), (above, below), (base, rhs), half, w);
         }
+    }
+
+    /// Half sweep `half` on row `k` of a band: `cells` are the band's rows, the first of
+    /// them row `first` of the map; `above` and `below` the rows beside the band (`None` at
+    /// the map's edge).
+    fn band_row(
+        &self,
+        cells: &mut [f32],
+        (first, k): (usize, usize),
+        (above, below): (Option<&[f32]>, Option<&[f32]>),
+        (base, rhs): (&[bool], &[f32]),
+        half: HalfSweep,
+        w: usize,
+    ) {
+        let (before, rest) = cells.split_at_mut(k * w);
+        let (row, after) = rest.split_at_mut(w);
+        let up = if k > 0 {
+            Some(&before[(k - 1) * w..])
+        } else {
+            above
+        };
+        let down = if after.is_empty() {
+            below
+        } else {
+            Some(&after[..w])
+        };
+        let y = first + k;
+        let at = y * w..(y + 1) * w;
+        let omega = self.over_relaxed(half.sweep).then_some(self.omega);
+        let start = (y + half.colour) % 2;
+        self.row(row, (up, down), (&base[at.clone()], &rhs[at]), start, omega);
     }
 
     /// One colour of one row `row` (its cells from `start`, every other one), `up` and
