@@ -74,7 +74,7 @@ pub(super) struct HalfSweep {
 }
 
 /// One backward-Euler diffusion step with ratio `r = kappa dt / cell^2`, run as
-/// [`Self::sweeps`] sweeps of two colours each ([`Self::rows`]).
+/// [`Self::sweeps`] sweeps of two colours each, in passes over the map ([`Self::block`]).
 #[derive(Clone, Copy, Debug)]
 pub(super) struct Diffusion {
     r: f32,
@@ -368,10 +368,10 @@ impl Diffusion {
 
     /// The cells `1..w-1` of one colour of a row with both neighbour rows, in chunks of
     /// [`CHUNK`]: the update of every cell of the chunk is computed at once and kept on the
-    /// colour's cells that are not base level (no stride, no branch: the loop vectorises),
-    /// the others keeping their value. The cells these updates read (the neighbours, of the other colour, and the
-    /// cell's own value) do not change during the half sweep, so this is exactly the
-    /// cell-by-cell update, the same sums in the same order.
+    /// colour's cells that are not base level, the others keeping their value (no stride, no
+    /// branch: the loop vectorises). The cells these updates read (the neighbours, of the
+    /// other colour, and the cell's own value) do not change during the half sweep, so this
+    /// is exactly the cell-by-cell update, the same sums in the same order.
     fn interior(
         &self,
         row: &mut [f32],

@@ -445,8 +445,8 @@ impl Eroder {
     /// of rows of the receivers or of a talus pass; a run of the stack for its walk, the
     /// drainage area or the incision; lakes that saw about that many cells; or a run of the
     /// floor. The diffusion goes by passes over the whole map, each of up to
-    /// [`diffusion::BLOCK`] half sweeps in one pass over its memory (`Diffusion::block`), a
-    /// few milliseconds at 1024^2. So a browser job can yield between pieces and never
+    /// [`diffusion::BLOCK`] half sweeps in one pass over its memory (`Diffusion::block`).
+    /// So a browser job can yield between pieces and never
     /// hold the page for a whole phase. Returns true when the step ended (or when no step
     /// remains); the same bits as [`Eroder::step`], however the work is split, as every
     /// piece runs in the same order. O(chunk) per call, besides a copy or fill of a field
@@ -495,8 +495,10 @@ impl Eroder {
             Phase::Hillslope { half } => {
                 // A pass over the map of up to BLOCK half sweeps, split among the threads
                 // (`Diffusion::block`).
-                let halves = *half..half.saturating_add(diffusion::BLOCK);
-                let halves = halves.start..halves.end.min(self.diffusion.halves());
+                let end = half
+                    .saturating_add(diffusion::BLOCK)
+                    .min(self.diffusion.halves());
+                let halves = *half..end;
                 self.diffusion.block(
                     g,
                     &mut self.heights,
