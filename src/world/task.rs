@@ -360,7 +360,8 @@ pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTabl
     Ok((field, sigma))
 }
 
-/// The cells of `window` of the world of `plan` from its global build.
+/// The cells of `window` of the world of `plan` from its global build: the levels of detail
+/// above it, interpolated along its valleys and crests ([`super::directional`]).
 pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Window) -> Vec<f32> {
     if plan.levels == 0 {
         let n = world.width();
@@ -373,7 +374,9 @@ pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Wind
         return out;
     }
     let key = rng::seed_key(plan.scene.seed);
-    synthesize(world, sigma, plan.levels, key, window)
+    let mut cells = synthesize(world, sigma, plan.levels, key, window);
+    super::directional::correct(world, plan.levels, window, &mut cells);
+    cells
 }
 
 /// Stage 1 of a refined build: tile `k`'s window refined ([`super::refine::refine`]).
