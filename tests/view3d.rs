@@ -36,11 +36,13 @@ fn renderer(ctx: &GpuContext, field: &Heightfield) -> Renderer {
     let maps = TerrainMaps::new(field, CELL, r.max_texture_side());
     // A river along the middle column, for the water layer.
     let n = field.width();
-    let mut order = vec![0u8; n * n];
-    for y in 0..n {
-        order[y * n + n / 2] = 4;
-    }
-    let water = strahler::view3d::maps::water_mask(&order, n, CELL);
+    let middle = (n / 2) as f32;
+    let river = strahler::skeleton::RiverPiece {
+        a: [middle, 0.0],
+        b: [middle, (n - 1) as f32],
+        order: 4,
+    };
+    let water = strahler::view3d::maps::water_mask(&[river], n, CELL);
     r.set_terrain(&ctx.device, &ctx.queue, maps, Some((&water, n)));
     r
 }

@@ -8,13 +8,14 @@ use egui_kittest::Harness;
 use egui_kittest::kittest::Queryable;
 use strahler::app::{CameraRequest, Command, MapsChoice, StrahlerApp, View3d, ViewKind};
 use strahler::heightfield::Heightfield;
+use strahler::skeleton::RiverPiece;
 
 /// Just the 3D view over an analytic terrain with one river, so the snapshot depends on the
 /// renderer alone (not on the generator or on timings).
 struct ViewOnly {
     view: View3d,
     field: Heightfield,
-    rivers: Vec<u8>,
+    rivers: Vec<RiverPiece>,
     /// Make the rasters on the GPU the view draws with (a context on eframe's device).
     gpu_maps: bool,
     gpu: Option<std::sync::Arc<strahler::gpu::GpuContext>>,
@@ -60,7 +61,7 @@ impl eframe::App for ViewOnly {
     }
 }
 
-fn valley(n: usize) -> (Heightfield, Vec<u8>) {
+fn valley(n: usize) -> (Heightfield, Vec<RiverPiece>) {
     let data = (0..n * n)
         .map(|i| {
             let (x, y) = ((i % n) as f32 / n as f32, (i / n) as f32 / n as f32);
@@ -68,11 +69,20 @@ fn valley(n: usize) -> (Heightfield, Vec<u8>) {
             900.0 * across + 250.0 * (9.0 * x).sin() * (6.0 * y).cos() + 600.0 * (1.0 - y)
         })
         .collect();
-    let mut rivers = vec![0u8; n * n];
-    for y in 0..n {
-        let x = ((0.5 + 0.08 * (7.0 * y as f32 / n as f32).sin()) * n as f32) as usize;
-        rivers[y * n + x.min(n - 1)] = 3;
-    }
+    // The valley's floor as a river course, a piece a row.
+    let floor = |y: usize| {
+        [
+            (0.5 + 0.08 * (7.0 * y as f32 / n as f32).sin()) * n as f32,
+            y as f32,
+        ]
+    };
+    let rivers = (1..n)
+        .map(|y| RiverPiece {
+            a: floor(y - 1),
+            b: floor(y),
+            order: 3,
+        })
+        .collect();
     (Heightfield::from_vec(n, n, data).unwrap(), rivers)
 }
 

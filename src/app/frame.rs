@@ -152,7 +152,7 @@ impl StrahlerApp {
                 .map(|f| (f, self.canvas.map.version()));
             let rivers = self.session.output().map(|o| {
                 let s = &o.hydrology.skeleton;
-                (s.river_order.as_slice(), s.size)
+                (s.courses.as_slice(), s.size)
             });
             let cell = self.session.output().map_or(1.0, |o| o.cell_m as f32);
             // The 3D view's rasters on the GPU it draws with, where that pays (or where

@@ -174,7 +174,8 @@ impl View3d {
     }
 
     /// Draws the view into the rest of `ui`: uploads a changed terrain, moves the camera from
-    /// input and renders a frame. `rivers` is the skeleton's Strahler order per cell (square);
+    /// input and renders a frame. `rivers` is the rivers' courses on the skeleton's square grid
+    /// of that side;
     /// `cell` the field's cell size in metres. With `gpu` (the device the view draws with)
     /// the rasters are made there, else on the CPU; `on_gpu` is the field already on a GPU,
     /// if the pipeline left it there (read there instead of uploaded).
@@ -185,7 +186,7 @@ impl View3d {
         frame: &eframe::Frame,
         field: Option<(&crate::heightfield::Heightfield, u64)>,
         on_gpu: Option<&crate::gpu::GpuField>,
-        rivers: Option<(&[u8], usize)>,
+        rivers: Option<(&[crate::skeleton::RiverPiece], usize)>,
         cell: f32,
         gpu: Option<&std::sync::Arc<crate::gpu::GpuContext>>,
     ) {
@@ -220,7 +221,7 @@ impl View3d {
             // O(cells), off the UI thread; a newer terrain cancels the older preparation.
             let max_side = renderer.max_texture_side();
             let field = field.clone();
-            let rivers = rivers.map(|(order, side)| (order.to_vec(), side));
+            let rivers = rivers.map(|(courses, side)| (courses.to_vec(), side));
             let repaint = ui.ctx().clone();
             let gpu = gpu.cloned();
             let on_gpu = on_gpu.filter(|_| gpu.is_some()).cloned();
@@ -230,10 +231,10 @@ impl View3d {
                     let gpu = gpu.as_deref().map(|g| (g, on_gpu.as_ref()));
                     let maps = prepare_maps(gpu, &field, cell, max_side, &job).await?;
                     // The skeleton's cells may be coarser than the field's (detail levels).
-                    let water = rivers.map(|(order, side)| {
+                    let water = rivers.map(|(courses, side)| {
                         let river_cell = cell * field.width() as f32 / side.max(1) as f32;
                         (
-                            crate::view3d::maps::water_mask(&order, side, river_cell),
+                            crate::view3d::maps::water_mask(&courses, side, river_cell),
                             side,
                         )
                     });

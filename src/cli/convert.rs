@@ -135,10 +135,9 @@ fn package(
         .request(&args.output, args.size, args.flip_y, args.z_scale, w)?;
     super::package::claim(&mut outputs, &args.output, &request)?;
     // No rivers to describe: the maps route their own water.
-    let order = vec![0u8; w * h];
     let inputs = crate::export::Inputs {
         georef: Some(&dem.georef),
-        ..crate::export::Inputs::bare(field, cell_m, &order)
+        ..crate::export::Inputs::bare(field, cell_m)
     };
     let files = super::progress::with_bar(args.progress, |ctx| {
         pollster::block_on(crate::export::files(&inputs, &request, ctx))

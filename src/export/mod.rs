@@ -22,6 +22,7 @@ use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 use crate::ridge::RidgeSegment;
 use crate::river::RiverNetwork;
+use crate::skeleton::RiverPiece;
 
 pub use maps::{NormalConvention, SplatRules};
 pub use preset::{Engine, EngineNumbers};
@@ -189,9 +190,9 @@ pub struct Inputs<'a> {
     pub cell_m: f64,
     pub networks: &'a [RiverNetwork],
     pub ridges: &'a [RidgeSegment],
-    /// The skeleton's size and every cell's Strahler order (0 off the rivers).
+    /// The skeleton's size, and the rivers' courses on its grid (the water map's).
     pub skeleton_cells: usize,
-    pub river_order: &'a [u8],
+    pub river_courses: &'a [RiverPiece],
     /// Drainage area (m^2) on the skeleton's grid, for the rivers' GeoJSON (may be empty
     /// when the request has no rivers).
     pub area_m2: &'a [f32],
@@ -211,15 +212,15 @@ pub struct Inputs<'a> {
 impl<'a> Inputs<'a> {
     /// A terrain with nothing drawn on it (a DEM being converted, a benchmark's field):
     /// no rivers or ridges, no erosion, the default splat rules, a local grid. The maps
-    /// route their own water; `river_order` (the water map's, one per cell) may be zeros.
-    pub fn bare(field: &'a Heightfield, cell_m: f64, river_order: &'a [u8]) -> Self {
+    /// route their own water; the water map is dry.
+    pub fn bare(field: &'a Heightfield, cell_m: f64) -> Self {
         Self {
             field,
             cell_m,
             networks: &[],
             ridges: &[],
             skeleton_cells: field.width(),
-            river_order,
+            river_courses: &[],
             area_m2: &[],
             lowered: None,
             splat: SplatRules::default(),
@@ -700,7 +701,8 @@ async fn texture(
             let n = inputs.skeleton_cells;
             let skeleton_cell =
                 inputs.cell_m * (inputs.field.width().max(2) - 1) as f64 / (n.max(2) - 1) as f64;
-            let mask = crate::view3d::maps::water_mask(inputs.river_order, n, skeleton_cell as f32);
+            let mask =
+                crate::view3d::maps::water_mask(inputs.river_courses, n, skeleton_cell as f32);
             grey(nearest(&mask, n, w, h, measure).await.map_err(cancelled)?).await
         }
         MapKind::Splat => {
@@ -824,8 +826,7 @@ mod tests {
             .map(|i| ((i % n) as f32 * 0.3).sin() * 40.0 + (i / n) as f32)
             .collect();
         let field = Heightfield::from_vec(n, n, data).unwrap();
-        let order = vec![0u8; n * n];
-        let inputs = Inputs::bare(&field, 10.0, &order);
+        let inputs = Inputs::bare(&field, 10.0);
         let mut request = Request::heightmap(Format::Png);
         request.maps = vec![MapKind::Normal, MapKind::Flow, MapKind::Basins];
         let ctx = JobCtx::detached();
@@ -846,11 +847,16 @@ mod tests {
             .map(|i| ((i % n) as f32 * 0.21).sin() * 30.0 + ((i / n) as f32 * 0.17).cos() * 20.0)
             .collect();
         let field = Heightfield::from_vec(n, n, data).unwrap();
-        let order = vec![1u8; n * n];
+        let river = [RiverPiece {
+            a: [3.0, 90.0],
+            b: [80.0, 7.0],
+            order: 6,
+        }];
         let lowered = vec![0.25f32; n * n];
         let inputs = Inputs {
             lowered: Some(&lowered),
-            ..Inputs::bare(&field, 10.0, &order)
+            river_courses: &river,
+            ..Inputs::bare(&field, 10.0)
         };
         let mut request = Request::heightmap(Format::Png);
         request.maps = MapKind::ALL.to_vec();

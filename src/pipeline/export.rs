@@ -76,7 +76,7 @@ impl Output {
                 .collect(),
             ridges: self.hydrology.ridges.clone(),
             skeleton_cells: self.hydrology.skeleton.size,
-            river_order: self.hydrology.skeleton.river_order.clone(),
+            river_courses: self.hydrology.skeleton.courses.clone(),
             base: Arc::new(self.base().clone()),
             lowered: self
                 .erosion
@@ -110,7 +110,7 @@ pub struct ExportSource {
     networks: Vec<crate::river::RiverNetwork>,
     ridges: Vec<crate::ridge::RidgeSegment>,
     skeleton_cells: usize,
-    river_order: Vec<u8>,
+    river_courses: Vec<crate::skeleton::RiverPiece>,
     /// The terrain before detail and blocks, on the skeleton's grid.
     base: Arc<Heightfield>,
     lowered: Option<Vec<f32>>,
@@ -152,7 +152,7 @@ impl ExportSource {
             networks: &self.networks,
             ridges: &self.ridges,
             skeleton_cells: n,
-            river_order: &self.river_order,
+            river_courses: &self.river_courses,
             area_m2: &area,
             lowered: self.lowered.as_deref(),
             splat: self.splat,

@@ -101,6 +101,19 @@ pub struct Skeleton {
     /// in cells ([`meander::course_in_belt`]; ascending by cell, each once): the erosion
     /// widens the valley floor beside them by that much, so the floor spans the belt.
     pub belt: Vec<(u32, f32)>,
+    /// The rivers' courses as straight pieces below the cell ([`RiverPiece`]), the lines the
+    /// river cells were drawn from: water drawn with banks that follow the course, not the
+    /// cells' staircase.
+    pub courses: Vec<RiverPiece>,
+}
+
+/// A straight piece of a river's course on the skeleton's grid, in cells (the cells' centres
+/// at whole numbers, `x` along a row), with the Strahler order of its link.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RiverPiece {
+    pub a: [f32; 2],
+    pub b: [f32; 2],
+    pub order: u8,
 }
 
 impl Skeleton {
@@ -184,6 +197,7 @@ impl Skeleton {
             mouths: Vec::new(),
             trunk: Vec::new(),
             belt: Vec::new(),
+            courses: Vec::new(),
         }
     }
 }
@@ -221,7 +235,34 @@ pub async fn rasterise_rivers(
     sk.mouths = interior_mouths(rivers, n);
     sk.trunk = trunk_cells(rivers, n);
     sk.belt = belt_cells(rivers, n);
+    sk.courses = river_pieces(rivers, orders, n);
     Ok(())
+}
+
+/// The straight pieces of every link's wandering (or meandering) course, in cells, with
+/// the link's order: [`Skeleton::courses`]. O(pieces).
+fn river_pieces(rivers: &[RiverNetwork], orders: &[Vec<u32>], n: usize) -> Vec<RiverPiece> {
+    let scale = (n.max(2) - 1) as f64;
+    let cell = |p: DVec2| [(p.x * scale) as f32, (p.y * scale) as f32];
+    rivers
+        .iter()
+        .zip(orders)
+        .flat_map(|(net, order)| {
+            net.link_pairs().flat_map(move |(p, c)| {
+                let points = meander::course(net.nodes[p], net.nodes[c], n, net.bends(c));
+                let order = order[c].min(255) as u8;
+                let pieces: Vec<RiverPiece> = points
+                    .windows(2)
+                    .map(|w| RiverPiece {
+                        a: cell(w[0]),
+                        b: cell(w[1]),
+                        order,
+                    })
+                    .collect();
+                pieces
+            })
+        })
+        .collect()
 }
 
 /// The river cells of the meandering links with their slack inside the belt, in cells
@@ -498,6 +539,7 @@ mod tests {
             mouths: Vec::new(),
             trunk: Vec::new(),
             belt: Vec::new(),
+            courses: Vec::new(),
         };
         let err = skeleton.constraints().unwrap_err();
         assert!(err.to_string().contains("(5, 0)"), "{err}");

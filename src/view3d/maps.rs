@@ -19,6 +19,7 @@
 
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::skeleton::RiverPiece;
 use crate::wavelet::analysis::{self, AnalysisParams, Transformed};
 use crate::wavelet::lifting::Band;
 
@@ -550,34 +551,59 @@ pub fn river_width_m(order: u8) -> f32 {
     2.5 * 2f32.powi(i32::from(order.max(1)) - 1)
 }
 
-/// The river network as a water mask: 255 on the cells a river covers at its width
-/// ([`river_width_m`]) on cells `cell_m` metres wide; a river narrower than half a cell stays
-/// dry (so only real rivers look like water, whatever the map's scale). `order` is the
-/// skeleton's per-cell order, `size` x `size`.
-pub fn water_mask(order: &[u8], size: usize, cell_m: f32) -> Vec<u8> {
+/// The river network as a water mask on a `size` x `size` grid of cells `cell_m` metres
+/// wide: each cell's share of water (0 to 255) from the rivers' courses
+/// ([`RiverPiece`]s, in cells) at their widths ([`river_width_m`]), at least one cell wide;
+/// a river narrower than half a cell stays dry (so only real rivers look like water,
+/// whatever the map's scale). A cell's share falls from full to none over the cell across
+/// the bank (`half width + 1/2 - distance`, clamped): sampled linearly, the banks follow the
+/// course below the cell, not the cells' staircase. O(pieces x their cells).
+pub fn water_mask(pieces: &[RiverPiece], size: usize, cell_m: f32) -> Vec<u8> {
     let mut out = vec![0u8; size * size];
-    if order.len() < size * size || cell_m.is_nan() || cell_m <= 0.0 {
+    if size == 0 || cell_m.is_nan() || cell_m <= 0.0 {
         return out;
     }
-    for y in 0..size {
-        for x in 0..size {
-            let o = order[y * size + x];
-            if o == 0 {
-                continue;
-            }
-            let width = river_width_m(o);
-            if width < 0.5 * cell_m {
-                continue;
-            }
-            let r = ((width / cell_m - 1.0) / 2.0).ceil().max(0.0) as usize;
-            for yy in y.saturating_sub(r)..=(y + r).min(size - 1) {
-                for xx in x.saturating_sub(r)..=(x + r).min(size - 1) {
-                    out[yy * size + xx] = 255;
-                }
+    for piece in pieces {
+        let width = river_width_m(piece.order);
+        if width < 0.5 * cell_m {
+            continue;
+        }
+        let half = (0.5 * width / cell_m).max(0.5);
+        let reach = half + 0.5;
+        let (lo, hi) = (
+            [piece.a[0].min(piece.b[0]), piece.a[1].min(piece.b[1])],
+            [piece.a[0].max(piece.b[0]), piece.a[1].max(piece.b[1])],
+        );
+        let last = (size - 1) as f32;
+        let cells = |from: f32, to: f32| {
+            let from = (from - reach).ceil().clamp(0.0, last) as usize;
+            let to = (to + reach).floor().clamp(0.0, last) as usize;
+            from..=to
+        };
+        for y in cells(lo[1], hi[1]) {
+            for x in cells(lo[0], hi[0]) {
+                let d = distance_to_piece([x as f32, y as f32], piece);
+                let share = (half + 0.5 - d).clamp(0.0, 1.0);
+                let v = (share * 255.0).round() as u8;
+                let cell = &mut out[y * size + x];
+                *cell = (*cell).max(v);
             }
         }
     }
     out
+}
+
+/// How far point `p` lies from the piece's segment, in cells.
+fn distance_to_piece(p: [f32; 2], piece: &RiverPiece) -> f32 {
+    let (a, b) = (piece.a, piece.b);
+    let d = [b[0] - a[0], b[1] - a[1]];
+    let len2 = d[0] * d[0] + d[1] * d[1];
+    let t = if len2 > 0.0 {
+        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
 }
 
 /// Nearest-sample reduction of a square mask to at most `max_side` texels per side.
@@ -770,27 +796,74 @@ mod tests {
         assert!((right - 0.71).abs() < 0.12, "{right}");
     }
 
+    fn piece(a: [f32; 2], b: [f32; 2], order: u8) -> RiverPiece {
+        RiverPiece { a, b, order }
+    }
+
     #[test]
     fn water_follows_the_river_width_in_metres() {
         let n = 21;
-        let mut order = vec![0u8; n * n];
-        for y in 0..n {
-            order[y * n + 5] = 1; // a creek: 2.5 m
-            order[y * n + 14] = 5; // a river: 40 m
-        }
+        let rivers = [
+            piece([5.0, 0.0], [5.0, 20.0], 1),   // a creek: 2.5 m
+            piece([14.0, 0.0], [14.0, 20.0], 5), // a river: 40 m
+        ];
         let wet_columns = |cell: f32| {
-            let mask = water_mask(&order, n, cell);
+            let mask = water_mask(&rivers, n, cell);
             (0..n)
-                .filter(|&x| mask[10 * n + x] == 255)
+                .filter(|&x| mask[10 * n + x] >= 128)
                 .collect::<Vec<_>>()
         };
-        // 10 m cells: the creek stays dry, the river is five cells wide (one centre cell
-        // and two on each side: ceil((40 / 10 - 1) / 2) = 2).
+        // 10 m cells: the creek stays dry, the river is four cells wide, its banks halfway
+        // across the cells two from its course (at half their share).
         assert_eq!(wet_columns(10.0), vec![12, 13, 14, 15, 16]);
-        // 4 m cells: the creek is water too.
+        let mask = water_mask(&rivers, n, 10.0);
+        assert_eq!(mask[10 * n + 14], 255);
+        assert_eq!(mask[10 * n + 12], 128);
+        assert_eq!(mask[10 * n + 11], 0);
+        // 4 m cells: the creek is water too, at least a cell wide.
         assert!(wet_columns(4.0).contains(&5));
         // 100 m cells: even the river is narrower than half a cell.
         assert!(wet_columns(100.0).is_empty());
         assert_eq!(river_width_m(7), 160.0);
+    }
+
+    /// A river across the grid's axes: where its water ends, found below the cell from the
+    /// shares (linearly between the cells that straddle half), lies the same distance from
+    /// its course all along it, within a sixth of a cell (the shares are linear in the
+    /// distance over one cell, so two cells straddling the bank can hold one full share);
+    /// the cells' staircase, drawn at full or no water, puts it anywhere within a cell.
+    #[test]
+    fn water_banks_follow_an_oblique_course_not_the_cells() {
+        let n = 64;
+        let (a, b) = ([4.0, 10.0], [60.0, 38.0]); // a slope of 1/2
+        let mask = water_mask(&[piece(a, b, 5)], n, 10.0);
+        let slope = (b[1] - a[1]) / (b[0] - a[0]);
+        let mut offsets = Vec::new();
+        for x in 12..52 {
+            let centre = a[1] + slope * (x as f32 - a[0]);
+            // Down the column from the course: the first cell under half water.
+            let mut y = centre.ceil() as usize;
+            while mask[y * n + x] >= 128 {
+                y += 1;
+            }
+            let (wet, dry) = (f32::from(mask[(y - 1) * n + x]), f32::from(mask[y * n + x]));
+            let edge = (y - 1) as f32 + (wet - 127.5) / (wet - dry);
+            offsets.push(edge - centre);
+        }
+        let (lo, hi) = offsets
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(l, h), v| {
+                (l.min(*v), h.max(*v))
+            });
+        assert!(
+            hi - lo < 0.16,
+            "the bank wanders {lo}..{hi} cells from the course"
+        );
+        // Vertical distance of a bank 2 cells from a course of slope 1/2: 2 sqrt(1.25).
+        let expected = 2.0 * 1.25f32.sqrt();
+        assert!(
+            (lo - expected).abs() < 0.1 && (hi - expected).abs() < 0.1,
+            "{lo}..{hi}"
+        );
     }
 }

@@ -26,10 +26,9 @@ pub fn run(args: &ExportArgs) -> Result<(), Box<dyn std::error::Error>> {
         let mut field = fbm::diamond_square(n, n, 0.7, 3)?;
         field.data_mut().iter_mut().for_each(|v| *v *= 1500.0);
         let lowered = vec![0.5f32; n * n];
-        let order = vec![0u8; n * n];
         let inputs = Inputs {
             lowered: Some(&lowered),
-            ..Inputs::bare(&field, 10.0, &order)
+            ..Inputs::bare(&field, 10.0)
         };
         for (name, request) in requests(n) {
             let (ms, (slice, before), files) = timed(&inputs, &request)?;
