@@ -52,24 +52,26 @@ pub fn correct(world: &Heightfield, levels: u32, window: Window, heights: &mut [
         return;
     }
     let directed = interpolate(world, levels, window);
-    let s = f64::from(1u32 << levels);
-    for (i, h) in heights.iter_mut().enumerate() {
-        let (x, y) = (window.x0 + i % window.width, window.y0 + i / window.width);
-        let linear = bilinear(world, x as f64 / s, y as f64 / s);
-        *h += (directed.at(x as isize, y as isize) - linear) as f32;
-    }
-}
-
-/// `world` at (`x`, `y`) global cells, bilinear.
-fn bilinear(world: &Heightfield, x: f64, y: f64) -> f64 {
+    let s = 1usize << levels;
     let (w, h) = (world.width(), world.height());
-    let (x0, y0) = ((x as usize).min(w - 2), (y as usize).min(h - 2));
-    let (fx, fy) = (x - x0 as f64, y - y0 as f64);
     let z = world.data();
     let at = |x: usize, y: usize| f64::from(z[y * w + x]);
-    let top = at(x0, y0) + fx * (at(x0 + 1, y0) - at(x0, y0));
-    let bottom = at(x0, y0 + 1) + fx * (at(x0 + 1, y0 + 1) - at(x0, y0 + 1));
-    top + fy * (bottom - top)
+    for (row, y) in heights
+        .chunks_exact_mut(window.width)
+        .zip(window.y0..window.y0 + window.height)
+    {
+        // The linear interpolation (bilinear at the world's cells) of the global build.
+        let y0 = (y / s).min(h - 2);
+        let fy = (y - y0 * s) as f64 / s as f64;
+        for (cell, x) in row.iter_mut().zip(window.x0..) {
+            let x0 = (x / s).min(w - 2);
+            let fx = (x - x0 * s) as f64 / s as f64;
+            let top = at(x0, y0) + fx * (at(x0 + 1, y0) - at(x0, y0));
+            let bottom = at(x0, y0 + 1) + fx * (at(x0 + 1, y0 + 1) - at(x0, y0 + 1));
+            let linear = top + fy * (bottom - top);
+            *cell += (directed.inside(x as isize, y as isize) - linear) as f32;
+        }
+    }
 }
 
 /// A rectangle of one level's cells: its first column and row, its size, its values; the
@@ -103,6 +105,27 @@ impl Level {
         let x = clamp(x, self.side[0], self.x0, self.w);
         let y = clamp(y, self.side[1], self.y0, self.h);
         self.v[y * self.w + x]
+    }
+
+    /// A reader of the cells within `r` of (`x`, `y`): [`Level::inside`] where they all lie
+    /// in the rectangle, else [`Level::at`] (the same values where both read).
+    fn reader(&self, x: isize, y: isize, r: isize) -> impl Fn(isize, isize) -> f64 + '_ {
+        let fast = self.holds(x, y, r);
+        move |i, j| {
+            if fast {
+                self.inside(i, j)
+            } else {
+                self.at(i, j)
+            }
+        }
+    }
+
+    /// A level of the same rectangle with no values.
+    fn clone_shape(&self) -> Self {
+        Self {
+            v: Vec::new(),
+            ..*self
+        }
     }
 
     /// Whether every cell within `r` of (`x`, `y`) lies in the rectangle (which lies in the
@@ -185,40 +208,67 @@ fn refine(coarse: &Level, rect: [usize; 4], side: [usize; 2]) -> Level {
         side,
         v: vec![0.0; (x1 - x0) * (y1 - y0)],
     };
-    // First the coarse cells and the centres, then the edges that read them.
-    for pass in [false, true] {
-        for y in y0..y1 {
-            for x in x0..x1 {
-                let (odd_x, odd_y) = (x % 2 == 1, y % 2 == 1);
-                let is_edge = odd_x != odd_y;
-                if is_edge != pass {
-                    continue;
-                }
-                let (cx, cy) = ((x / 2) as isize, (y / 2) as isize);
-                let (fx, fy) = (x as isize, y as isize);
-                // Away from the rectangle's edges the reads need no mirror or clamp: the
-                // same values, read faster.
-                let value = match (odd_x, odd_y) {
-                    (false, false) => coarse.at(cx, cy),
-                    (true, true) if coarse.holds(cx, cy, 2) => {
-                        centre(|x, y| coarse.inside(x, y), cx, cy)
-                    }
-                    (true, true) => centre(|x, y| coarse.at(x, y), cx, cy),
-                    // On the grid's edge only the pair along it is the world's.
-                    (true, false) if y == 0 || y + 1 == side[1] => {
-                        0.5 * (fine.at(fx - 1, fy) + fine.at(fx + 1, fy))
-                    }
-                    (false, true) if x == 0 || x + 1 == side[0] => {
-                        0.5 * (fine.at(fx, fy - 1) + fine.at(fx, fy + 1))
-                    }
-                    _ if fine.holds(fx, fy, 3) => edge(|x, y| fine.inside(x, y), fx, fy),
-                    _ => edge(|x, y| fine.at(x, y), fx, fy),
-                };
-                fine.v[(y - y0) * fine.w + (x - x0)] = value;
+    // First the coarse cells and the centres, each centre reading the bends of its corners.
+    let every = |_: usize, _: usize| true;
+    let down = bends(coarse, (1, 1), every);
+    let up = bends(coarse, (1, -1), every);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let (cx, cy) = ((x / 2) as isize, (y / 2) as isize);
+            let value = match (x % 2 == 1, y % 2 == 1) {
+                (false, false) => coarse.at(cx, cy),
+                (true, true) => centre(coarse, (&down, &up), cx, cy),
+                _ => continue,
+            };
+            fine.v[(y - y0) * fine.w + (x - x0)] = value;
+        }
+    }
+    // Then the cells between two, reading the bends of the cells around them along each
+    // axis (cells two apart: coarse cells and centres).
+    let known = |x: usize, y: usize| x % 2 == y % 2;
+    let along_x = bends(&fine, (2, 0), known);
+    let along_y = bends(&fine, (0, 2), known);
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let (odd_x, odd_y) = (x % 2 == 1, y % 2 == 1);
+            if odd_x == odd_y {
+                continue;
             }
+            let (fx, fy) = (x as isize, y as isize);
+            let value = if odd_x && (y == 0 || y + 1 == side[1]) {
+                // On the grid's edge only the pair along it is the world's.
+                0.5 * (fine.at(fx - 1, fy) + fine.at(fx + 1, fy))
+            } else if odd_y && (x == 0 || x + 1 == side[0]) {
+                0.5 * (fine.at(fx, fy - 1) + fine.at(fx, fy + 1))
+            } else {
+                edge(&fine, (&along_x, &along_y), fx, fy)
+            };
+            fine.v[(y - y0) * fine.w + (x - x0)] = value;
         }
     }
     fine
+}
+
+/// The second differences `|v(p - d) - 2 v(p) + v(p + d)|` of `level` along `d` at each of
+/// its cells where `at_cell` (0 elsewhere), as a level of the same rectangle.
+fn bends(level: &Level, (dx, dy): (isize, isize), at_cell: impl Fn(usize, usize) -> bool) -> Level {
+    let reach = dx.abs().max(dy.abs());
+    let mut v = vec![0.0; level.w * level.h];
+    for y in level.y0..level.y0 + level.h {
+        for x in level.x0..level.x0 + level.w {
+            if !at_cell(x, y) {
+                continue;
+            }
+            let (fx, fy) = (x as isize, y as isize);
+            let read = level.reader(fx, fy, reach);
+            v[(y - level.y0) * level.w + (x - level.x0)] =
+                (read(fx - dx, fy - dy) - 2.0 * read(fx, fy) + read(fx + dx, fy + dy)).abs();
+        }
+    }
+    Level {
+        v,
+        ..level.clone_shape()
+    }
 }
 
 /// The weight of direction `a` against `b` given their variations: one where `a` varies
@@ -241,45 +291,53 @@ fn weight(a: f64, b: f64) -> f64 {
 }
 
 /// The centre of coarse square (`x`, `y`)-(`x + 1`, `y + 1`): the mean of the diagonal pair
-/// along which the surface bends least, its second differences along each diagonal at the
-/// square's four corners (a valley or a crest is straight along itself and bent across).
-fn centre(c: impl Fn(isize, isize) -> f64, x: isize, y: isize) -> f64 {
-    let (mut down, mut up) = (0.0, 0.0);
-    for j in y..=y + 1 {
-        for i in x..=x + 1 {
-            let middle = 2.0 * c(i, j);
-            down += (c(i - 1, j - 1) - middle + c(i + 1, j + 1)).abs();
-            up += (c(i + 1, j - 1) - middle + c(i - 1, j + 1)).abs();
-        }
-    }
+/// along which the surface bends least, its second differences along each diagonal
+/// (`down`, `up`) at the square's four corners (a valley or a crest is straight along itself
+/// and bent across).
+fn centre(c: &Level, (down, up): (&Level, &Level), x: isize, y: isize) -> f64 {
+    let corners = [(x, y), (x + 1, y), (x, y + 1), (x + 1, y + 1)];
+    let sum = |b: &Level| {
+        let b = b.reader(x, y, 1);
+        corners.iter().map(|&(i, j)| b(i, j)).sum::<f64>()
+    };
+    let c = c.reader(x, y, 1);
     let along_down = 0.5 * (c(x, y) + c(x + 1, y + 1));
     let along_up = 0.5 * (c(x + 1, y) + c(x, y + 1));
-    let w = weight(down, up);
+    let w = weight(sum(down), sum(up));
     w * along_down + (1.0 - w) * along_up
 }
 
 /// A cell between two coarse cells (along x or y), its other two neighbours centres: the
 /// mean of the pair along which the surface bends least, its second differences along each
-/// axis at the four neighbours (cells two apart, all coarse cells or centres).
-fn edge(f: impl Fn(isize, isize) -> f64, x: isize, y: isize) -> f64 {
-    let bend = |a: f64, b: f64, c: f64| (a - 2.0 * b + c).abs();
-    let horizontal = bend(f(x - 3, y), f(x - 1, y), f(x + 1, y))
-        + bend(f(x - 1, y), f(x + 1, y), f(x + 3, y))
-        + bend(f(x - 2, y - 1), f(x, y - 1), f(x + 2, y - 1))
-        + bend(f(x - 2, y + 1), f(x, y + 1), f(x + 2, y + 1));
-    let vertical = bend(f(x, y - 3), f(x, y - 1), f(x, y + 1))
-        + bend(f(x, y - 1), f(x, y + 1), f(x, y + 3))
-        + bend(f(x - 1, y - 2), f(x - 1, y), f(x - 1, y + 2))
-        + bend(f(x + 1, y - 2), f(x + 1, y), f(x + 1, y + 2));
+/// axis (`along_x`, `along_y`) at the four neighbours.
+fn edge(f: &Level, (along_x, along_y): (&Level, &Level), x: isize, y: isize) -> f64 {
+    let around = [(x - 1, y), (x + 1, y), (x, y - 1), (x, y + 1)];
+    let sum = |b: &Level| {
+        let b = b.reader(x, y, 1);
+        around.iter().map(|&(i, j)| b(i, j)).sum::<f64>()
+    };
+    let f = f.reader(x, y, 1);
     let along_h = 0.5 * (f(x - 1, y) + f(x + 1, y));
     let along_v = 0.5 * (f(x, y - 1) + f(x, y + 1));
-    let w = weight(horizontal, vertical);
+    let w = weight(sum(along_x), sum(along_y));
     w * along_h + (1.0 - w) * along_v
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `world` at (`x`, `y`) global cells, bilinear: the levels' interpolation without detail.
+    fn bilinear(world: &Heightfield, x: f64, y: f64) -> f64 {
+        let (w, h) = (world.width(), world.height());
+        let (x0, y0) = ((x as usize).min(w - 2), (y as usize).min(h - 2));
+        let (fx, fy) = (x - x0 as f64, y - y0 as f64);
+        let z = world.data();
+        let at = |x: usize, y: usize| f64::from(z[y * w + x]);
+        let top = at(x0, y0) + fx * (at(x0 + 1, y0) - at(x0, y0));
+        let bottom = at(x0, y0 + 1) + fx * (at(x0 + 1, y0 + 1) - at(x0, y0 + 1));
+        top + fy * (bottom - top)
+    }
 
     fn field(n: usize, f: impl Fn(f64, f64) -> f64) -> Heightfield {
         let data = (0..n * n)
