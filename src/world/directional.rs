@@ -12,19 +12,20 @@
 //! Here the global build is interpolated once more, level by level, with the edge-directed
 //! rule of directional cubic convolution (Zhou, Shen and Zeng 2012, "Image zooming using
 //! directional cubic convolution interpolation", IET Image Processing 6(6)): each new cell
-//! between four global cells takes the mean of the diagonal pair along which the global
-//! build varies least over a 4 x 4 window (the valley's or the crest's direction), and each
-//! new cell between two takes the mean of the axis pair along which its neighbourhood varies
-//! least; where neither direction dominates, both pairs weighted by the other's variation to
-//! the power [`SHARPNESS`]. The world's cells then take the difference between this and the
-//! linear interpolation ([`correct`]): the detail the levels added stays, the interpolation
-//! under it follows the edges.
+//! between four cells takes the mean of the diagonal pair along which the surface bends
+//! least (the second differences along each diagonal at the square's four corners: a valley
+//! or a crest is straight along itself and bent across), and each new cell between two the
+//! mean of the axis pair along which it bends least at its four neighbours; the two pairs
+//! weighted by the other's bending to the power [`SHARPNESS`]. The world's cells then take
+//! the difference between this and the linear interpolation ([`correct`]): the detail the
+//! levels added stays, the interpolation under it follows the edges.
 //!
-//! Departures from the paper: the interpolation along the chosen direction is linear (two
-//! cells), not cubic (four), so it never overshoots its neighbours (no new pits or peaks);
-//! the weights are `1 / (1 + (G_a / G_b)^k)`, free of the paper's `1 +` offset in height
-//! units and of its hard switch at a ratio of 1.15, so the result varies smoothly with the
-//! heights.
+//! Departures from the paper: the direction is chosen by second differences, not first (on
+//! a slope both diagonals rise, and first differences saw a direction where there is none:
+//! a herringbone on every slope); the interpolation along it is linear (two cells), not
+//! cubic (four), so it never overshoots its neighbours (no new pits or peaks); the weights
+//! are `1 / (1 + ratio^k)`, free of the paper's `1 +` offset in height units and of its hard
+//! switch at a ratio of 1.15, so the result varies smoothly with the heights.
 //!
 //! Every cell is a function of the global build and its global position (each level is
 //! computed over the rectangle the next needs, with a margin wider than the rule reaches),
@@ -35,9 +36,9 @@ use crate::heightfield::Heightfield;
 
 use super::window::Window;
 
-/// How sharply the interpolation follows the direction of least variation: the weight of a
-/// direction whose variation is `r` times the other's is `1 / (1 + r^SHARPNESS)` (a ratio of
-/// 1.5, 0.04).
+/// How sharply the interpolation follows the direction that bends least: the weight of a
+/// direction that bends `r` times as much as the other is `1 / (1 + r^SHARPNESS)` (a ratio
+/// of 2, 0.06).
 pub const SHARPNESS: i32 = 4;
 
 /// Cells of margin each level computes around what the next level (or the window) reads:
@@ -75,7 +76,7 @@ pub fn correct(world: &Heightfield, levels: u32, window: Window, heights: &mut [
 }
 
 /// A rectangle of one level's cells: its first column and row, its size, its values; the
-/// level's grid is `side` cells each way (reads past it are clamped to it).
+/// level's grid is `side` cells each way (reads past it are mirrored, [`Level::at`]).
 #[derive(Clone, Debug)]
 struct Level {
     x0: usize,
@@ -271,8 +272,8 @@ fn bends(level: &Level, (dx, dy): (isize, isize), at_cell: impl Fn(usize, usize)
     }
 }
 
-/// The weight of direction `a` against `b` given their variations: one where `a` varies
-/// far less, a half where they vary alike (or not at all).
+/// The weight of direction `a` against `b` given how much the surface bends along each: one
+/// where it bends far less along `a`, a half where alike (or not at all).
 fn weight(a: f64, b: f64) -> f64 {
     if a + b <= 0.0 {
         return 0.5;
