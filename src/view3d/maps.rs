@@ -569,28 +569,50 @@ pub fn water_mask(pieces: &[RiverPiece], size: usize, cell_m: f32) -> Vec<u8> {
             continue;
         }
         let half = (0.5 * width / cell_m).max(0.5);
-        let reach = half + 0.5;
-        let (lo, hi) = (
-            [piece.a[0].min(piece.b[0]), piece.a[1].min(piece.b[1])],
-            [piece.a[0].max(piece.b[0]), piece.a[1].max(piece.b[1])],
-        );
-        let last = (size - 1) as f32;
-        let cells = |from: f32, to: f32| {
-            let from = (from - reach).ceil().clamp(0.0, last) as usize;
-            let to = (to + reach).floor().clamp(0.0, last) as usize;
-            from..=to
-        };
-        for y in cells(lo[1], hi[1]) {
-            for x in cells(lo[0], hi[0]) {
-                let d = distance_to_piece([x as f32, y as f32], piece);
-                let share = (half + 0.5 - d).clamp(0.0, 1.0);
-                let v = (share * 255.0).round() as u8;
-                let cell = &mut out[y * size + x];
-                *cell = (*cell).max(v);
-            }
+        // A long piece in parts of a few cells, each over its own box of cells (the share is
+        // the largest over the parts, the share of the nearest).
+        let (a, b) = (piece.a, piece.b);
+        let length = (b[0] - a[0]).hypot(b[1] - a[1]);
+        let parts = (length / PART_CELLS).ceil().clamp(1.0, 1e6) as usize;
+        for k in 0..parts {
+            let along = |t: f32| [a[0] + t * (b[0] - a[0]), a[1] + t * (b[1] - a[1])];
+            let part = RiverPiece {
+                a: along(k as f32 / parts as f32),
+                b: along((k + 1) as f32 / parts as f32),
+                order: piece.order,
+            };
+            wet(&mut out, size, &part, half);
         }
     }
     out
+}
+
+/// The longest part of a piece [`water_mask`] takes at a time, in cells.
+const PART_CELLS: f32 = 4.0;
+
+/// Raises the water of the cells of `out` (`size` a side) within reach of `piece` to their
+/// share of a river `half` cells wide each side of it.
+fn wet(out: &mut [u8], size: usize, piece: &RiverPiece, half: f32) {
+    let reach = half + 0.5;
+    let (lo, hi) = (
+        [piece.a[0].min(piece.b[0]), piece.a[1].min(piece.b[1])],
+        [piece.a[0].max(piece.b[0]), piece.a[1].max(piece.b[1])],
+    );
+    let last = (size - 1) as f32;
+    let cells = |from: f32, to: f32| {
+        let from = (from - reach).ceil().clamp(0.0, last) as usize;
+        let to = (to + reach).floor().clamp(0.0, last) as usize;
+        from..=to
+    };
+    for y in cells(lo[1], hi[1]) {
+        for x in cells(lo[0], hi[0]) {
+            let d = distance_to_piece([x as f32, y as f32], piece);
+            let share = (half + 0.5 - d).clamp(0.0, 1.0);
+            let v = (share * 255.0).round() as u8;
+            let cell = &mut out[y * size + x];
+            *cell = (*cell).max(v);
+        }
+    }
 }
 
 /// How far point `p` lies from the piece's segment, in cells.
