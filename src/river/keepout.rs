@@ -56,7 +56,7 @@ fn segment_distance(p: DVec2, q: DVec2, a: DVec2, b: DVec2) -> f64 {
 }
 
 /// The distance from `x` to the segment `a -> b`.
-fn point_segment(x: DVec2, a: DVec2, b: DVec2) -> f64 {
+pub fn point_segment(x: DVec2, a: DVec2, b: DVec2) -> f64 {
     let ab = b - a;
     let len2 = ab.length_squared();
     let t = if len2 > 0.0 {

@@ -19,6 +19,7 @@
 
 use crate::heightfield::Heightfield;
 use crate::jobs::{Cancelled, JobCtx};
+use crate::river::keepout::point_segment;
 use crate::skeleton::RiverPiece;
 use crate::wavelet::analysis::{self, AnalysisParams, Transformed};
 use crate::wavelet::lifting::Band;
@@ -604,28 +605,19 @@ fn wet(out: &mut [u8], size: usize, piece: &RiverPiece, half: f32) {
         let to = (to + reach).floor().clamp(0.0, last) as usize;
         from..=to
     };
+    let (a, b) = (
+        glam::DVec2::from(piece.a.map(f64::from)),
+        glam::DVec2::from(piece.b.map(f64::from)),
+    );
     for y in cells(lo[1], hi[1]) {
         for x in cells(lo[0], hi[0]) {
-            let d = distance_to_piece([x as f32, y as f32], piece);
+            let d = point_segment(glam::DVec2::new(x as f64, y as f64), a, b) as f32;
             let share = (half + 0.5 - d).clamp(0.0, 1.0);
             let v = (share * 255.0).round() as u8;
             let cell = &mut out[y * size + x];
             *cell = (*cell).max(v);
         }
     }
-}
-
-/// How far point `p` lies from the piece's segment, in cells.
-fn distance_to_piece(p: [f32; 2], piece: &RiverPiece) -> f32 {
-    let (a, b) = (piece.a, piece.b);
-    let d = [b[0] - a[0], b[1] - a[1]];
-    let len2 = d[0] * d[0] + d[1] * d[1];
-    let t = if len2 > 0.0 {
-        (((p[0] - a[0]) * d[0] + (p[1] - a[1]) * d[1]) / len2).clamp(0.0, 1.0)
-    } else {
-        0.0
-    };
-    (p[0] - a[0] - t * d[0]).hypot(p[1] - a[1] - t * d[1])
 }
 
 /// Nearest-sample reduction of a square mask to at most `max_side` texels per side.
