@@ -522,7 +522,8 @@ fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
     );
     assert!(json["phases"]["fill"].as_f64().unwrap() >= 0.0);
 
-    // An all-white mask: no synthetic detail, every source sample kept.
+    // An all-white mask: no synthetic detail, every source sample kept, the cells between
+    // them the source's interpolation along its valleys and crests.
     let smooth = dir.join("olinda-smooth.tif");
     let run = strahler(&[
         "amplify",
@@ -544,10 +545,43 @@ fn amplify_writes_a_refined_georeferenced_dem_and_honours_the_mask() {
         for x in 0..source.field.width() {
             assert_eq!(smooth.field.get(2 * x, 2 * y), source.field.get(x, y));
         }
-        let mid = smooth.field.get(1, 2 * y).unwrap();
-        let expected = (source.field.get(0, y).unwrap() + source.field.get(1, y).unwrap()) / 2.0;
-        assert!((mid - expected).abs() < 1e-4);
     }
+    let (sw, sh) = (source.field.width(), source.field.height());
+    let (ow, oh) = (2 * sw - 1, 2 * sh - 1);
+    let at = |x: usize, y: usize| f64::from(source.field.get(x, y).unwrap());
+    let mut expected: Vec<f32> = (0..ow * oh)
+        .map(|i| {
+            let (x, y) = (i % ow, i / ow);
+            let (x0, y0) = ((x / 2).min(sw - 2), (y / 2).min(sh - 2));
+            let (fx, fy) = ((x - 2 * x0) as f64 / 2.0, (y - 2 * y0) as f64 / 2.0);
+            let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1, y0) * fx;
+            let bottom = at(x0, y0 + 1) * (1.0 - fx) + at(x0 + 1, y0 + 1) * fx;
+            (top * (1.0 - fy) + bottom * fy) as f32
+        })
+        .collect();
+    let everything = strahler::wavelet::directional::Region {
+        x0: 0,
+        y0: 0,
+        width: ow,
+        height: oh,
+    };
+    strahler::wavelet::directional::correct(&source.field, 1, everything, &mut expected);
+    let mut moved = 0;
+    for (i, e) in expected.iter().enumerate() {
+        let (x, y) = (i % ow, i / ow);
+        let bilinear = if (x % 2, y % 2) == (1, 0) {
+            (at(x / 2, y / 2) + at(x / 2 + 1, y / 2)) / 2.0
+        } else {
+            f64::from(*e)
+        };
+        moved += usize::from((f64::from(*e) - bilinear).abs() > 1e-3);
+        let got = smooth.field.get(x, y).unwrap();
+        assert!((got - e).abs() < 1e-3, "({x}, {y}): {got} against {e}");
+    }
+    assert!(
+        moved > 0,
+        "the correction moved no cell between two along x"
+    );
 
     // Absurd parameters and voids: clear errors, nothing written.
     let bad = strahler(&[

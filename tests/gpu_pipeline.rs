@@ -62,6 +62,23 @@ fn read(gpu: &GpuContext, field: Option<&GpuField>, stage: &str) -> Heightfield 
     pollster::block_on(field.read(gpu)).expect("a readback")
 }
 
+/// `amplified` (`levels` new levels above `source`) with its interpolation following the
+/// source's valleys and crests, as the detail stage ends.
+fn following_the_valleys(
+    source: &Heightfield,
+    levels: u32,
+    mut amplified: Heightfield,
+) -> Heightfield {
+    pollster::block_on(strahler::wavelet::directional::correct_field(
+        source,
+        levels,
+        &mut amplified,
+        &JobCtx::detached(),
+    ))
+    .expect("not cancelled");
+    amplified
+}
+
 fn mean_difference(a: &Heightfield, b: &Heightfield) -> f64 {
     let sum: f64 = a
         .data()
@@ -97,7 +114,7 @@ fn gpu_stages_hand_the_terrain_on() {
     let params = scene
         .detail
         .params(strahler::terrain::stage_seed(scene.seed, "detail"));
-    let uploaded = pollster::block_on(strahler::wavelet::amplify_on(
+    let mut uploaded = pollster::block_on(strahler::wavelet::amplify_on(
         &backend,
         &out.hydrology.terrain,
         &params,
@@ -105,11 +122,19 @@ fn gpu_stages_hand_the_terrain_on() {
         &JobCtx::detached(),
     ))
     .expect("the detail from an upload");
+    let synthesised = uploaded.field.clone();
+    uploaded.field =
+        following_the_valleys(&out.hydrology.terrain, params.levels, synthesised.clone());
     assert!(bits(&uploaded.field) == bits(&detail.field));
-    // The stage's RMS, summed on the GPU here, is the CPU's measure of its terrain.
+    assert!(
+        bits(&synthesised) != bits(&detail.field),
+        "the correction moved cells"
+    );
+    // The stage's RMS, summed on the GPU here, is the CPU's measure of its synthesis (before
+    // the interpolation follows the valleys).
     let measured = strahler::wavelet::synthesis::detail_rms(
         &out.hydrology.terrain,
-        &detail.field,
+        &synthesised,
         params.levels,
         None,
     );
@@ -131,7 +156,7 @@ fn gpu_stages_hand_the_terrain_on() {
         &JobCtx::detached(),
     ))
     .expect("the detail from a GPU copy");
-    let shift = mean_difference(&from_raised.field, &detail.field);
+    let shift = mean_difference(&from_raised.field, &synthesised);
     assert!((shift - 100.0).abs() < 0.01, "raised by {shift}");
     let mut blended = uploaded.field.clone();
     pollster::block_on(strahler::blend::apply_blocks(
@@ -170,7 +195,8 @@ fn gpu_stages_hand_the_terrain_on() {
     ))
     .expect("the detail from an upload");
     let detail = after.detail.as_ref().expect("a detail stage");
-    assert!(bits(&uploaded.field) == bits(&detail.field));
+    let uploaded = following_the_valleys(&erosion.field, params.levels, uploaded.field);
+    assert!(bits(&uploaded) == bits(&detail.field));
     assert!(bits(&read(&gpu, after.gpu.as_ref(), "after erosion")) == bits(&after.field));
 
     // A CPU stage (style) ends the chain: the detail after it uploads the styled terrain and

@@ -1,5 +1,7 @@
 //! `strahler amplify`: new levels of detail for a DEM (seed paper 001): GSA or LSA statistics,
-//! Gaussian coefficients, an optional energy-reduction mask (MGR), the inverse transform.
+//! Gaussian coefficients, an optional energy-reduction mask (MGR), the inverse transform, and
+//! the interpolation under the detail corrected along the DEM's valleys and crests
+//! ([`crate::wavelet::directional`]).
 
 use std::path::PathBuf;
 
@@ -140,7 +142,7 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
         backend
     };
     let clock = web_time::Instant::now();
-    let amplified = pollster::block_on(wavelet::amplify_on(
+    let mut amplified = pollster::block_on(wavelet::amplify_on(
         &backend,
         &dem.field,
         &params,
@@ -148,6 +150,15 @@ pub fn run(args: &AmplifyArgs) -> Result<(), Box<dyn std::error::Error>> {
         &JobCtx::detached(),
     ))
     .map_err(|e| format!("{}: {e}", args.input.display()))?;
+    // The linear interpolation under the detail follows the DEM's valleys and crests, as in
+    // the pipeline's detail stage.
+    pollster::block_on(wavelet::directional::correct_field(
+        &dem.field,
+        args.levels,
+        &mut amplified.field,
+        &JobCtx::detached(),
+    ))
+    .map_err(|_| "amplify: cancelled".to_string())?;
     let millis = clock.elapsed().as_secs_f64() * 1e3;
     let field = &amplified.field;
     let factor = f64::from(1u32 << args.levels);

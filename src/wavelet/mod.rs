@@ -6,11 +6,14 @@
 //!   (GSA, eqs. 6-7) and per location (LSA, eq. 8).
 //! - [`synthesis`]: new levels from Gaussian coefficients and the inverse transform, with the
 //!   energy-reduction mask of MGR (eq. 9).
+//! - [`directional`]: the new levels' interpolation of the source corrected along its
+//!   valleys and crests (edge-directed), so that they are not strings of beads.
 //! - [`mask`]: the grey masks users paint, import and export.
 //! - [`fbm`]: reference fBm surfaces of known roughness (tests and benchmarks).
 //! - [`gpu`]: the statistics (forward transform, GSA, LSA) and the synthesis in WGSL.
 
 pub mod analysis;
+pub mod directional;
 pub mod fbm;
 pub mod gpu;
 pub mod lifting;

@@ -13,16 +13,15 @@
 //! What is exact and what is bounded:
 //! - the global build: exact, one piece (the same bits as `strahler generate` at its size);
 //! - the levels of detail: exact, each tile the bits of the whole map's synthesis with its
-//!   interpolation corrected along the global build's valleys and crests ([`directional`],
-//!   a function of the global build and the cell's position; with `--no-refine` the whole
-//!   world is exact);
+//!   interpolation corrected along the global build's valleys and crests
+//!   ([`crate::wavelet::directional`], a function of the global build and the cell's
+//!   position; with `--no-refine` the whole world is exact);
 //! - the refinement: bounded, each window routing only its own water, the windows blended
 //!   by a partition of unity (no seam; measured in docs/features.md);
 //! - the depression filling (`--fill-depressions`, [`flood`]): exact, the tiled
 //!   Priority-Flood of Barnes (2016), the one-piece fill bit for bit;
 //! - not done: a diffusion refined per tile.
 
-pub mod directional;
 pub mod engine;
 pub mod flood;
 pub mod plan;

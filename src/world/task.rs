@@ -31,7 +31,7 @@ use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 use crate::pipeline::{Pipeline, RunOptions};
 use crate::wavelet::synthesis::SigmaTables;
-use crate::wavelet::{AnalysisParams, rng};
+use crate::wavelet::{AnalysisParams, directional, rng};
 
 /// What task 0 found: the global build's size and checksum, and the detail's standard
 /// deviations (as `f32` bits, `levels x 3`, band order H, V, D).
@@ -361,7 +361,7 @@ pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTabl
 }
 
 /// The cells of `window` of the world of `plan` from its global build: the levels of detail
-/// above it, interpolated along its valleys and crests ([`super::directional`]).
+/// above it, interpolated along its valleys and crests ([`directional`]).
 pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Window) -> Vec<f32> {
     if plan.levels == 0 {
         let n = world.width();
@@ -375,7 +375,13 @@ pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Wind
     }
     let key = rng::seed_key(plan.scene.seed);
     let mut cells = synthesize(world, sigma, plan.levels, key, window);
-    super::directional::correct(world, plan.levels, window, &mut cells);
+    let region = directional::Region {
+        x0: window.x0,
+        y0: window.y0,
+        width: window.width,
+        height: window.height,
+    };
+    directional::correct(world, plan.levels, region, &mut cells);
     cells
 }
 

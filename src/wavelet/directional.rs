@@ -1,15 +1,17 @@
-//! The global build interpolated along its valleys and crests, not across them: the
-//! levels of detail's interpolation corrected where the global build has an edge.
+//! The source of new levels of detail interpolated along its valleys and crests, not across
+//! them: the synthesis's interpolation corrected where the source has an edge.
 //!
-//! The levels of detail ([`super::window`]) interpolate the global build linearly along each
-//! axis (the lifting's predict), and add the detail. A valley or a crest one global cell wide
-//! that runs diagonally across the grid is then a string of beads: the cell between two of
-//! its cells takes the mean of two valley cells and two bank cells, half as deep, so at the
-//! world's resolution every small valley running across the axes is a serrated line (on the
-//! default scene, 4097^2 from 1025^2: a valley 1-2 m deep was 0.6 m shallower between its
-//! global cells than at them).
+//! The levels of detail ([`super::synthesis`], and a world's tiles, `world::window`)
+//! interpolate the source linearly along each axis (the lifting's predict: with no detail,
+//! the inverse transform is the bilinear interpolation), and add the detail. A valley or a
+//! crest one source cell wide that runs diagonally across the grid is then a string of
+//! beads: the cell between two of its cells takes the mean of two valley cells and two bank
+//! cells, half as deep, so at the output's resolution every small valley running across the
+//! axes is a serrated line (on the default scene, 4097^2 from 1025^2: a valley 1-2 m deep
+//! was 0.6 m shallower between its source cells than at them).
 //!
-//! Here the global build is interpolated once more, level by level, with the edge-directed
+//! Here the source (a scene's eroded terrain, a DEM, a world's global build) is interpolated
+//! once more, level by level, with the edge-directed
 //! rule of directional cubic convolution (Zhou, Shen and Zeng 2012, "Image zooming using
 //! directional cubic convolution interpolation", IET Image Processing 6(6)): each new cell
 //! between four cells takes the mean of the diagonal pair along which the surface bends
@@ -17,8 +19,9 @@
 //! or a crest is straight along itself and bent across), and each new cell between two the
 //! mean of the axis pair along which it bends least at its four neighbours; the two pairs
 //! weighted by the other's bending to the power [`SHARPNESS`]. The world's cells then take
-//! the difference between this and the linear interpolation ([`correct`]): the detail the
-//! levels added stays, the interpolation under it follows the edges.
+//! the difference between this and the linear interpolation ([`correct`], and over a whole
+//! output in bands of rows, [`correct_field`]): the detail the levels added stays, the
+//! interpolation under it follows the edges.
 //!
 //! Departures from the paper: the direction is chosen by second differences, not first (on
 //! a slope both diagonals rise, and first differences saw a direction where there is none:
@@ -27,14 +30,13 @@
 //! are `1 / (1 + ratio^k)`, free of the paper's `1 +` offset in height units and of its hard
 //! switch at a ratio of 1.15, so the result varies smoothly with the heights.
 //!
-//! Every cell is a function of the global build and its global position (each level is
-//! computed over the rectangle the next needs, with a margin wider than the rule reaches),
-//! so a window gives its cells the bits of the whole world, and the tiles are the same bits
-//! whatever the tasks.
+//! Every cell is a function of the source and its position (each level is computed over the
+//! rectangle the next needs, with a margin wider than the rule reaches), so a region gives
+//! its cells the bits of the whole output: a world's tiles are the same bits whatever the
+//! tasks, and an output corrected in bands of rows is the same on any number of threads.
 
 use crate::heightfield::Heightfield;
-
-use super::window::Window;
+use crate::jobs::{Cancelled, JobCtx};
 
 /// How sharply the interpolation follows the direction that bends least: the weight of a
 /// direction that bends `r` times as much as the other is `1 / (1 + r^SHARPNESS)` (a ratio
@@ -46,9 +48,59 @@ pub const SHARPNESS: i32 = 4;
 /// its rectangle's cut edge (clamped there) are not the whole world's.
 const MARGIN: usize = 4;
 
-/// Adds to `heights`, the world's cells of `window` made by `levels` levels of detail above
-/// `world`, the edge-directed interpolation of `world` less its linear interpolation.
-pub fn correct(world: &Heightfield, levels: u32, window: Window, heights: &mut [f32]) {
+/// A rectangle of an output's cells: its first column and row, and its size.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Region {
+    pub x0: usize,
+    pub y0: usize,
+    pub width: usize,
+    pub height: usize,
+}
+
+/// Output rows a band of [`correct_field`] holds at most (about a million cells a band on
+/// a 4097^2 output; its margins add a few percent).
+const BAND_CELLS: usize = 1 << 20;
+
+/// [`correct`] over the whole of `amplified`, `levels` new levels above `source`
+/// (`2^levels (side - 1) + 1` cells a side), in bands of rows: natively each band of a
+/// group on a thread, a tick between groups. Every band is a [`Region`], so the bits do not
+/// depend on the split. O(output cells); memory a band's levels.
+pub async fn correct_field(
+    source: &Heightfield,
+    levels: u32,
+    amplified: &mut Heightfield,
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
+    let width = amplified.width().max(1);
+    let rows = amplified.height();
+    let band = (BAND_CELLS / width).max(1);
+    let threads = crate::parallel::threads();
+    let group = band * threads;
+    let data = amplified.data_mut();
+    for start in (0..rows).step_by(group) {
+        ctx.tick_of(start, rows, "detail: following the valleys")
+            .await?;
+        let end = (start + group).min(rows);
+        crate::parallel::for_each_band(
+            &mut data[start * width..end * width],
+            band * width,
+            |k, cells| {
+                let region = Region {
+                    x0: 0,
+                    y0: start + k * band,
+                    width,
+                    height: cells.len() / width,
+                };
+                correct(source, levels, region, cells);
+            },
+        );
+    }
+    Ok(())
+}
+
+/// Adds to `heights`, the cells of `window` of an output made by `levels` levels of detail
+/// above `world`, the edge-directed interpolation of `world` less its linear interpolation.
+pub fn correct(world: &Heightfield, levels: u32, window: Region, heights: &mut [f32]) {
     if levels == 0 || window.width == 0 || window.height == 0 {
         return;
     }
@@ -145,7 +197,7 @@ impl Level {
 
 /// The edge-directed interpolation of `world` over `levels` levels, on the rectangle of the
 /// last level that covers `window`.
-fn interpolate(world: &Heightfield, levels: u32, window: Window) -> Level {
+fn interpolate(world: &Heightfield, levels: u32, window: Region) -> Level {
     // The rectangle each level needs, from the last down to the global build.
     let mut sides = vec![[world.width(), world.height()]];
     for _ in 0..levels {
@@ -356,7 +408,7 @@ mod tests {
             .map(|i| bilinear(world, (i % side) as f64 / s, (i / side) as f64 / s) as f32)
             .collect();
         if corrected {
-            let window = Window {
+            let window = Region {
                 x0: 0,
                 y0: 0,
                 width: side,
@@ -434,7 +486,7 @@ mod tests {
         for levels in [1, 2, 3] {
             let side = ((n - 1) << levels) + 1;
             let mut all = vec![0.0f32; side * side];
-            let everything = Window {
+            let everything = Region {
                 x0: 0,
                 y0: 0,
                 width: side,
@@ -449,7 +501,7 @@ mod tests {
                 (5, side / 2, side - 5, 9),
             ];
             for (x0, y0, width, height) in windows {
-                let window = Window {
+                let window = Region {
                     x0,
                     y0,
                     width,
