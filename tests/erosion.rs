@@ -675,6 +675,56 @@ fn the_rocks_strength_spread_is_a_scene_setting_that_breaks_planar_flanks() {
     );
 }
 
+/// Issue 32, one steepness everywhere: the rock field's soft units fail at a gentler angle
+/// than its hard ones (`erosion.soft_rock_strength`), so a 10 km map's slopes spread as real
+/// mountains' do (the SRTM window's quartiles at 40 m: 11.0 / 17.9 / 25.1 degrees): the
+/// gentlest tenth gentler and the quartiles further apart than with rock of one strength,
+/// the steepest ground as steep. The scene file carries it; files without it keep their
+/// terrain.
+#[test]
+fn soft_rock_stands_gentler_than_hard_rock() {
+    let with = |soft: Option<f64>| {
+        let mut erosion = ErosionSettings::default();
+        assert_eq!(
+            erosion.soft_rock_strength, 0.4,
+            "young-mountains' soft rock"
+        );
+        if let Some(soft) = soft {
+            erosion.soft_rock_strength = soft;
+        }
+        let scene = Scene {
+            size: 256,
+            cell_size: 10_000.0 / 256.0,
+            rivers: vec![river([0.5, 1.0], [0.5, 0.35], 3, 5)],
+            erosion: Some(erosion),
+            ..Scene::default()
+        };
+        let text = scene.to_json();
+        assert!(text.contains("\"soft_rock_strength\""), "{text}");
+        assert_eq!(Scene::from_json(&text).unwrap(), scene, "the file keeps it");
+        let out = run(&scene);
+        let realism = out.report.realism.expect("measured");
+        (
+            realism.measures.slope_deg_percentiles,
+            out.report.terrain.checksum,
+        )
+    };
+    let (one, one_sum) = with(Some(1.0));
+    let (units, units_sum) = with(None);
+    assert_ne!(one_sum, units_sum);
+    let spread = |p: [f64; 5]| p[3] - p[1];
+    assert!(
+        units[0] < one[0] - 3.0 && spread(units) > 1.3 * spread(one),
+        "slope percentiles with soft units {units:?}, rock of one strength {one:?}"
+    );
+    assert!(units[4] > one[4] - 5.0, "{units:?} against {one:?}");
+    // A file written before the field erodes as it did: soft rock as strong as hard.
+    let older =
+        Scene::from_json(r#"{"version": 1, "size": 64, "erosion": {"preset": "young-mountains"}}"#)
+            .expect("a valid scene");
+    assert_eq!(older.erosion.expect("erosion").soft_rock_strength, 1.0);
+}
+
 /// Share of the interior cells whose steepest descent to a neighbour lies within a degree
 /// below `talus_deg`.
 fn at_angle(field: &Heightfield, cell_m: f64, talus_deg: f64) -> f64 {

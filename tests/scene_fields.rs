@@ -55,6 +55,7 @@ const FIELDS: &[&str] = &[
     "erosion.roughness_m",
     "erosion.rock_contrast",
     "erosion.strength_spread",
+    "erosion.soft_rock_strength",
     "erosion.uplift_contrast",
     "erosion.uplift_scale_m",
     "erosion.rock_patch_m",

@@ -54,6 +54,10 @@ pub struct ErosionSettings {
     /// reach `tan(talus)` times a factor in `(1 - spread, 1]` ([`super::SlopeStrength`]),
     /// so failed flanks are chutes and ribs, not planes; 0 = one angle everywhere.
     pub strength_spread: f64,
+    /// How strong the softest rock of the rock field is: soft rock's threshold slope is this
+    /// share of hard rock's, so units of soft rock stand gentler than hard massifs
+    /// ([`super::SlopeStrength::with_rock`]); 1 = the rock field leaves the angle alone.
+    pub soft_rock_strength: f64,
     /// Ranges and basins: how many times faster the rock rises in the fastest-rising ranges
     /// than in the slowest basins (the uplift varies over `uplift_scale_m`, see
     /// [`super::Ranges`]); 1 = uplift alike everywhere.
@@ -195,6 +199,16 @@ fn uplift_contrast_of(preset: &str) -> f64 {
 /// Mesas: 120 m pairs of beds 20 times apart in strength, and weaker patches (2), so that
 /// the beds, not the patches, shape the land (chosen by eye on the default scene at 10 km,
 /// where it gives some five beds of relief: escarpments round broad benches).
+/// How strong a preset's softest rock is ([`ErosionSettings::soft_rock_strength`]): the mesas'
+/// beds set where their rock stands steep and where gentle, so their rock field leaves the
+/// angle alone; elsewhere [`super::slope_limit::SOFT_ROCK_STRENGTH`].
+fn soft_rock_strength_of(preset: &str) -> f64 {
+    match preset {
+        "mesas" => 1.0,
+        _ => super::slope_limit::SOFT_ROCK_STRENGTH,
+    }
+}
+
 fn rock_of_preset(preset: &str) -> (f64, f64, f64) {
     match preset {
         "mesas" => (120.0, 20.0, 2.0),
@@ -241,8 +255,10 @@ impl ErosionSettings {
         // The features carry the DEM's relief: the uplift follows them (land rising evenly
         // cost the rebuild 0.06 of SSIM against the DEM).
         s.relief = Relief::Design;
-        // The features carry the DEM's ranges and basins already.
+        // The features carry the DEM's ranges and basins already, and its steep and gentle
+        // ground: rock units of its own would put gentle patches where the DEM has none.
         s.uplift_contrast = 1.0;
+        s.soft_rock_strength = 1.0;
         s.years /= 4.0;
         let relief = if relief_m.is_finite() {
             relief_m.max(0.0)
@@ -281,6 +297,7 @@ impl ErosionSettings {
             strata_m,
             strata_contrast,
             strength_spread: super::slope_limit::SPREAD,
+            soft_rock_strength: soft_rock_strength_of(name),
             uplift_contrast: uplift_contrast_of(name),
             uplift_scale_m: super::ranges::DEFAULT_SCALE_M,
             relief: relief_of(name),
@@ -363,6 +380,16 @@ impl ErosionSettings {
             return Err((
                 "uplift_scale_m",
                 format!("must be 100 m to 10000 km, got {}", self.uplift_scale_m),
+            ));
+        }
+        if !(self.soft_rock_strength.is_finite() && (0.1..=1.0).contains(&self.soft_rock_strength))
+        {
+            return Err((
+                "soft_rock_strength",
+                format!(
+                    "must be 0.1 to 1 (soft rock as strong as hard), got {}",
+                    self.soft_rock_strength
+                ),
             ));
         }
         if !(self.strength_spread.is_finite() && (0.0..=0.9).contains(&self.strength_spread)) {

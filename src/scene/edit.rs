@@ -482,10 +482,16 @@ mod tests {
                 ..Default::default()
             }),
         ];
-        for field in ["strength_spread", "years", "talus_deg"] {
+        for field in [
+            "strength_spread",
+            "soft_rock_strength",
+            "years",
+            "talus_deg",
+        ] {
             let mut erosion = ErosionSettings::default();
             match field {
                 "strength_spread" => erosion.strength_spread = 5.0,
+                "soft_rock_strength" => erosion.soft_rock_strength = 0.0,
                 "years" => erosion.years = f64::INFINITY,
                 _ => erosion.talus_deg = Some(-3.0),
             }

@@ -74,6 +74,9 @@ pub mod erosion {
         /// Missing from older files: 0.3, the default when the field came.
         #[serde(default = "older_strength_spread")]
         strength_spread: f64,
+        /// Missing from older files: 1, soft rock as strong as hard, as they eroded then.
+        #[serde(default = "uniform_strength")]
+        soft_rock_strength: f64,
         /// Missing from older files: uplift alike everywhere, as they eroded then.
         #[serde(default = "uniform_uplift")]
         uplift_contrast: f64,
@@ -89,6 +92,10 @@ pub mod erosion {
 
     fn older_strength_spread() -> f64 {
         0.3
+    }
+
+    fn uniform_strength() -> f64 {
+        1.0
     }
 
     fn uniform_uplift() -> f64 {
@@ -124,6 +131,7 @@ pub mod erosion {
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
+                soft_rock_strength: e.soft_rock_strength,
                 uplift_contrast: e.uplift_contrast,
                 uplift_scale_m: e.uplift_scale_m,
                 relief: e.relief,
@@ -151,6 +159,7 @@ pub mod erosion {
                 strata_m: e.strata_m,
                 strata_contrast: e.strata_contrast,
                 strength_spread: e.strength_spread,
+                soft_rock_strength: e.soft_rock_strength,
                 uplift_contrast: e.uplift_contrast,
                 uplift_scale_m: e.uplift_scale_m,
                 relief: e.relief,

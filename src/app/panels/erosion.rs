@@ -130,6 +130,7 @@ fn settings(ui: &mut egui::Ui, e: &mut ErosionSettings) {
             row(ui, "Rock beds (m)", "Layered rock: the thickness of one hard bed and the soft bed above it, in metres (0 = no beds). Rivers cutting through the beds leave cliffs at the hard beds and benches at the soft ones: mesas, buttes, stepped canyon walls.", &mut e.strata_m, 0.0..=10_000.0, 1.0);
             row(ui, "Bed contrast", "How many times faster the soft beds erode than the hard ones (1 = no beds).", &mut e.strata_contrast, 1.0..=100.0, 0.1);
             row(ui, "Strength spread", "How much the rock's strength varies under the talus angle: each cell's steepest slope is the talus slope times a factor between 1 - spread and 1 (0 = one angle everywhere, whose failed flanks are planes; more gives chutes and ribs).", &mut e.strength_spread, 0.0..=0.9, 0.01);
+            row(ui, "Soft rock strength", "How steep the soft rock of the rock patches stands: its threshold slope is this share of the hard rock's (1 = as steep). Soft units wear to gentle country, hard ones stand as steep massifs.", &mut e.soft_rock_strength, 0.1..=1.0, 0.01);
             let label = ui.label("Steps").on_hover_text("Time steps (the implicit scheme is stable at any step; more steps follow the evolution more closely).");
             ui.add(DragValue::new(&mut e.steps).range(1..=1000)).labelled_by(label.id);
             ui.end_row();
