@@ -595,12 +595,21 @@ mod tests {
         let (mut hard, mut softest) = (0, 0);
         for ((p, u), k) in plain.iter().zip(&units).zip(&k) {
             let share = u / p;
-            assert!(share >= soft as f32 - 1e-6 && share <= 1.0 + 1e-6, "{share}");
+            assert!(
+                share >= soft as f32 - 1e-6 && share <= 1.0 + 1e-6,
+                "{share}"
+            );
             if *k <= lo * 1.01 {
-                assert!((share - 1.0).abs() < 1e-6, "the hardest rock keeps its angle");
+                assert!(
+                    (share - 1.0).abs() < 1e-6,
+                    "the hardest rock keeps its angle"
+                );
             }
             if *k >= hi * 0.99 {
-                assert!((share - soft as f32).abs() < 1e-6, "the softest rock fails lowest");
+                assert!(
+                    (share - soft as f32).abs() < 1e-6,
+                    "the softest rock fails lowest"
+                );
             }
             hard += usize::from(share > 0.95);
             softest += usize::from(share < soft as f32 + 0.05);
