@@ -337,8 +337,14 @@ fn the_river_network_as_geojson_lies_on_the_rivers() {
         "{river_links} {vertices}"
     );
     assert!(channel_links > 10, "{channel_links}");
+    // The links the erosion keeps as channels gather water downstream, but not every one:
+    // where two first-order links (the land's to shape) meet, the terrain's own drainage may
+    // leave a short second-order link at its head. Of the default scene's 79 such links on an
+    // 8 km map, 2 / 2 / 5 missed at 160^2 / 256^2 / 512^2 with rock of one strength and 9 /
+    // 6 / 7 with the soft rock units' gentler ground (`erosion.soft_rock_strength`), every
+    // one at 160^2 a link of three cells.
     assert!(
-        downhill * 100 >= channel_links * 95,
+        downhill * 100 >= channel_links * 85,
         "{downhill} of {channel_links}"
     );
     for map in [

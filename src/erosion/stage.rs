@@ -605,14 +605,20 @@ pub(super) async fn rock_in_bands(
     if settings.rock_contrast == 1.0 {
         return Ok(Vec::new());
     }
-    let rock = super::Rock::new(
+    let rock = rock_field(settings, n, cell_m, seed);
+    field_in_bands(n, ctx, |first_row, rows| rock.rows(first_row, rows)).await
+}
+
+/// The rock field of `settings` on an `n` x `n` map of `cell_m` cells: its patches of
+/// harder and softer rock ([`super::Rock`]).
+fn rock_field(settings: &ErosionSettings, n: usize, cell_m: f64, seed: u64) -> super::Rock {
+    super::Rock::new(
         n,
         cell_m,
         settings.rock_contrast,
         settings.rock_patch_m,
         seed,
-    );
-    field_in_bands(n, ctx, |first_row, rows| rock.rows(first_row, rows)).await
+    )
 }
 
 /// The rock's strength factors on the talus slope of `settings` on an `n` x `n` map of
@@ -659,13 +665,7 @@ fn slope_strength(
     cell_m: f64,
     seed: u64,
 ) -> super::SlopeStrength {
-    let rock = super::Rock::new(
-        n,
-        cell_m,
-        settings.rock_contrast,
-        settings.rock_patch_m,
-        seed,
-    );
+    let rock = rock_field(settings, n, cell_m, seed);
     super::SlopeStrength::new(n, cell_m, seed, settings.strength_spread).with_rock(
         rock,
         settings.rock_contrast,
