@@ -9,7 +9,10 @@
 //!   rises as a range, up to three times faster than the design alone would raise it;
 //! - **hard rock**: the erodibility is divided by `HARD_ROCK^v`, so painted rock erodes up to
 //!   four times slower and stands as a massif or a ridge of resistant rock (at ten the
-//!   massif barely took a valley in 2 Myr and stood in planar facets at the talus angle).
+//!   massif barely took a valley in 2 Myr and stood in planar facets at the talus angle);
+//!   and where the rock field's soft units stand gentler (`erosion.soft_rock_strength`),
+//!   painted rock is as strong as its hard units ([`Painted::firm`]), so a massif painted
+//!   on soft rock stands steep too.
 //!
 //! Masks are resampled to the grid they act on (bilinear, [`Mask::resampled`]), so the same
 //! painting acts alike at every resolution and on the coarse grid of a large map.
@@ -52,6 +55,20 @@ impl Painted<'_> {
             *k *= (-ln_hard * v.clamp(0.0, 1.0)).exp();
         }
     }
+
+    /// Moves the rock's strength factors (`n` x `n`, [`super::SlopeStrength`]) towards
+    /// `sound`, the same rock's factors without its soft units, by the hard-rock mask's
+    /// value: white is as strong as the hard units. No mask, or no factors, changes nothing.
+    /// O(cells).
+    pub fn firm(&self, strength: &mut [f32], sound: &[f32], n: usize) {
+        let Some(mask) = self.hard_rock else { return };
+        if strength.is_empty() || sound.len() != strength.len() {
+            return;
+        }
+        for ((s, h), v) in strength.iter_mut().zip(sound).zip(mask.resampled(n, n)) {
+            *s += v.clamp(0.0, 1.0) * (h - *s);
+        }
+    }
 }
 
 #[cfg(test)]
@@ -81,5 +98,12 @@ mod tests {
         let mut untouched = vec![2.0; 16];
         Painted::default().harden(&mut untouched, 4);
         assert_eq!(untouched, vec![2.0; 16]);
+        // Painted rock is as strong as the hard units under white, unchanged under black.
+        let mut strength = vec![0.3; 16];
+        painted.firm(&mut strength, &[0.8; 16], 4);
+        assert!((strength[0] - 0.8).abs() < 1e-6 && (strength[3] - 0.3).abs() < 1e-6);
+        let mut none = vec![0.3; 16];
+        Painted::default().firm(&mut none, &[0.8; 16], 4);
+        assert_eq!(none, vec![0.3; 16]);
     }
 }

@@ -637,6 +637,32 @@ pub(super) fn strength_of(
     factors
 }
 
+/// `strength` (the rock's factors of `settings`, [`strength_in_bands`]) as strong as the
+/// hard units under the painted hard rock of `anchors` ([`super::Painted::firm`]): a massif
+/// painted on soft rock stands as steep as one on hard. Nothing to do without a painting,
+/// factors or soft units.
+async fn firm_painted_rock(
+    strength: &mut [f32],
+    settings: &ErosionSettings,
+    anchors: &Anchors<'_>,
+    (n, cell_m, seed): (usize, f64, u64),
+    ctx: &JobCtx,
+) -> Result<(), Cancelled> {
+    if anchors.painted.hard_rock.is_none()
+        || strength.is_empty()
+        || settings.soft_rock_strength >= 1.0
+    {
+        return Ok(());
+    }
+    let sound = ErosionSettings {
+        soft_rock_strength: 1.0,
+        ..settings.clone()
+    };
+    let hard = strength_in_bands(&sound, n, cell_m, seed, ctx).await?;
+    anchors.painted.firm(strength, &hard, n);
+    Ok(())
+}
+
 /// Share of the rock's spread of strength the flanks of held peaks and ridges keep
 /// ([`erode_field_within`]).
 const HELD_STRENGTH_SHARE: f32 = 0.5;
@@ -747,6 +773,14 @@ pub(super) async fn solve(
     let n = field.width();
     anchors.painted.raise(&mut prepared.uplift, n);
     anchors.painted.harden(&mut prepared.erodibility, n);
+    firm_painted_rock(
+        &mut prepared.strength,
+        settings,
+        &anchors,
+        (n, cell_m, seed),
+        ctx,
+    )
+    .await?;
     super::hold::pin(&mut prepared.floor, field.data(), anchors.held);
     let fill_on_gpu = anchors.mouths.is_empty();
     let outlets = std::mem::take(&mut prepared.outlets);
@@ -884,7 +918,8 @@ async fn floors_of_the_network(
     let mask = match held_limit {
         Some(mask) => mask,
         None => {
-            let strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
+            let mut strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
+            firm_painted_rock(&mut strength, settings, anchors, (n, cell_m, seed), ctx).await?;
             let talus = settings.talus_deg.unwrap_or(FLOOR_WALL_DEG);
             built = super::slope_limit::Mask::new(n, n, cell_m, talus).with_strength(strength);
             &built

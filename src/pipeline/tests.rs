@@ -617,4 +617,35 @@ fn painted_hard_rock_stands_higher_and_re_runs_only_the_erosion() {
     let back = Scene::from_json(&painted.to_json()).unwrap();
     assert_eq!(back.erosion_masks, painted.erosion_masks);
     assert!(back.erosion_masks.hard_rock_png.is_some());
+
+    // Painted rock is as strong as the hard units: under the painting the slopes are those
+    // of rock with no soft units, where the unpainted land stands gentler on its soft units.
+    let mut one_strength = painted.clone();
+    if let Some(e) = one_strength.erosion.as_mut() {
+        e.soft_rock_strength = 1.0;
+    }
+    let sound = run(&mut pipeline, &one_strength);
+    let mean_slope = |field: &Heightfield, inside: bool| {
+        let (n, z) = (96, field.data());
+        let (mut sum, mut count) = (0.0, 0);
+        for y in 1..n - 1 {
+            for x in 1..n - 1 {
+                let i = y * n + x;
+                if (values[i] > 0.9) != inside || (!inside && values[i] > 0.0) {
+                    continue;
+                }
+                let gx = f64::from(z[i + 1] - z[i - 1]) / 200.0;
+                let gy = f64::from(z[i + n] - z[i - n]) / 200.0;
+                sum += gx.hypot(gy);
+                count += 1;
+            }
+        }
+        sum / f64::from(count)
+    };
+    let under = mean_slope(&hard.field, true) / mean_slope(&sound.field, true);
+    let elsewhere = mean_slope(&hard.field, false) / mean_slope(&sound.field, false);
+    assert!(
+        under > 0.9 && elsewhere < under - 0.05,
+        "mean slope with soft units over without: {under} under the painting, {elsewhere} elsewhere"
+    );
 }
