@@ -454,14 +454,18 @@ fn stage_file(dest: &Path, bytes: &[u8]) -> Result<PathBuf, OutputError> {
         COUNTER.fetch_add(1, Ordering::Relaxed)
     ));
     let tmp = dir.join(tmp_name);
-    let mut file = fs::OpenOptions::new()
-        .write(true)
-        .create_new(true)
-        .open(&tmp)
-        .map_err(io)?;
-    if let Ok(mut live) = LIVE_TEMPS.lock() {
+    // Created and listed under one lock: the signal thread, which removes the listed files
+    // and exits holding that lock, never misses a file or lets one be made after it ran.
+    let mut file = {
+        let mut live = LIVE_TEMPS.lock().unwrap_or_else(|e| e.into_inner());
+        let file = fs::OpenOptions::new()
+            .write(true)
+            .create_new(true)
+            .open(&tmp)
+            .map_err(io)?;
         live.push(tmp.clone());
-    }
+        file
+    };
     let result = (|| {
         file.write_all(bytes)?;
         // A replaced file keeps its permissions.
@@ -579,10 +583,10 @@ pub fn install_signal_cleanup() {
             if unsafe { libc::sigwait(&set, &mut sig) } != 0 {
                 return;
             }
-            if let Ok(live) = LIVE_TEMPS.lock() {
-                for tmp in live.iter() {
-                    let _ = fs::remove_file(tmp);
-                }
+            // The lock is held until the process ends, so no file is staged after these.
+            let live = LIVE_TEMPS.lock().unwrap_or_else(|e| e.into_inner());
+            for tmp in live.iter() {
+                let _ = fs::remove_file(tmp);
             }
             std::process::exit(128 + sig);
         });
