@@ -654,11 +654,7 @@ async fn firm_painted_rock(
     {
         return Ok(());
     }
-    let sound = ErosionSettings {
-        soft_rock_strength: 1.0,
-        ..settings.clone()
-    };
-    let hard = strength_in_bands(&sound, n, cell_m, seed, ctx).await?;
+    let hard = sound_strength_in_bands(settings, n, cell_m, seed, ctx).await?;
     anchors.painted.firm(strength, &hard, n);
     Ok(())
 }
@@ -680,6 +676,22 @@ pub(super) async fn strength_in_bands(
     }
     let strength = slope_strength(settings, n, cell_m, seed);
     field_in_bands(n, ctx, |first_row, rows| strength.rows(first_row, rows)).await
+}
+
+/// [`strength_in_bands`] on the spread of strength alone, every rock unit as strong as the
+/// hard ones (`soft_rock_strength` 1).
+async fn sound_strength_in_bands(
+    settings: &ErosionSettings,
+    n: usize,
+    cell_m: f64,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<Vec<f32>, Cancelled> {
+    let sound = ErosionSettings {
+        soft_rock_strength: 1.0,
+        ..settings.clone()
+    };
+    strength_in_bands(&sound, n, cell_m, seed, ctx).await
 }
 
 /// The rock's strength of `settings` on an `n` x `n` map of `cell_m` cells: its spread, and
@@ -1097,11 +1109,7 @@ pub async fn erode_field_within(
         Some(talus) if !anchors.held.is_empty() => {
             // On the spread alone, not the rock's soft units: a peak sketched on soft rock
             // stood 13% short of its height (1041 m of 1200 on a 10 km map).
-            let sound = ErosionSettings {
-                soft_rock_strength: 1.0,
-                ..settings.clone()
-            };
-            let mut strength = strength_in_bands(&sound, n, cell_m, seed, ctx).await?;
+            let mut strength = sound_strength_in_bands(settings, n, cell_m, seed, ctx).await?;
             for s in &mut strength {
                 *s = 1.0 - HELD_STRENGTH_SHARE * (1.0 - *s);
             }

@@ -12,11 +12,11 @@
 use super::WorldError;
 use super::plan::Plan;
 use super::task::{self, BuildDir, write_atomically};
-use super::window::Window;
 use crate::dem::format::{self, ExportOptions};
 use crate::export::preset::{Engine, EngineNumbers};
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
+use crate::wavelet::directional::Region;
 
 /// What [`write`] wrote.
 #[derive(Debug)]
@@ -79,7 +79,7 @@ pub async fn write(
     for row in 0..per_side {
         for col in 0..per_side {
             let (x0, y0) = (col * plan.tile, row * plan.tile);
-            let window = Window {
+            let window = Region {
                 x0,
                 y0,
                 width: side,

@@ -4,8 +4,8 @@
 use serde::{Deserialize, Serialize};
 
 use super::WorldError;
-use super::window::Window;
 use crate::scene::Scene;
+use crate::wavelet::directional::Region;
 use crate::wavelet::synthesis::output_len;
 
 /// The plan file's format version.
@@ -244,11 +244,11 @@ impl Plan {
 
     /// Tile `k`'s window of the refinement: the tile and [`Plan::halo`] cells around it,
     /// within the world.
-    pub fn refine_window(&self, k: usize) -> Window {
+    pub fn refine_window(&self, k: usize) -> Region {
         let (_, _, tile) = self.tile(k);
         let halo = self.halo();
         let (x0, y0) = (tile.x0.saturating_sub(halo), tile.y0.saturating_sub(halo));
-        Window {
+        Region {
             x0,
             y0,
             width: (tile.x0 + tile.width + halo).min(self.size) - x0,
@@ -262,11 +262,11 @@ impl Plan {
     }
 
     /// Tile `k` (0-based, row by row): its row, column and cells.
-    pub fn tile(&self, k: usize) -> (usize, usize, Window) {
+    pub fn tile(&self, k: usize) -> (usize, usize, Region) {
         let per = self.tiles_per_side();
         let (row, col) = (k / per, k % per);
         let (x0, y0) = (col * self.tile, row * self.tile);
-        let window = Window {
+        let window = Region {
             x0,
             y0,
             width: self.tile.min(self.size - x0),

@@ -40,8 +40,8 @@
 
 use super::WorldError;
 use super::plan::Plan;
-use super::window::Window;
 use crate::erosion::{Eroder, ErosionSettings};
+use crate::wavelet::directional::Region;
 
 /// Years of the refinement's step: the global run's step (`years / steps`), or less, the time
 /// hillslope creep takes to carry the surface over one global cell (`sqrt(kappa t) = cell`),
@@ -67,7 +67,7 @@ pub struct Refined {
 
 /// Window `window`'s `heights` (row-major, its cells of the world, levels of detail included)
 /// after the refinement's step, its edge held.
-pub fn refine(plan: &Plan, window: Window, heights: Vec<f32>) -> Result<Refined, WorldError> {
+pub fn refine(plan: &Plan, window: Region, heights: Vec<f32>) -> Result<Refined, WorldError> {
     let settings = plan.scene.erosion.as_ref().ok_or_else(|| {
         WorldError::Plan("the plan refines the erosion, but its scene has none".into())
     })?;
@@ -160,7 +160,7 @@ fn transpose_box(v: &mut [f32], w: usize, h: usize, r: usize) {
 /// held edge and for half a halo beside it, one from a halo and a half in (so at its tile's
 /// edge, a halo in, a half); an edge on the world's border does not count (no other window
 /// reaches past it).
-pub fn weight(plan: &Plan, window: Window, x: usize, y: usize) -> f32 {
+pub fn weight(plan: &Plan, window: Region, x: usize, y: usize) -> f32 {
     let ramp = |at: usize, start: usize, len: usize| {
         let from_start = if start > 0 { at - start } else { usize::MAX };
         let end = start + len;

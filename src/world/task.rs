@@ -25,11 +25,12 @@ use serde::{Deserialize, Serialize};
 use super::WorldError;
 use super::plan::{Plan, Task};
 use super::refine::Refined;
-use super::window::{Window, synthesize};
+use super::window::synthesize;
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
 use crate::jobs::JobCtx;
 use crate::pipeline::{Pipeline, RunOptions};
+use crate::wavelet::directional::Region;
 use crate::wavelet::synthesis::SigmaTables;
 use crate::wavelet::{AnalysisParams, directional, rng};
 
@@ -120,7 +121,7 @@ impl BuildDir {
     /// Whether task `k` of `plan` has its output. A refined window is done once written, or
     /// once every tile that reads it is (assembling the world removes the windows).
     pub fn done(&self, plan: &Plan, k: usize) -> bool {
-        let holds = |path: PathBuf, w: Window| {
+        let holds = |path: PathBuf, w: Region| {
             std::fs::metadata(path).is_ok_and(|m| m.len() == (w.width * w.height * 4) as u64)
         };
         match plan.task(k) {
@@ -153,8 +154,8 @@ impl BuildDir {
 
 /// A refined window's file as one RAW R32 field: its heights, then its drainage area below
 /// them (twice the window's rows).
-fn stacked(window: Window) -> Window {
-    Window {
+fn stacked(window: Region) -> Region {
+    Region {
         height: 2 * window.height,
         ..window
     }
@@ -362,7 +363,7 @@ pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTabl
 
 /// The cells of `window` of the world of `plan` from its global build: the levels of detail
 /// above it, interpolated along its valleys and crests ([`directional`]).
-pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Window) -> Vec<f32> {
+pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Region) -> Vec<f32> {
     if plan.levels == 0 {
         let n = world.width();
         let mut out = Vec::with_capacity(window.width * window.height);
@@ -375,13 +376,7 @@ pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Wind
     }
     let key = rng::seed_key(plan.scene.seed);
     let mut cells = synthesize(world, sigma, plan.levels, key, window);
-    let region = directional::Region {
-        x0: window.x0,
-        y0: window.y0,
-        width: window.width,
-        height: window.height,
-    };
-    directional::correct(world, plan.levels, region, &mut cells);
+    directional::correct(world, plan.levels, window, &mut cells);
     cells
 }
 
@@ -510,7 +505,7 @@ fn filled(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
 }
 
 /// Writes the cells of `window` to `path` as RAW R32, atomically.
-fn write_field(path: &Path, window: Window, heights: Vec<f32>) -> Result<(), WorldError> {
+fn write_field(path: &Path, window: Region, heights: Vec<f32>) -> Result<(), WorldError> {
     let field = Heightfield::from_vec(window.width, window.height, heights)
         .map_err(|e| WorldError::Io(e.to_string()))?;
     write_atomically(path, &crate::dem::raw32::write(&field, false))
@@ -526,7 +521,7 @@ fn read_refined(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Refined, WorldE
 }
 
 /// The world's cells in `window`, from the finished tiles it crosses.
-pub fn read_window(dir: &BuildDir, plan: &Plan, window: Window) -> Result<Vec<f32>, WorldError> {
+pub fn read_window(dir: &BuildDir, plan: &Plan, window: Region) -> Result<Vec<f32>, WorldError> {
     let mut out = vec![0.0f32; window.width * window.height];
     let per = plan.tiles_per_side();
     let rows = window.y0 / plan.tile..=(window.y0 + window.height - 1) / plan.tile;
@@ -559,7 +554,7 @@ pub fn read_tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<Vec<f32>, Worl
 }
 
 /// The cells of `window` that task `task` wrote to `path`.
-fn read_cells(path: &Path, window: Window, task: usize) -> Result<Vec<f32>, WorldError> {
+fn read_cells(path: &Path, window: Region, task: usize) -> Result<Vec<f32>, WorldError> {
     let bytes = std::fs::read(path)
         .map_err(|e| WorldError::Io(format!("{}: {e} (run task {task} first)", path.display())))?;
     if bytes.len() != window.width * window.height * 4 {

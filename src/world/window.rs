@@ -15,18 +15,10 @@
 
 use crate::heightfield::Heightfield;
 use crate::wavelet::Band;
+use crate::wavelet::directional::Region;
 use crate::wavelet::lifting::{self, count_at};
 use crate::wavelet::rng;
 use crate::wavelet::synthesis::{SigmaTables, output_len};
-
-/// A rectangle of output cells: its first column and row and its size.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
-pub struct Window {
-    pub x0: usize,
-    pub y0: usize,
-    pub width: usize,
-    pub height: usize,
-}
 
 /// The steps of `lifting::inverse_level` along one axis: (parity of the samples changed,
 /// coefficient), undo the update then undo the predict.
@@ -42,7 +34,7 @@ pub fn synthesize(
     sigma: &SigmaTables,
     levels: u32,
     key: u32,
-    window: Window,
+    window: Region,
 ) -> Vec<f32> {
     let (ow, oh) = (
         output_len(source.width(), levels),
@@ -189,31 +181,31 @@ mod tests {
             let key = rng::seed_key(params.seed);
             let n = whole.width();
             let windows = [
-                Window {
+                Region {
                     x0: 0,
                     y0: 0,
                     width: n,
                     height: n,
                 },
-                Window {
+                Region {
                     x0: 0,
                     y0: 0,
                     width: 17,
                     height: 9,
                 },
-                Window {
+                Region {
                     x0: n / 3,
                     y0: n / 5,
                     width: n / 3,
                     height: n / 2,
                 },
-                Window {
+                Region {
                     x0: n - 29,
                     y0: n - 13,
                     width: 29,
                     height: 13,
                 },
-                Window {
+                Region {
                     x0: n / 2 - 1,
                     y0: 1,
                     width: 1,
