@@ -457,8 +457,9 @@ pub fn run(args: &GenerateArgs) -> Result<(), Box<dyn std::error::Error>> {
     println!(
         "{0} x {0} terrain, heights {1:.0} to {2:.0} m; {3} river nodes, Strahler order {4}, {5} ridges; drainage: {6:.1}% of river cells{9}, {7:.2}% of cells reach an outlet, {8} pits",
         r.size,
-        r.height_range[0],
-        r.height_range[1],
+        // `+ 0.0` turns a height rounded to -0 into 0.
+        r.height_range[0].round() + 0.0,
+        r.height_range[1].round() + 0.0,
         r.rivers.nodes,
         r.rivers.max_order,
         r.ridges.edges,

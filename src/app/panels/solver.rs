@@ -201,9 +201,12 @@ fn last_run(ui: &mut egui::Ui, summaries: &RunSummaries) {
         } else {
             "NOT converged"
         };
+        // `+ 0.0` turns a height rounded to -0 into 0.
         ui.label(format!(
             "{how}, residual {:.1e} of the range ({state}); heights {:.0} to {:.0} m",
-            run.relative_residual, run.min, run.max
+            run.relative_residual,
+            run.min.round() + 0.0,
+            run.max.round() + 0.0
         ));
     }
     if let Some(text) = &summaries.terrain {
