@@ -256,7 +256,8 @@ fn keep_ways_to_held_channels(guide: &mut [u8], kinds: &[CellKind], n: usize) {
 /// cell, downstream first, is lowered just below its lowest neighbour off the channels (by
 /// [`BURN_MARGIN_M`]) where that keeps it above the cell it drains to and no bank then stands
 /// above it steeper than `talus_deg` (35 degrees where there is none), so that the steepest
-/// descent of the finished surface runs down the branch as the solver routed it.
+/// descent of the finished surface runs down the branch as the solver routed it; no cell is
+/// lowered more than [`BURN_DEEPEST`] of a cell.
 ///
 /// The solver keeps a branch's course but not its banks: on a steep branch the law can leave
 /// a channel cell and the slope beside it within centimetres, and the steepest way then cuts
@@ -278,6 +279,7 @@ pub(super) fn burn(
         return 0;
     }
     let tan = talus_deg.unwrap_or(BURN_TALUS_DEG).to_radians().tan();
+    let deepest = (BURN_DEEPEST * cell_m) as f32;
     let mut branch: Vec<usize> = (0..n * n).filter(|&i| guide[i] != NONE).collect();
     branch.sort_by(|&a, &b| design[a].total_cmp(&design[b]).then(a.cmp(&b)));
     let mut lowered = 0;
@@ -298,7 +300,11 @@ pub(super) fn burn(
             }
         }
         let target = side - BURN_MARGIN_M;
-        if target < heights[i] && target > heights[r] && target >= floor {
+        if target < heights[i]
+            && target > heights[r]
+            && target >= floor
+            && heights[i] - target <= deepest
+        {
             heights[i] = target;
             lowered += 1;
         }
@@ -308,12 +314,70 @@ pub(super) fn burn(
 
 /// How far below its lowest bank a burnt branch cell lies, metres.
 pub(super) const BURN_MARGIN_M: f32 = 0.05;
+/// The most a branch cell is lowered, in cells of height (a notch of 0.1 cell tilts the
+/// faces beside it by under 6 degrees). Where the law left a branch on a slope that falls
+/// across its course, only a deeper notch would hold the water, and a line of such notches,
+/// a few lowered cells between unlowered ones, drew dotted trails across the hillsides of a
+/// 2 km map (notches of 0.2 m and more on 2 m cells) and single pits of up to 4 m at 10 km
+/// and 13 m at 50 km. Measured on the default scene at 1024^2, the grown branches' cells
+/// that drain along their course without the bound and with it: 2 km 66.2% and 49.6%
+/// (the unburnt surface's 49.4%), 10 km 88.4% and 85.9%, 50 km 98.6% and 98.6%; 0.04% of
+/// the cells changed at 10 km.
+const BURN_DEEPEST: f64 = 0.1;
 /// The steepest bank a burnt branch cell may leave where the erosion has no talus angle.
 const BURN_TALUS_DEG: f64 = 35.0;
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The burn lowers a branch cell just below its banks where a shallow notch does it (a
+    /// branch whose east bank stands a centimetre below it every other row), and leaves
+    /// alone a branch whose bank there stands 0.5 m below it on 2 m cells, whose notches
+    /// drew dotted trails across hillsides: no cell goes down more than [`BURN_DEEPEST`]
+    /// of a cell.
+    #[test]
+    fn the_burn_cuts_shallow_notches_only() {
+        let (n, cell) = (12, 2.0);
+        let down = D8.iter().position(|d| *d == (0, 1)).unwrap() as u8;
+        let mut kinds = vec![CellKind::Free; n * n];
+        let mut guide = vec![NONE; n * n];
+        let mut heights = vec![200.0f32; n * n];
+        // Branches down columns 2 and 8, falling 0.1 and 1 m a cell; (column, fall, how far
+        // the east bank stands below the branch on even rows).
+        let (shallow, deep) = ((2, 0.1, 0.01), (8, 1.0, 0.5));
+        for (x, fall, dip) in [shallow, deep] {
+            for y in 0..n {
+                let h = 100.0 - fall * y as f32;
+                heights[y * n + x] = h;
+                heights[y * n + x - 1] = h + 0.5;
+                heights[y * n + x + 1] = if y % 2 == 0 { h - dip } else { h + 0.5 };
+                if y + 1 < n {
+                    kinds[y * n + x] = CellKind::Grown;
+                    guide[y * n + x] = down;
+                }
+            }
+        }
+        let before = heights.clone();
+        let lowered = burn(&mut heights, &before, &kinds, &guide, n, (cell, None));
+        for y in (2..n - 2).step_by(2) {
+            let (x, ..) = shallow;
+            assert!(
+                heights[y * n + x] < heights[y * n + x + 1],
+                "row {y}: below its bank"
+            );
+            let (x, ..) = deep;
+            assert_eq!(
+                heights[y * n + x],
+                before[y * n + x],
+                "row {y}: no deep notch"
+            );
+        }
+        assert!(lowered >= 5, "{lowered}");
+        for (a, b) in heights.iter().zip(&before) {
+            assert!(b - a <= (BURN_DEEPEST * cell) as f32 + 1e-6, "{b} -> {a}");
+        }
+    }
 
     /// A first-order branch right beside a trunk, a trunk cell lower than the next one down
     /// its own course: the branch cell it drains to stays held (the trunk would be dammed),
