@@ -173,9 +173,17 @@ mod tests {
     fn every_cell(talus: &Talus, grid: Grid, h: &mut [f32], base: &[bool], pass: usize) {
         let (w, rows) = (grid.width, grid.height);
         for yy in 0..rows {
-            let y = if pass.is_multiple_of(2) { yy } else { rows - 1 - yy };
+            let y = if pass.is_multiple_of(2) {
+                yy
+            } else {
+                rows - 1 - yy
+            };
             for xx in 0..w {
-                let x = if pass.is_multiple_of(2) { xx } else { w - 1 - xx };
+                let x = if pass.is_multiple_of(2) {
+                    xx
+                } else {
+                    w - 1 - xx
+                };
                 talus.relax_any(grid, h, base, x, y);
             }
         }
