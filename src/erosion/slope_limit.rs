@@ -235,6 +235,13 @@ impl Mask {
     /// One band of a scan: rows `rows` of the forward scan (top down, left to right), or of
     /// the backward scan (row `height - 1 - y` for `y` in `rows`, right to left). Returns
     /// whether a cell was lowered. O(cells of the rows).
+    ///
+    /// In a row with cells two from every edge, each such cell's cap over the rows scanned
+    /// before is computed for the whole row first ([`Self::caps_from_rows_before`]), and the
+    /// move along the row is then the recurrence `h_x = min(before_x, h_(x - 1) + rise_x)`
+    /// (`x - 1` the cell scanned just before), one tight loop ([`Self::along_row`]); the
+    /// cells within two of the row's ends take every move one by one. Each cell ends at the
+    /// same value as when every move is taken in turn.
     pub(super) fn scan(
         &self,
         h: &mut [f32],
@@ -244,44 +251,118 @@ impl Mask {
     ) -> bool {
         let (w, rows_total) = (self.width as isize, self.height as isize);
         let sign = if forward { 1 } else { -1 };
-        let (dx, dy, along_rise) = self.steps[ALONG];
-        let along = sign * (dy * w + dx);
         let mut before = vec![0.0f32; self.width];
+        let mut rise = vec![0.0f32; self.width];
         let mut changed = false;
         for yy in rows {
             let y = if forward { yy } else { self.height - 1 - yy } as isize;
+            let at = |xx: isize| if forward { xx } else { w - 1 - xx };
             // Rows with cells two from every edge (none on a map under five cells wide).
             let inner_row = y >= REACH && y < rows_total - REACH && w > 2 * REACH;
-            if inner_row {
-                self.caps_from_rows_before(h, y as usize, sign, &mut before);
+            if !inner_row {
+                for xx in 0..w {
+                    changed |= self.lower(h, base, at(xx), y, sign);
+                }
+                continue;
             }
-            for xx in 0..w {
-                let x = if forward { xx } else { w - 1 - xx };
-                let i = (y * w + x) as usize;
-                if base[i] {
-                    continue;
-                }
-                let strength = self.strength.get(i).copied().unwrap_or(1.0);
-                let cap = if inner_row && x >= REACH && x < w - REACH {
-                    let beside = h[i.wrapping_add_signed(along)] + along_rise * strength;
-                    before[x as usize].min(beside)
-                } else {
-                    let mut cap = h[i];
-                    for &(dx, dy, rise) in &self.steps {
-                        let (nx, ny) = (x + sign * dx, y + sign * dy);
-                        if nx >= 0 && ny >= 0 && nx < w && ny < rows_total {
-                            cap = cap.min(h[(ny * w + nx) as usize] + rise * strength);
-                        }
-                    }
-                    cap
-                };
-                if cap < h[i] {
-                    h[i] = cap;
-                    changed = true;
-                }
+            self.caps_from_rows_before(h, y as usize, sign, &mut before);
+            self.rises_along(y as usize, &mut rise);
+            for xx in 0..REACH {
+                changed |= self.lower(h, base, at(xx), y, sign);
+            }
+            changed |= self.along_row(h, base, y as usize, forward, (&before, &rise));
+            for xx in w - REACH..w {
+                changed |= self.lower(h, base, at(xx), y, sign);
             }
         }
         changed
+    }
+
+    /// Lowers cell `(x, y)` of a scan (`sign` 1 forward, -1 backward) to its cap, the lowest
+    /// `h_j + rise_ij s_i` over the mask's moves into the cells scanned before it, looked at
+    /// one by one (the cells near the map's edges); returns whether it was lowered.
+    fn lower(&self, h: &mut [f32], base: &[bool], x: isize, y: isize, sign: isize) -> bool {
+        let (w, rows_total) = (self.width as isize, self.height as isize);
+        let i = (y * w + x) as usize;
+        if base[i] {
+            return false;
+        }
+        let strength = self.strength.get(i).copied().unwrap_or(1.0);
+        let mut cap = h[i];
+        for &(dx, dy, rise) in &self.steps {
+            let (nx, ny) = (x + sign * dx, y + sign * dy);
+            if nx >= 0 && ny >= 0 && nx < w && ny < rows_total {
+                cap = cap.min(h[(ny * w + nx) as usize] + rise * strength);
+            }
+        }
+        if cap < h[i] {
+            h[i] = cap;
+            true
+        } else {
+            false
+        }
+    }
+
+    /// The rise allowed along the row over one cell, `rise s_x`, for the cells of row `y` at
+    /// least [`REACH`] from its ends, into `out` (indexed by column).
+    fn rises_along(&self, y: usize, out: &mut [f32]) {
+        let w = self.width;
+        let inner = REACH as usize..w - REACH as usize;
+        let along_rise = self.steps[ALONG].2;
+        let out = &mut out[inner.clone()];
+        match self.strength.get(y * w + inner.start..y * w + inner.end) {
+            Some(strength) => {
+                for (r, s) in out.iter_mut().zip(strength) {
+                    *r = along_rise * s;
+                }
+            }
+            None => out.fill(along_rise),
+        }
+    }
+
+    /// The move along row `y` for its cells at least [`REACH`] from its ends, in scan order:
+    /// each free cell becomes `min(before_x, h_prev + rise_x)`, `h_prev` the cell scanned
+    /// just before, as it now stands (`before_x` is at most `h_x`, so the cell never rises);
+    /// base-level cells keep their heights. Returns whether a cell was lowered.
+    fn along_row(
+        &self,
+        h: &mut [f32],
+        base: &[bool],
+        y: usize,
+        forward: bool,
+        (before, rise): (&[f32], &[f32]),
+    ) -> bool {
+        let w = self.width;
+        let (first, end) = (REACH as usize, w - REACH as usize);
+        // The cell scanned just before the run: its last end cell, already done.
+        let mut prev = if forward {
+            h[y * w + first - 1]
+        } else {
+            h[y * w + end]
+        };
+        let row = &mut h[y * w..(y + 1) * w];
+        let fixed = &base[y * w..(y + 1) * w];
+        let mut lowered = false;
+        // Plain comparisons, not `f32::min`: the heights are never NaN (the erosion refuses
+        // them), and `min`'s NaN handling doubled this loop's chain of dependent instructions.
+        let mut step = |x: usize, prev: f32| {
+            let over = prev + rise[x];
+            let cap = if over < before[x] { over } else { before[x] };
+            let v = if fixed[x] { row[x] } else { cap };
+            lowered |= v < row[x];
+            row[x] = v;
+            v
+        };
+        if forward {
+            for x in first..end {
+                prev = step(x, prev);
+            }
+        } else {
+            for x in (first..end).rev() {
+                prev = step(x, prev);
+            }
+        }
+        lowered
     }
 
     /// Each cell of row `y` at least [`REACH`] from its ends: `min(h_i, h_j + rise_ij s_i)`
@@ -302,14 +383,17 @@ impl Mask {
             let from = (row + inner.start).wrapping_add_signed(sign * (dy * w as isize + dx));
             let src = &h[from..from + out.len()];
             match self.strength.get(row + inner.start..row + inner.end) {
+                // Comparisons, not `f32::min` (see `along_row`): one vector minimum each.
                 Some(strength) => {
                     for ((cap, z), s) in out.iter_mut().zip(src).zip(strength) {
-                        *cap = cap.min(z + rise * s);
+                        let c = z + rise * s;
+                        *cap = if c < *cap { c } else { *cap };
                     }
                 }
                 None => {
                     for (cap, z) in out.iter_mut().zip(src) {
-                        *cap = cap.min(z + rise);
+                        let c = z + rise;
+                        *cap = if c < *cap { c } else { *cap };
                     }
                 }
             }
@@ -446,7 +530,8 @@ mod tests {
                 (i % w) as f32 * 3.0 + (state % 4000) as f32 * 0.01
             })
             .collect();
-        let base: Vec<bool> = (0..w * rows).map(|i| i % w == 0).collect();
+        // Base level on the west edge and scattered inside, where the scans pass over it.
+        let base: Vec<bool> = (0..w * rows).map(|i| i % w == 0 || i % 11 == 5).collect();
         // The strength of a square map as wide as the longer side, cut to this one.
         let side = w.max(rows);
         let mut square = vec![0.0f32; side * side];
