@@ -8,6 +8,7 @@
 
 #[cfg(not(target_arch = "wasm32"))]
 use std::sync::OnceLock;
+use std::sync::atomic::{AtomicU32, Ordering};
 
 /// Levels smaller than this many cells run on one thread (spawning would cost more).
 const MIN_PARALLEL_CELLS: usize = 1 << 16;
@@ -93,4 +94,34 @@ pub fn join<A: Send, B: Send>(
         return rayon::join(a, b);
     }
     (a(), b())
+}
+
+/// A field of `f32` that the items of [`for_each_item`] read and write at once, each item
+/// only cells no other item reads or writes (the runs of independent trees of a drainage
+/// stack, say). Relaxed atomic loads and stores: plain moves on x86 and wasm, and where a
+/// caller's partition were wrong, wrong values, never undefined behaviour.
+pub struct SharedField<'a>(&'a [AtomicU32]);
+
+// The cast below needs `f32`'s alignment to be at least `AtomicU32`'s.
+const _: () = assert!(std::mem::align_of::<f32>() >= std::mem::align_of::<AtomicU32>());
+
+impl<'a> SharedField<'a> {
+    /// Shares `field` for as long as it is borrowed.
+    pub fn new(field: &'a mut [f32]) -> Self {
+        // SAFETY: `AtomicU32` has the size of `f32` and an alignment it meets (checked at
+        // compile time above), and every bit pattern is valid for both; the exclusive borrow
+        // lasts as long as the view, so the field is only reached through its atomics.
+        let cells = unsafe { &*(std::ptr::from_mut(field) as *const [AtomicU32]) };
+        SharedField(cells)
+    }
+
+    #[inline]
+    pub fn get(&self, i: usize) -> f32 {
+        f32::from_bits(self.0[i].load(Ordering::Relaxed))
+    }
+
+    #[inline]
+    pub fn set(&self, i: usize, value: f32) {
+        self.0[i].store(value.to_bits(), Ordering::Relaxed);
+    }
 }

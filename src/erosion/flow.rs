@@ -23,13 +23,14 @@
 //!
 //! Receivers are stored as a D8 direction code per cell (1 byte; [`NONE`] for
 //! base-level cells and pits), not as indices, and the donors of each cell as a
-//! bitmask of D8 directions (1 byte), so the depth-first walk needs no donor lists;
-//! its LIFO lives in the unused end of the stack buffer.
+//! bitmask of D8 directions (1 byte), so the depth-first walk ([`super::stack`]) needs no
+//! donor lists.
 
 use std::ops::Range;
 
 use super::fill;
 use super::grid::{D8_DIST, Grid};
+use super::stack::TreeWalk;
 use crate::parallel;
 
 /// Code of a cell without receiver (base level, pit or flat).
@@ -102,6 +103,11 @@ pub(super) struct Network {
     pub(super) donors: Vec<u8>,
     /// Cell indices, every receiver before its donors.
     pub(super) stack: Vec<u32>,
+    /// Where each base-level cell's tree starts in the stack, in increasing order: no cell
+    /// drains across one of these, so the runs between them can be computed at once.
+    pub(super) roots: Vec<u32>,
+    /// The stack's walk, one a thread ([`super::stack`]), kept for their buffers.
+    pub(super) walks: Vec<TreeWalk>,
     /// Index offset of each receiver code ([`NONE`]: 0).
     pub(super) off: [isize; 9],
     /// How the next routing picks receivers.
@@ -119,6 +125,8 @@ impl Network {
             dir: vec![NONE; n],
             donors: vec![0; n],
             stack: Vec::with_capacity(n),
+            roots: Vec::new(),
+            walks: Vec::new(),
             off: std::array::from_fn(|k| if k < 8 { off[k] } else { 0 }),
             pick: Pick::Steepest,
             guide: Vec::new(),
@@ -190,7 +198,8 @@ impl Network {
                     let flood_all = route.max_fills.is_none()
                         && pits.len() > grid.len() / fill::PITS_FOR_ONE_FLOOD;
                     route.stage = if route.fell_back || pits.is_empty() || flood_all {
-                        RouteStage::Stack(self.start_stack(grid))
+                        self.start_stack(grid);
+                        RouteStage::Stack
                     } else {
                         let budget = route
                             .max_fills
@@ -201,11 +210,12 @@ impl Network {
             }
             RouteStage::Lakes(lakes) => {
                 if lakes.fill(grid, h, base, self, cells) {
-                    route.stage = RouteStage::Stack(self.start_stack(grid));
+                    self.start_stack(grid);
+                    route.stage = RouteStage::Stack;
                 }
             }
-            RouteStage::Stack(walk) => {
-                if self.walk_stack(base, walk, cells) {
+            RouteStage::Stack => {
+                if self.walk_stack(base, cells) {
                     route.stage = if self.stack.len() < grid.len() && !route.fell_back {
                         // Pits were many, or the local fills gave up (work budget): flood
                         // all unrouted cells.
@@ -239,17 +249,21 @@ impl Network {
 
     /// Adds the area of the stack's cells `run` to their receivers, walking the run from
     /// its end. Runs must come from the end of the stack to its start, the first after
-    /// [`start_area`]; O(cells of the run).
+    /// [`start_area`]; O(cells of the run). The run's independent parts
+    /// ([`independent_runs`](Self::independent_runs)) go to the threads: the same bits.
     pub(super) fn accumulate_area(&self, area: &mut [f32], run: Range<usize>) {
+        let area = parallel::SharedField::new(area);
         let off = self.off;
-        for &i in self.stack[run].iter().rev() {
-            let i = i as usize;
-            let code = usize::from(self.dir[i]);
-            if code != usize::from(NONE) {
-                let a = area[i];
-                area[i.wrapping_add_signed(off[code])] += a;
+        parallel::for_each_item(self.independent_runs(run), |part| {
+            for &i in self.stack[part].iter().rev() {
+                let i = i as usize;
+                let code = usize::from(self.dir[i]);
+                if code != usize::from(NONE) {
+                    let to = i.wrapping_add_signed(off[code]);
+                    area.set(to, area.get(to) + area.get(i));
+                }
             }
-        }
+        });
     }
 
     /// Receiver index of every cell (itself when it has none).
@@ -326,64 +340,6 @@ impl Network {
         self.dir[i] = new;
         new == NONE
     }
-
-    /// Starts building the stack (see [`walk_stack`](Self::walk_stack)).
-    fn start_stack(&mut self, grid: Grid) -> StackWalk {
-        let n = grid.len();
-        self.stack.resize(n, 0);
-        StackWalk {
-            root: 0,
-            out: 0,
-            top: n,
-        }
-    }
-
-    /// Builds the stack, continuing `walk` by about `cells` cells; returns whether it is
-    /// complete. The stack holds, for each base-level cell in index order, its whole donor
-    /// tree in depth-first pre-order, donors taken in D8 order, i.e. the order of Braun &
-    /// Willett's recursive `add_to_stack`. Cells draining into a pit are not reached, so
-    /// `stack.len() < grid.len()` signals remaining pits. O(cells) over a whole build.
-    ///
-    /// The recursion is replaced by a LIFO of discovered-but-unvisited cells that lives
-    /// at the end of the stack buffer itself: visited + pending cells never exceed
-    /// `grid.len()`, so the two ends never collide and no extra memory is needed.
-    /// Donors are pushed in reverse D8 order so that they pop in D8 order.
-    fn walk_stack(&mut self, base: &[bool], walk: &mut StackWalk, cells: usize) -> bool {
-        let n = self.stack.len();
-        let buf = &mut self.stack[..];
-        let mut left = cells;
-        loop {
-            while walk.top < n {
-                if left == 0 {
-                    return false;
-                }
-                left -= 1;
-                let node = buf[walk.top] as usize;
-                walk.top += 1;
-                buf[walk.out] = node as u32;
-                walk.out += 1;
-                let mut pending = self.donors[node];
-                while pending != 0 {
-                    let k = 7 - pending.leading_zeros() as usize;
-                    pending ^= 1 << k;
-                    walk.top -= 1;
-                    buf[walk.top] = node.wrapping_add_signed(self.off[k]) as u32;
-                }
-            }
-            match (walk.root..n).find(|&i| base[i]) {
-                Some(root) => {
-                    walk.root = root + 1;
-                    walk.top -= 1;
-                    buf[walk.top] = root as u32;
-                }
-                None => {
-                    walk.root = n;
-                    self.stack.truncate(walk.out);
-                    return true;
-                }
-            }
-        }
-    }
 }
 
 /// The receiver code of free cell `(x, y)`: its guided one (`guide`, empty: none) if it has
@@ -450,18 +406,9 @@ enum RouteStage {
         pits: Vec<usize>,
     },
     Lakes(Box<fill::Lakes>),
-    Stack(StackWalk),
+    Stack,
     Unrouted(Box<fill::Unrouted>),
     Done,
-}
-
-/// The depth-first walk of [`Network::walk_stack`] in progress: the next cell to look at
-/// for a base-level root, the stack's length so far and the top of the LIFO (at the end of
-/// the stack's buffer).
-struct StackWalk {
-    root: usize,
-    out: usize,
-    top: usize,
 }
 
 /// `1 / distance` of each D8 step, in cells.

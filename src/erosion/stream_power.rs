@@ -26,6 +26,7 @@
 
 use super::flow::{NONE, Network};
 use super::grid::{D8_DIST, Grid};
+use crate::parallel::{self, SharedField};
 
 /// The incision law of one solver with its constants: the time step, `K`, `m`, `n`, and
 /// the factors that do not change between steps.
@@ -64,9 +65,9 @@ impl Incision {
     }
 
     /// Updates `h` (uplift included; an empty `uplift` is none) at the cells of `run`, a run
-    /// of `net`'s stack. Runs
-    /// must come in stack order, as each cell needs its receiver's new height. O(cells of
-    /// the run).
+    /// of `net`'s stack. Runs must come in stack order, as each cell needs its receiver's new
+    /// height; the run's independent parts ([`Network::independent_runs`]) go to the
+    /// threads, the same bits. O(cells of the run).
     pub(super) fn apply(
         &self,
         net: &Network,
@@ -74,52 +75,59 @@ impl Incision {
         fields: &Fields<'_>,
         h: &mut [f32],
     ) {
+        let h = SharedField::new(h);
+        parallel::for_each_item(net.independent_runs(run), |part| {
+            for &i in &net.stack[part] {
+                self.update(net, i as usize, fields, &h);
+            }
+        });
+    }
+
+    /// The new height of cell `i`, whose receiver has its own already.
+    #[inline]
+    fn update(&self, net: &Network, i: usize, fields: &Fields<'_>, h: &SharedField<'_>) {
         let Fields {
             area,
             uplift,
             erodibility,
             beds,
         } = *fields;
-        let linear = self.n == 1.0;
-        for &i in &net.stack[run] {
-            let i = i as usize;
-            let code = usize::from(net.dir[i]);
-            if code == usize::from(NONE) {
-                continue; // base level (routing leaves no pits)
-            }
-            // An empty uplift is none: `+ dt * 0` keeps the bits zeros would give.
-            let u = uplift.get(i).copied().unwrap_or(0.0);
-            let hi = h[i] as f64 + self.dt * u as f64;
-            let a = area[i] as f64;
-            let cells = (a * self.inv_cell2 + 0.5) as usize;
-            let a_m = if cells < POW_TABLE_CELLS {
-                self.pow_table[cells]
-            } else {
-                a.powf(self.m)
-            };
-            // An empty field is uniform rock: no factor, the bits of before.
-            let mut f = match erodibility.get(i) {
-                Some(k) => self.coef[code] * a_m * f64::from(*k),
-                None => self.coef[code] * a_m,
-            };
-            // The beds its neighbourhood exposes at the start of the step (f32, as the GPU's).
-            if let Some(b) = beds.get(i) {
-                f *= f64::from(*b);
-            }
-            let damp = 1.0 / (1.0 + f);
-            // Everything above is independent of the receiver's new height, which
-            // was computed just before: keep the dependent chain short.
-            let hr = h[i.wrapping_add_signed(net.off[code])] as f64;
-            let new = if hi <= hr || f == 0.0 {
-                hi // no downhill slope (or no erosion): uplift only
-            } else if linear {
-                // (h_i + dt U + F h_r') / (1 + F), rearranged.
-                hr + (hi - hr) * damp
-            } else {
-                hr + newton(hi - hr, f, self.n)
-            };
-            h[i] = new as f32;
+        let code = usize::from(net.dir[i]);
+        if code == usize::from(NONE) {
+            return; // base level (routing leaves no pits)
         }
+        // An empty uplift is none: `+ dt * 0` keeps the bits zeros would give.
+        let u = uplift.get(i).copied().unwrap_or(0.0);
+        let hi = h.get(i) as f64 + self.dt * u as f64;
+        let a = area[i] as f64;
+        let cells = (a * self.inv_cell2 + 0.5) as usize;
+        let a_m = if cells < POW_TABLE_CELLS {
+            self.pow_table[cells]
+        } else {
+            a.powf(self.m)
+        };
+        // An empty field is uniform rock: no factor, the bits of before.
+        let mut f = match erodibility.get(i) {
+            Some(k) => self.coef[code] * a_m * f64::from(*k),
+            None => self.coef[code] * a_m,
+        };
+        // The beds its neighbourhood exposes at the start of the step (f32, as the GPU's).
+        if let Some(b) = beds.get(i) {
+            f *= f64::from(*b);
+        }
+        let damp = 1.0 / (1.0 + f);
+        // Everything above is independent of the receiver's new height, which
+        // was computed just before: keep the dependent chain short.
+        let hr = h.get(i.wrapping_add_signed(net.off[code])) as f64;
+        let new = if hi <= hr || f == 0.0 {
+            hi // no downhill slope (or no erosion): uplift only
+        } else if self.n == 1.0 {
+            // (h_i + dt U + F h_r') / (1 + F), rearranged.
+            hr + (hi - hr) * damp
+        } else {
+            hr + newton(hi - hr, f, self.n)
+        };
+        h.set(i, new as f32);
     }
 }
 

@@ -35,7 +35,7 @@ fn params(k: f64, m: f64, n: f64, kappa: f64, years: f64, steps: u32) -> Erosion
 }
 
 /// A `width` x `height` grid of `cell` metre cells.
-fn grid_of(width: usize, height: usize, cell: f64) -> Grid {
+pub(super) fn grid_of(width: usize, height: usize, cell: f64) -> Grid {
     Grid {
         width,
         height,
@@ -45,7 +45,7 @@ fn grid_of(width: usize, height: usize, cell: f64) -> Grid {
 
 /// Rough test surface: tilted plane + noise (with many pits), border as base level
 /// plus a short interior "river".
-fn rough_surface(w: usize, h: usize, seed: u32, relief: f32) -> (Vec<f32>, Vec<bool>) {
+pub(super) fn rough_surface(w: usize, h: usize, seed: u32, relief: f32) -> (Vec<f32>, Vec<bool>) {
     let mut rng = Lcg(seed);
     let mut z = vec![0.0; w * h];
     let mut base = vec![false; w * h];
