@@ -409,6 +409,21 @@ async fn refine(
         roughen_from(h, &base[cells.clone()], roughness_m, seed, cells.start);
     })
     .await?;
+    // The pits the roughening left that are one cell alone, raised at once (the routing's
+    // lakes would raise them one by one, spilling into each other).
+    let grid = super::grid::Grid {
+        width: n,
+        height: n,
+        cell: cell_m,
+    };
+    let mut lone = Vec::new();
+    in_bands(ctx, FINISHING, n, n, |rows| {
+        lone.extend(super::fill::lone_pits(grid, &heights, &base, &guide, rows));
+    })
+    .await?;
+    for (i, raised) in lone {
+        heights[i as usize] = raised;
+    }
     let mut params = settings.params();
     params.years /= f64::from(params.steps.max(1));
     params.steps = 1;

@@ -283,6 +283,47 @@ fn local_fill_matches_global_priority_flood() {
     assert_descending_paths(w, h, &fallback, &base);
 }
 
+/// The lone pits raised first (as the refinement of a large map does after its roughening):
+/// each was a pit of one cell and stands just above its lowest neighbour; rows in pieces
+/// give the same list; a guided cell is left alone; and the lakes the routing then fills
+/// stand at the global flood's levels, so no raised cell stands above its lake's level.
+#[test]
+fn lone_pits_raised_first_keep_the_lake_levels() {
+    let (w, h) = (64, 56);
+    let grid = grid_of(w, h, 10.0);
+    let (z0, base) = rough_surface(w, h, 21, 50.0);
+    let lone = fill::lone_pits(grid, &z0, &base, &[], 0..h);
+    assert!(lone.len() > 50, "too few lone pits ({})", lone.len());
+    let pieces: Vec<_> = (0..h)
+        .step_by(5)
+        .flat_map(|y| fill::lone_pits(grid, &z0, &base, &[], y..(y + 5).min(h)))
+        .collect();
+    assert_eq!(lone, pieces);
+    let mut guide = vec![flow::NONE; w * h];
+    guide[lone[0].0 as usize] = 4;
+    let guided = fill::lone_pits(grid, &z0, &base, &guide, 0..h);
+    assert_eq!(guided[..], lone[1..]);
+    let mut raised = z0.clone();
+    for &(i, v) in &lone {
+        let i = i as usize;
+        let (x, y) = grid.xy(i);
+        let lowest = (0..8)
+            .filter_map(|d| grid.neighbour(x, y, d))
+            .map(|j| z0[j])
+            .fold(f32::INFINITY, f32::min);
+        assert!(!base[i] && lowest >= z0[i] && v == lowest.next_up());
+        raised[i] = v;
+    }
+    Network::new(grid).route_with_budget(grid, &mut raised, &base, Some(usize::MAX));
+    let mut global = z0.clone();
+    let seeds: Vec<u32> = (0..w * h).filter(|&i| base[i]).map(|i| i as u32).collect();
+    fill::fill_unrouted(grid, &mut global, &vec![flow::NONE; w * h], &seeds);
+    for i in 0..w * h {
+        assert!((raised[i] - global[i]).abs() < 1e-3, "cell {i}");
+    }
+    assert_descending_paths(w, h, &raised, &base);
+}
+
 /// Where pits are many, the routing floods every unrouted cell at once: the fallback flood,
 /// with its bits. Where they are few, it fills lakes one by one.
 #[test]
