@@ -7,8 +7,8 @@ use std::ops::Range;
 use super::ErosionSettings;
 use super::stage::{
     Anchors, FINISHING, FLOOR_CELLS, PREPARING, Prepared, Solved, StageError, floor_near_rivers,
-    in_bands, in_row_bands, nearest_channel_in_steps, ranges_of, rock_in_bands, roughen_from,
-    run_solver, solve, strength_in_bands, uplift_map,
+    in_bands, in_row_bands, nearest_channel_in_steps, ranges_of, rock_and_strength_in_bands,
+    roughen_from, run_solver, solve, uplift_map,
 };
 use crate::compute::Backend;
 use crate::heightfield::Heightfield;
@@ -294,6 +294,8 @@ pub(super) async fn erode_coarse_to_fine(
         &mut heights,
     );
     let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
+    let (mut rock, strength) = rock_and_strength_in_bands(settings, n, cell_m, seed, ctx).await?;
+    anchors.painted.harden(&mut rock, n);
     let fine = Refinement {
         guide,
         heights,
@@ -302,14 +304,10 @@ pub(super) async fn erode_coarse_to_fine(
         uplift,
         fill_on_gpu: anchors.mouths.is_empty(),
         // The coarse run's rock, at full resolution (positions in metres: the same patches;
-        // the painted hard rock resampled to the full grid).
-        erodibility: {
-            let mut rock = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
-            anchors.painted.harden(&mut rock, n);
-            rock
-        },
-        // The coarse run's rock strength with the octaves the full grid resolves.
-        strength: strength_in_bands(settings, n, cell_m, seed, ctx).await?,
+        // the painted hard rock resampled to the full grid), and its strength with the
+        // octaves the full grid resolves.
+        erodibility: rock,
+        strength,
     };
     refine(
         fine,

@@ -177,6 +177,29 @@ impl Strength {
     /// Fills `out` (whole rows) with the factors of the rows from `first_row` on; the same
     /// values however the rows are split. O(cells of the rows x octaves).
     pub fn rows(&self, first_row: usize, out: &mut [f32]) {
+        self.spread_rows(first_row, out);
+        if let Some((rock, ln_contrast, soft_strength)) = &self.rock {
+            let mut k = vec![0.0f32; out.len()];
+            rock.rows(first_row, &mut k);
+            soften(out, &k, *ln_contrast, *soft_strength);
+        }
+    }
+
+    /// [`rows`](Self::rows) given the rock's erodibility factors of those rows (`rock`, the
+    /// [`super::Rock`]'s as [`with_rock`](Self::with_rock) was given, unpainted), where the
+    /// caller made them already: the same values, without sampling the rock again.
+    pub fn rows_on_rock(&self, first_row: usize, out: &mut [f32], rock: &[f32]) {
+        match &self.rock {
+            Some((_, ln_contrast, soft_strength)) if rock.len() == out.len() => {
+                self.spread_rows(first_row, out);
+                soften(out, rock, *ln_contrast, *soft_strength);
+            }
+            _ => self.rows(first_row, out),
+        }
+    }
+
+    /// The factors of the strength's spread alone (rows as in [`rows`](Self::rows)).
+    fn spread_rows(&self, first_row: usize, out: &mut [f32]) {
         let n = self.n.max(1);
         let fbm = FbmGrid::new(
             &self.perlin,
@@ -191,13 +214,14 @@ impl Strength {
             let u = (0.5 + GAIN * fbm.at(x, y)).clamp(0.0, 1.0);
             *v = (1.0 - self.spread * u) as f32;
         }
-        if let Some((rock, ln_contrast, soft_strength)) = &self.rock {
-            let mut k = vec![0.0f32; out.len()];
-            rock.rows(first_row, &mut k);
-            for (v, k) in out.iter_mut().zip(&k) {
-                *v *= (1.0 - (1.0 - soft_strength) * softness(*k, *ln_contrast)) as f32;
-            }
-        }
+    }
+}
+
+/// Weakens the factors `out` by the rock's units of erodibility factors `k` (see
+/// [`Strength::with_rock`]).
+fn soften(out: &mut [f32], k: &[f32], ln_contrast: f64, soft_strength: f64) {
+    for (v, k) in out.iter_mut().zip(k) {
+        *v *= (1.0 - (1.0 - soft_strength) * softness(*k, ln_contrast)) as f32;
     }
 }
 
@@ -657,8 +681,8 @@ mod tests {
     /// The rock field's units: where the field's rock is hardest the factors are the
     /// spread's alone, where softest `soft` times them, in between no lower and no higher,
     /// and most of the map lies in one unit or the other (not at middling strength); the same
-    /// however the rows are split; uniform rock, or soft rock as strong as hard, changes
-    /// nothing.
+    /// however the rows are split, or given the rock's factors made before; uniform rock, or
+    /// soft rock as strong as hard, changes nothing.
     #[test]
     fn soft_rock_units_fail_lower_than_hard_ones() {
         let (n, cell, seed, contrast, soft) = (200, 50.0, 9, 10.0, 0.4);
@@ -710,6 +734,14 @@ mod tests {
             n / 2,
         );
         assert_eq!(&units[n * n / 2..], &lower[..]);
+        // Given the rock's factors already made, the same values.
+        let mut k = vec![0.0f32; n * n / 2];
+        rock().rows(n / 2, &mut k);
+        let mut given = vec![0.0f32; n * n / 2];
+        Strength::new(n, cell, seed, SPREAD)
+            .with_rock(rock(), contrast, soft)
+            .rows_on_rock(n / 2, &mut given, &k);
+        assert_eq!(given, lower);
         for same in [
             Strength::new(n, cell, seed, SPREAD).with_rock(rock(), 1.0, soft),
             Strength::new(n, cell, seed, SPREAD).with_rock(rock(), contrast, 1.0),

@@ -525,8 +525,8 @@ impl Prepared {
             );
         })
         .await?;
-        let erodibility = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
-        let strength = strength_in_bands(settings, n, cell_m, seed, ctx).await?;
+        let (erodibility, strength) =
+            rock_and_strength_in_bands(settings, n, cell_m, seed, ctx).await?;
         let guide = super::guide::guided_receivers_in(field.data(), kinds, n, ctx).await?;
         Ok(Self {
             guide,
@@ -676,6 +676,28 @@ pub(super) async fn strength_in_bands(
     }
     let strength = slope_strength(settings, n, cell_m, seed);
     field_in_bands(n, ctx, |first_row, rows| strength.rows(first_row, rows)).await
+}
+
+/// [`rock_in_bands`] and [`strength_in_bands`] together, the rock sampled once (the same
+/// values): the rock's erodibility factors (unpainted) and its strength factors.
+pub(super) async fn rock_and_strength_in_bands(
+    settings: &ErosionSettings,
+    n: usize,
+    cell_m: f64,
+    seed: u64,
+    ctx: &JobCtx,
+) -> Result<(Vec<f32>, Vec<f32>), Cancelled> {
+    let rock = rock_in_bands(settings, n, cell_m, seed, ctx).await?;
+    if settings.talus_deg.is_none() {
+        return Ok((rock, Vec::new()));
+    }
+    let strength = slope_strength(settings, n, cell_m, seed);
+    let factors = field_in_bands(n, ctx, |first_row, rows| {
+        let cells = first_row * n..first_row * n + rows.len();
+        strength.rows_on_rock(first_row, rows, rock.get(cells).unwrap_or(&[]));
+    })
+    .await?;
+    Ok((rock, factors))
 }
 
 /// [`strength_in_bands`] on the spread of strength alone, every rock unit as strong as the
