@@ -125,3 +125,34 @@ impl<'a> SharedField<'a> {
         self.0[i].store(value.to_bits(), Ordering::Relaxed);
     }
 }
+
+/// A field's cells read and written one at a time: a plain slice (one thread), or a
+/// [`SharedField`] that the items of [`for_each_item`] share.
+pub trait Cells {
+    fn get(&self, i: usize) -> f32;
+    fn set(&mut self, i: usize, value: f32);
+}
+
+impl Cells for [f32] {
+    #[inline]
+    fn get(&self, i: usize) -> f32 {
+        self[i]
+    }
+
+    #[inline]
+    fn set(&mut self, i: usize, value: f32) {
+        self[i] = value;
+    }
+}
+
+impl Cells for &SharedField<'_> {
+    #[inline]
+    fn get(&self, i: usize) -> f32 {
+        SharedField::get(self, i)
+    }
+
+    #[inline]
+    fn set(&mut self, i: usize, value: f32) {
+        SharedField::set(self, i, value);
+    }
+}

@@ -252,18 +252,25 @@ impl Network {
     /// [`start_area`]; O(cells of the run). The run's independent parts
     /// ([`independent_runs`](Self::independent_runs)) go to the threads: the same bits.
     pub(super) fn accumulate_area(&self, area: &mut [f32], run: Range<usize>) {
-        let area = parallel::SharedField::new(area);
-        let off = self.off;
-        parallel::for_each_item(self.independent_runs(run), |part| {
-            for &i in self.stack[part].iter().rev() {
-                let i = i as usize;
-                let code = usize::from(self.dir[i]);
-                if code != usize::from(NONE) {
-                    let to = i.wrapping_add_signed(off[code]);
-                    area.set(to, area.get(to) + area.get(i));
-                }
+        let runs = self.independent_runs(run);
+        if let [run] = &runs[..] {
+            self.add_area(run.clone(), area);
+            return;
+        }
+        let shared = parallel::SharedField::new(area);
+        parallel::for_each_item(runs, |part| self.add_area(part, &mut &shared));
+    }
+
+    /// [`accumulate_area`](Self::accumulate_area) of one run on one thread.
+    fn add_area<C: parallel::Cells + ?Sized>(&self, run: Range<usize>, area: &mut C) {
+        for &i in self.stack[run].iter().rev() {
+            let i = i as usize;
+            let code = usize::from(self.dir[i]);
+            if code != usize::from(NONE) {
+                let to = i.wrapping_add_signed(self.off[code]);
+                area.set(to, area.get(to) + area.get(i));
             }
-        });
+        }
     }
 
     /// Receiver index of every cell (itself when it has none).

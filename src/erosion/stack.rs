@@ -18,6 +18,20 @@ use crate::parallel;
 /// thread (spawning would cost more).
 const MIN_PARALLEL_CELLS: usize = 1 << 15;
 
+/// The threads the trees go to: natively every thread; in the page one. Measured in the
+/// page's threaded build on two threads (`BENCH_THREADS=only node web/tests/bench.mjs`),
+/// the trees on both threads made the erosion slower (1024^2 3316 -> 3713 ms, 2048^2 6286 ->
+/// 6488 ms): a wasm thread wakes slowly for each run, and wasm's atomic stores are
+/// sequentially consistent (a locked exchange each on x86), where natively a relaxed store is
+/// a plain one.
+fn tree_threads() -> usize {
+    if cfg!(target_arch = "wasm32") {
+        1
+    } else {
+        parallel::threads()
+    }
+}
+
 /// One band's share of the stack's walk: the trees of the base-level cells in `next..end`.
 #[derive(Default)]
 pub(super) struct TreeWalk {
@@ -78,7 +92,7 @@ impl Network {
         let bands = if n < MIN_PARALLEL_CELLS {
             1
         } else {
-            parallel::threads()
+            tree_threads()
         };
         self.start_stack_in(n, bands);
     }
@@ -134,7 +148,7 @@ impl Network {
         let parts = if run.len() < MIN_PARALLEL_CELLS {
             1
         } else {
-            parallel::threads()
+            tree_threads()
         };
         self.runs_between_trees(run, parts)
     }

@@ -26,7 +26,7 @@
 
 use super::flow::{NONE, Network};
 use super::grid::{D8_DIST, Grid};
-use crate::parallel::{self, SharedField};
+use crate::parallel::{self, Cells, SharedField};
 
 /// The incision law of one solver with its constants: the time step, `K`, `m`, `n`, and
 /// the factors that do not change between steps.
@@ -75,17 +75,25 @@ impl Incision {
         fields: &Fields<'_>,
         h: &mut [f32],
     ) {
-        let h = SharedField::new(h);
-        parallel::for_each_item(net.independent_runs(run), |part| {
+        let runs = net.independent_runs(run);
+        if let [run] = &runs[..] {
+            for &i in &net.stack[run.clone()] {
+                self.update(net, i as usize, fields, h);
+            }
+            return;
+        }
+        let shared = SharedField::new(h);
+        parallel::for_each_item(runs, |part| {
+            let mut cells = &shared;
             for &i in &net.stack[part] {
-                self.update(net, i as usize, fields, &h);
+                self.update(net, i as usize, fields, &mut cells);
             }
         });
     }
 
     /// The new height of cell `i`, whose receiver has its own already.
     #[inline]
-    fn update(&self, net: &Network, i: usize, fields: &Fields<'_>, h: &SharedField<'_>) {
+    fn update<C: Cells + ?Sized>(&self, net: &Network, i: usize, fields: &Fields<'_>, h: &mut C) {
         let Fields {
             area,
             uplift,
