@@ -113,7 +113,6 @@ pub use self::strata::Strata;
 
 use self::flow::Network;
 use self::grid::Grid;
-use crate::parallel;
 
 /// Cells of work per [`Eroder::advance`] (a few milliseconds natively): a band of rows of a
 /// sweep, a run of the stack, or lakes that saw about this many cells.
@@ -445,8 +444,9 @@ impl Eroder {
 
     /// Runs the next piece of the current step, about [`CHUNK_CELLS`] cells of work a
     /// thread: a band of rows of the receivers (one a thread) or of a talus pass; a run of
-    /// the stack for its walk, or for the drainage area or the incision (one a thread, split
-    /// between independent trees: [`flow::Network::independent_runs`]); lakes that saw about that many cells; or a run of the
+    /// the stack for its walk, or for the drainage area or the incision (one a thread the
+    /// trees go to, split between them: [`flow::Network::independent_runs`]); lakes that
+    /// saw about that many cells; or a run of the
     /// floor. The diffusion goes by passes over the whole map, each of up to
     /// [`diffusion::BLOCK`] half sweeps in one pass over its memory (`Diffusion::block`).
     /// So a browser job can yield between pieces and never
@@ -477,7 +477,7 @@ impl Eroder {
                     .continue_route(g, &mut self.heights, &self.base, route, chunk)
             }
             Phase::Area { left } => {
-                let run = left.saturating_sub(chunk.saturating_mul(parallel::threads()))..*left;
+                let run = left.saturating_sub(chunk.saturating_mul(stack::tree_threads()))..*left;
                 *left = run.start;
                 self.net.accumulate_area(&mut self.area, run);
                 *left == 0
@@ -485,7 +485,7 @@ impl Eroder {
             Phase::Incise { next } => {
                 let run = *next
                     ..next
-                        .saturating_add(chunk.saturating_mul(parallel::threads()))
+                        .saturating_add(chunk.saturating_mul(stack::tree_threads()))
                         .min(self.net.stack.len());
                 *next = run.end;
                 let fields = stream_power::Fields {

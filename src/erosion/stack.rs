@@ -24,7 +24,7 @@ const MIN_PARALLEL_CELLS: usize = 1 << 15;
 /// 6488 ms): a wasm thread wakes slowly for each run, and wasm's atomic stores are
 /// sequentially consistent (a locked exchange each on x86), where natively a relaxed store is
 /// a plain one.
-fn tree_threads() -> usize {
+pub(super) fn tree_threads() -> usize {
     if cfg!(target_arch = "wasm32") {
         1
     } else {
