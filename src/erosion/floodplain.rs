@@ -23,6 +23,12 @@
 //! its water asks, cut into its floodplain. Where the channel is narrower than a cell, the
 //! river cell is the channel and the floodplain beside it stands the depth above it.
 //!
+//! **Opening out.** The half-width jumps where a tributary joins (its area does); each cell
+//! takes the floor of its nearest channel cell, so the floor's edge stepped out at a right
+//! angle there. The widths are spread along the channel with a taper ([`WIDENING`],
+//! [`taper_along`]), so a floor opens out over a few times its widening, up the narrower
+//! reach and into the tributary's mouth.
+//!
 //! **Rock and footslopes.** A floor is narrower where the rock is hard and wider where it is
 //! soft ([`half_width_cells`]: the half-width times the square root of the erodibility), so
 //! one river's floor narrows into gorges and opens into basins along its course; and it
@@ -143,9 +149,16 @@ pub fn valley_floors(
     let mut half_width: Vec<f32> = (routing.area.iter().enumerate())
         .map(|(i, a)| half_width_cells(f64::from(*a), cell_m, rock_at(rock, i)))
         .collect();
-    let sources: Vec<usize> = (0..n * n)
-        .filter(|&i| channel[i] && half_width[i] >= 1.0)
+    // Tapered before the meander belts widen it: a belt's slack is laid cell by cell so that
+    // the floor spans the belt with straight edges, and spread along the loops it would
+    // swing them out again.
+    // The channel cells wide enough for a floor: the tapered widths spread among them only
+    // (a river rasterised two cells wide has cells beside its routed course draining little,
+    // which keep no floor of their own).
+    let with_floor: Vec<bool> = (0..n * n)
+        .map(|i| channel[i] && half_width[i] >= 1.0)
         .collect();
+    let origin = taper_along(&mut half_width, &with_floor, n, WIDENING);
     for &(cell, slack) in belt {
         if let Some(w) = half_width.get_mut(cell as usize)
             && *w >= 1.0
@@ -153,6 +166,7 @@ pub fn valley_floors(
             *w += slack.max(0.0);
         }
     }
+    let sources: Vec<usize> = (0..n * n).filter(|&i| with_floor[i]).collect();
     let nearest = nearest_within(n, sources.into_iter(), &half_width);
     let z = field.data();
     let base = floor_base(z, &nearest, &channel, n);
@@ -166,7 +180,8 @@ pub fn valley_floors(
         if channel[i] {
             continue;
         }
-        let area = f64::from(routing.area[*source as usize]);
+        // The channel's size is that of the reach its floor's width came from.
+        let area = f64::from(routing.area[origin[*source as usize] as usize]);
         let across = f64::from(*distance) * cell_m;
         let reach = f64::from(half_width[*source as usize]) * cell_m;
         let floor = floor_height(z, &channel, (n, cell_m), (i, base[i], across, area), reach);
@@ -243,16 +258,29 @@ pub(super) fn floor_height(
     (i, base, across, area): (usize, f32, f64, f64),
     reach: f64,
 ) -> f32 {
-    let bank = if across > channel_width_m(area) / 2.0 {
-        bankfull_depth_m(area)
-    } else {
-        0.0
-    };
+    let bank = bankfull_depth_m(area) * bank_share(across - channel_width_m(area) / 2.0, cell_m);
     let rise = CROSS_RISE * across + bank + footslope_m(across, reach);
     let floor = base + rise as f32;
     let banks = highest_channel_beside(z, channel, n, i)
         .map_or(f32::MIN, |h| h + (CROSS_RISE * cell_m) as f32);
     floor.max(banks)
+}
+
+/// Cells a channel's bank rises over, from its bed to its floodplain.
+pub const BANK_CELLS: f64 = 2.0;
+
+/// How much of the bankfull depth a floor cell `beyond` metres past the channel's half-width
+/// stands above the bed, on `cell_m` cells: a smoothstep over [`BANK_CELLS`] cells centred
+/// on the channel's edge (none a cell inside it, half at the edge, all of it a cell outside),
+/// so the channel is as wide as the law asks at mid-bank. A bank held as a step at the
+/// half-width aliased on the grid: the distance is to the nearest channel cell, a staircase
+/// along a diagonal course, so at 2-5 m cells each bank showed as a dotted line of one-cell
+/// notches a bankfull depth high. Real banks are steep, but not steeper than the grid can
+/// draw; over two cells the bank's line runs smoothly across the cells. Beside a channel
+/// narrower than a cell the first cell still stands nearly the whole depth above it.
+pub fn bank_share(beyond: f64, cell_m: f64) -> f64 {
+    let t = (beyond / (BANK_CELLS * cell_m) + 0.5).clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
 }
 
 /// Jacobi sweeps of [`floor_base`]: they spread a step over about `sqrt(sweeps)` cells along
@@ -330,6 +358,60 @@ fn highest_channel_beside(z: &[f32], channel: &[bool], n: usize, i: usize) -> Op
     highest
 }
 
+/// How fast a floor narrows away from a wider reach along its channel, in cells of
+/// half-width per cell of channel (0.2: the floor's edge meets the channel at 11 degrees).
+///
+/// A floor's width follows its channel's drainage area, which jumps where a tributary joins,
+/// and each cell takes the floor of its nearest channel cell: so at every junction the
+/// floor's edge stepped out at a right angle (boxes along the valley, scallops at 4096^2),
+/// where real floors open out over some distance, the wider reach's alluvium reaching up the
+/// narrower one (and up the tributary's mouth). Choice: the width spread along the channel
+/// cells with this taper ([`taper_along`]); it only widens floors, never past the widest
+/// reach near them.
+pub const WIDENING: f32 = 0.2;
+
+/// Spreads `width` (cells, one value a cell of an `n` x `n` grid) along the 8-connected
+/// cells of `path`: each path cell ends with the most of its own width and every path cell's
+/// width less `rate` times the length of the way between them along the path (Euclidean steps
+/// of 1 or sqrt(2)). Returns, for each cell, the cell its width came from (itself where it
+/// kept its own), whose drainage area then sets its channel's size. Dijkstra's order from the
+/// widest cell down (a shortest path in the max-plus sense), so the widths do not depend on
+/// the cells' order. Cells off the path keep their width. O(path cells log path cells).
+pub(super) fn taper_along(width: &mut [f32], path: &[bool], n: usize, rate: f32) -> Vec<u32> {
+    let mut origin: Vec<u32> = (0..width.len() as u32).collect();
+    let mut heap: BinaryHeap<(u32, Reverse<u32>)> = (0..width.len())
+        .filter(|&i| path[i] && width[i] > 0.0)
+        .map(|i| (width[i].to_bits(), Reverse(i as u32)))
+        .collect();
+    while let Some((bits, Reverse(i))) = heap.pop() {
+        let i = i as usize;
+        if width[i].to_bits() != bits {
+            continue;
+        }
+        let (x, y) = (i % n, i / n);
+        for yy in y.saturating_sub(1)..(y + 2).min(n) {
+            for xx in x.saturating_sub(1)..(x + 2).min(n) {
+                let j = yy * n + xx;
+                if j == i || !path[j] {
+                    continue;
+                }
+                let step = if xx != x && yy != y {
+                    std::f32::consts::SQRT_2
+                } else {
+                    1.0
+                };
+                let spread = width[i] - rate * step;
+                if spread > width[j] {
+                    width[j] = spread;
+                    origin[j] = origin[i];
+                    heap.push((spread.to_bits(), Reverse(j as u32)));
+                }
+            }
+        }
+    }
+    origin
+}
+
 /// For each cell of an `n` x `n` grid, the nearest of `sources` (cell index) and the
 /// Euclidean distance to it in cells, among the sources whose `reach` (cells) it is within;
 /// `None` beyond every reach. Dijkstra's order with each cell carrying its nearest source
@@ -372,6 +454,57 @@ pub(super) fn nearest_within(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A channel whose floor's half-width jumps from 2 to 16 cells where a tributary would join:
+    /// tapered, the width falls by at most [`WIDENING`] a cell upstream of the jump, is never
+    /// less than it was, keeps its widest value, and each cell's width comes from the wide
+    /// reach where it was raised. The floor's edge then opens out a cell a column or less,
+    /// where it stepped out 3 cells or more at once (the wide reach's disc).
+    #[test]
+    fn a_floor_opens_out_along_its_channel_not_in_a_step() {
+        let n = 80;
+        let row = 40;
+        let mut channel = vec![false; n * n];
+        let mut width = vec![0.0f32; n * n];
+        for x in 0..n {
+            channel[row * n + x] = true;
+            width[row * n + x] = if x < 40 { 2.0 } else { 16.0 };
+        }
+        let edge_steps = |width: &[f32]| {
+            let sources = (0..n * n).filter(|&i| channel[i]);
+            let reached = nearest_within(n, sources, width);
+            let half = |x: usize| {
+                (0..n)
+                    .filter(|&y| reached[y * n + x].is_some())
+                    .map(|y| y.abs_diff(row))
+                    .max()
+                    .unwrap_or(0)
+            };
+            (1..n - 1)
+                .map(|x| half(x + 1).abs_diff(half(x)))
+                .max()
+                .unwrap_or(0)
+        };
+        assert!(edge_steps(&width) >= 3, "untapered: {}", edge_steps(&width));
+        let before = width.clone();
+        let origin = taper_along(&mut width, &channel, n, WIDENING);
+        for x in 0..n - 1 {
+            let (i, j) = (row * n + x, row * n + x + 1);
+            assert!(width[i] >= before[i] && width[i] <= 16.0);
+            assert!((width[j] - width[i]).abs() <= WIDENING + 1e-5, "{x}");
+        }
+        assert_eq!(width[row * n + 60], 16.0);
+        assert!((width[row * n + 39] - (16.0 - WIDENING)).abs() < 1e-5);
+        // Every raised cell's width comes from the nearest wide cell, the one where it jumps.
+        assert_eq!(origin[row * n] as usize, row * n + 40);
+        assert_eq!(
+            origin[row * n + 50] as usize,
+            row * n + 50,
+            "the wide reach: its own"
+        );
+        assert!(edge_steps(&width) <= 1, "steps of {}", edge_steps(&width));
+        assert!(width.iter().zip(&channel).all(|(w, c)| *c || *w == 0.0));
+    }
 
     /// A channel falling in steps of 1 m every 4 cells: the floor's base beside it no longer
     /// steps with it (the largest jump between neighbours along the valley a third of the
@@ -501,12 +634,14 @@ mod tests {
                 let d = (x as f64 - mid as f64).abs();
                 if d >= 2.0 {
                     // The floodplain: the cross rise over the bank of the channel (all
-                    // narrower than a cell here), as deep as the law asks for its area.
+                    // narrower than a cell here), as deep as the law asks for its area
+                    // once past the bank.
                     // And the footslope, curving up to the floor's edge.
                     let rise = f64::from(z[i] - river) - CROSS_RISE * d * cell;
                     let a = f64::from(area[y * n + mid]);
                     let reach = f64::from(half_width_cells(a, cell, 1.0)) * cell;
-                    let bank = bankfull_depth_m(a) + footslope_m(d * cell, reach);
+                    let share = bank_share(d * cell - channel_width_m(a) / 2.0, cell);
+                    let bank = bankfull_depth_m(a) * share + footslope_m(d * cell, reach);
                     assert!((rise - bank).abs() < 1e-2, "{i}: {rise} vs {bank}");
                 } else {
                     // Beside the river: above every river cell it touches.
@@ -555,9 +690,10 @@ mod tests {
     /// A meandering river down a tilted valley, loops 40 cells long swinging 8 cells either
     /// side on a floor 6 to 9 cells wide either side (the proportions of the default scene's
     /// trunk at 70 degrees): given how far inside its belt each river cell lies, the floor
-    /// spans the belt with nearly straight edges (they move 6 cells over the lower half of
-    /// the map, most of it the floor widening downstream); without, they swing with the loops
-    /// (20 cells).
+    /// spans the belt with nearly straight edges (they move 7 cells over the lower half of
+    /// the map, most of it the floor widening downstream, 2-3 cells a loop where the widths
+    /// spread along the river, [`taper_along`]); without, they swing with the loops (18
+    /// cells).
     #[test]
     fn a_meander_belt_gives_the_floor_straight_edges() {
         let (n, cell, amplitude, period) = (1024, 10.0, 8.0, 40.0);
@@ -596,7 +732,7 @@ mod tests {
         };
         let (straight, swinging) = (west_edge(&belt), west_edge(&[]));
         assert!(swinging >= 10, "{swinging}");
-        assert!(straight * 3 <= swinging, "{straight} against {swinging}");
+        assert!(straight * 2 <= swinging, "{straight} against {swinging}");
     }
 
     /// A V valley of sides at 0.3 along a river down column `n / 2`, falling towards the

@@ -16,13 +16,16 @@
 //! as [`super::floodplain::valley_floors`] lays one: half-width `k sqrt(A)`, reached in
 //! Euclidean distance, rising [`super::floodplain::CROSS_RISE`] away from the channel and a
 //! bankfull depth above it beyond the channel's half-width, never below a channel cell beside
-//! it. A floor only lowers land. The walls it leaves are brought back to the rock's threshold
+//! it, opening out along the channel where a larger one joins
+//! ([`super::floodplain::WIDENING`]). A floor only lowers land. The walls it leaves are brought back to the rock's threshold
 //! angle by the stage's slope limit, which takes the floors as base level, as landslides
 //! retreat an undercut valley wall. Departure: the papers (seed 000) keep the design's
 //! heights beside the rivers and have no floors; the lateral erosion of Langston and Tucker
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 
-use super::floodplain::{floor_base, floor_height, half_width_cells, nearest_within, rock_at};
+use super::floodplain::{
+    WIDENING, floor_base, floor_height, half_width_cells, nearest_within, rock_at, taper_along,
+};
 
 /// The least drainage area with a valley floor, m^2: 10 km^2. Valleys draining less are
 /// bedrock gorges and hollows in mountains, V-shaped (Montgomery and Buffington 1997's
@@ -45,7 +48,7 @@ pub fn cut(
     n: usize,
     cell_m: f64,
 ) -> Option<Vec<bool>> {
-    let half_width: Vec<f32> = (area.iter().enumerate())
+    let mut half_width: Vec<f32> = (area.iter().enumerate())
         .map(|(i, &a)| {
             let a = f64::from(a);
             if a < MIN_AREA_M2 {
@@ -58,6 +61,8 @@ pub fn cut(
     if !channel.contains(&true) {
         return None;
     }
+    // Floors open out where a larger channel joins, not in a step at the junction.
+    let origin = taper_along(&mut half_width, &channel, n, WIDENING);
     let sources = (0..n * n).filter(|&i| channel[i]);
     let nearest = nearest_within(n, sources, &half_width);
     let base = floor_base(heights, &nearest, &channel, n);
@@ -69,7 +74,7 @@ pub fn cut(
         if channel[i] || fixed[i] {
             continue;
         }
-        let a = f64::from(area[*source as usize]);
+        let a = f64::from(area[origin[*source as usize] as usize]);
         let across = f64::from(*distance) * cell_m;
         // Sources are never lowered, so the channel heights read here are the solver's.
         let reach = f64::from(half_width[*source as usize]) * cell_m;
@@ -90,7 +95,8 @@ pub fn cut(
 mod tests {
     use super::*;
     use crate::erosion::floodplain::{
-        CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m, footslope_m,
+        CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bank_share, bankfull_depth_m, channel_width_m,
+        footslope_m,
     };
 
     /// A V valley draining 100 km^2 along row 20 of 20 m cells, its sides at 30 degrees: the
@@ -119,7 +125,10 @@ mod tests {
         let before = h.clone();
         let floor = cut(&mut h, &area, &fixed, &[], n, cell).expect("a floor");
         let half = HALF_WIDTH_PER_SQRT_AREA * 1.0e4 / cell; // 6 cells
-        let bank = bankfull_depth_m(1.0e8) as f32;
+        let bank = |off: f64| {
+            let beyond = off * cell - channel_width_m(1.0e8) / 2.0;
+            (bankfull_depth_m(1.0e8) * bank_share(beyond, cell)) as f32
+        };
         for y in 0..n {
             for x in 0..n {
                 let i = y * n + x;
@@ -130,7 +139,12 @@ mod tests {
                 }
                 assert!(floor[i], "({x}, {y}) is floor");
                 let foot = footslope_m(off * cell, half * cell) as f32;
-                let want = x as f32 + (CROSS_RISE * off * cell) as f32 + bank + foot;
+                let mut want = x as f32 + (CROSS_RISE * off * cell) as f32 + bank(off) + foot;
+                if off == 1.0 {
+                    // Never below the highest channel cell beside it (the next one upstream,
+                    // a metre higher) plus a cell's rise: the bank's first cell is lower.
+                    want = want.max((x + 1).min(n - 1) as f32 + (CROSS_RISE * cell) as f32);
+                }
                 assert!((h[i] - want).abs() < 0.05, "({x}, {y}): {} != {want}", h[i]);
             }
         }
