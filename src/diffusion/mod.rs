@@ -185,6 +185,15 @@ pub async fn fill(
     })
 }
 
+/// Fields of at most this many cells are solved on the calling thread in the page, not in
+/// its Web Worker: an edit's coarse 128^2 pass solves in a few milliseconds, but the worker's
+/// answer waited for the page's thread, which right after an edit is painting a frame
+/// (120-210 ms where the page is composited in software), and only then could the erosion
+/// be sent; the page's edits reached the map a frame later. The bits are the same
+/// wherever it runs.
+#[cfg_attr(not(target_arch = "wasm32"), allow(dead_code))]
+const ON_THIS_THREAD_CELLS: usize = 1 << 15;
+
 /// [`fill`] that leaves the field on the GPU where it was solved there in one buffer (a
 /// multigrid solve on a GPU backend of a field that fits one binding), for a next GPU stage
 /// to work on in place; otherwise the field comes back on the CPU.
@@ -195,7 +204,8 @@ pub async fn fill_keeping(
     ctx: &JobCtx,
 ) -> Result<Filled<FieldOut>, DiffusionError> {
     #[cfg(target_arch = "wasm32")]
-    if matches!(backend, Backend::Cpu) {
+    if matches!(backend, Backend::Cpu) && problem.width() * problem.height() > ON_THIS_THREAD_CELLS
+    {
         use crate::jobs::worker::{CallError, call};
         match call(
             offload::KIND,

@@ -8,7 +8,7 @@
 //!   window and calls [`serve`] instead of starting the app.
 //! - **Calls.** [`call`] posts `{id, kind, parcel}` with the arrays' buffers transferred. The
 //!   worker runs the handler as a job of its own and posts `{id, progress, message}` about
-//!   every [`PROGRESS_EVERY_MS`], then `{id, parcel}` or `{id, failed}`.
+//!   every [`PROGRESS_EVERY_MS`], and `{id, parcel}` or `{id, failed}` as soon as it ends.
 //! - **Cancel.** The page's job sees each progress message through its own
 //!   [`JobCtx::tick`]; once its owner cancelled it (a newer edit), it posts `{id, cancel}` and
 //!   the worker drops the job, which stops at its next tick.
@@ -454,7 +454,14 @@ pub fn serve(handler: Handler) {
             }
         };
         let name = kind.clone();
-        let job = super::spawn(&name, move |ctx| handler(kind, parcel, ctx), || {});
+        // The result goes back the moment the job ends, not at the next progress report: a
+        // coarse pass's solves take a few milliseconds, and waiting for the report added
+        // up to [`PROGRESS_EVERY_MS`] to each of them.
+        let finished = {
+            let (scope, running) = (scope.clone(), Rc::clone(&running));
+            move || post_result(&scope, id, &running)
+        };
+        let job = super::spawn(&name, move |ctx| handler(kind, parcel, ctx), finished);
         match job {
             Ok(job) => {
                 running.borrow_mut().insert(id, job);
@@ -468,20 +475,31 @@ pub fn serve(handler: Handler) {
     on_message.forget();
 }
 
-/// Reports job `id`'s progress until it finishes (then posts its result) or is cancelled.
+/// Posts job `id`'s result and forgets the job, once it has one (its `on_finish`).
+fn post_result(scope: &web_sys::DedicatedWorkerGlobalScope, id: u32, running: &Running) {
+    let mut jobs = running.borrow_mut();
+    let Some(result) = jobs.get(&id).and_then(JobHandle::try_take) else {
+        return; // cancelled, or not finished
+    };
+    jobs.remove(&id);
+    drop(jobs);
+    reply(scope, id, result);
+}
+
+/// Reports job `id`'s progress until it has posted its result or is cancelled.
 async fn watch(scope: web_sys::DedicatedWorkerGlobalScope, id: u32, running: Running) {
     loop {
         sleep(&scope, PROGRESS_EVERY_MS).await;
-        let mut jobs = running.borrow_mut();
-        let Some(job) = jobs.get(&id) else {
-            return; // cancelled
-        };
-        if let Some(result) = job.try_take() {
-            jobs.remove(&id);
-            drop(jobs);
-            reply(&scope, id, result);
-            return;
+        if running.borrow().get(&id).is_none() {
+            return; // finished and posted, or cancelled
         }
+        // The job posts its result when it ends; this only covers an end its `on_finish`
+        // could not see (the job not yet listed).
+        post_result(&scope, id, &running);
+        let jobs = running.borrow();
+        let Some(job) = jobs.get(&id) else {
+            return;
+        };
         let message = object(&[
             ("id", JsValue::from(id)),
             ("progress", JsValue::from(job.progress())),

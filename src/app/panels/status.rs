@@ -66,14 +66,20 @@ impl StatusBar {
                      generated at full size on demand (Generate section).",
                 );
             }
-            if let Some(job) = &info.job {
-                ui.separator();
-                // A still bar, not a spinner: a spinner repaints every frame, which on the
-                // CPU path takes time from the job itself. The bar only moves forward
-                // (`jobs`), with the stage and about how long is left.
-                ui.add(egui::ProgressBar::new(job.progress).desired_width(60.0));
-                ui.label(job.text());
-            }
+            // The job's line: a still bar, not a spinner (a spinner repaints every frame,
+            // which on the CPU path takes time from the job itself); it only moves forward
+            // (`jobs`), with the stage and about how long is left. Its widgets are there in
+            // every frame, hidden without a job: egui styles a widget it has not seen on its
+            // second frame and asks for that frame at once, so a line appearing with each
+            // new job cost an edit one more repaint before its coarse terrain could show
+            // (120-210 ms each where the page is composited in software).
+            let (shown, progress, text) = match &info.job {
+                Some(job) => (true, job.progress, job.text()),
+                None => (false, 0.0, String::new()),
+            };
+            ui.add_visible(shown, egui::Separator::default());
+            ui.add_visible(shown, egui::ProgressBar::new(progress).desired_width(60.0));
+            ui.add_visible(shown, egui::Label::new(text));
             ui.separator();
             ui.label(tool_hint(info.tool));
             ui.with_layout(egui::Layout::right_to_left(egui::Align::Center), |ui| {
