@@ -25,9 +25,9 @@
 //!
 //! **Opening out.** The half-width jumps where a tributary joins (its area does); each cell
 //! takes the floor of its nearest channel cell, so the floor's edge stepped out at a right
-//! angle there. The widths are spread along the channel with a taper ([`WIDENING`],
-//! [`taper_along`]), so a floor opens out over a few times its widening, up the narrower
-//! reach and into the tributary's mouth.
+//! angle there. The widths are spread along the channel cells wide enough for a floor with a
+//! taper ([`WIDENING`], [`taper_along`]), so a floor opens out gradually, up the narrower reach
+//! and into the tributary's mouth, each cell's channel sized by the reach its width came from.
 //!
 //! **Rock and footslopes.** A floor is narrower where the rock is hard and wider where it is
 //! soft ([`half_width_cells`]: the half-width times the square root of the erodibility), so
@@ -149,12 +149,11 @@ pub fn valley_floors(
     let mut half_width: Vec<f32> = (routing.area.iter().enumerate())
         .map(|(i, a)| half_width_cells(f64::from(*a), cell_m, rock_at(rock, i)))
         .collect();
-    // Tapered before the meander belts widen it: a belt's slack is laid cell by cell so that
-    // the floor spans the belt with straight edges, and spread along the loops it would
-    // swing them out again.
-    // The channel cells wide enough for a floor: the tapered widths spread among them only
-    // (a river rasterised two cells wide has cells beside its routed course draining little,
-    // which keep no floor of their own).
+    // The widths are spread among the channel cells wide enough for a floor only (a river
+    // rasterised two cells wide has cells beside its routed course draining little, which
+    // keep no floor of their own), and before the meander belts widen them: a belt's slack
+    // is laid cell by cell so that the floor spans the belt with straight edges, and spread
+    // along the loops it would swing them out again.
     let with_floor: Vec<bool> = (0..n * n)
         .map(|i| channel[i] && half_width[i] >= 1.0)
         .collect();
