@@ -17,9 +17,9 @@
 //! Euclidean distance, rising [`super::floodplain::CROSS_RISE`] away from the channel and a
 //! bankfull depth above it beyond the channel's half-width, never below a channel cell beside
 //! it, opening out along the channel where a larger one joins
-//! ([`super::floodplain::WIDENING`]). A floor only lowers land. The walls it leaves are brought back to the rock's threshold
-//! angle by the stage's slope limit, which takes the floors as base level, as landslides
-//! retreat an undercut valley wall. Departure: the papers (seed 000) keep the design's
+//! ([`super::floodplain::WIDENING`]). A floor only lowers land. The walls it leaves are
+//! brought back to the rock's threshold angle by the stage's slope limit, which takes the
+//! floors as base level, as landslides retreat an undercut valley wall. Departure: the papers (seed 000) keep the design's
 //! heights beside the rivers and have no floors; the lateral erosion of Langston and Tucker
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 

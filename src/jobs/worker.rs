@@ -490,15 +490,12 @@ fn post_result(scope: &web_sys::DedicatedWorkerGlobalScope, id: u32, running: &R
 async fn watch(scope: web_sys::DedicatedWorkerGlobalScope, id: u32, running: Running) {
     loop {
         sleep(&scope, PROGRESS_EVERY_MS).await;
-        if running.borrow().get(&id).is_none() {
-            return; // finished and posted, or cancelled
-        }
         // The job posts its result when it ends; this only covers an end its `on_finish`
         // could not see (the job not yet listed).
         post_result(&scope, id, &running);
         let jobs = running.borrow();
         let Some(job) = jobs.get(&id) else {
-            return;
+            return; // finished and posted, or cancelled
         };
         let message = object(&[
             ("id", JsValue::from(id)),
