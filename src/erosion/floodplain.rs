@@ -41,6 +41,7 @@
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
+use super::floor_along::{Floors, floor_inputs};
 use super::{ErosionError, receivers_and_area};
 use crate::heightfield::Heightfield;
 pub use crate::river::hydraulic::channel_width_m;
@@ -165,25 +166,42 @@ pub fn valley_floors(
             *w += slack.max(0.0);
         }
     }
-    let sources: Vec<usize> = (0..n * n).filter(|&i| with_floor[i]).collect();
-    let nearest = nearest_within(n, sources.into_iter(), &half_width);
+    let sources = (0..n * n).filter(|&i| with_floor[i]);
+    let nearest = nearest_within(n, sources, &half_width);
     let z = field.data();
-    let base = floor_base(z, &nearest, &channel, n);
+    let floors = Floors {
+        nearest: &nearest,
+        channel: &channel,
+        sources: &with_floor,
+        n,
+    };
+    // The channel's size is that of the reach its floor's width came from.
+    let inputs = floor_inputs(
+        z,
+        &floors,
+        cell_m,
+        |s| routing.area[origin[s] as usize],
+        |s| (f64::from(half_width[s]) * cell_m) as f32,
+    );
     let mut heights = z.to_vec();
     let mut floored = kinds.to_vec();
     let mut any = false;
     for (i, near) in nearest.iter().enumerate() {
-        let Some((source, distance)) = near else {
+        let Some(_) = near else {
             continue;
         };
         if channel[i] {
             continue;
         }
-        // The channel's size is that of the reach its floor's width came from.
-        let area = f64::from(routing.area[origin[*source as usize] as usize]);
-        let across = f64::from(*distance) * cell_m;
-        let reach = f64::from(half_width[*source as usize]) * cell_m;
-        let floor = floor_height(z, &channel, (n, cell_m), (i, base[i], across, area), reach);
+        let across = f64::from(inputs.across[i]) * cell_m;
+        let (area, reach) = (f64::from(inputs.area[i]), f64::from(inputs.reach[i]));
+        let floor = floor_height(
+            z,
+            &channel,
+            (n, cell_m),
+            (i, inputs.base[i], across, area),
+            reach,
+        );
         heights[i] = heights[i].min(floor);
         floored[i] = CellKind::Floor;
         any = true;
@@ -244,7 +262,7 @@ pub fn lift_coves(field: &Heightfield, kinds: &[CellKind], cell_m: f64) -> Optio
 
 /// The floor's height at cell `i` (of an `n` x `n` grid of `cell_m` cells), `across` metres
 /// from its nearest channel cell, which drains `area` m^2 and has a floor reaching `reach`
-/// metres from it, rising from `base` ([`floor_base`]): the channel's bed within half the
+/// metres from it, rising from `base` ([`super::floor_along`]): the channel's bed within half the
 /// bankfull width, the floodplain a bankfull depth above it beyond, both rising
 /// [`CROSS_RISE`] away from the channel and curving up into the footslope
 /// ([`footslope_m`]); never below a channel cell of `z` beside it plus one cell's rise (each
@@ -280,66 +298,6 @@ pub const BANK_CELLS: f64 = 2.0;
 pub fn bank_share(beyond: f64, cell_m: f64) -> f64 {
     let t = (beyond / (BANK_CELLS * cell_m) + 0.5).clamp(0.0, 1.0);
     t * t * (3.0 - 2.0 * t)
-}
-
-/// Jacobi sweeps of [`floor_base`]: they spread a step over about `sqrt(sweeps)` cells along
-/// the valley (chosen by eye in hillshades of the default scene at 2048^2, 4.9 m cells: 2
-/// sweeps still showed the stripes, 8 none).
-const BASE_SWEEPS: usize = 8;
-
-/// The height each floor cell's floor rises from (`nearest`: each cell's nearest channel cell
-/// and its distance, `None` off the floors; `channel` cells keep `z`). Its nearest channel
-/// cell's height alone steps at every cell along the valley by the channel's fall (strips of
-/// one height across the floor, each a step below the one upstream: a staircase down the
-/// valley in the hillshade at fine cells); so those heights are smoothed by [`BASE_SWEEPS`]
-/// Jacobi sweeps over the floor cells, the channel cells held: each cell takes the mean of
-/// its pairs of opposite 4-neighbours that lie on the floor or its channel (the first sweeps
-/// of a harmonic interpolation of the channel's heights across its floor). Heights linear
-/// along the valley, a channel falling evenly, are kept as they are, up to the floor's edges
-/// and ends; only steps are spread. Values off the floors are unspecified. O(floor cells x
-/// sweeps).
-pub(super) fn floor_base(
-    z: &[f32],
-    nearest: &[Option<(u32, f32)>],
-    channel: &[bool],
-    n: usize,
-) -> Vec<f32> {
-    let cells: Vec<usize> = (0..nearest.len())
-        .filter(|&i| nearest[i].is_some() && !channel[i])
-        .collect();
-    let mut base = z.to_vec();
-    for &i in &cells {
-        if let Some((source, _)) = nearest[i] {
-            base[i] = z[source as usize];
-        }
-    }
-    let on = |j: usize| channel[j] || nearest[j].is_some();
-    let mut next = base.clone();
-    for _ in 0..BASE_SWEEPS {
-        for &i in &cells {
-            let (x, y) = (i % n, i / n);
-            let (mut sum, mut count) = (0.0f32, 0u32);
-            // Opposite neighbours in pairs, both on the floor or its channel: a channel that
-            // falls evenly keeps its floor's heights at the floor's edges and ends too.
-            let pairs = [
-                (x > 0 && x + 1 < n).then(|| (i - 1, i + 1)),
-                (y > 0 && y + 1 < n).then(|| (i - n, i + n)),
-            ];
-            for (a, b) in pairs.into_iter().flatten() {
-                if on(a) && on(b) {
-                    sum += base[a] + base[b];
-                    count += 2;
-                }
-            }
-            if count > 0 {
-                next[i] = sum / count as f32;
-            }
-        }
-        for &i in &cells {
-            base[i] = next[i];
-        }
-    }
-    base
 }
 
 /// The highest channel cell among the 8 neighbours of cell `i`, if any.
@@ -521,7 +479,16 @@ mod tests {
         let reach = vec![6.0f32; n * n];
         let sources = (0..n * n).filter(|&i| channel[i]);
         let nearest = nearest_within(n, sources, &reach);
-        let base = floor_base(&z, &nearest, &channel, n);
+        let floors = crate::erosion::floor_along::Floors {
+            nearest: &nearest,
+            channel: &channel,
+            sources: &channel,
+            n,
+        };
+        // Cells of 20 m: the one-cell sweeps alone.
+        let inputs =
+            crate::erosion::floor_along::floor_inputs(&z, &floors, 20.0, |_| 1.0e8, |_| 120.0);
+        let base = inputs.base;
         for y in [17usize, 23] {
             let row: Vec<f32> = (0..w).map(|x| base[y * n + x]).collect();
             let steps: Vec<f32> = row.windows(2).map(|p| p[1] - p[0]).collect();
@@ -641,7 +608,9 @@ mod tests {
                     let reach = f64::from(half_width_cells(a, cell, 1.0)) * cell;
                     let share = bank_share(d * cell - channel_width_m(a) / 2.0, cell);
                     let bank = bankfull_depth_m(a) * share + footslope_m(d * cell, reach);
-                    assert!((rise - bank).abs() < 1e-2, "{i}: {rise} vs {bank}");
+                    // Within 5 cm: the floor's area is spread along the valley
+                    // (`floor_along`), where this takes the river cell's own.
+                    assert!((rise - bank).abs() < 0.05, "{i}: {rise} vs {bank}");
                 } else {
                     // Beside the river: above every river cell it touches.
                     let upstream = z[y.saturating_sub(1) * n + mid];

@@ -68,6 +68,7 @@ mod diffusion;
 mod error;
 mod fill;
 pub mod floodplain;
+mod floor_along;
 mod flow;
 pub mod gpu;
 mod grid;

@@ -24,8 +24,9 @@
 //! is a process of each time step, where this lays its steady-state result once, at the end.
 
 use super::floodplain::{
-    WIDENING, floor_base, floor_height, half_width_cells, nearest_within, rock_at, taper_along,
+    WIDENING, floor_height, half_width_cells, nearest_within, rock_at, taper_along,
 };
+use super::floor_along::{Floors, floor_inputs};
 
 /// The least drainage area with a valley floor, m^2: 10 km^2. Valleys draining less are
 /// bedrock gorges and hollows in mountains, V-shaped (Montgomery and Buffington 1997's
@@ -65,24 +66,36 @@ pub fn cut(
     let origin = taper_along(&mut half_width, &channel, n, WIDENING);
     let sources = (0..n * n).filter(|&i| channel[i]);
     let nearest = nearest_within(n, sources, &half_width);
-    let base = floor_base(heights, &nearest, &channel, n);
+    let floors = Floors {
+        nearest: &nearest,
+        channel: &channel,
+        sources: &channel,
+        n,
+    };
+    // Each cell's channel sized by the reach its width came from; sources are never lowered,
+    // so the channel heights read here are the solver's.
+    let inputs = floor_inputs(
+        heights,
+        &floors,
+        cell_m,
+        |s| area[origin[s] as usize],
+        |s| (f64::from(half_width[s]) * cell_m) as f32,
+    );
     let mut floor = channel.clone();
     for (i, near) in nearest.iter().enumerate() {
-        let Some((source, distance)) = near else {
+        let Some(_) = near else {
             continue;
         };
         if channel[i] || fixed[i] {
             continue;
         }
-        let a = f64::from(area[origin[*source as usize] as usize]);
-        let across = f64::from(*distance) * cell_m;
-        // Sources are never lowered, so the channel heights read here are the solver's.
-        let reach = f64::from(half_width[*source as usize]) * cell_m;
+        let across = f64::from(inputs.across[i]) * cell_m;
+        let (a, reach) = (f64::from(inputs.area[i]), f64::from(inputs.reach[i]));
         let level = floor_height(
             heights,
             &channel,
             (n, cell_m),
-            (i, base[i], across, a),
+            (i, inputs.base[i], across, a),
             reach,
         );
         heights[i] = heights[i].min(level);
