@@ -479,15 +479,14 @@ mod tests {
         let reach = vec![6.0f32; n * n];
         let sources = (0..n * n).filter(|&i| channel[i]);
         let nearest = nearest_within(n, sources, &reach);
-        let floors = crate::erosion::floor_along::Floors {
+        let floors = Floors {
             nearest: &nearest,
             channel: &channel,
             sources: &channel,
             n,
         };
         // Cells of 20 m: the one-cell sweeps alone.
-        let inputs =
-            crate::erosion::floor_along::floor_inputs(&z, &floors, 20.0, |_| 1.0e8, |_| 120.0);
+        let inputs = floor_inputs(&z, &floors, 20.0, |_| 1.0e8, |_| 120.0);
         let base = inputs.base;
         for y in [17usize, 23] {
             let row: Vec<f32> = (0..w).map(|x| base[y * n + x]).collect();

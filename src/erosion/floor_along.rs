@@ -41,9 +41,13 @@ const WIDE_SWEEPS: usize = 2;
 /// distance in cells (`None` off the floors), the channel cells, and which of them have a
 /// floor (the sources).
 pub(super) struct Floors<'a> {
+    /// Each cell's nearest source and its distance, cells ([`super::floodplain::nearest_within`]).
     pub nearest: &'a [Option<(u32, f32)>],
+    /// The channel cells, which keep their heights.
     pub channel: &'a [bool],
+    /// The channel cells with a floor.
     pub sources: &'a [bool],
+    /// Cells a side.
     pub n: usize,
 }
 
