@@ -29,6 +29,11 @@
 //! taper ([`WIDENING`], [`taper_along`]), so a floor opens out gradually, up the narrower reach
 //! and into the tributary's mouth, each cell's channel sized by the reach its width came from.
 //!
+//! **Land below the floor.** A floor only lowers the design: land within its reach that
+//! stands below the floor's height (near its outer edge, where a tributary's valley comes in)
+//! keeps the design, rounded at the cell scale ([`super::floor_along::smooth_cells`]), as base
+//! level with the floor.
+//!
 //! **Rock and footslopes.** A floor is narrower where the rock is hard and wider where it is
 //! soft ([`half_width_cells`]: the half-width times the square root of the erodibility), so
 //! one river's floor narrows into gorges and opens into basins along its course; and it
@@ -186,6 +191,7 @@ pub fn valley_floors(
     let mut heights = z.to_vec();
     let mut floored = kinds.to_vec();
     let mut any = false;
+    let mut kept: Vec<(usize, f32)> = Vec::new();
     for (i, near) in nearest.iter().enumerate() {
         let Some(_) = near else {
             continue;
@@ -202,12 +208,25 @@ pub fn valley_floors(
             (i, inputs.base[i], across, area),
             reach,
         );
+        if z[i] < floor && kinds[i] != CellKind::Grown {
+            // Land below the floor: the design stays (a branch's own cells as they are).
+            kept.push((i, floor));
+        }
         heights[i] = heights[i].min(floor);
         floored[i] = CellKind::Floor;
         any = true;
     }
     if !any {
         return Ok(None);
+    }
+    // The land the floor does not lower keeps the design, whose raster steps beside a grown
+    // branch no solver reshapes there: rounded, and never above the floor.
+    let cells: Vec<usize> = kept.iter().map(|(i, _)| *i).collect();
+    super::floor_along::smooth_cells(&mut heights, &cells, n, |j| {
+        nearest[j].is_some() || channel[j]
+    });
+    for &(i, floor) in &kept {
+        heights[i] = heights[i].min(floor);
     }
     let field = Heightfield::from_vec(n, n, heights).map_err(|_| ErosionError::InvalidParam {
         field: "heights",
