@@ -485,10 +485,13 @@ async function runMode(url, mode, expectedChecksum) {
       const saved = join(output, `${mode}-${download.suggestedFilename()}`);
       await download.saveAs(saved);
       const bytes = readFileSync(saved);
-      // IHDR: width, height, bit depth; tEXt strahler:z_range = "min,max".
+      // IHDR: width, height, bit depth; tEXt strahler:z_range = "min,max". The chunk's
+      // length (4 bytes) and type stand before its keyword: the value ends there, not at the
+      // first byte that is no digit (the CRC after it may start with one, or with '-').
       const text = bytes.toString('latin1');
       const at = text.indexOf('strahler:z_range');
-      const range = at >= 0 ? text.slice(at + 17, at + 60).split(/[^0-9.,-]/)[0].split(',').map(Number) : null;
+      const length = at >= 8 ? bytes.readUInt32BE(at - 8) : 0;
+      const range = at >= 8 ? text.slice(at + 17, at + length).split(',').map(Number) : null;
       pngInfo = { name: download.suggestedFilename(), width: bytes.readUInt32BE(16),
         height: bytes.readUInt32BE(20), depth: bytes[24], range };
     }
