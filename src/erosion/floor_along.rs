@@ -123,11 +123,11 @@ pub(super) fn floor_inputs(
         }
     }
     let scales = scales(cell_m);
-    spread(&mut [&mut base], &cells, floors.n, &scales, |j| {
+    spread(&mut [&mut base[..]], &cells, floors.n, &scales, |j| {
         floors.with_height(j)
     });
     spread(
-        &mut [&mut area, &mut reach],
+        &mut [&mut area[..], &mut reach[..]],
         &cells,
         floors.n,
         &scales,
@@ -135,7 +135,7 @@ pub(super) fn floor_inputs(
     );
     // The floor's cells alone: a pair across the channel would average the two sides'
     // distances, which fall to the channel and rise again.
-    spread(&mut [&mut across], &cells, floors.n, &scales, |j| {
+    spread(&mut [&mut across[..]], &cells, floors.n, &scales, |j| {
         floors.nearest[j].is_some() && !floors.channel[j]
     });
     FloorInputs {
@@ -154,7 +154,7 @@ pub(super) fn floor_inputs(
 /// reshapes, it showed as a string of beads across the floor's margin at 2048^2-4096^2.
 /// The sweeps round the steps at the cell scale and keep slopes as they are.
 pub(super) fn smooth_cells(
-    heights: &mut Vec<f32>,
+    heights: &mut [f32],
     cells: &[usize],
     n: usize,
     on: impl Fn(usize) -> bool,
@@ -182,7 +182,7 @@ fn scales(cell_m: f64) -> Vec<usize> {
 /// them are `on`, so a sweep never reaches across a ridge into another valley's floor; a cell
 /// without such a pair keeps its value.
 fn spread(
-    fields: &mut [&mut Vec<f32>],
+    fields: &mut [&mut [f32]],
     cells: &[usize],
     n: usize,
     scales: &[usize],
@@ -261,7 +261,7 @@ mod tests {
             .map(|i| (i % n) as f32 * 0.5 + (i / n) as f32)
             .collect();
         let before = linear.clone();
-        spread(&mut [&mut linear], &cells, n, &scales(2.4), on);
+        spread(&mut [&mut linear[..]], &cells, n, &scales(2.4), on);
         for &i in &cells {
             assert!((linear[i] - before[i]).abs() < 1e-3, "cell {i}");
         }
@@ -269,7 +269,7 @@ mod tests {
             let mut v: Vec<f32> = (0..n * n)
                 .map(|i| if i % n < 32 { 1.0 } else { 0.0 })
                 .collect();
-            spread(&mut [&mut v], &cells, n, scales, on);
+            spread(&mut [&mut v[..]], &cells, n, scales, on);
             let row = 32 * n;
             (1..n)
                 .map(|x| (v[row + x] - v[row + x - 1]).abs())
@@ -421,7 +421,7 @@ mod tests {
         let mut v: Vec<f32> = (0..n * n)
             .map(|j| if j / n < 21 { 0.0 } else { 100.0 })
             .collect();
-        spread(&mut [&mut v], &cells, n, &scales(1.0), floor);
+        spread(&mut [&mut v[..]], &cells, n, &scales(1.0), floor);
         assert!(
             cells
                 .iter()
