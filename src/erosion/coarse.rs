@@ -371,7 +371,8 @@ struct Refinement {
 /// uplift alike everywhere, by 66 m on average at 2048^2: relief 626 m against 703 m at
 /// 1024^2, now 722 m, and its heights correlated at 0.935 with the 1024^2 map's, now 0.948)
 /// and hillslope creep reaching as many
-/// cells as in a coarse step (`kappa` times `(cell / coarse cell)^2`: it smooths the
+/// cells as in a coarse step (`kappa` times `(cell / coarse cell)^2`; as the run's last
+/// step, half a step of it, see `diffusion::Creep`: it smooths the
 /// roughening below the coarse cell; at full strength one long implicit step relaxed the
 /// fine grid towards a harmonic surface, 9% of the default scene's cells at 2048^2 and 28%
 /// at 4096^2, 4.0% and 6.2% with it), on the interpolated

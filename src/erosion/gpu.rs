@@ -38,7 +38,9 @@
 //!    follow: a cell whose receiver ends higher gets its uplift only, and for `n != 1` (where
 //!    the jumping uses `F` linearised around the step's initial slope) Newton's method.
 //! 5. **Hillslope diffusion**: the CPU's red-black over-relaxation sweeps of backward Euler,
-//!    one dispatch per colour (a colour's cells are independent).
+//!    one dispatch per colour (a colour's cells are independent); the last step's covers
+//!    half the step, as the CPU's (`diffusion::Creep`: the step's `r` and `omega` go in the
+//!    parameters written before each step).
 //! 6. **Talus**: the CPU's relaxation in Jacobi form (every cell sheds half its largest
 //!    excess at once and gathers what its neighbours shed): the CPU updates in place in scan
 //!    order, which is sequential.
@@ -67,7 +69,7 @@
 
 use wgpu::util::DeviceExt;
 
-use super::diffusion::Diffusion;
+use super::diffusion::Creep;
 use super::flow::step_key;
 use super::params::ErosionParams;
 use super::thermal::THERMAL_PASSES;
@@ -210,7 +212,8 @@ struct Params {
     strata_ln_contrast: f32,
     /// Whether the guide buffer holds guided receivers (1) or nothing (0).
     guided: u32,
-    /// The diffusion's over-relaxation factor ([`Diffusion::omega`]).
+    /// The step's diffusion's over-relaxation factor
+    /// ([`Diffusion::omega`](super::diffusion::Diffusion::omega)).
     omega: f32,
 }
 
@@ -377,7 +380,7 @@ async fn erode_with(
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
 
     let dt = p.years / f64::from(p.steps);
-    let creep = Diffusion::new(p.diffusivity * dt / (cell_m * cell_m));
+    let creep = Creep::new(p.diffusivity * dt / (cell_m * cell_m), p.steps);
     let tan = p.talus_deg.map_or(0.0, |t| t.to_radians().tan());
     let kdt = p.erodibility * dt;
     let uniform = Params {
@@ -385,7 +388,7 @@ async fn erode_with(
         height: h as u32,
         route_key: 0,
         random: u32::from(seed.is_some()),
-        r: creep.r(),
+        r: creep.of_step(0).r(),
         limit_axis: (tan * cell_m) as f32,
         limit_diag: (tan * std::f64::consts::SQRT_2 * cell_m) as f32,
         n: p.n as f32,
@@ -396,7 +399,7 @@ async fn erode_with(
         strata_period: strata.map_or(0.0, |s| s.period_m),
         strata_ln_contrast: strata.map_or(0.0, |s| s.ln_contrast),
         guided: u32::from(!guide.is_empty()),
-        omega: creep.omega(),
+        omega: creep.of_step(0).omega(),
     };
     let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -573,13 +576,16 @@ async fn erode_with(
         .map(|l| (18, &g_limit[(l % 2) as usize]))
         .collect();
     for step in 0..steps {
-        if let Some(seed) = seed {
-            let key = Params {
-                route_key: step_key(seed, step),
-                ..uniform
-            };
-            gpu.queue.write_buffer(&params, 0, bytemuck::bytes_of(&key));
-        }
+        // The step's routing key and creep (half a step's on the last, as on the CPU).
+        let step_creep = creep.of_step(step);
+        let of_step = Params {
+            route_key: seed.map_or(0, |seed| step_key(seed, step)),
+            r: step_creep.r(),
+            omega: step_creep.omega(),
+            ..uniform
+        };
+        gpu.queue
+            .write_buffer(&params, 0, bytemuck::bytes_of(&of_step));
         let mut scope = Some(device.push_error_scope(wgpu::ErrorFilter::Validation));
         let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
             label: Some("erosion step"),
@@ -647,8 +653,8 @@ async fn erode_with(
         if p.diffusivity > 0.0 {
             encoder.copy_buffer_to_buffer(&heights_buf, 0, &start, 0, bytes);
             let mut list = Vec::new();
-            for sweep in 0..creep.sweeps() {
-                let colours = if creep.over_relaxed(sweep) {
+            for sweep in 0..step_creep.sweeps() {
+                let colours = if step_creep.over_relaxed(sweep) {
                     [(13, &g_diffuse[0]), (14, &g_diffuse[1])]
                 } else {
                     [(19, &g_smooth[0]), (20, &g_smooth[1])]

@@ -23,7 +23,10 @@
 //! 3. implicit stream-power incision + uplift in stack order (`stream_power.rs`), then,
 //!    when set, the threshold-slope limit (`slope_limit.rs`);
 //! 4. implicit hillslope diffusion (`diffusion.rs`) and optional talus relaxation
-//!    (`thermal.rs`): operator splitting, receivers are fixed within a step.
+//!    (`thermal.rs`): operator splitting, receivers are fixed within a step. The last
+//!    step's diffusion covers half the step, the end of Strang's symmetric splitting
+//!    (`diffusion::Creep`): a whole step of creep after the last incision rounded its
+//!    channels into troughs the D8 paths ran straight along.
 //!
 //! After the last step the threshold-slope limit (when set) runs once more, after the
 //! step's diffusion and talus, repeated while it lowers cells (at most [`FINAL_LIMIT_PAIRS`]
@@ -169,7 +172,8 @@ pub struct Eroder {
     /// Heights no cell may be lowered below (see [`Eroder::with_floor`]); empty = none.
     floor: Vec<f32>,
     incision: stream_power::Incision,
-    diffusion: diffusion::Diffusion,
+    /// Each step's hillslope diffusion ([`diffusion::Creep`]).
+    creep: diffusion::Creep,
     talus: Option<thermal::Talus>,
     /// The next piece of the current step ([`Eroder::advance`]).
     phase: Phase,
@@ -294,7 +298,10 @@ impl Eroder {
             scratch,
             floor: Vec::new(),
             incision: stream_power::Incision::new(grid, dt, params.erodibility, params.m, params.n),
-            diffusion: diffusion::Diffusion::new(params.diffusivity * dt / (grid.cell * grid.cell)),
+            creep: diffusion::Creep::new(
+                params.diffusivity * dt / (grid.cell * grid.cell),
+                params.steps,
+            ),
             talus: params.talus_deg.map(|deg| thermal::Talus::new(grid, deg)),
             phase: Phase::Route(flow::Route::new(None)),
             finishing: false,
@@ -502,11 +509,10 @@ impl Eroder {
             Phase::Hillslope { half } => {
                 // A pass over the map of up to BLOCK half sweeps, split among the threads
                 // (`Diffusion::block`).
-                let end = half
-                    .saturating_add(diffusion::BLOCK)
-                    .min(self.diffusion.halves());
+                let creep = self.creep.of_step(self.steps_done);
+                let end = half.saturating_add(diffusion::BLOCK).min(creep.halves());
                 let halves = *half..end;
-                self.diffusion.block(
+                creep.block(
                     g,
                     &mut self.heights,
                     &self.base,
@@ -514,7 +520,7 @@ impl Eroder {
                     halves.clone(),
                 );
                 *half = halves.end;
-                *half == self.diffusion.halves()
+                *half == creep.halves()
             }
             Phase::Limit {
                 forward,

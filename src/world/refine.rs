@@ -13,7 +13,8 @@
 //! cell, and what the global build shaped stays: the step lasts as long as creep takes to
 //! reach one global cell ([`step_years`]), a few thousand years, not the global run's
 //! hundred thousand years a step, cut into [`REFINE_STEPS`] steps that each draw the
-//! receivers anew, so a rill does not follow one draw from cell to cell.
+//! receivers anew, so a rill does not follow one draw from cell to cell (the last creeping
+//! half a step, as every run of the solver ends: `erosion::diffusion::Creep`).
 //!
 //! **Only what is finer than the global cell.** The step has no uplift, so it also lowers the
 //! whole land a little (the global run's steady state balanced erosion with uplift); the
