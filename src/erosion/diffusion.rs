@@ -52,9 +52,9 @@
 //!
 //! **The run ends on half a step of creep** ([`Creep`]). The solver splits each step into
 //! the incision, then the creep (Lie splitting), and a run that ends on a whole step of
-//! creep leaves the channels the last incision cut smoothed over `sqrt(kappa dt)` (22-32 m
-//! for the presets' 100 kyr steps) with nothing cutting them again: the D8 paths along
-//! those rounded troughs ran straight for many cells. Strang's symmetric splitting (Strang
+//! creep leaves the channels the last incision cut smoothed over `sqrt(kappa dt)` (22 m
+//! for the young mountains' 100 kyr steps) with nothing cutting them again: the D8 paths
+//! along those rounded troughs ran straight for many cells. Strang's symmetric splitting (Strang
 //! 1968, "On the construction and comparison of difference schemes", SIAM J. Numer. Anal.
 //! 5(3)) runs half a step of creep on each side of each incision, `C/2 I C/2`; its steps
 //! in a row are `C/2 I C I C ... I C/2`: whole steps of creep between the incisions, half a
