@@ -54,6 +54,12 @@ struct Params {
     guided: u32,
     // The diffusion's over-relaxation factor (`src/erosion/diffusion.rs`).
     omega: f32,
+    // The cell's width (m) and the weakening where water gathers (`src/erosion/gathering.rs`):
+    // the specific catchment area it starts from (m) and the weakest factor.
+    cell: f32,
+    gather_from_m: f32,
+    gather_weakest: f32,
+    pad: f32,
 }
 
 const NONE: u32 = 0xffffffffu;
@@ -740,6 +746,19 @@ fn apply_floor(@builtin(global_invocation_id) gid: vec3<u32>) {
 @group(0) @binding(3) var<storage, read_write> lim_out: array<f32>;
 // Each cell's rock strength: its factor on the talus slope's tangent (1: the talus angle).
 @group(0) @binding(4) var<storage, read> lim_strength: array<f32>;
+// The step's drainage area in cells (`area_jump`'s result).
+@group(0) @binding(5) var<storage, read> lim_cells: array<u32>;
+
+// The factor on the strength where water gathers (`gathering::factor`): the specific
+// catchment area a = A / cell = cells * cell past `gather_from_m`, to the fourth root, never
+// under `gather_weakest`.
+fn gathering(cells: u32) -> f32 {
+    let ratio = f32(cells) * params.cell / params.gather_from_m;
+    if (ratio <= 1.0) {
+        return 1.0;
+    }
+    return max(1.0 / sqrt(sqrt(ratio)), params.gather_weakest);
+}
 
 @compute @workgroup_size(16, 16, 1)
 fn slope_limit(@builtin(global_invocation_id) gid: vec3<u32>) {
@@ -754,7 +773,7 @@ fn slope_limit(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
     // limit_axis = tan(talus) * cell; the knight's move is sqrt(5) cells.
     let knight = params.limit_axis * 2.2360679774997897;
-    let strength = lim_strength[i];
+    let strength = lim_strength[i] * gathering(lim_cells[i]);
     var cap = h;
     for (var dy = -2; dy <= 2; dy++) {
         for (var dx = -2; dx <= 2; dx++) {

@@ -55,11 +55,13 @@ fn gpu_erode(gpu: &GpuContext, input: GpuInput<'_>) -> gpu::GpuEroded {
 /// (a) CPU and GPU solvers from the same prepared input (a real 192^2 scene after hydrology,
 /// each preset, as the stage shapes its kinds): the mean |dh| over the free cells is at most
 /// 2% of the relief, and the mean erosion depth agrees within 10%. Measured on lavapipe:
-/// 0.00-0.93% with the relief from the design; 0.83% on young-mountains, whose relief comes
-/// from the physics: land rising evenly stands at the threshold slope over more of the map,
-/// where the GPU's limit in Jacobi passes (32 cells a step) and the CPU's raster scans (the
-/// whole map) part most (1.65% with 16 cells a step, where the steepest descent's control
-/// below stood only 1.13 times as far: the limit's differences hid the receivers').
+/// 0.00-0.93% with the relief from the design; 1.00% on young-mountains (0.83% before the
+/// rock was weakened where water gathers, whose hollows the limit cuts back farther), whose
+/// relief comes from the physics: land rising evenly stands at the threshold slope over
+/// more of the map, where the GPU's limit in Jacobi passes (32 cells a step) and the CPU's
+/// raster scans (the whole map) part most (1.65% with 16 cells a step, where the steepest
+/// descent's control below stood only 1.13 times as far: the limit's differences hid the
+/// receivers').
 ///
 /// Not bit-exact (see `src/erosion/gpu.rs`): `f32` on the GPU where the CPU's incision works
 /// in `f64`, the receiver tree solved in another order, talus in Jacobi form and lakes by

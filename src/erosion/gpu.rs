@@ -55,7 +55,8 @@
 //!
 //! 4b. **Threshold-slope limit** (with a talus angle): the CPU's `slope_limit.rs` in Jacobi
 //!    form, [`LIMIT_PASSES`] passes a step over the same 5 x 5 mask and the same rock
-//!    strength factors (`slope_limit.rs`' [`super::SlopeStrength`]). The CPU's two raster
+//!    strength factors (`slope_limit.rs`' [`super::SlopeStrength`]), weakened where water
+//!    gathers by the step's drainage area as on the CPU (`gathering.rs`, the same factor). The CPU's two raster
 //!    scans carry a cut across the whole map in one step; the passes carry it 32 cells a step,
 //!    and the following steps go on, so a slope left steeper after the last step is one the
 //!    CPU would have cut farther than 16 cells from where it started.
@@ -215,6 +216,13 @@ struct Params {
     /// The step's diffusion's over-relaxation factor
     /// ([`Diffusion::omega`](super::diffusion::Diffusion::omega)).
     omega: f32,
+    /// The cell's width (m) and the weakening where water gathers
+    /// ([`super::gathering::FROM_M`], [`super::gathering::WEAKEST`]).
+    cell: f32,
+    gather_from_m: f32,
+    gather_weakest: f32,
+    /// Pads the parameters to a whole number of 16 bytes.
+    pad: f32,
 }
 
 /// The guided receivers' codes packed for the `receivers` kernel: 4 bits a cell, 8 cells a
@@ -400,6 +408,10 @@ async fn erode_with(
         strata_ln_contrast: strata.map_or(0.0, |s| s.ln_contrast),
         guided: u32::from(!guide.is_empty()),
         omega: creep.of_step(0).omega(),
+        cell: cell_m as f32,
+        gather_from_m: super::gathering::FROM_M,
+        gather_weakest: super::gathering::WEAKEST,
+        pad: 0.0,
     };
     let init = |label: &str, contents: &[u8], usage: wgpu::BufferUsages| {
         device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
@@ -552,16 +564,19 @@ async fn erode_with(
         .as_ref()
         .map(|f| b(17, &[(1, f), (2, &heights_buf)]));
     // The slope limit reads one of the heights and `tmp` and writes the other.
-    let g_limit = [
+    // and the rock's strength, weakened by the step's drainage area (the cells it counts).
+    let g_limit = [(&heights_buf, &tmp), (&tmp, &heights_buf)].map(|(from, to)| {
         b(
             18,
-            &[(1, &base), (2, &heights_buf), (3, &tmp), (4, &strength_buf)],
-        ),
-        b(
-            18,
-            &[(1, &base), (2, &tmp), (3, &heights_buf), (4, &strength_buf)],
-        ),
-    ];
+            &[
+                (1, &base),
+                (2, from),
+                (3, to),
+                (4, &strength_buf),
+                (5, &cells[area_last]),
+            ],
+        )
+    });
     if let Some(err) = scope.pop().await {
         return Err(GpuError::Validation(err.to_string()).into());
     }
@@ -680,9 +695,12 @@ async fn erode_with(
         if let Some(g) = &g_floor {
             run(&mut encoder, &[(17, g)]);
         }
-        // 8. After the last step, the limit once more (the CPU solver's last pass).
+        // 8. After the last step, the limit once more (the CPU solver's last pass, which
+        // repeats its pair of scans up to FINAL_LIMIT_PAIRS times).
         if step + 1 == steps && p.talus_deg.is_some() {
-            run(&mut encoder, &limit_passes);
+            for _ in 0..super::FINAL_LIMIT_PAIRS {
+                run(&mut encoder, &limit_passes);
+            }
         }
         if let Some(t) = profile.as_deref_mut() {
             flush(gpu, &mut encoder, &mut phase_clock, &mut t[6], &mut scope).await?;

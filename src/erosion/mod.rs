@@ -21,7 +21,8 @@
 //! 2. the depth-first stack from the base-level cells and the drainage area along
 //!    the reversed stack (`flow.rs`);
 //! 3. implicit stream-power incision + uplift in stack order (`stream_power.rs`), then,
-//!    when set, the threshold-slope limit (`slope_limit.rs`);
+//!    when set, the threshold-slope limit (`slope_limit.rs`), the rock's strength weakened
+//!    where the step's drainage area gathers (`gathering.rs`);
 //! 4. implicit hillslope diffusion (`diffusion.rs`) and optional talus relaxation
 //!    (`thermal.rs`): operator splitting, receivers are fixed within a step. The last
 //!    step's diffusion covers half the step, the end of Strang's symmetric splitting
@@ -73,6 +74,7 @@ mod fill;
 pub mod floodplain;
 mod floor_along;
 mod flow;
+mod gathering;
 pub mod gpu;
 mod grid;
 mod guide;
@@ -131,7 +133,7 @@ pub const CHUNK_CELLS: usize = 1 << 16;
 /// the map, where settling every cell took more than 16. With them the default design's
 /// 2 km map (test `one_design_reads_as_land_at_every_map_width`) stands at most 36.1 degrees
 /// steep by Horn's stencil on its 35 degree limit (39.8 before the creep was solved).
-const FINAL_LIMIT_PAIRS: u32 = 4;
+pub(super) const FINAL_LIMIT_PAIRS: u32 = 4;
 
 /// Where the current time step stands: its phase, in order, and how far the phase went.
 enum Phase {
@@ -593,11 +595,17 @@ impl Eroder {
                 self.read_the_beds();
                 Phase::Incise { next: 0 }
             }
-            Phase::Incise { .. } if self.limit.is_some() => Phase::Limit {
-                forward: true,
-                row: 0,
-                lowered: false,
-            },
+            Phase::Incise { .. } if self.limit.is_some() => {
+                if let Some(mask) = &mut self.limit {
+                    // The step's drainage area weakens the rock where water gathers.
+                    mask.weaken_where_water_gathers(&self.area);
+                }
+                Phase::Limit {
+                    forward: true,
+                    row: 0,
+                    lowered: false,
+                }
+            }
             Phase::Incise { .. } | Phase::Limit { .. } if p.diffusivity > 0.0 => {
                 self.scratch.copy_from_slice(&self.heights);
                 Phase::Hillslope { half: 0 }

@@ -230,8 +230,13 @@ fn soften(out: &mut [f32], k: &[f32], ln_contrast: f64, soft_strength: f64) {
 pub(super) struct Mask {
     width: usize,
     height: usize,
+    cell: f32,
     steps: [(isize, isize, f32); 8],
+    /// The factors the limit applies: the rock's, or the rock's weakened where water
+    /// gathers ([`Mask::weaken_where_water_gathers`]).
     strength: Vec<f32>,
+    /// The rock's own factors ([`Mask::with_strength`]; empty: 1 everywhere).
+    rock: Vec<f32>,
 }
 
 impl Mask {
@@ -241,19 +246,31 @@ impl Mask {
         Self {
             width,
             height,
+            cell: cell_m as f32,
             steps: FORWARD.map(|(dx, dy)| {
                 let d = ((dx * dx + dy * dy) as f32).sqrt();
                 (dx, dy, rise * d)
             }),
             strength: Vec::new(),
+            rock: Vec::new(),
         }
     }
 
     /// The mask with each cell's strength factor ([`Strength`]) on the rise it allows above
     /// its neighbours; empty: 1 everywhere.
     pub(super) fn with_strength(mut self, strength: Vec<f32>) -> Self {
+        self.rock = strength.clone();
         self.strength = strength;
         self
+    }
+
+    /// Sets the factors the limit applies to the rock's times the weakening where water
+    /// gathers, from each cell's drainage area `area` (m^2) ([`super::gathering`]); an
+    /// `area` of another size than the map leaves the rock's factors. O(cells).
+    pub(super) fn weaken_where_water_gathers(&mut self, area: &[f32]) {
+        if area.len() == self.width * self.height {
+            super::gathering::weaken(&self.rock, area, self.cell, &mut self.strength);
+        }
     }
 
     /// One band of a scan: rows `rows` of the forward scan (top down, left to right), or of
