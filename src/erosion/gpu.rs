@@ -56,10 +56,11 @@
 //! 4b. **Threshold-slope limit** (with a talus angle): the CPU's `slope_limit.rs` in Jacobi
 //!    form, [`LIMIT_PASSES`] passes a step over the same 5 x 5 mask and the same rock
 //!    strength factors (`slope_limit.rs`' [`super::SlopeStrength`]), weakened where water
-//!    gathers by the step's drainage area as on the CPU (`gathering.rs`, the same factor). The CPU's two raster
-//!    scans carry a cut across the whole map in one step; the passes carry it 32 cells a step,
-//!    and the following steps go on, so a slope left steeper after the last step is one the
-//!    CPU would have cut farther than 16 cells from where it started.
+//!    gathers by the step's drainage area as on the CPU (`gathering.rs`, the same factor).
+//!    The CPU's two raster scans carry a cut across the whole map in one step; the passes
+//!    carry it 32 cells a step, and the following steps go on, so a slope left steeper
+//!    after the last step is one the CPU would have cut farther than 16 cells from where it
+//!    started.
 //!
 //! Why it is not bit-exact with the CPU: talus and the slope limit in Jacobi form, `f32` on the GPU where the
 //! CPU's incision works in `f64`, the tree solved in another order (other rounding), lakes
@@ -563,8 +564,8 @@ async fn erode_with(
     let g_floor = floor_buf
         .as_ref()
         .map(|f| b(17, &[(1, f), (2, &heights_buf)]));
-    // The slope limit reads one of the heights and `tmp` and writes the other.
-    // and the rock's strength, weakened by the step's drainage area (the cells it counts).
+    // The slope limit reads one of the heights and `tmp` and writes the other; it weakens
+    // the rock's strength by the step's drainage area (the cells it counts).
     let g_limit = [(&heights_buf, &tmp), (&tmp, &heights_buf)].map(|(from, to)| {
         b(
             18,

@@ -232,11 +232,11 @@ pub(super) struct Mask {
     height: usize,
     cell: f32,
     steps: [(isize, isize, f32); 8],
-    /// The factors the limit applies: the rock's, or the rock's weakened where water
-    /// gathers ([`Mask::weaken_where_water_gathers`]).
-    strength: Vec<f32>,
     /// The rock's own factors ([`Mask::with_strength`]; empty: 1 everywhere).
     rock: Vec<f32>,
+    /// The rock's factors weakened where water gathers
+    /// ([`Mask::weaken_where_water_gathers`]); empty until then: the limit applies `rock`.
+    weakened: Vec<f32>,
 }
 
 impl Mask {
@@ -251,17 +251,26 @@ impl Mask {
                 let d = ((dx * dx + dy * dy) as f32).sqrt();
                 (dx, dy, rise * d)
             }),
-            strength: Vec::new(),
             rock: Vec::new(),
+            weakened: Vec::new(),
         }
     }
 
     /// The mask with each cell's strength factor ([`Strength`]) on the rise it allows above
     /// its neighbours; empty: 1 everywhere.
     pub(super) fn with_strength(mut self, strength: Vec<f32>) -> Self {
-        self.rock = strength.clone();
-        self.strength = strength;
+        self.rock = strength;
         self
+    }
+
+    /// The factors the limit applies: the rock's, weakened where water gathers once
+    /// [`Mask::weaken_where_water_gathers`] has run; empty: 1 everywhere.
+    fn strength(&self) -> &[f32] {
+        if self.weakened.is_empty() {
+            &self.rock
+        } else {
+            &self.weakened
+        }
     }
 
     /// Sets the factors the limit applies to the rock's times the weakening where water
@@ -269,7 +278,7 @@ impl Mask {
     /// `area` of another size than the map leaves the rock's factors. O(cells).
     pub(super) fn weaken_where_water_gathers(&mut self, area: &[f32]) {
         if area.len() == self.width * self.height {
-            super::gathering::weaken(&self.rock, area, self.cell, &mut self.strength);
+            super::gathering::weaken(&self.rock, area, self.cell, &mut self.weakened);
         }
     }
 
@@ -328,7 +337,7 @@ impl Mask {
         if base[i] {
             return false;
         }
-        let strength = self.strength.get(i).copied().unwrap_or(1.0);
+        let strength = self.strength().get(i).copied().unwrap_or(1.0);
         let mut cap = h[i];
         for &(dx, dy, rise) in &self.steps {
             let (nx, ny) = (x + sign * dx, y + sign * dy);
@@ -351,7 +360,7 @@ impl Mask {
         let inner = REACH as usize..w - REACH as usize;
         let along_rise = self.steps[ALONG].2;
         let out = &mut out[inner.clone()];
-        match self.strength.get(y * w + inner.start..y * w + inner.end) {
+        match self.strength().get(y * w + inner.start..y * w + inner.end) {
             Some(strength) => {
                 for (r, s) in out.iter_mut().zip(strength) {
                     *r = along_rise * s;
@@ -423,7 +432,7 @@ impl Mask {
             }
             let from = (row + inner.start).wrapping_add_signed(sign * (dy * w as isize + dx));
             let src = &h[from..from + out.len()];
-            match self.strength.get(row + inner.start..row + inner.end) {
+            match self.strength().get(row + inner.start..row + inner.end) {
                 // Comparisons, not `f32::min` (see `along_row`): one vector minimum each.
                 Some(strength) => {
                     for ((cap, z), s) in out.iter_mut().zip(src).zip(strength) {
@@ -475,7 +484,7 @@ impl Mask {
                     if base[i] {
                         continue;
                     }
-                    let cap = z + rise * self.strength.get(i).copied().unwrap_or(1.0);
+                    let cap = z + rise * self.strength().get(i).copied().unwrap_or(1.0);
                     if cap < h[i] {
                         h[i] = cap;
                         lowered += 1;
@@ -541,7 +550,7 @@ mod tests {
                 if base[i] {
                     continue;
                 }
-                let strength = mask.strength.get(i).copied().unwrap_or(1.0);
+                let strength = mask.strength().get(i).copied().unwrap_or(1.0);
                 for &(dx, dy, rise) in &mask.steps {
                     let (nx, ny) = (x + sign * dx, y + sign * dy);
                     if nx >= 0 && ny >= 0 && nx < w && ny < rows {
