@@ -59,10 +59,18 @@ impl Rock {
     /// Fills `out` (whole rows) with the factors of the rows from `first_row` on. The same
     /// values however the rows are split. O(cells of the rows x octaves + n x octaves).
     pub fn rows(&self, first_row: usize, out: &mut [f32]) {
+        self.window([0, first_row], self.n, out);
+    }
+
+    /// Fills `out` (rows of `width` cells) with the factors of the window of the map whose
+    /// first cell is (`x0`, `y0`): the same values as [`rows`](Self::rows) there (a world's
+    /// tile sampling the rock of the whole world, `crate::world::refine`). The window must
+    /// lie inside the map. O(cells of the window x octaves + n x octaves).
+    pub fn window(&self, [x0, y0]: [usize; 2], width: usize, out: &mut [f32]) {
         let n = self.n.max(1);
         let fbm = FbmGrid::new(&self.perlin, n, self.cycles, OCTAVES, ROUGHNESS);
         for (k, v) in out.iter_mut().enumerate() {
-            let (x, y) = (k % n, first_row + k / n);
+            let (x, y) = (x0 + k % width.max(1), y0 + k / width.max(1));
             *v = (self.ln_contrast * fbm.at(x, y).clamp(-0.5, 0.5)).exp() as f32;
         }
     }

@@ -177,10 +177,18 @@ impl Strength {
     /// Fills `out` (whole rows) with the factors of the rows from `first_row` on; the same
     /// values however the rows are split. O(cells of the rows x octaves).
     pub fn rows(&self, first_row: usize, out: &mut [f32]) {
-        self.spread_rows(first_row, out);
+        self.window([0, first_row], self.n, out);
+    }
+
+    /// Fills `out` (rows of `width` cells) with the factors of the window of the map whose
+    /// first cell is (`x0`, `y0`): the same values as [`rows`](Self::rows) there (a world's
+    /// tile sampling the rock of the whole world, `crate::world::refine`). The window must
+    /// lie inside the map. O(cells of the window x octaves + n x octaves).
+    pub fn window(&self, at: [usize; 2], width: usize, out: &mut [f32]) {
+        self.spread_window(at, width, out);
         if let Some((rock, ln_contrast, soft_strength)) = &self.rock {
             let mut k = vec![0.0f32; out.len()];
-            rock.rows(first_row, &mut k);
+            rock.window(at, width, &mut k);
             soften(out, &k, *ln_contrast, *soft_strength);
         }
     }
@@ -191,15 +199,15 @@ impl Strength {
     pub fn rows_on_rock(&self, first_row: usize, out: &mut [f32], rock: &[f32]) {
         match &self.rock {
             Some((_, ln_contrast, soft_strength)) if rock.len() == out.len() => {
-                self.spread_rows(first_row, out);
+                self.spread_window([0, first_row], self.n, out);
                 soften(out, rock, *ln_contrast, *soft_strength);
             }
             _ => self.rows(first_row, out),
         }
     }
 
-    /// The factors of the strength's spread alone (rows as in [`rows`](Self::rows)).
-    fn spread_rows(&self, first_row: usize, out: &mut [f32]) {
+    /// The factors of the strength's spread alone (a window as in [`window`](Self::window)).
+    fn spread_window(&self, [x0, y0]: [usize; 2], width: usize, out: &mut [f32]) {
         let n = self.n.max(1);
         let fbm = FbmGrid::new(
             &self.perlin,
@@ -209,7 +217,7 @@ impl Strength {
             STRENGTH_ROUGHNESS,
         );
         for (k, v) in out.iter_mut().enumerate() {
-            let (x, y) = (k % n, first_row + k / n);
+            let (x, y) = (x0 + k % width.max(1), y0 + k / width.max(1));
             // `u` in [0, 1] about 1/2 (GAIN widens the octaves' normalised sum).
             let u = (0.5 + GAIN * fbm.at(x, y)).clamp(0.0, 1.0);
             *v = (1.0 - self.spread * u) as f32;

@@ -637,6 +637,25 @@ pub(super) fn strength_of(
     factors
 }
 
+/// The rock's strength factors on the talus slope of `settings` over a window of an `n` x
+/// `n` map of `cell_m` cells, `width` x `height` cells from (`x0`, `y0`): the factors the
+/// erosion stage gives the map's cells there, sampled over the window alone (a world's tile
+/// refined with the world's rock, `crate::world::refine`). Empty without a talus angle.
+/// O(cells of the window x octaves + n x octaves).
+pub fn strength_in_window(
+    settings: &ErosionSettings,
+    (n, cell_m, seed): (usize, f64, u64),
+    at: [usize; 2],
+    [width, height]: [usize; 2],
+) -> Vec<f32> {
+    if settings.talus_deg.is_none() {
+        return Vec::new();
+    }
+    let mut factors = vec![0.0f32; width * height];
+    slope_strength(settings, n, cell_m, seed).window(at, width, &mut factors);
+    factors
+}
+
 /// `strength` (the rock's factors of `settings`, [`strength_in_bands`]) as strong as the
 /// hard units under the painted hard rock of `anchors` ([`super::Painted::firm`]): a massif
 /// painted on soft rock stands as steep as one on hard. Nothing to do without a painting,

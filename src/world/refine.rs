@@ -37,12 +37,20 @@
 //! the default scene at 8192^2 the change is within +-0.22 m for 98% of the cells; across
 //! the tile edges the steps between cells are those inside the tiles (tests/world.rs
 //! measures both). Departures from the pipeline's refinement (docs/departures.md): the rock
-//! is uniform (the global erodibility, not its patches), and no floor or slope limit holds
-//! the step (a step this short cuts no floodplain and fails no slope).
+//! erodes alike everywhere (the global erodibility, not its patches), and no floor holds the
+//! step (a step this short cuts no floodplain).
+//!
+//! **The rock's threshold slopes.** Each step holds the one-piece build's threshold-slope
+//! limit (`erosion::slope_limit`: the talus angle times the rock's strength, weakened where
+//! water gathers), its strength factors sampled at the window's cells of the world
+//! ([`strength_in_window`], the erosion stage's seed), so the faces fail into the ribs and
+//! chutes of a one-piece build where creep alone left them smooth panels. The window's edge
+//! on the world's border follows the cells inside it (`follow_inside_on_the_border`).
 
 use super::WorldError;
 use super::plan::Plan;
-use crate::erosion::{Eroder, ErosionSettings};
+use crate::erosion::{Eroder, ErosionSettings, strength_in_window};
+use crate::terrain::stage_seed;
 use crate::wavelet::directional::Region;
 
 /// Steps the refinement's time is cut into, each drawing its receivers anew. In one step
@@ -98,7 +106,7 @@ fn refine_in_steps(
     let mut params = settings.params();
     params.years = step_years(settings, plan.global_cell_m());
     params.steps = steps;
-    let seed = crate::terrain::stage_seed(plan.scene.seed, "world refinement");
+    let seed = stage_seed(plan.scene.seed, "world refinement");
     let failed = |e: crate::erosion::ErosionError| {
         WorldError::Build(format!("the refinement of a tile's window: {e}"))
     };
@@ -108,6 +116,19 @@ fn refine_in_steps(
         .with_strata(settings.strata())
         .with_seed_in(seed, [window.x0, window.y0], plan.size)
         .map_err(failed)?;
+    if let Some(talus) = settings.talus_deg {
+        let strength = strength_in_window(
+            settings,
+            (
+                plan.size,
+                plan.cell_m(),
+                stage_seed(plan.scene.seed, "erosion"),
+            ),
+            [window.x0, window.y0],
+            [w, h],
+        );
+        eroder = eroder.with_slope_limit(talus, strength).map_err(failed)?;
+    }
     while eroder.step() {}
     let area = eroder.drainage_area().to_vec();
     let mut change: Vec<f32> = eroder
@@ -116,11 +137,37 @@ fn refine_in_steps(
         .zip(&before)
         .map(|(a, b)| a - b)
         .collect();
+    follow_inside_on_the_border(&mut change, plan, window);
     keep_the_fine_part(&mut change, w, h, 1 << plan.levels);
     Ok(Refined {
         heights: before.iter().zip(&change).map(|(b, d)| b + d).collect(),
         area,
     })
+}
+
+/// Gives the cells of the `window`'s held edge that lie on the world's border the `change`
+/// (`window.width` x `window.height`) of the cell next to them inside: no window reaches past
+/// the border, so those cells keep the refinement at full weight ([`weight`]), and held they
+/// would stand unchanged beside land the step lowered (walls of tens of metres along the
+/// world's border where the slope limit cut the faces). Where the world's border crosses
+/// the global build's outlets, the cell inside drains through them as the edge does.
+fn follow_inside_on_the_border(change: &mut [f32], plan: &Plan, window: Region) {
+    let (w, h) = (window.width, window.height);
+    if w < 3 || h < 3 {
+        return;
+    }
+    // The nearest cell off the window's edge.
+    let inside = |x: usize, y: usize| y.clamp(1, h - 2) * w + x.clamp(1, w - 2);
+    let on_border = |at: usize, start: usize, len: usize| {
+        (at == 0 && start == 0) || (at + 1 == len && start + len == plan.size)
+    };
+    for y in 0..h {
+        for x in 0..w {
+            if on_border(x, window.x0, w) || on_border(y, window.y0, h) {
+                change[y * w + x] = change[inside(x, y)];
+            }
+        }
+    }
 }
 
 /// Keeps the part of the step's `change` (`w` x `h`) finer than the global build's cell,
@@ -205,6 +252,14 @@ pub fn weight(plan: &Plan, window: Region, x: usize, y: usize) -> f32 {
 /// third shallower than inside the tiles.)
 const CATCHMENT_POWER: i32 = 4;
 
+/// Global cells of drainage area added to every window's area before their shares are taken
+/// ([`blend`]): on hillslopes, whose cells drain a few cells each, the windows' routings
+/// differ from cell to cell, and the share of the raw areas switched cell by cell between
+/// windows whose slopes the threshold limit had cut apart (the steepest steps across the
+/// tile edges of a 513^2 test world 11% above the tiles' insides); channels, draining
+/// hundreds of cells, keep the larger area's window.
+const SHARED_GLOBAL_CELLS: f32 = 4.0;
+
 /// Tile `k`'s cells: the refined windows over it (its own and its neighbours'), each read by
 /// `window_of(j)`, blended by [`weight`] times the share of the largest drainage area they
 /// routed to the cell ([`CATCHMENT_POWER`]), normalised by the weights' sum. The windows are
@@ -224,6 +279,7 @@ pub fn blend(
             over.push((window, window_of(j)?));
         }
     }
+    let shared = SHARED_GLOBAL_CELLS * (plan.global_cell_m() as f32).powi(2);
     let mut out = Vec::with_capacity(tile.width * tile.height);
     let mut here = Vec::with_capacity(over.len());
     for y in tile.y0..tile.y0 + tile.height {
@@ -238,14 +294,10 @@ pub fn blend(
                     here.push((w, refined.heights[i], refined.area[i]));
                 }
             }
-            let most = here.iter().fold(0.0f32, |m, h| m.max(h.2));
+            let most = here.iter().fold(0.0f32, |m, h| m.max(h.2)) + shared;
             let (mut sum, mut total) = (0.0f32, 0.0f32);
             for &(w, height, area) in &here {
-                let w = if most > 0.0 {
-                    w * (area / most).powi(CATCHMENT_POWER)
-                } else {
-                    w
-                };
+                let w = w * ((area + shared) / most).powi(CATCHMENT_POWER);
                 sum += w * height;
                 total += w;
             }
