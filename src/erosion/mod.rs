@@ -195,6 +195,8 @@ pub struct Eroder {
     frame: flow::Frame,
     /// The threshold-slope limit after each step's incision ([`Eroder::with_slope_limit`]).
     limit: Option<slope_limit::Mask>,
+    /// The cells the limit keeps ([`Eroder::with_base_failing`]); empty: the base level.
+    limit_held: Vec<bool>,
     /// Each cell's factor on the erodibility ([`Eroder::with_erodibility`]); empty: 1.
     erodibility: Vec<f32>,
     /// Beds of hard and soft rock ([`Eroder::with_strata`]); `None`: no beds.
@@ -314,6 +316,7 @@ impl Eroder {
             seed: None,
             frame: flow::Frame::own(width),
             limit: None,
+            limit_held: Vec::new(),
             erodibility: Vec::new(),
             strata: None,
             beds: Vec::new(),
@@ -374,6 +377,26 @@ impl Eroder {
         let g = self.grid;
         let mask = slope_limit::Mask::new(g.width, g.height, g.cell, talus_deg);
         self.limit = Some(mask.with_strength(strength));
+        Ok(self)
+    }
+
+    /// Lets the threshold-slope limit ([`Eroder::with_slope_limit`]) lower the base-level
+    /// cells marked in `failing` (one flag a cell) as it lowers the land: they stay base level
+    /// for the water, which leaves there, but fail like the land beside them. A window of a
+    /// larger map holds its edge for the water; where that edge is the map's own border, no
+    /// other window refines the land beyond it, and held it stood as a wall above faces the
+    /// limit lowered (`crate::world::refine`). Empty: the limit keeps every base-level cell.
+    pub fn with_base_failing(mut self, failing: Vec<bool>) -> Result<Self, ErosionError> {
+        if failing.is_empty() {
+            return Ok(self);
+        }
+        check_len("failing base level", failing.len(), self.grid.len())?;
+        self.limit_held = self
+            .base
+            .iter()
+            .zip(&failing)
+            .map(|(b, f)| *b && !f)
+            .collect();
         Ok(self)
     }
 
@@ -532,7 +555,11 @@ impl Eroder {
             } => {
                 let band = *row..row.saturating_add(rows).min(g.height);
                 if let Some(mask) = &self.limit {
-                    *lowered |= mask.scan(&mut self.heights, &self.base, band.clone(), *forward);
+                    let held = match self.limit_held.is_empty() {
+                        true => &self.base,
+                        false => &self.limit_held,
+                    };
+                    *lowered |= mask.scan(&mut self.heights, held, band.clone(), *forward);
                 }
                 *row = band.end;
                 if *row == g.height && *forward {

@@ -922,3 +922,58 @@ fn cross_slope_of_a_failed_face(seed: u64) -> f64 {
     assert!(faces > n * n / 4, "faces: {faces} cells");
     across / down
 }
+
+/// Base-level cells marked failing ([`Eroder::with_base_failing`]) stay base level for the
+/// water but fail as the land does: a ridge of held cells standing 60 m above land falling
+/// away from them at the threshold angle is cut down to the angle where they fail, and
+/// stands where they do not.
+#[test]
+fn held_cells_marked_failing_fail_as_the_land_does() {
+    let (w, h, cell) = (24, 12, 10.0f32);
+    let talus = 30.0f64;
+    let rise = talus.to_radians().tan() as f32 * cell;
+    // Land falling from the top row at the threshold angle, the top row held 60 m higher.
+    let z0: Vec<f32> = (0..w * h)
+        .map(|i| {
+            let y = (i / w) as f32;
+            (h as f32 - 1.0 - y) * rise + if i < w { 60.0 } else { 0.0 }
+        })
+        .collect();
+    let base: Vec<bool> = (0..w * h).map(|i| i < w || i >= w * (h - 1)).collect();
+    let mut p = params(1e-9, 0.5, 1.0, 0.0, 1e3, 1);
+    p.talus_deg = Some(talus);
+    let make = |failing: Vec<bool>| {
+        Eroder::new(
+            z0.clone(),
+            w,
+            h,
+            f64::from(cell),
+            base.clone(),
+            Vec::new(),
+            p,
+        )
+        .unwrap()
+        .with_slope_limit(talus, Vec::new())
+        .unwrap()
+        .with_base_failing(failing)
+        .unwrap()
+    };
+    // The left half of the top row fails.
+    let failing: Vec<bool> = (0..w * h).map(|i| i < w / 2).collect();
+    let held = run(make(Vec::new()));
+    let failed = run(make(failing));
+    let top = |e: &Eroder, x: usize| e.heights()[x] - e.heights()[w + x];
+    for x in 2..w - 2 {
+        assert!(top(&held, x) > 55.0, "held at {x}: {}", top(&held, x));
+        if x < w / 2 - 2 {
+            assert!(
+                top(&failed, x) < rise * 1.01,
+                "failed at {x}: {}",
+                top(&failed, x)
+            );
+        } else if x >= w / 2 + 2 {
+            assert!(top(&failed, x) > 55.0, "kept at {x}: {}", top(&failed, x));
+        }
+    }
+    assert!(make(Vec::new()).with_base_failing(vec![true; 3]).is_err());
+}

@@ -45,7 +45,8 @@
 //! water gathers), its strength factors sampled at the window's cells of the world
 //! ([`strength_in_window`], the erosion stage's seed), so the faces fail into the ribs and
 //! chutes of a one-piece build where creep alone left them smooth panels. The window's edge
-//! on the world's border follows the cells inside it (`follow_inside_on_the_border`).
+//! on the world's border stays base level for the water but fails like the land beside it
+//! (`Eroder::with_base_failing`).
 
 use super::WorldError;
 use super::plan::Plan;
@@ -103,6 +104,12 @@ fn refine_in_steps(
             x == 0 || y == 0 || x + 1 == w || y + 1 == h
         })
         .collect();
+    let on_the_border = |at: usize, start: usize, len: usize| {
+        (at == 0 && start == 0) || (at + 1 == len && start + len == plan.size)
+    };
+    let world_border: Vec<bool> = (0..w * h)
+        .map(|i| on_the_border(i % w, window.x0, w) || on_the_border(i / w, window.y0, h))
+        .collect();
     let mut params = settings.params();
     params.years = step_years(settings, plan.global_cell_m());
     params.steps = steps;
@@ -127,7 +134,10 @@ fn refine_in_steps(
             [window.x0, window.y0],
             [w, h],
         );
-        eroder = eroder.with_slope_limit(talus, strength).map_err(failed)?;
+        eroder = eroder
+            .with_slope_limit(talus, strength)
+            .and_then(|e| e.with_base_failing(world_border))
+            .map_err(failed)?;
     }
     while eroder.step() {}
     let area = eroder.drainage_area().to_vec();
@@ -137,37 +147,11 @@ fn refine_in_steps(
         .zip(&before)
         .map(|(a, b)| a - b)
         .collect();
-    follow_inside_on_the_border(&mut change, plan, window);
     keep_the_fine_part(&mut change, w, h, 1 << plan.levels);
     Ok(Refined {
         heights: before.iter().zip(&change).map(|(b, d)| b + d).collect(),
         area,
     })
-}
-
-/// Gives the cells of the `window`'s held edge that lie on the world's border the `change`
-/// (`window.width` x `window.height`) of the cell next to them inside: no window reaches past
-/// the border, so those cells keep the refinement at full weight ([`weight`]), and held they
-/// would stand unchanged beside land the step lowered (walls of tens of metres along the
-/// world's border where the slope limit cut the faces). Where the world's border crosses
-/// the global build's outlets, the cell inside drains through them as the edge does.
-fn follow_inside_on_the_border(change: &mut [f32], plan: &Plan, window: Region) {
-    let (w, h) = (window.width, window.height);
-    if w < 3 || h < 3 {
-        return;
-    }
-    // The nearest cell off the window's edge.
-    let inside = |x: usize, y: usize| y.clamp(1, h - 2) * w + x.clamp(1, w - 2);
-    let on_border = |at: usize, start: usize, len: usize| {
-        (at == 0 && start == 0) || (at + 1 == len && start + len == plan.size)
-    };
-    for y in 0..h {
-        for x in 0..w {
-            if on_border(x, window.x0, w) || on_border(y, window.y0, h) {
-                change[y * w + x] = change[inside(x, y)];
-            }
-        }
-    }
 }
 
 /// Keeps the part of the step's `change` (`w` x `h`) finer than the global build's cell,
@@ -376,28 +360,9 @@ mod tests {
     /// less between the cell upstream and the one downstream on their steepest descent.
     #[test]
     fn steps_drawing_anew_cut_smoother_rills() {
-        let scene = Scene::from_json(
-            r#"{"version": 1, "size": 1024, "cell_size": 9.765625, "seed": 1,
-                "rivers": [{"estuary": [0.5, 1.0], "toward": [0.5, 0.35], "phi": 3, "depth": 5}],
-                "erosion": {"preset": "young-mountains"}}"#,
-        )
-        .unwrap();
-        let plan = Plan::new(&scene, 513, 128, Some(129)).unwrap();
-        let ctx = crate::jobs::JobCtx::detached();
-        let global = pollster::block_on(super::super::task::build_global(&plan, &ctx)).unwrap();
-        let sigma = crate::wavelet::synthesis::SigmaTables {
-            levels: plan.levels,
-            tables: global
-                .info
-                .sigma_bits
-                .iter()
-                .map(|b| vec![f32::from_bits(*b)])
-                .collect(),
-            source_width: plan.world,
-            source_height: plan.world,
-        };
+        let plan = real_world_plan();
         let window = plan.refine_window(5);
-        let heights = super::super::task::cells(&global.field, &sigma, &plan, window);
+        let heights = window_cells(&plan, window);
         let (w, h) = (window.width, window.height);
         let one = along_bend(
             &refine_in_steps(&plan, window, heights.clone(), 1).unwrap(),
@@ -410,6 +375,88 @@ mod tests {
             h,
         );
         assert!(four < 0.9 * one, "one step {one}, four {four}");
+    }
+
+    /// A window on the world's corner (its top and left edges the world's border): the
+    /// threshold-slope limit fails what the levels of detail left steeper than the talus
+    /// angle, and the border's cells move with the land beside them, so the steps from the
+    /// border row and column inward are no larger than the window's steps inside (held, they
+    /// stood as walls tens of metres above faces the limit lowered).
+    #[test]
+    fn a_window_fails_oversteep_slopes_and_its_world_border_follows_the_land() {
+        let plan = real_world_plan();
+        let window = plan.refine_window(0);
+        assert_eq!((window.x0, window.y0), (0, 0));
+        let heights = window_cells(&plan, window);
+        let (w, h) = (window.width, window.height);
+        let refined = refine(&plan, window, heights.clone()).unwrap();
+        let talus = plan.scene.erosion.as_ref().unwrap().talus_deg.unwrap();
+        let steep = |z: &[f32]| {
+            let tan = (talus + 5.0).to_radians().tan() as f32 * plan.cell_m() as f32;
+            let inner = (1..h - 1).flat_map(|y| (1..w - 1).map(move |x| (x, y)));
+            let count = inner
+                .filter(|&(x, y)| {
+                    let i = y * w + x;
+                    let gx = (z[i + 1] - z[i - 1]) / 2.0;
+                    let gy = (z[i + w] - z[i - w]) / 2.0;
+                    gx.hypot(gy) > tan
+                })
+                .count();
+            count as f64 / ((w - 2) * (h - 2)) as f64
+        };
+        let (before, after) = (steep(&heights), steep(&refined.heights));
+        println!("cells over the talus angle + 5 degrees: {before:.4} -> {after:.4}");
+        assert!(after < 0.5 * before, "{before} -> {after}");
+        // Away from the window's held edges inside the world (its right and bottom, where
+        // its weight is nothing).
+        let steps = |z: &[f32]| {
+            let border = (0..w / 2)
+                .map(|x| (z[x] - z[w + x]).abs())
+                .chain((0..h / 2).map(|y| (z[y * w] - z[y * w + 1]).abs()))
+                .fold(0.0f32, f32::max);
+            let inside = (2..h / 2)
+                .flat_map(|y| (2..w / 2).map(move |x| (x, y)))
+                .map(|(x, y)| (z[y * w + x] - z[(y - 1) * w + x]).abs())
+                .fold(0.0f32, f32::max);
+            (border, inside)
+        };
+        let (border, inside) = steps(&refined.heights);
+        println!(
+            "largest step from the border {border:.2} m, inside {inside:.2} m (before: {:?})",
+            steps(&heights)
+        );
+        assert!(border <= inside, "border {border} m, inside {inside} m");
+    }
+
+    /// The default design's 129^2 global build on a 10 km map with two levels of detail, in
+    /// tiles of 128.
+    fn real_world_plan() -> Plan {
+        let scene = Scene::from_json(
+            r#"{"version": 1, "size": 1024, "cell_size": 9.765625, "seed": 1,
+                "rivers": [{"estuary": [0.5, 1.0], "toward": [0.5, 0.35], "phi": 3, "depth": 5}],
+                "erosion": {"preset": "young-mountains"}}"#,
+        )
+        .unwrap();
+        Plan::new(&scene, 513, 128, Some(129)).unwrap()
+    }
+
+    /// The world's cells of `window` before the refinement (the global build and the levels
+    /// of detail).
+    fn window_cells(plan: &Plan, window: Region) -> Vec<f32> {
+        let ctx = crate::jobs::JobCtx::detached();
+        let global = pollster::block_on(super::super::task::build_global(plan, &ctx)).unwrap();
+        let sigma = crate::wavelet::synthesis::SigmaTables {
+            levels: plan.levels,
+            tables: global
+                .info
+                .sigma_bits
+                .iter()
+                .map(|b| vec![f32::from_bits(*b)])
+                .collect(),
+            source_width: plan.world,
+            source_height: plan.world,
+        };
+        super::super::task::cells(&global.field, &sigma, plan, window)
     }
 
     /// The mean `|z_up + z_down - 2 z|` over the inner cells of `r` (`w` x `h`) whose drainage
