@@ -26,7 +26,8 @@
 //! [`weight`] is zero on its held edge and over the half-halo beside it (where the held edge
 //! bends its routing and creep), rising to one over the next halo, and is multiplied by the
 //! share of the largest drainage area the windows routed to the cell (the window that sees
-//! more of a catchment cuts its channel the right depth); normalised by their sum, a
+//! more of a catchment cuts its channel the right depth; a few global cells' area added to
+//! each, so hillslopes count the windows alike); normalised by their sum, a
 //! partition of unity: the world is continuous across tiles, with no tile's edge held. The
 //! tile task reads the windows of its tile and its eight neighbours in tile order, so the
 //! bits are the same whatever the order or number of tasks.
