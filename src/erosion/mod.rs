@@ -555,9 +555,10 @@ impl Eroder {
             } => {
                 let band = *row..row.saturating_add(rows).min(g.height);
                 if let Some(mask) = &self.limit {
-                    let held = match self.limit_held.is_empty() {
-                        true => &self.base,
-                        false => &self.limit_held,
+                    let held = if self.limit_held.is_empty() {
+                        &self.base
+                    } else {
+                        &self.limit_held
                     };
                     *lowered |= mask.scan(&mut self.heights, held, band.clone(), *forward);
                 }
