@@ -113,8 +113,8 @@ pub use self::settings::{Border, ErosionSettings, Relief};
 pub use self::slope_limit::Strength as SlopeStrength;
 pub use self::stage::{
     Anchors, Eroded, ErosionReport, Prepared, StageError, base_level, erode_field,
-    erode_field_within, erode_terrain, nearest_channel, roughen, strength_in_window,
-    uplift_from_design, uplift_map,
+    erode_field_within, erode_terrain, nearest_channel, rock_in_window, roughen,
+    strength_in_window, uplift_from_design, uplift_map,
 };
 pub use self::strata::Strata;
 

@@ -656,6 +656,25 @@ pub fn strength_in_window(
     factors
 }
 
+/// The erodibility factors of `settings`' rock over a window of an `n` x `n` map of
+/// `cell_m` cells, `width` x `height` cells from (`x0`, `y0`): the factors the erosion stage
+/// gives the map's cells there before any painting, sampled over the window alone (a
+/// world's tile refined with the world's rock, `crate::world::refine`). Empty for uniform
+/// rock. O(cells of the window x octaves + n x octaves).
+pub fn rock_in_window(
+    settings: &ErosionSettings,
+    (n, cell_m, seed): (usize, f64, u64),
+    at: [usize; 2],
+    [width, height]: [usize; 2],
+) -> Vec<f32> {
+    if settings.rock_contrast == 1.0 {
+        return Vec::new();
+    }
+    let mut factors = vec![0.0f32; width * height];
+    rock_field(settings, n, cell_m, seed).window(at, width, &mut factors);
+    factors
+}
+
 /// `strength` (the rock's factors of `settings`, [`strength_in_bands`]) as strong as the
 /// hard units under the painted hard rock of `anchors` ([`super::Painted::firm`]): a massif
 /// painted on soft rock stands as steep as one on hard. Nothing to do without a painting,

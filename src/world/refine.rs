@@ -37,9 +37,10 @@
 //! world in one piece only through the catchments that cross its windows' held edges. On
 //! the default scene at 8192^2 the change is within +-0.22 m for 98% of the cells; across
 //! the tile edges the steps between cells are those inside the tiles (tests/world.rs
-//! measures both). Departures from the pipeline's refinement (docs/departures.md): the rock
-//! erodes alike everywhere (the global erodibility, not its patches), and no floor holds the
-//! step (a step this short cuts no floodplain).
+//! measures both). Departures from the pipeline's refinement (docs/departures.md): the
+//! painted hard rock is not in it (the rock's patches of erodibility are, sampled at the
+//! world's cells: `erosion::rock_in_window`), and no floor holds the step (a step this short
+//! cuts no floodplain).
 //!
 //! **The rock's threshold slopes.** Each step holds the one-piece build's threshold-slope
 //! limit (`erosion::slope_limit`: the talus angle times the rock's strength, weakened where
@@ -51,7 +52,7 @@
 
 use super::WorldError;
 use super::plan::Plan;
-use crate::erosion::{Eroder, ErosionSettings, strength_in_window};
+use crate::erosion::{Eroder, ErosionSettings, rock_in_window, strength_in_window};
 use crate::terrain::stage_seed;
 use crate::wavelet::directional::Region;
 
@@ -118,23 +119,24 @@ fn refine_in_steps(
     let failed = |e: crate::erosion::ErosionError| {
         WorldError::Build(format!("the refinement of a tile's window: {e}"))
     };
+    // The world's rock at the window's cells: the one-piece build's, keyed on the erosion
+    // stage's seed and positions in metres.
+    let world = (
+        plan.size,
+        plan.cell_m(),
+        stage_seed(plan.scene.seed, "erosion"),
+    );
+    let at = [window.x0, window.y0];
     let before = heights.clone();
     let mut eroder = Eroder::new(heights, w, h, plan.cell_m(), edge, Vec::new(), params)
         .map_err(failed)?
+        .with_erodibility(rock_in_window(settings, world, at, [w, h]))
+        .map_err(failed)?
         .with_strata(settings.strata())
-        .with_seed_in(seed, [window.x0, window.y0], plan.size)
+        .with_seed_in(seed, at, plan.size)
         .map_err(failed)?;
     if let Some(talus) = settings.talus_deg {
-        let strength = strength_in_window(
-            settings,
-            (
-                plan.size,
-                plan.cell_m(),
-                stage_seed(plan.scene.seed, "erosion"),
-            ),
-            [window.x0, window.y0],
-            [w, h],
-        );
+        let strength = strength_in_window(settings, world, at, [w, h]);
         eroder = eroder
             .with_slope_limit(talus, strength)
             .and_then(|e| e.with_base_failing(world_border))
