@@ -106,12 +106,6 @@ fn refine_in_steps(
             x == 0 || y == 0 || x + 1 == w || y + 1 == h
         })
         .collect();
-    let on_the_border = |at: usize, start: usize, len: usize| {
-        (at == 0 && start == 0) || (at + 1 == len && start + len == plan.size)
-    };
-    let world_border: Vec<bool> = (0..w * h)
-        .map(|i| on_the_border(i % w, window.x0, w) || on_the_border(i / w, window.y0, h))
-        .collect();
     let mut params = settings.params();
     params.years = step_years(settings, plan.global_cell_m());
     params.steps = steps;
@@ -139,7 +133,7 @@ fn refine_in_steps(
         let strength = strength_in_window(settings, world, at, [w, h]);
         eroder = eroder
             .with_slope_limit(talus, strength)
-            .and_then(|e| e.with_base_failing(world_border))
+            .and_then(|e| e.with_base_failing(world_border(plan, window)))
             .map_err(failed)?;
     }
     while eroder.step() {}
@@ -155,6 +149,18 @@ fn refine_in_steps(
         heights: before.iter().zip(&change).map(|(b, d)| b + d).collect(),
         area,
     })
+}
+
+/// The cells of `window` (row-major) on the world's border: its held edge where no other
+/// window reaches past it.
+fn world_border(plan: &Plan, window: Region) -> Vec<bool> {
+    let (w, h) = (window.width, window.height);
+    let on_the_border = |at: usize, start: usize, len: usize| {
+        (at == 0 && start == 0) || (at + 1 == len && start + len == plan.size)
+    };
+    (0..w * h)
+        .map(|i| on_the_border(i % w, window.x0, w) || on_the_border(i / w, window.y0, h))
+        .collect()
 }
 
 /// Keeps the part of the step's `change` (`w` x `h`) finer than the global build's cell,
