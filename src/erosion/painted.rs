@@ -46,12 +46,25 @@ impl Painted<'_> {
     /// Divides the erodibility factors (`n` x `n`; empty: uniform rock, made explicit here
     /// when there is a hard-rock mask) under the hard-rock mask. O(cells).
     pub fn harden(&self, erodibility: &mut Vec<f32>, n: usize) {
+        self.harden_window(erodibility, n, [0, 0], [n, n]);
+    }
+
+    /// [`Self::harden`] on the window of an `n` x `n` map `size` cells from `at`
+    /// (`erodibility` holds the window's cells): the same factors at those cells.
+    /// O(cells of the window).
+    pub fn harden_window(
+        &self,
+        erodibility: &mut Vec<f32>,
+        n: usize,
+        at: [usize; 2],
+        size: [usize; 2],
+    ) {
         let Some(mask) = self.hard_rock else { return };
         if erodibility.is_empty() {
-            *erodibility = vec![1.0; n * n];
+            *erodibility = vec![1.0; size[0] * size[1]];
         }
         let ln_hard = HARD_ROCK.ln();
-        for (k, v) in erodibility.iter_mut().zip(mask.resampled(n, n)) {
+        for (k, v) in erodibility.iter_mut().zip(mask.window(n, at, size)) {
             *k *= (-ln_hard * v.clamp(0.0, 1.0)).exp();
         }
     }
@@ -61,11 +74,25 @@ impl Painted<'_> {
     /// value: white is as strong as the hard units. No mask, or no factors, changes nothing.
     /// O(cells).
     pub fn firm(&self, strength: &mut [f32], sound: &[f32], n: usize) {
+        self.firm_window(strength, sound, n, [0, 0], [n, n]);
+    }
+
+    /// [`Self::firm`] on the window of an `n` x `n` map `size` cells from `at` (`strength`
+    /// and `sound` hold the window's cells): the same factors at those cells.
+    /// O(cells of the window).
+    pub fn firm_window(
+        &self,
+        strength: &mut [f32],
+        sound: &[f32],
+        n: usize,
+        at: [usize; 2],
+        size: [usize; 2],
+    ) {
         let Some(mask) = self.hard_rock else { return };
         if strength.is_empty() || sound.len() != strength.len() {
             return;
         }
-        for ((s, h), v) in strength.iter_mut().zip(sound).zip(mask.resampled(n, n)) {
+        for ((s, h), v) in strength.iter_mut().zip(sound).zip(mask.window(n, at, size)) {
             *s += v.clamp(0.0, 1.0) * (h - *s);
         }
     }

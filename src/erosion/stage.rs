@@ -638,40 +638,56 @@ pub(super) fn strength_of(
 }
 
 /// The rock's strength factors on the talus slope of `settings` over a window of an `n` x
-/// `n` map of `cell_m` cells, `width` x `height` cells from (`x0`, `y0`): the factors the
+/// `n` map of `cell_m` cells, `width` x `height` cells from `at`, with the painted hard rock
+/// of `painted` as strong as the hard units ([`super::Painted::firm`]): the factors the
 /// erosion stage gives the map's cells there, sampled over the window alone (a world's tile
 /// refined with the world's rock, `crate::world::refine`). Empty without a talus angle.
 /// O(cells of the window x octaves + n x octaves).
 pub fn strength_in_window(
     settings: &ErosionSettings,
+    painted: super::Painted<'_>,
     (n, cell_m, seed): (usize, f64, u64),
     at: [usize; 2],
-    [width, height]: [usize; 2],
+    size: [usize; 2],
 ) -> Vec<f32> {
+    let sample = |settings: &ErosionSettings| {
+        let mut factors = vec![0.0f32; size[0] * size[1]];
+        slope_strength(settings, n, cell_m, seed).window(at, size[0], &mut factors);
+        factors
+    };
     if settings.talus_deg.is_none() {
         return Vec::new();
     }
-    let mut factors = vec![0.0f32; width * height];
-    slope_strength(settings, n, cell_m, seed).window(at, width, &mut factors);
-    factors
+    let mut strength = sample(settings);
+    if painted.hard_rock.is_some() && settings.soft_rock_strength < 1.0 {
+        let sound = sample(&ErosionSettings {
+            soft_rock_strength: 1.0,
+            ..settings.clone()
+        });
+        painted.firm_window(&mut strength, &sound, n, at, size);
+    }
+    strength
 }
 
 /// The erodibility factors of `settings`' rock over a window of an `n` x `n` map of
-/// `cell_m` cells, `width` x `height` cells from (`x0`, `y0`): the factors the erosion stage
-/// gives the map's cells there before any painting, sampled over the window alone (a
-/// world's tile refined with the world's rock, `crate::world::refine`). Empty for uniform
-/// rock. O(cells of the window x octaves + n x octaves).
+/// `cell_m` cells, `width` x `height` cells from `at`, hardened under the painted hard rock
+/// of `painted` ([`super::Painted::harden`]): the factors the erosion stage gives the map's
+/// cells there, sampled over the window alone (a world's tile refined with the world's
+/// rock, `crate::world::refine`). Empty for uniform rock with nothing painted.
+/// O(cells of the window x octaves + n x octaves).
 pub fn rock_in_window(
     settings: &ErosionSettings,
+    painted: super::Painted<'_>,
     (n, cell_m, seed): (usize, f64, u64),
     at: [usize; 2],
-    [width, height]: [usize; 2],
+    size: [usize; 2],
 ) -> Vec<f32> {
-    if settings.rock_contrast == 1.0 {
-        return Vec::new();
+    let mut factors = Vec::new();
+    if settings.rock_contrast != 1.0 {
+        factors = vec![0.0f32; size[0] * size[1]];
+        rock_field(settings, n, cell_m, seed).window(at, size[0], &mut factors);
     }
-    let mut factors = vec![0.0f32; width * height];
-    rock_field(settings, n, cell_m, seed).window(at, width, &mut factors);
+    painted.harden_window(&mut factors, n, at, size);
     factors
 }
 

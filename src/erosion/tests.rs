@@ -979,31 +979,59 @@ fn held_cells_marked_failing_fail_as_the_land_does() {
 }
 
 /// The rock sampled over a window of a map ([`rock_in_window`], [`strength_in_window`], as a
-/// world's tiles sample it) is the map's rock at those cells, bit for bit; a map of one
-/// rock gives nothing to sample.
+/// world's tiles sample it) is the map's rock at those cells, bit for bit, with and without
+/// painted hard rock (hardened and firmed as the erosion stage does it); a map of one rock
+/// and nothing painted gives nothing to sample.
 #[test]
 fn the_rock_of_a_window_is_the_maps_rock_there() {
     let settings = ErosionSettings::preset("young-mountains").unwrap();
     let (n, cell_m, seed) = (96, 40.0, 7);
-    let rock = stage::rock_of(&settings, n, cell_m, seed);
-    let strength = stage::strength_of(&settings, n, cell_m, seed);
-    assert_eq!((rock.len(), strength.len()), (n * n, n * n));
-    let (at, size) = ([13, 40], [29, 17]);
-    let window_rock = rock_in_window(&settings, (n, cell_m, seed), at, size);
-    let window_strength = strength_in_window(&settings, (n, cell_m, seed), at, size);
-    for (i, (k, s)) in window_rock.iter().zip(&window_strength).enumerate() {
-        let (x, y) = (at[0] + i % size[0], at[1] + i / size[0]);
-        assert_eq!(k.to_bits(), rock[y * n + x].to_bits(), "rock at ({x}, {y})");
-        assert_eq!(
-            s.to_bits(),
-            strength[y * n + x].to_bits(),
-            "strength at ({x}, {y})"
+    assert!(
+        settings.soft_rock_strength < 1.0,
+        "the preset has soft units to firm"
+    );
+    let ramp = (0..9 * 7).map(|i| (i % 9) as f32 / 8.0).collect();
+    let mask = crate::wavelet::Mask::from_values(9, 7, ramp).unwrap();
+    let painting = Painted {
+        uplift: None,
+        hard_rock: Some(&mask),
+    };
+    for painted in [Painted::default(), painting] {
+        let mut rock = stage::rock_of(&settings, n, cell_m, seed);
+        let mut strength = stage::strength_of(&settings, n, cell_m, seed);
+        let sound = ErosionSettings {
+            soft_rock_strength: 1.0,
+            ..settings.clone()
+        };
+        painted.harden(&mut rock, n);
+        painted.firm(
+            &mut strength,
+            &stage::strength_of(&sound, n, cell_m, seed),
+            n,
         );
+        assert_eq!((rock.len(), strength.len()), (n * n, n * n));
+        let (at, size) = ([13, 40], [29, 17]);
+        let window_rock = rock_in_window(&settings, painted, (n, cell_m, seed), at, size);
+        let window_strength = strength_in_window(&settings, painted, (n, cell_m, seed), at, size);
+        for (i, (k, s)) in window_rock.iter().zip(&window_strength).enumerate() {
+            let (x, y) = (at[0] + i % size[0], at[1] + i / size[0]);
+            assert_eq!(k.to_bits(), rock[y * n + x].to_bits(), "rock at ({x}, {y})");
+            assert_eq!(
+                s.to_bits(),
+                strength[y * n + x].to_bits(),
+                "strength at ({x}, {y})"
+            );
+        }
+        assert_eq!(window_rock.len(), size[0] * size[1]);
     }
-    assert_eq!(window_rock.len(), size[0] * size[1]);
     let uniform = ErosionSettings {
         rock_contrast: 1.0,
         ..settings
     };
-    assert!(rock_in_window(&uniform, (n, cell_m, seed), at, size).is_empty());
+    let world = (n, cell_m, seed);
+    let (at, size) = ([13, 40], [29, 17]);
+    assert!(rock_in_window(&uniform, Painted::default(), world, at, size).is_empty());
+    // Painted hard rock on one rock: the painting's own factors, white four times harder.
+    let hard = rock_in_window(&uniform, painting, world, [0, 0], [n, n]);
+    assert!((hard[n - 1] - 1.0 / crate::erosion::HARD_ROCK).abs() < 1e-6 && hard[0] == 1.0);
 }

@@ -123,6 +123,21 @@ impl Mask {
         top + (bottom - top) * ty
     }
 
+    /// The cells `w` x `h` from `(x0, y0)` of the mask resampled to an `n` x `n` grid: the
+    /// values [`Self::resampled`]`(n, n)` gives those cells, bit for bit, sampled over the
+    /// window alone (a tile of a world, `crate::world::refine`). O(w x h).
+    pub fn window(&self, n: usize, [x0, y0]: [usize; 2], [w, h]: [usize; 2]) -> Vec<f32> {
+        if n == self.width && n == self.height {
+            return (y0..y0 + h)
+                .flat_map(|y| self.values[y * n + x0..y * n + x0 + w].iter().copied())
+                .collect();
+        }
+        let step = if n > 1 { 1.0 / (n - 1) as f64 } else { 0.0 };
+        (y0..y0 + h)
+            .flat_map(|y| (x0..x0 + w).map(move |x| self.sample(x as f64 * step, y as f64 * step)))
+            .collect()
+    }
+
     /// The mask resampled (bilinearly, vertex-registered) to `width x height`.
     pub fn resampled(&self, width: usize, height: usize) -> Vec<f32> {
         if width == self.width && height == self.height {
@@ -354,5 +369,24 @@ mod tests {
         let mask = Mask::from_values(2, 1, vec![0.0, 1.0]).unwrap();
         let wide = mask.resampled(5, 1);
         assert_eq!(wide, vec![0.0, 0.25, 0.5, 0.75, 1.0]);
+    }
+
+    /// A window of the resampled mask is those cells of the whole resampling, bit for bit,
+    /// whether the grid is the mask's own size or another.
+    #[test]
+    fn a_window_is_the_resampled_masks_cells_there() {
+        let values = (0..35).map(|i| ((i * 7) % 11) as f32 / 10.0).collect();
+        let mask = Mask::from_values(7, 5, values).unwrap();
+        let square = Mask::from_values(6, 6, (0..36).map(|i| i as f32 / 35.0).collect()).unwrap();
+        for (mask, n) in [(&mask, 23), (&mask, 3), (&square, 6)] {
+            let whole = mask.resampled(n, n);
+            let (at, size) = ([1, 2], [n - 2, n - 3]);
+            let window = mask.window(n, at, size);
+            assert_eq!(window.len(), size[0] * size[1]);
+            for (i, v) in window.iter().enumerate() {
+                let (x, y) = (at[0] + i % size[0], at[1] + i / size[0]);
+                assert_eq!(v.to_bits(), whole[y * n + x].to_bits(), "({x}, {y}) of {n}");
+            }
+        }
     }
 }

@@ -37,22 +37,24 @@
 //! world in one piece only through the catchments that cross its windows' held edges. On
 //! the default scene at 8192^2 the change is within +-0.22 m for 98% of the cells; across
 //! the tile edges the steps between cells are those inside the tiles (tests/world.rs
-//! measures both). Departures from the pipeline's refinement (docs/departures.md): the
-//! painted hard rock is not in it (the rock's patches of erodibility are, sampled at the
-//! world's cells: `erosion::rock_in_window`), and no floor holds the step (a step this short
-//! cuts no floodplain).
+//! measures both). Departures from the pipeline's refinement (docs/departures.md): the held
+//! peaks' firm flanks are not in it, and no floor holds the step (a step this short cuts no
+//! floodplain). The rock's patches of erodibility and the painted hard rock are the
+//! one-piece build's, sampled at the world's cells (`erosion::rock_in_window`).
 //!
 //! **The rock's threshold slopes.** Each step holds the one-piece build's threshold-slope
 //! limit (`erosion::slope_limit`: the talus angle times the rock's strength, weakened where
 //! water gathers), its strength factors sampled at the window's cells of the world
-//! ([`strength_in_window`], the erosion stage's seed), so the faces fail into the ribs and
+//! ([`strength_in_window`], the erosion stage's seed; painted hard rock as strong as the
+//! hard units), so the faces fail into the ribs and
 //! chutes of a one-piece build where creep alone left them smooth panels. The window's edge
 //! on the world's border stays base level for the water but fails like the land beside it
 //! (`Eroder::with_base_failing`).
 
 use super::WorldError;
 use super::plan::Plan;
-use crate::erosion::{Eroder, ErosionSettings, rock_in_window, strength_in_window};
+use crate::erosion::{Eroder, ErosionSettings, Painted, rock_in_window, strength_in_window};
+use crate::scene::MaskKind;
 use crate::terrain::stage_seed;
 use crate::wavelet::directional::Region;
 
@@ -121,16 +123,24 @@ fn refine_in_steps(
         stage_seed(plan.scene.seed, "erosion"),
     );
     let at = [window.x0, window.y0];
+    let hard_rock = plan
+        .scene
+        .mask(MaskKind::HardRock)
+        .map_err(|e| WorldError::Plan(format!("the plan's scene: {e}")))?;
+    let painted = Painted {
+        uplift: None,
+        hard_rock: hard_rock.as_ref(),
+    };
     let before = heights.clone();
     let mut eroder = Eroder::new(heights, w, h, plan.cell_m(), edge, Vec::new(), params)
         .map_err(failed)?
-        .with_erodibility(rock_in_window(settings, world, at, [w, h]))
+        .with_erodibility(rock_in_window(settings, painted, world, at, [w, h]))
         .map_err(failed)?
         .with_strata(settings.strata())
         .with_seed_in(seed, at, plan.size)
         .map_err(failed)?;
     if let Some(talus) = settings.talus_deg {
-        let strength = strength_in_window(settings, world, at, [w, h]);
+        let strength = strength_in_window(settings, painted, world, at, [w, h]);
         eroder = eroder
             .with_slope_limit(talus, strength)
             .and_then(|e| e.with_base_failing(world_border(plan, window)))
@@ -435,6 +445,40 @@ mod tests {
             steps(&heights)
         );
         assert!(border <= inside, "border {border} m, inside {inside} m");
+    }
+
+    /// Painted hard rock is refined as the one-piece build erodes it (four times harder,
+    /// as strong as the hard units, `erosion::Painted`): under a white mask the step cuts
+    /// the rills less than the same window unpainted (their change, less the change's mean
+    /// over a global cell, stands higher), and a black mask changes no bit.
+    #[test]
+    fn painted_hard_rock_is_refined_as_hard_rock() {
+        let plan = real_world_plan();
+        let window = plan.refine_window(5);
+        let heights = window_cells(&plan, window);
+        let painted = |value: f32| {
+            let mut painted = plan.clone();
+            let mask = crate::wavelet::Mask::from_values(2, 2, vec![value; 4]).unwrap();
+            painted.scene.set_mask(MaskKind::HardRock, Some(&mask));
+            refine(&painted, window, heights.clone()).unwrap()
+        };
+        let unpainted = refine(&plan, window, heights.clone()).unwrap();
+        assert_eq!(painted(0.0), unpainted, "a black mask changes nothing");
+        // The mean change of the cells the step drained 30 cells' area or more to.
+        let in_rills = |r: &Refined| {
+            let least = r.area.iter().copied().fold(f32::MAX, f32::min);
+            let rills: Vec<usize> = (0..r.area.len())
+                .filter(|&i| r.area[i] >= 30.0 * least)
+                .collect();
+            let sum: f64 = rills
+                .iter()
+                .map(|&i| f64::from(r.heights[i] - heights[i]))
+                .sum();
+            sum / rills.len() as f64
+        };
+        let (soft, hard) = (in_rills(&unpainted), in_rills(&painted(1.0)));
+        println!("the rills' mean change: unpainted {soft:.3} m, white hard rock {hard:.3} m");
+        assert!(hard > soft + 0.5, "unpainted {soft} m, painted {hard} m");
     }
 
     /// The default design's 129^2 global build on a 10 km map with two levels of detail, in
