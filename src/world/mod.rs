@@ -22,6 +22,7 @@
 //!   Priority-Flood of Barnes (2016), the one-piece fill bit for bit;
 //! - not done: a diffusion refined per tile.
 
+pub mod channels;
 pub mod engine;
 pub mod flood;
 pub mod plan;

@@ -50,6 +50,10 @@
 //! chutes of a one-piece build where creep alone left them smooth panels. The window's edge
 //! on the world's border stays base level for the water but fails like the land beside it
 //! (`Eroder::with_base_failing`).
+//!
+//! **The rivers' channels** ([`super::channels`]), laid at the world's cells before the
+//! step, are held as base level through it and keep their heights, as the one-piece build
+//! holds its rivers: the rills drain into them.
 
 use super::WorldError;
 use super::plan::Plan;
@@ -85,10 +89,17 @@ pub struct Refined {
     pub area: Vec<f32>,
 }
 
-/// Window `window`'s `heights` (row-major, its cells of the world, levels of detail included)
-/// after the refinement's step, its edge held.
-pub fn refine(plan: &Plan, window: Region, heights: Vec<f32>) -> Result<Refined, WorldError> {
-    refine_in_steps(plan, window, heights, REFINE_STEPS)
+/// Window `window`'s `heights` (row-major, its cells of the world, levels of detail and
+/// channels included) after the refinement's step, its edge and the `channel` cells held
+/// (row-major; the rivers' channels, [`super::channels`]: base level, as the one-piece build
+/// holds its rivers, and kept at their heights).
+pub fn refine(
+    plan: &Plan,
+    window: Region,
+    heights: Vec<f32>,
+    channel: &[bool],
+) -> Result<Refined, WorldError> {
+    refine_in_steps(plan, window, heights, channel, REFINE_STEPS)
 }
 
 /// [`refine`] with the step's time cut into `steps` steps.
@@ -96,16 +107,23 @@ fn refine_in_steps(
     plan: &Plan,
     window: Region,
     heights: Vec<f32>,
+    channel: &[bool],
     steps: u32,
 ) -> Result<Refined, WorldError> {
     let settings = plan.scene.erosion.as_ref().ok_or_else(|| {
         WorldError::Plan("the plan refines the erosion, but its scene has none".into())
     })?;
     let (w, h) = (window.width, window.height);
-    let edge = (0..w * h)
+    if channel.len() != w * h {
+        return Err(WorldError::Plan(format!(
+            "a window's channel cells: {} for {w} x {h} cells",
+            channel.len()
+        )));
+    }
+    let held = (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            x == 0 || y == 0 || x + 1 == w || y + 1 == h
+            x == 0 || y == 0 || x + 1 == w || y + 1 == h || channel[i]
         })
         .collect();
     let mut params = settings.params();
@@ -132,7 +150,7 @@ fn refine_in_steps(
         hard_rock: hard_rock.as_ref(),
     };
     let before = heights.clone();
-    let mut eroder = Eroder::new(heights, w, h, plan.cell_m(), edge, Vec::new(), params)
+    let mut eroder = Eroder::new(heights, w, h, plan.cell_m(), held, Vec::new(), params)
         .map_err(failed)?
         .with_erodibility(rock_in_window(settings, painted, world, at, [w, h]))
         .map_err(failed)?
@@ -155,6 +173,11 @@ fn refine_in_steps(
         .map(|(a, b)| a - b)
         .collect();
     keep_the_fine_part(&mut change, w, h, 1 << plan.levels);
+    for (c, inside) in change.iter_mut().zip(channel) {
+        if *inside {
+            *c = 0.0;
+        }
+    }
     Ok(Refined {
         heights: before.iter().zip(&change).map(|(b, d)| b + d).collect(),
         area,
@@ -311,7 +334,7 @@ pub fn blend(
 }
 
 #[cfg(test)]
-mod tests {
+pub(super) mod tests {
     use super::*;
     use crate::scene::Scene;
 
@@ -381,15 +404,15 @@ mod tests {
     fn steps_drawing_anew_cut_smoother_rills() {
         let plan = real_world_plan();
         let window = plan.refine_window(5);
-        let heights = window_cells(&plan, window);
+        let (heights, channel) = window_cells(&plan, window);
         let (w, h) = (window.width, window.height);
         let one = along_bend(
-            &refine_in_steps(&plan, window, heights.clone(), 1).unwrap(),
+            &refine_in_steps(&plan, window, heights.clone(), &channel, 1).unwrap(),
             w,
             h,
         );
         let four = along_bend(
-            &refine_in_steps(&plan, window, heights, REFINE_STEPS).unwrap(),
+            &refine_in_steps(&plan, window, heights, &channel, REFINE_STEPS).unwrap(),
             w,
             h,
         );
@@ -406,9 +429,9 @@ mod tests {
         let plan = real_world_plan();
         let window = plan.refine_window(0);
         assert_eq!((window.x0, window.y0), (0, 0));
-        let heights = window_cells(&plan, window);
+        let (heights, channel) = window_cells(&plan, window);
         let (w, h) = (window.width, window.height);
-        let refined = refine(&plan, window, heights.clone()).unwrap();
+        let refined = refine(&plan, window, heights.clone(), &channel).unwrap();
         let talus = plan.scene.erosion.as_ref().unwrap().talus_deg.unwrap();
         let steep = |z: &[f32]| {
             let tan = (talus + 5.0).to_radians().tan() as f32 * plan.cell_m() as f32;
@@ -455,14 +478,14 @@ mod tests {
     fn painted_hard_rock_is_refined_as_hard_rock() {
         let plan = real_world_plan();
         let window = plan.refine_window(5);
-        let heights = window_cells(&plan, window);
+        let (heights, channel) = window_cells(&plan, window);
         let painted = |value: f32| {
             let mut painted = plan.clone();
             let mask = crate::wavelet::Mask::from_values(2, 2, vec![value; 4]).unwrap();
             painted.scene.set_mask(MaskKind::HardRock, Some(&mask));
-            refine(&painted, window, heights.clone()).unwrap()
+            refine(&painted, window, heights.clone(), &channel).unwrap()
         };
-        let unpainted = refine(&plan, window, heights.clone()).unwrap();
+        let unpainted = refine(&plan, window, heights.clone(), &channel).unwrap();
         assert_eq!(painted(0.0), unpainted, "a black mask changes nothing");
         // The mean change of the cells the step drained 30 cells' area or more to.
         let in_rills = |r: &Refined| {
@@ -483,7 +506,7 @@ mod tests {
 
     /// The default design's 129^2 global build on a 10 km map with two levels of detail, in
     /// tiles of 128.
-    fn real_world_plan() -> Plan {
+    pub(in crate::world) fn real_world_plan() -> Plan {
         let scene = Scene::from_json(
             r#"{"version": 1, "size": 1024, "cell_size": 9.765625, "seed": 1,
                 "rivers": [{"estuary": [0.5, 1.0], "toward": [0.5, 0.35], "phi": 3, "depth": 5}],
@@ -493,23 +516,14 @@ mod tests {
         Plan::new(&scene, 513, 128, Some(129)).unwrap()
     }
 
-    /// The world's cells of `window` before the refinement (the global build and the levels
-    /// of detail).
-    fn window_cells(plan: &Plan, window: Region) -> Vec<f32> {
+    /// The world's cells of `window` before the refinement (the global build, the levels of
+    /// detail and the channels) and its channel cells.
+    fn window_cells(plan: &Plan, window: Region) -> (Vec<f32>, Vec<bool>) {
         let ctx = crate::jobs::JobCtx::detached();
-        let global = pollster::block_on(super::super::task::build_global(plan, &ctx)).unwrap();
-        let sigma = crate::wavelet::synthesis::SigmaTables {
-            levels: plan.levels,
-            tables: global
-                .info
-                .sigma_bits
-                .iter()
-                .map(|b| vec![f32::from_bits(*b)])
-                .collect(),
-            source_width: plan.world,
-            source_height: plan.world,
-        };
-        super::super::task::cells(&global.field, &sigma, plan, window)
+        let build = pollster::block_on(super::super::task::build_global(plan, &ctx)).unwrap();
+        let global = build.global(plan);
+        let channel = super::super::task::channels_in(&global, plan, window).inside();
+        (super::super::task::cells(&global, plan, window), channel)
     }
 
     /// The mean `|z_up + z_down - 2 z|` over the inner cells of `r` (`w` x `h`) whose drainage

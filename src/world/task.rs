@@ -6,7 +6,8 @@
 //! - Task 0, the global build: the scene through the whole pipeline at the plan's `world`
 //!   size (`world.f32`, RAW R32: little-endian `f32`, row-major; `preview.tif`, the same as a
 //!   GeoTIFF: the whole world at low resolution before any tile), and the standard
-//!   deviations of its levels of detail from its wavelet statistics (`world.json`).
+//!   deviations of its levels of detail from its wavelet statistics and the rivers'
+//!   channels ([`super::channels`]) (`world.json`).
 //! - With refinement ([`super::refine`]), tasks 1 to T: tile `k`'s window (the tile and a
 //!   halo), its cells of the world eroded once more at the world's resolution
 //!   (`refined/rRRR-cCCC.f32`: its heights, then the drainage area the step routed, RAW R32
@@ -23,6 +24,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::WorldError;
+use super::channels::{Channels, Nearest};
 use super::plan::{Plan, Task};
 use super::refine::Refined;
 use super::window::synthesize;
@@ -43,6 +45,10 @@ pub struct WorldInfo {
     pub sigma_bits: Vec<u32>,
     pub min: f32,
     pub max: f32,
+    /// The drawn rivers' channels, laid again at the world's cells ([`super::channels`]);
+    /// empty without levels of detail.
+    #[serde(default)]
+    pub channels: Channels,
 }
 
 /// Where a build's files are.
@@ -286,12 +292,19 @@ pub async fn build_global(plan: &Plan, ctx: &JobCtx) -> Result<GlobalBuild, Worl
         .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), v| {
             (lo.min(*v), hi.max(*v))
         });
+    let channels = if plan.levels == 0 {
+        Channels::default()
+    } else {
+        let map_width = plan.scene.cell_size * plan.scene.size as f64;
+        Channels::of(&out.hydrology.rivers, &field, map_width)
+    };
     let info = WorldInfo {
         size: field.width(),
         checksum: field.checksum(),
         sigma_bits,
         min,
         max,
+        channels,
     };
     let spacing = plan.global_cell_m();
     let centre = plan.scene.location.map(|l| [l.lon, l.lat]);
@@ -318,7 +331,7 @@ async fn global_build(dir: &BuildDir, plan: &Plan, ctx: &JobCtx) -> Result<(), W
 }
 
 /// The global build and its detail's standard deviations, as task 0 left them.
-pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTables), WorldError> {
+pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<Global, WorldError> {
     let missing = |what: &Path, e: std::io::Error| {
         WorldError::Io(format!(
             "{}: {e} (run task 0, the global build, first)",
@@ -348,22 +361,52 @@ pub fn read_world(dir: &BuildDir, plan: &Plan) -> Result<(Heightfield, SigmaTabl
             dir.world_info().display()
         )));
     }
-    let sigma = SigmaTables {
+    let sigma = sigma_of(&info, plan);
+    Ok(Global {
+        field,
+        sigma,
+        channels: info.channels,
+    })
+}
+
+/// The detail's standard deviations task 0 recorded in `info`.
+fn sigma_of(info: &WorldInfo, plan: &Plan) -> SigmaTables {
+    SigmaTables {
         levels: plan.levels,
         tables: info
             .sigma_bits
             .iter()
             .map(|b| vec![f32::from_bits(*b)])
             .collect(),
-        source_width: n,
-        source_height: n,
-    };
-    Ok((field, sigma))
+        source_width: plan.world,
+        source_height: plan.world,
+    }
+}
+
+impl GlobalBuild {
+    /// What the tasks after task 0 read of this build ([`read_world`] without the files).
+    pub fn global(&self, plan: &Plan) -> Global {
+        Global {
+            field: (*self.field).clone(),
+            sigma: sigma_of(&self.info, plan),
+            channels: self.info.channels.clone(),
+        }
+    }
+}
+
+/// What the tasks after task 0 read of the global build: its heights, its detail's standard
+/// deviations and the rivers' channels.
+pub struct Global {
+    pub field: Heightfield,
+    pub sigma: SigmaTables,
+    pub channels: Channels,
 }
 
 /// The cells of `window` of the world of `plan` from its global build: the levels of detail
-/// above it, interpolated along its valleys and crests ([`directional`]).
-pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Region) -> Vec<f32> {
+/// above it, interpolated along its valleys and crests ([`directional`]), with the rivers'
+/// channels laid at the world's cells ([`super::channels`]).
+pub fn cells(global: &Global, plan: &Plan, window: Region) -> Vec<f32> {
+    let (world, sigma) = (&global.field, &global.sigma);
     if plan.levels == 0 {
         let n = world.width();
         let mut out = Vec::with_capacity(window.width * window.height);
@@ -377,17 +420,29 @@ pub fn cells(world: &Heightfield, sigma: &SigmaTables, plan: &Plan, window: Regi
     let key = rng::seed_key(plan.scene.seed);
     let mut cells = synthesize(world, sigma, plan.levels, key, window);
     directional::correct(world, plan.levels, window, &mut cells);
+    channels_in(global, plan, window).lay(&mut cells);
     cells
+}
+
+/// The nearest channel of each cell of `window` ([`Nearest`]).
+pub fn channels_in(global: &Global, plan: &Plan, window: Region) -> Nearest {
+    Nearest::find(
+        &global.channels,
+        window,
+        plan.cell_m(),
+        plan.global_cell_m(),
+    )
 }
 
 /// Stage 1 of a refined build: tile `k`'s window refined ([`super::refine::refine`]).
 fn refine(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
-    let (world, sigma) = read_world(dir, plan)?;
+    let global = read_world(dir, plan)?;
     let (row, col, _) = plan.tile(k);
     let window = plan.refine_window(k);
-    let heights = cells(&world, &sigma, plan, window);
-    drop(world);
-    let mut refined = super::refine::refine(plan, window, heights)?;
+    let heights = cells(&global, plan, window);
+    let channel = channels_in(&global, plan, window).inside();
+    drop(global);
+    let mut refined = super::refine::refine(plan, window, heights, &channel)?;
     refined.heights.append(&mut refined.area);
     write_field(&dir.refined(row, col), stacked(window), refined.heights)
 }
@@ -399,8 +454,7 @@ fn tile(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
     let heights = if plan.refine {
         super::refine::blend(plan, k, |j| read_refined(dir, plan, j))?
     } else {
-        let (world, sigma) = read_world(dir, plan)?;
-        cells(&world, &sigma, plan, window)
+        cells(&read_world(dir, plan)?, plan, window)
     };
     write_field(&dir.tile(row, col), window, heights)
 }
