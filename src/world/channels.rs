@@ -22,20 +22,33 @@
 //!   trough within half a global cell of the channel is raised to it, fading out over the
 //!   next half global cell ([`Nearest::lay`]).
 //!
-//! Only rivers that run in a valley floor in the global build get a channel laid; smaller
-//! ones keep their V-shaped valleys, interpolated ([`has_a_floor`]).
+//! **The valley floor.** The levels of detail give every floor the texture of the slopes (the
+//! global build's own statistics, one set for the whole map), where the one-piece build's
+//! floors are smooth base level. Within [`FLOOR_REACH`] floor half-widths of a course, where
+//! the global build is no steeper than the floor's footslope, a cell takes the global
+//! build's surface without the detail, fading out onto the walls ([`floor_share`]), and the
+//! refinement's change there is faded alike ([`Laid`]).
+//!
+//! **Which rivers.** Only the drawn rivers (the trunks) whose global build cut a valley floor
+//! ([`has_a_floor`]). The trunks are held at their drawn heights in the global build, so
+//! their courses are its river cells; a grown branch's heights are set by the erosion, its
+//! valley can leave the course it was drawn on, and a channel laid on the course there was
+//! a trench across the slope (on a 2 km map, a dark crack across every face).
 //!
 //! Laid from global data keyed on position in metres, the channels are the same bits in
 //! every window and tile that holds them: seamless by construction, whatever the tiling. The
 //! refinement holds the channel's cells as base level, as the one-piece build holds its
-//! rivers ([`channel_cells`]). Departure from the one-piece build (docs/departures.md): the
+//! rivers ([`Nearest::laid`]). Departures from the one-piece build (docs/departures.md): the
 //! bed is the global build's, sampled, not the design's own heights at the world's cells;
-//! the floodplain beyond half a global cell is the global build's floor, interpolated.
+//! the floodplain beyond half a global cell is the global build's floor, interpolated; the
+//! branches keep their interpolated valleys.
 
 use glam::DVec2;
 use serde::{Deserialize, Serialize};
 
-use crate::erosion::floodplain::{CROSS_RISE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m};
+use crate::erosion::floodplain::{
+    CROSS_RISE, FOOTSLOPE, HALF_WIDTH_PER_SQRT_AREA, bankfull_depth_m,
+};
 use crate::heightfield::Heightfield;
 use crate::river::GrownRiver;
 use crate::river::hydraulic::{channel_width_m, link_areas};
@@ -57,6 +70,9 @@ pub struct Channel {
     pub half_width_m: f32,
     /// How far the floodplain stands above the bed, metres.
     pub depth_m: f32,
+    /// Half the width of the valley floor the global build cut beside it for the mean rock
+    /// (`erosion::floodplain::HALF_WIDTH_PER_SQRT_AREA`), metres.
+    pub floor_half_width_m: f32,
 }
 
 /// Every link's channel (empty: a scene without rivers, or a build from before channels).
@@ -66,8 +82,9 @@ pub struct Channels {
 }
 
 impl Channels {
-    /// The channels of `rivers` on the global build `field` (square, vertex-registered over a
-    /// map `map_width_m` wide) that run in a valley floor there ([`has_a_floor`]).
+    /// The channels of the drawn rivers (the trunks) of `rivers` on the global build `field`
+    /// (square, vertex-registered over a map `map_width_m` wide) that run in a valley floor
+    /// there ([`has_a_floor`]).
     /// O(points of the courses).
     pub fn of(rivers: &[GrownRiver], field: &Heightfield, map_width_m: f64) -> Self {
         let mut links = Vec::new();
@@ -98,14 +115,20 @@ fn network_channels(
     map_width_m: f64,
 ) -> Vec<Channel> {
     let n = field.width();
-    let global_cell_m = map_width_m / (n.max(2) - 1) as f64;
+    let last = (n.max(2) - 1) as f64;
+    let global_cell_m = map_width_m / last;
+    let surface = Surface {
+        field,
+        cell_m: global_cell_m as f32,
+    };
     let areas = link_areas(net, map_width_m);
     let mut inflow = vec![f32::INFINITY; net.nodes.len()];
     let mut by_child: Vec<Option<Channel>> = vec![None; net.nodes.len()];
     for c in (0..net.nodes.len()).rev() {
         let Some(p) = net.parent[c] else { continue };
         let p = p as usize;
-        if !has_a_floor(areas[c], global_cell_m) {
+        let drawn = net.trunk.get(c).copied().unwrap_or(false);
+        if !drawn || !has_a_floor(areas[c], global_cell_m) {
             continue;
         }
         let course = meander::course(net.nodes[p], net.nodes[c], n, net.bends(c));
@@ -123,7 +146,7 @@ fn network_channels(
         let on_floor = course
             .iter()
             .zip(&bed)
-            .map(|(q, b)| on_the_floor(bilinear(field, *q) - b, depth))
+            .map(|(q, b)| on_the_floor(surface.at(q.x * last, q.y * last).0 - b, depth))
             .collect();
         by_child[c] = Some(Channel {
             points: course
@@ -134,6 +157,7 @@ fn network_channels(
             on_floor,
             half_width_m: (0.5 * width) as f32,
             depth_m: depth as f32,
+            floor_half_width_m: (HALF_WIDTH_PER_SQRT_AREA * areas[c].max(0.0).sqrt()) as f32,
         });
     }
     by_child.into_iter().flatten().collect()
@@ -152,20 +176,6 @@ const FLOOR_TOLERANCE_M: f64 = 1.0;
 fn on_the_floor(above: f32, depth: f64) -> f32 {
     let floor = (depth + FLOOR_TOLERANCE_M) as f32;
     (2.0 - above / floor).clamp(0.0, 1.0)
-}
-
-/// `field` (square, vertex-registered) at the map point `q` (map units), bilinearly.
-fn bilinear(field: &Heightfield, q: DVec2) -> f32 {
-    let n = field.width();
-    let last = (n - 1) as f64;
-    let (fx, fy) = ((q.x * last).clamp(0.0, last), (q.y * last).clamp(0.0, last));
-    let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
-    let (x1, y1) = ((x0 + 1).min(n - 1), (y0 + 1).min(n - 1));
-    let (tx, ty) = ((fx - x0 as f64) as f32, (fy - y0 as f64) as f32);
-    let at = |x: usize, y: usize| field.data()[y * n + x];
-    let top = at(x0, y0) + (at(x1, y0) - at(x0, y0)) * tx;
-    let bottom = at(x0, y1) + (at(x1, y1) - at(x0, y1)) * tx;
-    top + (bottom - top) * ty
 }
 
 /// The lowest height of `field` (`n` x `n`, vertex-registered) within one cell of the map
@@ -190,19 +200,43 @@ pub struct Nearest {
     window: Region,
     cell_m: f32,
     global_cell_m: f32,
-    /// Per cell: distance beyond the channel's half-width (m; infinite: out of reach), the
-    /// distance to the course (m), the bed there (m), and the channel's depth (m).
     cells: Vec<Reach>,
 }
 
+/// What the refinement keeps of a window's channels and valley floors (row-major, the
+/// window's cells).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Laid {
+    /// The cells inside a channel cut there in full: held as base level through the step
+    /// and kept at their heights, as the one-piece build holds its rivers.
+    pub held: Vec<bool>,
+    /// The share of the step's change each cell forgoes for lying on a valley floor (the
+    /// one-piece build's floors are base level and take no rills). Not held: a gentle patch
+    /// of a valley's side that passed for floor was then an outlet, and the step sank a
+    /// hole into it.
+    pub still: Vec<f32>,
+}
+
+/// A cell's nearest channel.
 #[derive(Clone, Copy)]
 struct Reach {
+    /// Metres beyond the channel's half-width (infinite: out of reach).
     beyond: f32,
+    /// Metres to the course.
     across: f32,
+    /// The bed at the nearest point of the course, metres.
     bed: f32,
+    /// The channel's bankfull depth, metres.
     depth: f32,
     /// How much of the cut the cell takes (the course's [`Channel::on_floor`] there).
     laid: f32,
+    /// Half the width of the channel's valley floor, metres.
+    floor: f32,
+    /// The global build's surface at the cell, without the levels' detail (bilinear).
+    smooth: f32,
+    /// How much of the detail the cell loses for lying on the valley floor, 0 to 1
+    /// ([`floor_share`]).
+    on_floor: f32,
 }
 
 const OUT_OF_REACH: Reach = Reach {
@@ -211,18 +245,47 @@ const OUT_OF_REACH: Reach = Reach {
     bed: 0.0,
     depth: 0.0,
     laid: 0.0,
+    floor: 0.0,
+    smooth: 0.0,
+    on_floor: 0.0,
 };
+
+/// How far from its course, in floor half-widths, a valley floor may reach: the widest rock
+/// (the rock field's contrast of 10 gives floors up to 1.8 times the mean width) and the
+/// meander belt's slack widen it; the global build's slope says where it ends.
+const FLOOR_REACH: f32 = 2.0;
+
+/// The share of the levels' detail a cell `across` metres from a course loses for lying on
+/// the valley floor of half-width `floor` metres, where the global build slopes `slope`
+/// (m/m): all of it on the floor and its footslope (no steeper than
+/// `erosion::floodplain::FOOTSLOPE`), none on the walls (twice as steep) or beyond
+/// [`FLOOR_REACH`] half-widths, smoothly between.
+fn floor_share(across: f32, floor: f32, slope: f32) -> f32 {
+    let foot = FOOTSLOPE as f32;
+    let gentle = (2.0 - slope / foot).clamp(0.0, 1.0);
+    let near = (FLOOR_REACH - across / floor.max(1e-6)) / (FLOOR_REACH - 1.5);
+    let t = gentle * near.clamp(0.0, 1.0);
+    t * t * (3.0 - 2.0 * t)
+}
 
 impl Nearest {
     /// The nearest channel of `channels` to each cell of `window`, world cells `cell_m`
-    /// wide, global cells `global_cell_m` wide: the channel whose edge is nearest, within its
-    /// half-width and a global cell. O(segments x the cells each reaches).
-    pub fn find(channels: &Channels, window: Region, cell_m: f64, global_cell_m: f64) -> Self {
-        let (cell, global) = (cell_m as f32, global_cell_m as f32);
+    /// wide, over the global build `global` `levels` levels of detail below: the channel
+    /// whose edge is nearest, within its half-width and a global cell or its valley floor's
+    /// reach. O(segments x the cells each reaches).
+    pub fn find(
+        channels: &Channels,
+        global: &Heightfield,
+        levels: u32,
+        window: Region,
+        cell_m: f64,
+    ) -> Self {
+        let scale = f64::from(1u32 << levels);
+        let (cell, global_cell) = (cell_m as f32, (cell_m * scale) as f32);
         let mut cells = vec![OUT_OF_REACH; window.width * window.height];
         for link in &channels.links {
             let half = link.half_width_m.max(0.5 * cell);
-            let reach = half + global;
+            let reach = (half + global_cell).max(FLOOR_REACH * link.floor_half_width_m);
             for (k, pair) in link.points.windows(2).enumerate() {
                 let laid = [link.on_floor[k], link.on_floor[k + 1]];
                 if laid == [0.0, 0.0] {
@@ -243,38 +306,60 @@ impl Nearest {
                             bed,
                             depth: link.depth_m,
                             laid,
+                            floor: link.floor_half_width_m,
+                            ..OUT_OF_REACH
                         };
                     }
                 });
             }
         }
+        let surface = Surface {
+            field: global,
+            cell_m: global_cell,
+        };
+        for (i, r) in cells.iter_mut().enumerate() {
+            if r.beyond.is_finite() {
+                let x = (window.x0 + i % window.width) as f64 / scale;
+                let y = (window.y0 + i / window.width) as f64 / scale;
+                let (smooth, slope) = surface.at(x, y);
+                r.smooth = smooth;
+                r.on_floor = r.laid * floor_share(r.across, r.floor, slope);
+            }
+        }
         Self {
             window,
             cell_m: cell,
-            global_cell_m: global,
+            global_cell_m: global_cell,
             cells,
         }
     }
 
-    /// The window's cells inside a channel that is cut there in full (row-major).
-    pub fn inside(&self) -> Vec<bool> {
-        self.cells
-            .iter()
-            .map(|r| r.beyond <= 0.0 && r.laid >= 1.0)
-            .collect()
+    /// What the refinement keeps of the channels and their floors ([`Laid`]).
+    pub fn laid(&self) -> Laid {
+        Laid {
+            held: self
+                .cells
+                .iter()
+                .map(|r| r.beyond <= 0.0 && r.laid >= 1.0)
+                .collect(),
+            still: self.cells.iter().map(|r| r.on_floor).collect(),
+        }
     }
 
-    /// Cuts the channels into `heights` (the window's cells, row-major): inside, the bed plus
-    /// the cross rise; the bank rising over one world cell across the channel's edge to the
-    /// floodplain, a bankfull depth above the bed; lower land within half a global cell
-    /// raised to it, the raise fading out over the next half global cell. Each cell takes
-    /// the cut in the share its course lies on the global build's floor. O(cells).
+    /// Cuts the channels into `heights` (the window's cells, row-major): the valley floor
+    /// without the levels' detail (the global build's surface, [`floor_share`]); inside the
+    /// channel, the bed plus the cross rise; the bank rising over one world cell across the
+    /// channel's edge to the floodplain, a bankfull depth above the bed; lower land within
+    /// half a global cell raised to it, the raise fading out over the next half global cell.
+    /// Each cell takes the cut in the share its course lies on the global build's floor.
+    /// O(cells).
     pub fn lay(&self, heights: &mut [f32]) {
         let rise = CROSS_RISE as f32;
         for (z, r) in heights.iter_mut().zip(&self.cells) {
             if !r.beyond.is_finite() {
                 continue;
             }
+            *z += r.on_floor * (r.smooth - *z);
             // The bank: from the bed at the channel's edge (at least half a cell from the
             // course, so the cells nearest the course make an unbroken line at the bed,
             // falling downstream) to the floodplain a cell beyond it.
@@ -289,6 +374,54 @@ impl Nearest {
             }
         }
         debug_assert_eq!(heights.len(), self.window.width * self.window.height);
+    }
+}
+
+/// The global build's surface between its cells: bilinear heights, and slopes from its
+/// central differences, bilinear too (continuous across the cells, so a share of detail
+/// taken from them shows no cell edges).
+struct Surface<'a> {
+    field: &'a Heightfield,
+    /// The global build's cell, metres.
+    cell_m: f32,
+}
+
+impl Surface<'_> {
+    /// The height's change per cell along x and along y at cell `(x, y)`: central
+    /// differences, one-sided on the border.
+    fn gradient(&self, x: usize, y: usize) -> [f32; 2] {
+        let n = self.field.width();
+        let z = self.field.data();
+        let (l, r) = (x.saturating_sub(1), (x + 1).min(n - 1));
+        let (u, d) = (y.saturating_sub(1), (y + 1).min(n - 1));
+        [
+            (z[y * n + r] - z[y * n + l]) / (r - l).max(1) as f32,
+            (z[d * n + x] - z[u * n + x]) / (d - u).max(1) as f32,
+        ]
+    }
+
+    /// The height (m) and the slope (m/m) at global cell coordinates `(x, y)`.
+    fn at(&self, x: f64, y: f64) -> (f32, f32) {
+        let n = self.field.width();
+        let last = (n - 1) as f64;
+        let (fx, fy) = (x.clamp(0.0, last), y.clamp(0.0, last));
+        let (x0, y0) = (fx.floor() as usize, fy.floor() as usize);
+        let (x1, y1) = ((x0 + 1).min(n - 1), (y0 + 1).min(n - 1));
+        let (tx, ty) = ((fx - x0 as f64) as f32, (fy - y0 as f64) as f32);
+        let mix = |c: [[f32; 2]; 2]| {
+            let top = c[0][0] + (c[0][1] - c[0][0]) * tx;
+            let bottom = c[1][0] + (c[1][1] - c[1][0]) * tx;
+            top + (bottom - top) * ty
+        };
+        let z = |x: usize, y: usize| self.field.data()[y * n + x];
+        let height = mix([[z(x0, y0), z(x1, y0)], [z(x0, y1), z(x1, y1)]]);
+        let g = [
+            [self.gradient(x0, y0), self.gradient(x1, y0)],
+            [self.gradient(x0, y1), self.gradient(x1, y1)],
+        ];
+        let gx = mix(g.map(|row| row.map(|v| v[0])));
+        let gy = mix(g.map(|row| row.map(|v| v[1])));
+        (height, gx.hypot(gy) / self.cell_m)
     }
 }
 
@@ -354,7 +487,8 @@ mod tests {
     /// at its own width and depth: its beds never rise downstream; in the refined window
     /// over the trunk, the channel's cells hold the laid bed, each drains to a neighbour at
     /// or below it, and the land just beyond the bank stands the bankfull depth above the
-    /// bed (where the levels of detail left a trough one global cell wide).
+    /// bed (where the levels of detail left a trough one global cell wide); and its valley
+    /// floor is smooth, without the levels' detail.
     #[test]
     fn a_worlds_channels_are_cut_at_their_width_and_drain() {
         let plan = crate::world::refine::tests::real_world_plan();
@@ -371,9 +505,10 @@ mod tests {
         let window = plan.refine_window(12);
         let (w, h) = (window.width, window.height);
         let nearest = task::channels_in(&global, &plan, window);
-        let inside = nearest.inside();
+        let laid = nearest.laid();
+        let inside = &laid.held;
         let cells = task::cells(&global, &plan, window);
-        let refined = crate::world::refine::refine(&plan, window, cells.clone(), &inside).unwrap();
+        let refined = crate::world::refine::refine(&plan, window, cells.clone(), &laid).unwrap();
         let z = &refined.heights;
         let rise = CROSS_RISE as f32;
         let (mut channel, mut pits) = (0, 0);
@@ -430,6 +565,30 @@ mod tests {
         // cells to the same cells beside, half a depth).
         assert!(above >= 1.0, "the floodplain {above} depths above the bed");
         assert!(trough - bed_trough < 1.0, "{trough} - {bed_trough}");
+        // The valley floor beyond the banks loses the levels' detail: its cells' mean
+        // |Laplacian| after the step, against the interpolation's with its detail.
+        let laplacian = |v: &[f32], i: usize| {
+            f64::from((v[i - 1] + v[i + 1] + v[i - w] + v[i + w] - 4.0 * v[i]).abs())
+        };
+        let (mut floor, mut rough, mut count) = (0.0f64, 0.0f64, 0usize);
+        for y in 1..h - 1 {
+            for x in 1..w - 1 {
+                let (i, r) = (y * w + x, nearest.cells[y * w + x]);
+                if r.on_floor >= 1.0 && r.beyond > 2.0 * nearest.cell_m {
+                    floor += laplacian(z, i);
+                    rough += laplacian(&interpolated, i);
+                    count += 1;
+                }
+            }
+        }
+        let (floor, rough) = (floor / count as f64, rough / count as f64);
+        println!(
+            "{count} floor cells: mean |Laplacian| {floor:.3} m ({rough:.3} m with the detail)"
+        );
+        assert!(
+            count > 100 && floor < 0.5 * rough,
+            "{count} cells: {floor} against {rough}"
+        );
     }
 
     /// A straight channel across a sloping window: the bed cells at the course, the bank up
@@ -444,6 +603,7 @@ mod tests {
                 on_floor: vec![1.0, 1.0],
                 half_width_m: 4.0,
                 depth_m: 1.5,
+                floor_half_width_m: 0.0,
             }],
         };
         let window = Region {
@@ -452,11 +612,13 @@ mod tests {
             width: 201,
             height: 101,
         };
-        // 1 m world cells, 8 m global cells; the land a V rising 0.2 m/m from 10.5 m.
-        let nearest = Nearest::find(&channels, window, 1.0, 8.0);
-        let mut z: Vec<f32> = (0..201 * 101)
-            .map(|i| 10.5 + 0.2 * ((i / 201) as f32 - 50.0).abs())
-            .collect();
+        // 1 m world cells, 8 m global cells (three levels); the land a V rising 0.2 m/m
+        // from 10.5 m; no valley floor.
+        let v = |y: f32| 10.5 + 0.2 * (y - 50.0).abs();
+        let global = (0..26 * 26).map(|i| v((i / 26 * 8) as f32)).collect();
+        let global = Heightfield::from_vec(26, 26, global).unwrap();
+        let nearest = Nearest::find(&channels, &global, 3, window, 1.0);
+        let mut z: Vec<f32> = (0..201 * 101).map(|i| v((i / 201) as f32)).collect();
         nearest.lay(&mut z);
         let at = |x: usize, y: usize| z[y * 201 + x];
         // The bed at the course, rising upstream (towards x = 200).
@@ -470,7 +632,7 @@ mod tests {
         );
         // Far away the land is what it was.
         assert_eq!(at(100, 80), 10.5 + 0.2 * 30.0);
-        let inside = nearest.inside();
+        let inside = nearest.laid().held;
         assert!(inside[50 * 201 + 100] && inside[54 * 201 + 100] && !inside[55 * 201 + 100]);
     }
 }

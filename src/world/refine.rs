@@ -53,9 +53,11 @@
 //!
 //! **The rivers' channels** ([`super::channels`]), laid at the world's cells before the
 //! step, are held as base level through it and keep their heights, as the one-piece build
-//! holds its rivers: the rills drain into them.
+//! holds its rivers: the rills drain into them. Their valley floors keep none of the step's
+//! change (faded onto the walls, `channels::Laid::still`).
 
 use super::WorldError;
+use super::channels::Laid;
 use super::plan::Plan;
 use crate::erosion::{Eroder, ErosionSettings, Painted, rock_in_window, strength_in_window};
 use crate::scene::MaskKind;
@@ -90,16 +92,16 @@ pub struct Refined {
 }
 
 /// Window `window`'s `heights` (row-major, its cells of the world, levels of detail and
-/// channels included) after the refinement's step, its edge and the `channel` cells held
-/// (row-major; the rivers' channels, [`super::channels`]: base level, as the one-piece build
+/// channels included) after the refinement's step, its edge and the channels' cells held
+/// (`laid`, [`super::channels`]: base level, as the one-piece build
 /// holds its rivers, and kept at their heights).
 pub fn refine(
     plan: &Plan,
     window: Region,
     heights: Vec<f32>,
-    channel: &[bool],
+    laid: &Laid,
 ) -> Result<Refined, WorldError> {
-    refine_in_steps(plan, window, heights, channel, REFINE_STEPS)
+    refine_in_steps(plan, window, heights, laid, REFINE_STEPS)
 }
 
 /// [`refine`] with the step's time cut into `steps` steps.
@@ -107,23 +109,24 @@ fn refine_in_steps(
     plan: &Plan,
     window: Region,
     heights: Vec<f32>,
-    channel: &[bool],
+    laid: &Laid,
     steps: u32,
 ) -> Result<Refined, WorldError> {
     let settings = plan.scene.erosion.as_ref().ok_or_else(|| {
         WorldError::Plan("the plan refines the erosion, but its scene has none".into())
     })?;
     let (w, h) = (window.width, window.height);
-    if channel.len() != w * h {
+    if laid.held.len() != w * h || laid.still.len() != w * h {
         return Err(WorldError::Plan(format!(
-            "a window's channel cells: {} for {w} x {h} cells",
-            channel.len()
+            "a window's channel cells: {} and {} for {w} x {h} cells",
+            laid.held.len(),
+            laid.still.len()
         )));
     }
     let held = (0..w * h)
         .map(|i| {
             let (x, y) = (i % w, i / w);
-            x == 0 || y == 0 || x + 1 == w || y + 1 == h || channel[i]
+            x == 0 || y == 0 || x + 1 == w || y + 1 == h || laid.held[i]
         })
         .collect();
     let mut params = settings.params();
@@ -173,10 +176,8 @@ fn refine_in_steps(
         .map(|(a, b)| a - b)
         .collect();
     keep_the_fine_part(&mut change, w, h, 1 << plan.levels);
-    for (c, inside) in change.iter_mut().zip(channel) {
-        if *inside {
-            *c = 0.0;
-        }
+    for ((c, held), still) in change.iter_mut().zip(&laid.held).zip(&laid.still) {
+        *c *= if *held { 0.0 } else { 1.0 - still };
     }
     Ok(Refined {
         heights: before.iter().zip(&change).map(|(b, d)| b + d).collect(),
@@ -404,15 +405,15 @@ pub(super) mod tests {
     fn steps_drawing_anew_cut_smoother_rills() {
         let plan = real_world_plan();
         let window = plan.refine_window(5);
-        let (heights, channel) = window_cells(&plan, window);
+        let (heights, laid) = window_cells(&plan, window);
         let (w, h) = (window.width, window.height);
         let one = along_bend(
-            &refine_in_steps(&plan, window, heights.clone(), &channel, 1).unwrap(),
+            &refine_in_steps(&plan, window, heights.clone(), &laid, 1).unwrap(),
             w,
             h,
         );
         let four = along_bend(
-            &refine_in_steps(&plan, window, heights, &channel, REFINE_STEPS).unwrap(),
+            &refine_in_steps(&plan, window, heights, &laid, REFINE_STEPS).unwrap(),
             w,
             h,
         );
@@ -429,9 +430,9 @@ pub(super) mod tests {
         let plan = real_world_plan();
         let window = plan.refine_window(0);
         assert_eq!((window.x0, window.y0), (0, 0));
-        let (heights, channel) = window_cells(&plan, window);
+        let (heights, laid) = window_cells(&plan, window);
         let (w, h) = (window.width, window.height);
-        let refined = refine(&plan, window, heights.clone(), &channel).unwrap();
+        let refined = refine(&plan, window, heights.clone(), &laid).unwrap();
         let talus = plan.scene.erosion.as_ref().unwrap().talus_deg.unwrap();
         let steep = |z: &[f32]| {
             let tan = (talus + 5.0).to_radians().tan() as f32 * plan.cell_m() as f32;
@@ -478,14 +479,14 @@ pub(super) mod tests {
     fn painted_hard_rock_is_refined_as_hard_rock() {
         let plan = real_world_plan();
         let window = plan.refine_window(5);
-        let (heights, channel) = window_cells(&plan, window);
+        let (heights, laid) = window_cells(&plan, window);
         let painted = |value: f32| {
             let mut painted = plan.clone();
             let mask = crate::wavelet::Mask::from_values(2, 2, vec![value; 4]).unwrap();
             painted.scene.set_mask(MaskKind::HardRock, Some(&mask));
-            refine(&painted, window, heights.clone(), &channel).unwrap()
+            refine(&painted, window, heights.clone(), &laid).unwrap()
         };
-        let unpainted = refine(&plan, window, heights.clone(), &channel).unwrap();
+        let unpainted = refine(&plan, window, heights.clone(), &laid).unwrap();
         assert_eq!(painted(0.0), unpainted, "a black mask changes nothing");
         // The mean change of the cells the step drained 30 cells' area or more to.
         let in_rills = |r: &Refined| {
@@ -518,12 +519,12 @@ pub(super) mod tests {
 
     /// The world's cells of `window` before the refinement (the global build, the levels of
     /// detail and the channels) and its channel cells.
-    fn window_cells(plan: &Plan, window: Region) -> (Vec<f32>, Vec<bool>) {
+    fn window_cells(plan: &Plan, window: Region) -> (Vec<f32>, Laid) {
         let ctx = crate::jobs::JobCtx::detached();
         let build = pollster::block_on(super::super::task::build_global(plan, &ctx)).unwrap();
         let global = build.global(plan);
-        let channel = super::super::task::channels_in(&global, plan, window).inside();
-        (super::super::task::cells(&global, plan, window), channel)
+        let laid = super::super::task::channels_in(&global, plan, window).laid();
+        (super::super::task::cells(&global, plan, window), laid)
     }
 
     /// The mean `|z_up + z_down - 2 z|` over the inner cells of `r` (`w` x `h`) whose drainage

@@ -428,9 +428,10 @@ pub fn cells(global: &Global, plan: &Plan, window: Region) -> Vec<f32> {
 pub fn channels_in(global: &Global, plan: &Plan, window: Region) -> Nearest {
     Nearest::find(
         &global.channels,
+        &global.field,
+        plan.levels,
         window,
         plan.cell_m(),
-        plan.global_cell_m(),
     )
 }
 
@@ -440,9 +441,9 @@ fn refine(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
     let (row, col, _) = plan.tile(k);
     let window = plan.refine_window(k);
     let heights = cells(&global, plan, window);
-    let channel = channels_in(&global, plan, window).inside();
+    let laid = channels_in(&global, plan, window).laid();
     drop(global);
-    let mut refined = super::refine::refine(plan, window, heights, &channel)?;
+    let mut refined = super::refine::refine(plan, window, heights, &laid)?;
     refined.heights.append(&mut refined.area);
     write_field(&dir.refined(row, col), stacked(window), refined.heights)
 }
