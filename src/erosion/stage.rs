@@ -638,7 +638,7 @@ pub(super) fn strength_of(
 }
 
 /// The rock's strength factors on the talus slope of `settings` over a window of an `n` x
-/// `n` map of `cell_m` cells, `width` x `height` cells from `at`, with the painted hard rock
+/// `n` map of `cell_m` cells, `size` cells (width, height) from `at`, with the painted hard rock
 /// of `painted` as strong as the hard units ([`super::Painted::firm`]): the factors the
 /// erosion stage gives the map's cells there, sampled over the window alone (a world's tile
 /// refined with the world's rock, `crate::world::refine`). Empty without a talus angle.
@@ -670,7 +670,7 @@ pub fn strength_in_window(
 }
 
 /// The erodibility factors of `settings`' rock over a window of an `n` x `n` map of
-/// `cell_m` cells, `width` x `height` cells from `at`, hardened under the painted hard rock
+/// `cell_m` cells, `size` cells (width, height) from `at`, hardened under the painted hard rock
 /// of `painted` ([`super::Painted::harden`]): the factors the erosion stage gives the map's
 /// cells there, sampled over the window alone (a world's tile refined with the world's
 /// rock, `crate::world::refine`). Empty for uniform rock with nothing painted.

@@ -523,8 +523,7 @@ pub(super) mod tests {
         let ctx = crate::jobs::JobCtx::detached();
         let build = pollster::block_on(super::super::task::build_global(plan, &ctx)).unwrap();
         let global = build.global(plan);
-        let laid = super::super::task::channels_in(&global, plan, window).laid();
-        (super::super::task::cells(&global, plan, window), laid)
+        super::super::task::cells_and_laid(&global, plan, window)
     }
 
     /// The mean `|z_up + z_down - 2 z|` over the inner cells of `r` (`w` x `h`) whose drainage

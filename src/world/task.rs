@@ -24,7 +24,7 @@ use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 use super::WorldError;
-use super::channels::{Channels, Nearest};
+use super::channels::{Channels, Laid, Nearest};
 use super::plan::{Plan, Task};
 use super::refine::Refined;
 use super::window::synthesize;
@@ -406,6 +406,12 @@ pub struct Global {
 /// above it, interpolated along its valleys and crests ([`directional`]), with the rivers'
 /// channels laid at the world's cells ([`super::channels`]).
 pub fn cells(global: &Global, plan: &Plan, window: Region) -> Vec<f32> {
+    cells_and_laid(global, plan, window).0
+}
+
+/// [`cells`] and what the refinement keeps of their channels ([`Laid`]; empty without
+/// levels of detail, where nothing is refined), the channels found once.
+pub fn cells_and_laid(global: &Global, plan: &Plan, window: Region) -> (Vec<f32>, Laid) {
     let (world, sigma) = (&global.field, &global.sigma);
     if plan.levels == 0 {
         let n = world.width();
@@ -415,13 +421,14 @@ pub fn cells(global: &Global, plan: &Plan, window: Region) -> Vec<f32> {
                 &world.data()[y * n + window.x0..y * n + window.x0 + window.width],
             );
         }
-        return out;
+        return (out, Laid::default());
     }
     let key = rng::seed_key(plan.scene.seed);
     let mut cells = synthesize(world, sigma, plan.levels, key, window);
     directional::correct(world, plan.levels, window, &mut cells);
-    channels_in(global, plan, window).lay(&mut cells);
-    cells
+    let nearest = channels_in(global, plan, window);
+    nearest.lay(&mut cells);
+    (cells, nearest.laid())
 }
 
 /// The nearest channel of each cell of `window` ([`Nearest`]).
@@ -440,8 +447,7 @@ fn refine(dir: &BuildDir, plan: &Plan, k: usize) -> Result<(), WorldError> {
     let global = read_world(dir, plan)?;
     let (row, col, _) = plan.tile(k);
     let window = plan.refine_window(k);
-    let heights = cells(&global, plan, window);
-    let laid = channels_in(&global, plan, window).laid();
+    let (heights, laid) = cells_and_laid(&global, plan, window);
     drop(global);
     let mut refined = super::refine::refine(plan, window, heights, &laid)?;
     refined.heights.append(&mut refined.area);
